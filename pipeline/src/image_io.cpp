@@ -1,0 +1,178 @@
+#include "organsim/pipeline/image_io.h"
+
+#include <itkGDCMImageIO.h>
+#include <itkImageFileWriter.h>
+#include <itkImageSeriesWriter.h>
+#include <itkMetaDataObject.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <stdexcept>
+#include <vector>
+
+#include <fmt/format.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace organsim::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+
+const char* const kWritableExtensions[] = {".nii.gz", ".nii", ".nrrd", ".mha"};
+
+std::string image_extension(const std::string& path) {
+  std::string lower = path;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+  for (const char* extension : kWritableExtensions) {
+    const std::size_t n = std::strlen(extension);
+    if (lower.size() > n && lower.compare(lower.size() - n, n, extension) == 0) return path.substr(path.size() - n);
+  }
+  throw std::runtime_error("cannot write '" + path +
+                           "': unsupported extension; use .nii.gz, .nii, .nrrd or .mha");
+}
+
+/// A unique temporary file next to `path` with the same extension (ITK picks
+/// the file format by extension), renamed over `path` by commit().
+class AtomicOutput {
+ public:
+  explicit AtomicOutput(const std::string& path) : path_(path) {
+    const std::string extension = image_extension(path);
+    const fs::path target(path);
+    const fs::path directory = target.has_parent_path() ? target.parent_path() : fs::path(".");
+    std::string pattern = (directory / ("." + target.filename().string() + ".tmp-XXXXXX" + extension)).string();
+    const int fd = ::mkstemps(pattern.data(), static_cast<int>(extension.size()));
+    if (fd < 0)
+      throw std::runtime_error("cannot write '" + path + "': " + std::strerror(errno) +
+                               "; check that the directory exists and is writable");
+    ::fchmod(fd, 0644);  // mkstemps creates 0600; outputs are ordinary readable files
+    ::close(fd);
+    temp_ = pattern;
+  }
+  AtomicOutput(const AtomicOutput&) = delete;
+  AtomicOutput& operator=(const AtomicOutput&) = delete;
+  ~AtomicOutput() {
+    if (!temp_.empty()) ::unlink(temp_.c_str());
+  }
+  const std::string& temp_path() const { return temp_; }
+  void commit() {
+    if (std::rename(temp_.c_str(), path_.c_str()) != 0)
+      throw std::runtime_error("cannot write '" + path_ + "': " + std::strerror(errno));
+    temp_.clear();
+  }
+
+ private:
+  std::string path_;
+  std::string temp_;
+};
+
+template <typename ImageType>
+void write_image(const ImageType& image, const std::string& path) {
+  AtomicOutput output(path);
+  auto writer = itk::ImageFileWriter<ImageType>::New();
+  writer->SetInput(&image);
+  writer->SetFileName(output.temp_path());
+  writer->UseCompressionOn();
+  try {
+    writer->Update();
+  } catch (const itk::ExceptionObject& e) {
+    throw std::runtime_error("cannot write '" + path + "': " + e.GetDescription());
+  }
+  output.commit();
+}
+
+/// A DICOM UID under the 2.25 (UUID-derived) root, deterministic in `seed` and `item`.
+std::string make_uid(std::uint64_t seed, std::uint64_t item) {
+  std::uint64_t h = seed * 0x9E3779B97F4A7C15ull ^ (item + 0x632BE59BD9B4E019ull);
+  h ^= h >> 31;
+  h *= 0xBF58476D1CE4E5B9ull;
+  h ^= h >> 27;
+  return fmt::format("2.25.{}{:06d}", h, item % 1000000);
+}
+
+}  // namespace
+
+void write_ct_image(const CtImage& image, const std::string& path) { write_image(image, path); }
+void write_mask_image(const MaskImage& image, const std::string& path) { write_image(image, path); }
+
+void write_dicom_series(const CtImage& image, const std::string& directory, const DicomSeriesInfo& info) {
+  const fs::path target(directory);
+  std::error_code error;
+  if (fs::exists(target) && !(fs::is_directory(target) && fs::is_empty(target)))
+    throw std::runtime_error("cannot write the DICOM series to '" + directory +
+                             "': it exists and is not an empty directory; choose a new directory");
+  const fs::path parent = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  std::string pattern = (parent / ("." + target.filename().string() + ".tmp-XXXXXX")).string();
+  if (::mkdtemp(pattern.data()) == nullptr)
+    throw std::runtime_error("cannot write the DICOM series to '" + directory + "': " + std::strerror(errno));
+  const fs::path temp(pattern);
+  fs::permissions(temp, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                            fs::perms::others_read | fs::perms::others_exec, error);
+
+  using SliceType = itk::Image<std::int16_t, 2>;
+  const auto region = image.GetLargestPossibleRegion();
+  const unsigned slices = region.GetSize(2);
+  const auto spacing = image.GetSpacing();
+  const auto direction = image.GetDirection();
+  const std::string study_uid = make_uid(info.uid_seed, 1000001);
+  const std::string series_uid = make_uid(info.uid_seed, 1000002);
+  const std::string frame_uid = make_uid(info.uid_seed, 1000003);
+
+  auto io = itk::GDCMImageIO::New();
+  io->KeepOriginalUIDOn();
+  std::vector<itk::MetaDataDictionary> dictionaries(slices);
+  std::vector<itk::MetaDataDictionary*> dictionary_pointers;
+  std::vector<std::string> file_names;
+  for (unsigned s = 0; s < slices; ++s) {
+    itk::MetaDataDictionary& d = dictionaries[s];
+    auto set = [&d](const char* tag, const std::string& value) { itk::EncapsulateMetaData<std::string>(d, tag, value); };
+    CtImage::IndexType index{{0, 0, static_cast<itk::IndexValueType>(s)}};
+    CtImage::PointType position;
+    image.TransformIndexToPhysicalPoint(index, position);
+    set("0008|0016", "1.2.840.10008.5.1.4.1.1.2");  // CT Image Storage
+    set("0008|0018", make_uid(info.uid_seed, s));
+    set("0008|0060", "CT");
+    set("0028|0004", "MONOCHROME2");
+    set("0008|0020", "20000101");
+    set("0008|0030", "000000");
+    set("0008|103e", info.series_description);
+    set("0010|0010", info.patient_name);
+    set("0010|0020", info.patient_id);
+    set("0020|000d", study_uid);
+    set("0020|000e", series_uid);
+    set("0020|0052", frame_uid);
+    set("0020|0011", "1");
+    set("0020|0013", std::to_string(s + 1));
+    set("0020|0032", fmt::format("{:.6f}\\{:.6f}\\{:.6f}", position[0], position[1], position[2]));
+    set("0020|0037", fmt::format("{:.6f}\\{:.6f}\\{:.6f}\\{:.6f}\\{:.6f}\\{:.6f}", direction[0][0], direction[1][0],
+                                 direction[2][0], direction[0][1], direction[1][1], direction[2][1]));
+    set("0028|0030", fmt::format("{:.6f}\\{:.6f}", spacing[1], spacing[0]));
+    set("0018|0050", fmt::format("{:.6f}", spacing[2]));
+    set("0028|1052", "0");
+    set("0028|1053", "1");
+    dictionary_pointers.push_back(&d);
+    file_names.push_back((temp / fmt::format("slice{:04d}.dcm", s + 1)).string());
+  }
+  auto writer = itk::ImageSeriesWriter<CtImage, SliceType>::New();
+  writer->SetInput(&image);
+  writer->SetImageIO(io);
+  writer->SetFileNames(file_names);
+  writer->SetMetaDataDictionaryArray(&dictionary_pointers);
+  try {
+    writer->Update();
+  } catch (const itk::ExceptionObject& e) {
+    fs::remove_all(temp, error);
+    throw std::runtime_error("cannot write the DICOM series to '" + directory + "': " + e.GetDescription());
+  }
+  if (fs::exists(target)) fs::remove(target, error);
+  fs::rename(temp, target, error);
+  if (error) {
+    fs::remove_all(temp, error);
+    throw std::runtime_error("cannot move the DICOM series into '" + directory + "'");
+  }
+}
+
+}  // namespace organsim::pipeline

@@ -1,0 +1,96 @@
+// The in-memory form of an `.organ` model file: everything the pipeline bakes
+// and the runtime loads. Plain arrays of plain structs so that the runtime can
+// map them (e.g. with Eigen::Map) without copying.
+//
+// Units are SI throughout: metres, kilograms, seconds, newtons, pascals.
+// Coordinates are in the patient frame named by `ModelProvenance::coordinate_frame`
+// ("LPS" as in ITK/DICOM, or "RAS"), in metres.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace organsim {
+
+using Point3 = std::array<double, 3>;           ///< x, y, z in metres
+using TexCoord = std::array<double, 2>;         ///< u, v in [0, 1]
+using Triangle = std::array<std::uint32_t, 3>;  ///< counter-clockwise seen from outside
+using Tetrahedron = std::array<std::uint32_t, 4>;  ///< positive orientation: (b-a)·((c-a)×(d-a)) > 0
+
+/// Material parameters. Defaults and their sources are documented in docs/model-format.md.
+struct Material {
+  double young_modulus = 0.0;       ///< E, Pa
+  double poisson_ratio = 0.0;       ///< ν, dimensionless, in (-1, 0.5)
+  double density = 0.0;             ///< ρ, kg/m³
+  double attenuation_alpha = 0.0;   ///< α of s' = s / α^(β d), dimensionless, > 0
+  double attenuation_beta = 0.0;    ///< β of s' = s / α^(β d), 1/m, >= 0
+
+  bool operator==(const Material& other) const;
+};
+
+/// Cross-section properties of the organ at one beam station, in the beam's
+/// local frame (see beam_frame.h): x along the beam from the fixed point to the
+/// surface vertex, y and z spanning the section plane.
+struct BeamSection {
+  double area = 0.0;        ///< A, m²
+  double i_yy = 0.0;        ///< ∫ z² dA about the section centroid, m⁴
+  double i_zz = 0.0;        ///< ∫ y² dA about the section centroid, m⁴
+  double i_yz = 0.0;        ///< ∫ y z dA about the section centroid, m⁴
+  double torsion_j = 0.0;   ///< torsion constant J, m⁴
+  double centroid_y = 0.0;  ///< section centroid minus axis point, local y, m
+  double centroid_z = 0.0;  ///< section centroid minus axis point, local z, m
+
+  bool operator==(const BeamSection& other) const;
+};
+
+/// Beam tables: for each surface vertex v, `stations_per_beam` sections of the
+/// organ along the beam from the (first) fixed point to v. Station s lies at the
+/// beam parameter t = (s + 0.5) / stations_per_beam, the midpoint of element s
+/// when the beam is cut into `stations_per_beam` equal elements.
+struct BeamTables {
+  std::uint32_t stations_per_beam = 0;  ///< 0 when the model has no beam tables
+  std::vector<BeamSection> sections;    ///< (surface vertices × stations_per_beam), vertex-major
+
+  const BeamSection& at(std::size_t vertex, std::size_t station) const {
+    return sections[vertex * stations_per_beam + station];
+  }
+  bool empty() const { return stations_per_beam == 0; }
+  bool operator==(const BeamTables& other) const;
+};
+
+/// Where the model came from. Never holds patient-identifying information: the
+/// input image is identified only by the SHA-256 of its voxel values.
+struct ModelProvenance {
+  std::string coordinate_frame = "LPS";  ///< "LPS" or "RAS"
+  std::string program_version;           ///< organsim version that wrote the model
+  std::string input_sha256;              ///< 64 lowercase hex digits, or empty for synthetic models
+  std::map<std::string, std::string> parameters;  ///< every parameter the model was made with
+
+  bool operator==(const ModelProvenance& other) const;
+};
+
+/// A complete organ model.
+struct OrganModel {
+  ModelProvenance provenance;
+  std::vector<Point3> surface_vertices;    ///< (Ns × 3) rest positions of the simulation surface, m
+  std::vector<Triangle> surface_triangles;  ///< (Mt × 3) indices into surface_vertices, closed and outward
+  std::vector<TexCoord> surface_texcoords;  ///< (Ns × 2) or empty
+  std::vector<Point3> volume_vertices;     ///< (Nv × 3) tetrahedral mesh nodes, m (may be empty)
+  std::vector<Tetrahedron> tetrahedra;      ///< (Nt × 4) indices into volume_vertices
+  std::vector<Point3> fixed_points;        ///< (Nf × 3), Nf >= 1; beams are clamped at fixed_points[0]
+  Material material;
+  BeamTables beams;
+
+  bool operator==(const OrganModel& other) const;
+};
+
+/// Checks every invariant the file format promises (finite values, index
+/// ranges, consistent counts, physical parameter ranges). Returns an empty
+/// string when the model is valid, otherwise one sentence naming the part and
+/// the problem.
+std::string validate_organ_model(const OrganModel& model);
+
+}  // namespace organsim

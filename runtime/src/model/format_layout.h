@@ -1,0 +1,86 @@
+// Byte layout of the `.organ` format, version 1 (docs/model-format.md is the
+// normative description; keep the two in step).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+namespace organsim::format {
+
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
+              "the .organ reader and writer assume a little-endian host");
+
+// PNG-style magic: a non-ASCII first byte and CR LF / SUB catch text-mode transfers.
+inline constexpr std::uint8_t kMagic[8] = {0x89, 'O', 'R', 'G', 'N', '\r', '\n', 0x1A};
+inline constexpr std::uint32_t kByteOrderMark = 0x0A0B0C0Du;
+inline constexpr std::uint32_t kByteOrderMarkSwapped = 0x0D0C0B0Au;
+inline constexpr std::uint8_t kRealBytes = 8;   // IEEE-754 binary64
+inline constexpr std::uint8_t kIndexBytes = 4;  // uint32
+
+inline constexpr std::size_t kHeaderBytes = 64;
+inline constexpr std::size_t kTableEntryBytes = 32;
+inline constexpr std::size_t kPayloadAlignment = 8;
+inline constexpr std::uint32_t kMaxSections = 64;
+
+// Header field offsets.
+inline constexpr std::size_t kOffMagic = 0;
+inline constexpr std::size_t kOffVersionMajor = 8;
+inline constexpr std::size_t kOffVersionMinor = 10;
+inline constexpr std::size_t kOffByteOrder = 12;
+inline constexpr std::size_t kOffRealBytes = 16;
+inline constexpr std::size_t kOffIndexBytes = 17;
+inline constexpr std::size_t kOffSectionCount = 20;
+inline constexpr std::size_t kOffFileBytes = 24;
+inline constexpr std::size_t kOffTableChecksum = 32;
+inline constexpr std::size_t kOffFileChecksum = 40;    // of bytes [kHeaderBytes, file end)
+inline constexpr std::size_t kOffHeaderChecksum = 48;  // of bytes [0, kOffHeaderChecksum)
+
+// Table entry field offsets.
+inline constexpr std::size_t kEntryTag = 0;
+inline constexpr std::size_t kEntryChecksum = 8;
+inline constexpr std::size_t kEntryOffset = 16;
+inline constexpr std::size_t kEntrySize = 24;
+
+// Limits that keep a hostile file from making the reader allocate absurdly.
+inline constexpr std::uint32_t kMaxStationsPerBeam = 4096;
+inline constexpr std::uint32_t kMaxMetadataEntries = 4096;
+inline constexpr std::uint32_t kMaxMetadataKeyBytes = 256;
+inline constexpr std::uint32_t kMaxMetadataValueBytes = 65536;
+inline constexpr std::uint32_t kMaterialFieldsV1 = 5;
+inline constexpr std::uint32_t kBeamFieldsV1 = 7;
+
+enum class Section { Metadata, SurfaceVertices, SurfaceTriangles, SurfaceTexcoords,
+                     VolumeVertices, Tetrahedra, FixedPoints, Material, BeamTables };
+
+struct SectionDescription {
+  Section id;
+  char tag[5];
+  const char* what;
+  bool required;
+};
+
+// Also the order in which the writer emits sections.
+inline constexpr SectionDescription kSections[] = {
+    {Section::Metadata, "META", "metadata", true},
+    {Section::SurfaceVertices, "SVRT", "surface vertices", true},
+    {Section::SurfaceTriangles, "STRI", "surface triangles", true},
+    {Section::SurfaceTexcoords, "SUVC", "surface texture coordinates", false},
+    {Section::VolumeVertices, "TVRT", "tetrahedron vertices", false},
+    {Section::Tetrahedra, "TETS", "tetrahedra", false},
+    {Section::FixedPoints, "FIXP", "fixed points", true},
+    {Section::Material, "MATL", "material", true},
+    {Section::BeamTables, "BEAM", "beam tables", false},
+};
+
+inline const SectionDescription& describe(Section id) {
+  return kSections[static_cast<std::size_t>(id)];
+}
+
+/// "section 'TETS' (tetrahedra)" — the prefix of every section-specific message.
+inline std::string section_label(Section id) {
+  const SectionDescription& d = describe(id);
+  return std::string("section '") + d.tag + "' (" + d.what + ")";
+}
+
+}  // namespace organsim::format

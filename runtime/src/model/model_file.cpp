@@ -1,0 +1,599 @@
+#include "organsim/model/model_file.h"
+
+#define XXH_INLINE_ALL
+#include <xxhash.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <stdexcept>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "format_layout.h"
+#include "model_validation.h"
+
+namespace organsim {
+namespace {
+
+using format::Section;
+
+constexpr const char* kDamagedAdvice = "the file is damaged: copy it again or re-bake it with 'organsim bake'";
+
+/// XXH3-64: a checksum fast enough (tens of GB/s) to verify a 100 MB model on
+/// every load; it detects damage, it does not authenticate.
+std::uint64_t checksum(const std::uint8_t* data, std::size_t size) { return XXH3_64bits(data, size); }
+
+template <typename T>
+T load(const std::uint8_t* p) {
+  T value;
+  std::memcpy(&value, p, sizeof(T));
+  return value;
+}
+
+template <typename T>
+void store(std::vector<std::uint8_t>& out, std::size_t at, T value) {
+  std::memcpy(out.data() + at, &value, sizeof(T));
+}
+
+// ---------------------------------------------------------------- writing --
+
+class PayloadWriter {
+ public:
+  template <typename T>
+  void put(T value) {
+    const std::size_t at = bytes_.size();
+    bytes_.resize(at + sizeof(T));
+    std::memcpy(bytes_.data() + at, &value, sizeof(T));
+  }
+  void put_string(const std::string& s) {
+    put<std::uint32_t>(static_cast<std::uint32_t>(s.size()));
+    bytes_.insert(bytes_.end(), s.begin(), s.end());
+  }
+  template <typename T, std::size_t N>
+  void put_array(const std::vector<std::array<T, N>>& items) {
+    put<std::uint64_t>(items.size());
+    for (const auto& item : items)
+      for (T c : item) put<T>(c);
+  }
+  std::vector<std::uint8_t> take() { return std::move(bytes_); }
+
+ private:
+  std::vector<std::uint8_t> bytes_;
+};
+
+std::map<std::string, std::string> metadata_entries(const ModelProvenance& p) {
+  std::map<std::string, std::string> entries;
+  entries["units"] = "SI";
+  entries["coordinate_frame"] = p.coordinate_frame;
+  entries["program_version"] = p.program_version;
+  entries["input_sha256"] = p.input_sha256;
+  for (const auto& [name, value] : p.parameters) entries["param." + name] = value;
+  return entries;
+}
+
+std::vector<std::uint8_t> encode_section(Section id, const OrganModel& m) {
+  PayloadWriter w;
+  switch (id) {
+    case Section::Metadata: {
+      const auto entries = metadata_entries(m.provenance);
+      w.put<std::uint32_t>(static_cast<std::uint32_t>(entries.size()));
+      for (const auto& [key, value] : entries) {
+        w.put_string(key);
+        w.put_string(value);
+      }
+      break;
+    }
+    case Section::SurfaceVertices: w.put_array(m.surface_vertices); break;
+    case Section::SurfaceTriangles: w.put_array(m.surface_triangles); break;
+    case Section::SurfaceTexcoords: w.put_array(m.surface_texcoords); break;
+    case Section::VolumeVertices: w.put_array(m.volume_vertices); break;
+    case Section::Tetrahedra: w.put_array(m.tetrahedra); break;
+    case Section::FixedPoints: w.put_array(m.fixed_points); break;
+    case Section::Material: {
+      const Material& mat = m.material;
+      w.put<std::uint32_t>(format::kMaterialFieldsV1);
+      w.put<std::uint32_t>(0);
+      for (double v : {mat.young_modulus, mat.poisson_ratio, mat.density, mat.attenuation_alpha,
+                       mat.attenuation_beta})
+        w.put<double>(v);
+      break;
+    }
+    case Section::BeamTables: {
+      w.put<std::uint32_t>(m.beams.stations_per_beam);
+      w.put<std::uint32_t>(format::kBeamFieldsV1);
+      w.put<std::uint64_t>(m.beams.sections.size() / m.beams.stations_per_beam);
+      for (const BeamSection& s : m.beams.sections)
+        for (double v : {s.area, s.i_yy, s.i_zz, s.i_yz, s.torsion_j, s.centroid_y, s.centroid_z})
+          w.put<double>(v);
+      break;
+    }
+  }
+  return w.take();
+}
+
+bool section_present(Section id, const OrganModel& m) {
+  switch (id) {
+    case Section::SurfaceTexcoords: return !m.surface_texcoords.empty();
+    case Section::VolumeVertices: return !m.volume_vertices.empty();
+    case Section::Tetrahedra: return !m.tetrahedra.empty();
+    case Section::BeamTables: return !m.beams.empty();
+    default: return true;
+  }
+}
+
+std::size_t align_up(std::size_t n) {
+  return (n + format::kPayloadAlignment - 1) / format::kPayloadAlignment * format::kPayloadAlignment;
+}
+
+// ---------------------------------------------------------------- reading --
+
+/// Bounds-checked little-endian reads from one section payload.
+class PayloadReader {
+ public:
+  PayloadReader(const std::uint8_t* data, std::size_t size) : data_(data), size_(size) {}
+
+  template <typename T>
+  bool get(T& value) {
+    if (size_ - at_ < sizeof(T)) return false;
+    value = load<T>(data_ + at_);
+    at_ += sizeof(T);
+    return true;
+  }
+  bool get_string(std::string& s, std::uint32_t max_bytes) {
+    std::uint32_t length = 0;
+    if (!get(length) || length > max_bytes || size_ - at_ < length) return false;
+    s.assign(reinterpret_cast<const char*>(data_ + at_), length);
+    at_ += length;
+    return true;
+  }
+  std::size_t remaining() const { return size_ - at_; }
+  const std::uint8_t* here() const { return data_ + at_; }
+  void skip(std::size_t n) { at_ += n; }
+
+ private:
+  const std::uint8_t* data_;
+  std::size_t size_;
+  std::size_t at_ = 0;
+};
+
+struct TableEntry {
+  char tag[5] = {};
+  std::uint64_t checksum = 0;
+  std::uint64_t offset = 0;
+  std::uint64_t size = 0;
+};
+
+/// Thrown inside the parser only; turned into ModelReadResult::error.
+struct ParseError {
+  std::string message;
+};
+
+[[noreturn]] void fail(std::string message) { throw ParseError{std::move(message)}; }
+
+[[noreturn]] void fail_section(Section id, const std::string& problem) {
+  fail(format::section_label(id) + ": " + problem);
+}
+
+template <typename T, std::size_t N>
+std::vector<std::array<T, N>> read_array(Section id, const std::uint8_t* data, std::size_t size) {
+  PayloadReader r(data, size);
+  std::uint64_t count = 0;
+  if (!r.get(count)) fail_section(id, std::string("payload of ") + std::to_string(size) +
+                                          " bytes is too short for its item count; " + kDamagedAdvice);
+  constexpr std::size_t item_bytes = sizeof(T) * N;
+  // Compare by division so that an absurd count can neither overflow nor allocate.
+  if (count > r.remaining() / item_bytes || count * item_bytes != r.remaining())
+    fail_section(id, "item count " + std::to_string(count) + " does not match the payload of " +
+                         std::to_string(size) + " bytes (" + std::to_string(item_bytes) +
+                         " bytes per item); " + kDamagedAdvice);
+  std::vector<std::array<T, N>> items(static_cast<std::size_t>(count));
+  if (count > 0) std::memcpy(items.data(), r.here(), static_cast<std::size_t>(count) * item_bytes);
+  return items;
+}
+
+void read_metadata(const std::uint8_t* data, std::size_t size, ModelProvenance& p) {
+  const Section id = Section::Metadata;
+  PayloadReader r(data, size);
+  std::uint32_t count = 0;
+  if (!r.get(count)) fail_section(id, std::string("payload too short for its entry count; ") + kDamagedAdvice);
+  if (count > format::kMaxMetadataEntries)
+    fail_section(id, "entry count " + std::to_string(count) + " exceeds the limit of " +
+                         std::to_string(format::kMaxMetadataEntries) + "; " + kDamagedAdvice);
+  std::string previous_key, key, value, units;
+  for (std::uint32_t i = 0; i < count; ++i) {
+    if (!r.get_string(key, format::kMaxMetadataKeyBytes) ||
+        !r.get_string(value, format::kMaxMetadataValueBytes))
+      fail_section(id, "entry " + std::to_string(i) + " runs past the payload or exceeds the length limits; " +
+                           kDamagedAdvice);
+    if (i > 0 && key <= previous_key)
+      fail_section(id, "keys are not strictly sorted (duplicate or out-of-order key '" + key + "'); " +
+                           kDamagedAdvice);
+    previous_key = key;
+    if (key == "units") units = value;
+    else if (key == "coordinate_frame") p.coordinate_frame = value;
+    else if (key == "program_version") p.program_version = value;
+    else if (key == "input_sha256") p.input_sha256 = value;
+    else if (key.rfind("param.", 0) == 0) p.parameters[key.substr(6)] = value;
+    // Other keys come from newer writers and carry nothing this reader needs.
+  }
+  if (r.remaining() != 0)
+    fail_section(id, std::to_string(r.remaining()) + " unexpected bytes after the last entry; " + kDamagedAdvice);
+  if (units != "SI")
+    fail_section(id, "units are '" + units + "' but only SI is supported; re-bake the model with organsim");
+}
+
+void read_material(const std::uint8_t* data, std::size_t size, Material& mat) {
+  const Section id = Section::Material;
+  PayloadReader r(data, size);
+  std::uint32_t fields = 0, reserved = 0;
+  if (!r.get(fields) || !r.get(reserved))
+    fail_section(id, std::string("payload too short for its field count; ") + kDamagedAdvice);
+  if (fields < format::kMaterialFieldsV1 || fields > r.remaining() / sizeof(double) ||
+      fields * sizeof(double) != r.remaining())
+    fail_section(id, "field count " + std::to_string(fields) + " does not match the payload of " +
+                         std::to_string(size) + " bytes; " + kDamagedAdvice);
+  double* targets[] = {&mat.young_modulus, &mat.poisson_ratio, &mat.density, &mat.attenuation_alpha,
+                       &mat.attenuation_beta};
+  for (double* t : targets) r.get(*t);
+}
+
+void read_beams(const std::uint8_t* data, std::size_t size, BeamTables& beams) {
+  const Section id = Section::BeamTables;
+  PayloadReader r(data, size);
+  std::uint32_t stations = 0, fields = 0;
+  std::uint64_t vertices = 0;
+  if (!r.get(stations) || !r.get(fields) || !r.get(vertices))
+    fail_section(id, std::string("payload too short for its header; ") + kDamagedAdvice);
+  if (stations == 0 || stations > format::kMaxStationsPerBeam)
+    fail_section(id, "stations per beam " + std::to_string(stations) + " is outside 1.." +
+                         std::to_string(format::kMaxStationsPerBeam) + "; " + kDamagedAdvice);
+  if (fields < format::kBeamFieldsV1 || fields > 64)
+    fail_section(id, "field count " + std::to_string(fields) + " is outside " +
+                         std::to_string(format::kBeamFieldsV1) + "..64; " + kDamagedAdvice);
+  const std::uint64_t row_bytes = std::uint64_t{stations} * fields * sizeof(double);
+  if (vertices > r.remaining() / row_bytes || vertices * row_bytes != r.remaining())
+    fail_section(id, "vertex count " + std::to_string(vertices) + " with " + std::to_string(stations) +
+                         " stations does not match the payload of " + std::to_string(size) + " bytes; " +
+                         kDamagedAdvice);
+  beams.stations_per_beam = stations;
+  beams.sections.resize(static_cast<std::size_t>(vertices * stations));
+  if (fields == format::kBeamFieldsV1) {
+    static_assert(sizeof(BeamSection) == format::kBeamFieldsV1 * sizeof(double));
+    std::memcpy(beams.sections.data(), r.here(), beams.sections.size() * sizeof(BeamSection));
+    return;
+  }
+  for (BeamSection& s : beams.sections) {
+    double* targets[] = {&s.area, &s.i_yy, &s.i_zz, &s.i_yz, &s.torsion_j, &s.centroid_y, &s.centroid_z};
+    for (double* t : targets) r.get(*t);
+    r.skip((fields - format::kBeamFieldsV1) * sizeof(double));
+  }
+}
+
+const format::SectionDescription* find_known_section(const char* tag) {
+  for (const auto& d : format::kSections)
+    if (std::memcmp(d.tag, tag, 4) == 0) return &d;
+  return nullptr;
+}
+
+std::string printable_tag(const char* tag) {
+  std::string s;
+  for (int i = 0; i < 4; ++i) {
+    const unsigned char c = static_cast<unsigned char>(tag[i]);
+    if (c >= 0x20 && c < 0x7f) {
+      s += static_cast<char>(c);
+    } else {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "\\x%02x", c);
+      s += hex;
+    }
+  }
+  return s;
+}
+
+std::vector<TableEntry> read_table(const std::uint8_t* data, std::uint32_t count) {
+  std::vector<TableEntry> table(count);
+  for (std::uint32_t i = 0; i < count; ++i) {
+    const std::uint8_t* e = data + format::kHeaderBytes + i * format::kTableEntryBytes;
+    std::memcpy(table[i].tag, e, 4);
+    table[i].checksum = load<std::uint64_t>(e + format::kEntryChecksum);
+    table[i].offset = load<std::uint64_t>(e + format::kEntryOffset);
+    table[i].size = load<std::uint64_t>(e + format::kEntrySize);
+  }
+  return table;
+}
+
+/// Where a file cut short at `actual` bytes ends, for the truncation message.
+std::string describe_cut(const std::uint8_t* data, std::size_t actual, std::uint32_t section_count) {
+  const std::size_t table_end = format::kHeaderBytes + std::size_t{section_count} * format::kTableEntryBytes;
+  if (section_count > format::kMaxSections || actual < table_end) return "inside the section table";
+  std::vector<TableEntry> table = read_table(data, section_count);
+  std::sort(table.begin(), table.end(),
+            [](const TableEntry& a, const TableEntry& b) { return a.offset < b.offset; });
+  for (const TableEntry& e : table) {
+    const auto* known = find_known_section(e.tag);
+    const std::string label = known ? format::section_label(known->id)
+                                    : "section '" + printable_tag(e.tag) + "'";
+    if (e.offset >= actual) return "at the start of " + label;
+    if (e.size > actual - e.offset) return "inside " + label;
+  }
+  return "in the padding after the last section";
+}
+
+OrganModel parse(const std::uint8_t* data, std::size_t size, ModelFileSummary& summary) {
+  using namespace format;
+  const std::size_t magic_bytes = std::min<std::size_t>(size, sizeof kMagic);
+  if (size == 0) fail("the file is empty; pass a .organ model file written by 'organsim bake'");
+  if (std::memcmp(data, kMagic, magic_bytes) != 0)
+    fail("not an organsim model file (wrong magic bytes at the start); pass a .organ file written by "
+         "'organsim bake'");
+  if (size < kHeaderBytes)
+    fail("truncated inside the header (" + std::to_string(size) + " of " + std::to_string(kHeaderBytes) +
+         " bytes); " + kDamagedAdvice);
+
+  const std::uint32_t bom = load<std::uint32_t>(data + kOffByteOrder);
+  if (bom == kByteOrderMarkSwapped)
+    fail("the file was written on a big-endian machine, which format v1 does not support; re-bake it on "
+         "this machine");
+  if (bom != kByteOrderMark) fail(std::string("the byte-order mark in the header is corrupt; ") + kDamagedAdvice);
+
+  summary.version.major = load<std::uint16_t>(data + kOffVersionMajor);
+  summary.version.minor = load<std::uint16_t>(data + kOffVersionMinor);
+  const std::string file_version =
+      std::to_string(summary.version.major) + "." + std::to_string(summary.version.minor);
+  const std::string our_version =
+      std::to_string(kModelFormatVersion.major) + "." + std::to_string(kModelFormatVersion.minor);
+  if (summary.version.major > kModelFormatVersion.major)
+    fail("the file has format version " + file_version + " but this organsim reads format " + our_version +
+         " and older minor versions; update organsim to read it");
+  if (summary.version.major < kModelFormatVersion.major)
+    fail("format version " + file_version + " predates the first released format " + our_version +
+         "; re-bake the model with this organsim");
+  if (data[kOffRealBytes] != kRealBytes || data[kOffIndexBytes] != kIndexBytes)
+    fail("scalar sizes " + std::to_string(data[kOffRealBytes]) + "/" + std::to_string(data[kOffIndexBytes]) +
+         " bytes (real/index) are not the 8/4 that format v1 uses; " + kDamagedAdvice);
+  if (load<std::uint64_t>(data + kOffHeaderChecksum) != checksum(data, kOffHeaderChecksum))
+    fail(std::string("header checksum mismatch; ") + kDamagedAdvice);
+
+  const std::uint64_t declared_bytes = load<std::uint64_t>(data + kOffFileBytes);
+  const std::uint32_t section_count = load<std::uint32_t>(data + kOffSectionCount);
+  summary.file_bytes = size;
+  if (size < declared_bytes)
+    fail("truncated " + describe_cut(data, size, section_count) + ": the file has " + std::to_string(size) +
+         " bytes but its header says " + std::to_string(declared_bytes) + "; " + kDamagedAdvice);
+  if (size > declared_bytes)
+    fail(std::to_string(size - declared_bytes) + " unexpected bytes after the declared end of the file (" +
+         std::to_string(declared_bytes) + " bytes); " + kDamagedAdvice);
+  if (section_count > kMaxSections)
+    fail("section count " + std::to_string(section_count) + " exceeds the limit of " +
+         std::to_string(kMaxSections) + "; " + kDamagedAdvice);
+  const std::size_t table_end = kHeaderBytes + std::size_t{section_count} * kTableEntryBytes;
+  if (table_end > size)
+    fail("the section table runs past the end of the file; " + std::string(kDamagedAdvice));
+  if (load<std::uint64_t>(data + kOffTableChecksum) != checksum(data + kHeaderBytes, table_end - kHeaderBytes))
+    fail(std::string("section table checksum mismatch; ") + kDamagedAdvice);
+
+  std::vector<TableEntry> table = read_table(data, section_count);
+  const bool newer_minor = summary.version.minor > kModelFormatVersion.minor;
+  const TableEntry* found[std::size(kSections)] = {};
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> extents;
+  for (const TableEntry& e : table) {
+    const auto* known = find_known_section(e.tag);
+    const std::string label = known ? section_label(known->id) : "section '" + printable_tag(e.tag) + "'";
+    if (e.offset < table_end || e.offset % kPayloadAlignment != 0 || e.offset > size ||
+        e.size > size - e.offset)
+      fail(label + ": offset " + std::to_string(e.offset) + " and size " + std::to_string(e.size) +
+           " lie outside the payload area; " + kDamagedAdvice);
+    extents.emplace_back(e.offset, e.size);
+    summary.sections.push_back({printable_tag(e.tag), e.size, known != nullptr});
+    if (!known) {
+      if (!newer_minor)
+        fail(label + " is unknown in a format " + file_version + " file; " + kDamagedAdvice);
+      continue;  // Added by a newer minor version: safe to skip by definition of "minor".
+    }
+    const std::size_t k = static_cast<std::size_t>(known->id);
+    if (found[k]) fail(label + " appears twice; " + std::string(kDamagedAdvice));
+    found[k] = &e;
+  }
+  std::sort(extents.begin(), extents.end());
+  for (std::size_t i = 1; i < extents.size(); ++i)
+    if (extents[i].first < extents[i - 1].first + extents[i - 1].second)
+      fail(std::string("two sections overlap in the file; ") + kDamagedAdvice);
+
+  for (const TableEntry& e : table)
+    if (checksum(data + e.offset, static_cast<std::size_t>(e.size)) != e.checksum) {
+      const auto* known = find_known_section(e.tag);
+      fail((known ? section_label(known->id) : "section '" + printable_tag(e.tag) + "'") +
+           ": checksum mismatch; " + kDamagedAdvice);
+    }
+  if (load<std::uint64_t>(data + kOffFileChecksum) != checksum(data + kHeaderBytes, size - kHeaderBytes))
+    fail(std::string("whole-file checksum mismatch (damage outside every section's payload); ") +
+         kDamagedAdvice);
+
+  for (const auto& d : kSections)
+    if (d.required && !found[static_cast<std::size_t>(d.id)])
+      fail(section_label(d.id) + " is missing but required; " + kDamagedAdvice);
+
+  auto payload = [&](Section id) { return data + found[static_cast<std::size_t>(id)]->offset; };
+  auto bytes = [&](Section id) { return static_cast<std::size_t>(found[static_cast<std::size_t>(id)]->size); };
+  auto has = [&](Section id) { return found[static_cast<std::size_t>(id)] != nullptr; };
+
+  OrganModel m;
+  read_metadata(payload(Section::Metadata), bytes(Section::Metadata), m.provenance);
+  m.surface_vertices = read_array<double, 3>(Section::SurfaceVertices, payload(Section::SurfaceVertices),
+                                             bytes(Section::SurfaceVertices));
+  m.surface_triangles = read_array<std::uint32_t, 3>(
+      Section::SurfaceTriangles, payload(Section::SurfaceTriangles), bytes(Section::SurfaceTriangles));
+  if (has(Section::SurfaceTexcoords))
+    m.surface_texcoords = read_array<double, 2>(Section::SurfaceTexcoords, payload(Section::SurfaceTexcoords),
+                                                bytes(Section::SurfaceTexcoords));
+  if (has(Section::Tetrahedra) && !has(Section::VolumeVertices))
+    fail_section(Section::Tetrahedra, std::string("present without section 'TVRT' (tetrahedron vertices); ") +
+                                          kDamagedAdvice);
+  if (has(Section::VolumeVertices))
+    m.volume_vertices = read_array<double, 3>(Section::VolumeVertices, payload(Section::VolumeVertices),
+                                              bytes(Section::VolumeVertices));
+  if (has(Section::Tetrahedra))
+    m.tetrahedra = read_array<std::uint32_t, 4>(Section::Tetrahedra, payload(Section::Tetrahedra),
+                                                bytes(Section::Tetrahedra));
+  m.fixed_points =
+      read_array<double, 3>(Section::FixedPoints, payload(Section::FixedPoints), bytes(Section::FixedPoints));
+  read_material(payload(Section::Material), bytes(Section::Material), m.material);
+  if (has(Section::BeamTables)) {
+    read_beams(payload(Section::BeamTables), bytes(Section::BeamTables), m.beams);
+    if (m.beams.sections.size() / m.beams.stations_per_beam != m.surface_vertices.size())
+      fail_section(Section::BeamTables,
+                   "tables for " + std::to_string(m.beams.sections.size() / m.beams.stations_per_beam) +
+                       " vertices but the surface has " + std::to_string(m.surface_vertices.size()) + "; " +
+                       kDamagedAdvice);
+  }
+  if (const auto issue = find_model_issue(m))
+    fail_section(issue->section, issue->message + "; " + kDamagedAdvice);
+  return m;
+}
+
+}  // namespace
+
+ModelReadResult parse_organ_model(const std::uint8_t* data, std::size_t size, const std::string& source_name) {
+  ModelReadResult result;
+  try {
+    result.model = parse(data, size, result.file);
+  } catch (const ParseError& e) {
+    result.error = source_name + ": " + e.message;
+  } catch (const std::bad_alloc&) {
+    result.error = source_name + ": not enough memory to load the model";
+  }
+  return result;
+}
+
+ModelReadResult read_organ_model_file(const std::string& path) {
+  ModelReadResult result;
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) {
+    result.error = path + ": cannot open (" + std::strerror(errno) + "); check the path and permissions";
+    return result;
+  }
+  struct stat st {};
+  std::vector<std::uint8_t> bytes;
+  std::string problem;
+  if (::fstat(fd, &st) != 0) {
+    problem = std::string("cannot read (") + std::strerror(errno) + "); check the path and permissions";
+  } else if (!S_ISREG(st.st_mode)) {
+    problem = "is not a regular file; pass a .organ model file";
+  } else {
+    try {
+      bytes.resize(static_cast<std::size_t>(st.st_size));
+      std::size_t done = 0;
+      while (done < bytes.size()) {
+        const ssize_t n = ::read(fd, bytes.data() + done, bytes.size() - done);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) {
+          problem = std::string("read error (") + (n < 0 ? std::strerror(errno) : "file shrank while reading") +
+                    "); check the disk and try again";
+          break;
+        }
+        done += static_cast<std::size_t>(n);
+      }
+    } catch (const std::bad_alloc&) {
+      problem = "not enough memory to read the file";
+    }
+  }
+  ::close(fd);
+  if (!problem.empty()) {
+    result.error = path + ": " + problem;
+    return result;
+  }
+  return parse_organ_model(bytes.data(), bytes.size(), path);
+}
+
+std::vector<std::uint8_t> serialize_organ_model(const OrganModel& model) {
+  if (const auto issue = find_model_issue(model))
+    throw std::invalid_argument("invalid organ model: " + issue->message);
+  using namespace format;
+
+  std::vector<Section> present;
+  std::vector<std::vector<std::uint8_t>> payloads;
+  for (const auto& d : kSections)
+    if (section_present(d.id, model)) {
+      present.push_back(d.id);
+      payloads.push_back(encode_section(d.id, model));
+    }
+  const std::size_t table_end = kHeaderBytes + present.size() * kTableEntryBytes;
+  std::size_t file_bytes = align_up(table_end);
+  std::vector<std::size_t> offsets;
+  for (const auto& p : payloads) {
+    offsets.push_back(file_bytes);
+    file_bytes = align_up(file_bytes + p.size());
+  }
+
+  std::vector<std::uint8_t> out(file_bytes, 0);
+  for (std::size_t i = 0; i < present.size(); ++i) {
+    std::memcpy(out.data() + offsets[i], payloads[i].data(), payloads[i].size());
+    const std::size_t e = kHeaderBytes + i * kTableEntryBytes;
+    std::memcpy(out.data() + e, describe(present[i]).tag, 4);
+    store<std::uint64_t>(out, e + kEntryChecksum, checksum(payloads[i].data(), payloads[i].size()));
+    store<std::uint64_t>(out, e + kEntryOffset, offsets[i]);
+    store<std::uint64_t>(out, e + kEntrySize, payloads[i].size());
+  }
+  std::memcpy(out.data() + kOffMagic, kMagic, sizeof kMagic);
+  store<std::uint16_t>(out, kOffVersionMajor, kModelFormatVersion.major);
+  store<std::uint16_t>(out, kOffVersionMinor, kModelFormatVersion.minor);
+  store<std::uint32_t>(out, kOffByteOrder, kByteOrderMark);
+  out[kOffRealBytes] = kRealBytes;
+  out[kOffIndexBytes] = kIndexBytes;
+  store<std::uint32_t>(out, kOffSectionCount, static_cast<std::uint32_t>(present.size()));
+  store<std::uint64_t>(out, kOffFileBytes, file_bytes);
+  store<std::uint64_t>(out, kOffTableChecksum, checksum(out.data() + kHeaderBytes, table_end - kHeaderBytes));
+  store<std::uint64_t>(out, kOffFileChecksum, checksum(out.data() + kHeaderBytes, file_bytes - kHeaderBytes));
+  store<std::uint64_t>(out, kOffHeaderChecksum, checksum(out.data(), kOffHeaderChecksum));
+  return out;
+}
+
+void write_organ_model_file(const OrganModel& model, const std::string& path) {
+  const std::vector<std::uint8_t> bytes = serialize_organ_model(model);
+  write_file_atomically(path, bytes.data(), bytes.size());
+}
+
+void write_file_atomically(const std::string& path, const std::uint8_t* bytes, std::size_t size) {
+  const std::size_t slash = path.find_last_of('/');
+  const std::string directory = slash == std::string::npos ? "." : path.substr(0, slash + 1);
+  const std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
+  std::string temp = (slash == std::string::npos ? std::string() : directory) + "." + name + ".tmp-XXXXXX";
+  auto failure = [&](const std::string& what) {
+    return std::runtime_error("cannot write '" + path + "': " + what + " (" + std::strerror(errno) +
+                              "); check that the directory exists and is writable");
+  };
+  const int fd = ::mkstemp(temp.data());
+  if (fd < 0) throw failure("cannot create a temporary file");
+  std::size_t written = 0;
+  while (written < size) {
+    const ssize_t n = ::write(fd, bytes + written, size - written);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const auto error = failure("write failed");
+      ::close(fd);
+      ::unlink(temp.c_str());
+      throw error;
+    }
+    written += static_cast<std::size_t>(n);
+  }
+  // Model files are small; fsync makes the rename publish complete contents even after a crash.
+  if (::fchmod(fd, 0644) != 0 || ::fsync(fd) != 0) {
+    const auto error = failure("flush failed");
+    ::close(fd);
+    ::unlink(temp.c_str());
+    throw error;
+  }
+  ::close(fd);
+  if (::rename(temp.c_str(), path.c_str()) != 0) {
+    const auto error = failure("rename failed");
+    ::unlink(temp.c_str());
+    throw error;
+  }
+}
+
+}  // namespace organsim

@@ -1,0 +1,42 @@
+#include "organsim/model/organ_model.h"
+
+#include "model_validation.h"
+
+#include <cmath>
+#include <string>
+
+namespace organsim {
+
+bool Material::operator==(const Material& o) const {
+  return young_modulus == o.young_modulus && poisson_ratio == o.poisson_ratio &&
+         density == o.density && attenuation_alpha == o.attenuation_alpha &&
+         attenuation_beta == o.attenuation_beta;
+}
+
+bool BeamSection::operator==(const BeamSection& o) const {
+  return area == o.area && i_yy == o.i_yy && i_zz == o.i_zz && i_yz == o.i_yz &&
+         torsion_j == o.torsion_j && centroid_y == o.centroid_y && centroid_z == o.centroid_z;
+}
+
+bool BeamTables::operator==(const BeamTables& o) const {
+  return stations_per_beam == o.stations_per_beam && sections == o.sections;
+}
+
+bool ModelProvenance::operator==(const ModelProvenance& o) const {
+  return coordinate_frame == o.coordinate_frame && program_version == o.program_version &&
+         input_sha256 == o.input_sha256 && parameters == o.parameters;
+}
+
+bool OrganModel::operator==(const OrganModel& o) const {
+  return provenance == o.provenance && surface_vertices == o.surface_vertices &&
+         surface_triangles == o.surface_triangles && surface_texcoords == o.surface_texcoords &&
+         volume_vertices == o.volume_vertices && tetrahedra == o.tetrahedra &&
+         fixed_points == o.fixed_points && material == o.material && beams == o.beams;
+}
+
+std::string validate_organ_model(const OrganModel& model) {
+  const std::optional<ModelIssue> issue = find_model_issue(model);
+  return issue ? issue->message : std::string();
+}
+
+}  // namespace organsim

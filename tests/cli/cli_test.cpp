@@ -1,0 +1,162 @@
+// The `organsim` program as users and scripts see it: exit codes, one-line
+// errors, JSON output, no files left behind.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <sys/wait.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "organsim/model/model_file.h"
+#include "test_models.h"
+
+namespace organsim {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CommandRun {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+/// Runs the organsim binary with `arguments` (already shell-quoted).
+CommandRun run_organsim(const std::string& arguments, const fs::path& dir) {
+  const fs::path err_file = dir / "stderr.txt";
+  const std::string command = std::string(ORGANSIM_EXECUTABLE) + " " + arguments + " 2>" + err_file.string();
+  CommandRun run;
+  FILE* pipe = ::popen(command.c_str(), "r");
+  std::array<char, 4096> buffer{};
+  std::size_t n;
+  while ((n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0) run.out.append(buffer.data(), n);
+  const int status = ::pclose(pipe);
+  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  std::ifstream err(err_file);
+  run.err.assign(std::istreambuf_iterator<char>(err), {});
+  fs::remove(err_file);
+  return run;
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("organsim_cli_" + std::string(
+        ::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::size_t files_in_dir() const { return static_cast<std::size_t>(std::distance(fs::directory_iterator(dir_), {})); }
+  fs::path dir_;
+};
+
+TEST_F(Cli, InfoJsonIsOneParsableObjectWithTheDocumentedKeys) {
+  testing::CylinderSpec spec;
+  const std::string model = (dir_ / "cylinder.organ").string();
+  write_organ_model_file(testing::make_cylinder_model(spec), model);
+  const CommandRun run = run_organsim("info " + model + " --json --beam 5", dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json j = nlohmann::json::parse(run.out);
+  EXPECT_EQ(j["units"], "SI");
+  EXPECT_EQ(j["coordinate_frame"], "LPS");
+  EXPECT_EQ(j["format_version"], "1.0");
+  EXPECT_EQ(j["counts"]["surface_vertices"], (spec.rings + 1) * spec.segments + 2);
+  EXPECT_EQ(j["counts"]["beam_stations"], 20);
+  const double polygon = 0.5 * spec.segments * spec.radius * spec.radius * std::sin(2 * M_PI / spec.segments);
+  EXPECT_NEAR(j["volume_m3"]["tetrahedra"].get<double>(), polygon * spec.length, 1e-12);
+  EXPECT_NEAR(j["bounding_box_m"]["size"][0].get<double>(), spec.length, 1e-12);
+  EXPECT_DOUBLE_EQ(j["material"]["young_modulus_pa"].get<double>(), 5000.0);
+  EXPECT_EQ(j["provenance"]["parameters"]["shape"], "cylinder");
+  EXPECT_EQ(j["beam"]["vertex"], 5);
+  EXPECT_EQ(j["beam"]["stations"].size(), 20u);
+  EXPECT_GT(j["beam"]["stations"][10]["area_m2"].get<double>(), 0.0);
+  EXPECT_EQ(j["sections"].size(), 9u);
+}
+
+TEST_F(Cli, InfoTextNamesUnitsAndVolume) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  write_organ_model_file(testing::make_cylinder_model({}), model);
+  const CommandRun run = run_organsim("info " + model, dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("units           SI"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("mL) from the tetrahedra"), std::string::npos) << run.out;
+}
+
+TEST_F(Cli, InfoOnGarbageOrDamagedFilesFailsWithOneLineAndLeavesNothing) {
+  const fs::path garbage = dir_ / "garbage.organ";
+  std::ofstream(garbage) << "this is not a model";
+  const fs::path model = dir_ / "damaged.organ";
+  auto bytes = serialize_organ_model(testing::make_cylinder_model({}));
+  bytes[bytes.size() / 2] ^= 0x20;
+  std::ofstream(model, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
+                                               static_cast<std::streamsize>(bytes.size()));
+  const fs::path truncated = dir_ / "truncated.organ";
+  std::ofstream(truncated, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), 100);
+  for (const auto& [path, problem] : {std::pair{garbage, "wrong magic bytes"}, {model, "checksum mismatch"},
+                                      {truncated, "truncated"}, {dir_ / "missing.organ", "cannot open"}}) {
+    const std::size_t files_before = files_in_dir();
+    const CommandRun run = run_organsim("info " + path.string(), dir_);
+    EXPECT_EQ(run.exit_code, 1) << run.err;
+    EXPECT_TRUE(run.out.empty());
+    EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+    EXPECT_NE(run.err.find(problem), std::string::npos) << run.err;
+    EXPECT_NE(run.err.find(path.string()), std::string::npos) << run.err;
+    EXPECT_EQ(files_in_dir(), files_before);
+  }
+}
+
+TEST_F(Cli, InfoBeamOutOfRange) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  write_organ_model_file(testing::make_cylinder_model({}), model);
+  const CommandRun run = run_organsim("info " + model + " --beam 100000", dir_);
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("--beam 100000 is out of range"), std::string::npos) << run.err;
+}
+
+TEST_F(Cli, PhantomIsByteIdenticalForTheSameSeedInEveryFormat) {
+  for (const char* extension : {".nii.gz", ".nrrd", ".mha"}) {
+    const std::string a = (dir_ / (std::string("a") + extension)).string();
+    const std::string b = (dir_ / (std::string("b") + extension)).string();
+    const std::string options = " --size 48,40,24 --spacing 8,8,8 --seed 7";
+    const CommandRun first = run_organsim("phantom -o " + a + " --mask " + (dir_ / "ma.nii.gz").string() + options, dir_);
+    ASSERT_EQ(first.exit_code, 0) << first.err;
+    ASSERT_EQ(run_organsim("phantom -o " + b + options, dir_).exit_code, 0);
+    std::ifstream fa(a, std::ios::binary), fb(b, std::ios::binary);
+    const std::string da((std::istreambuf_iterator<char>(fa)), {}), db((std::istreambuf_iterator<char>(fb)), {});
+    EXPECT_GT(da.size(), 1000u);
+    EXPECT_EQ(da, db) << extension;
+    EXPECT_NE(first.out.find("fixed point"), std::string::npos);
+  }
+}
+
+TEST_F(Cli, PhantomWritesADicomSeriesWithOneFilePerSlice) {
+  const CommandRun run = run_organsim("phantom -o " + (dir_ / "ct.nii.gz").string() + " --dicom " +
+                                   (dir_ / "dicom").string() + " --size 32,32,20 --spacing 12,12,10",
+                               dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(run.err.empty()) << run.err;
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir_ / "dicom"), {}), 20);
+  const CommandRun again = run_organsim("phantom -o " + (dir_ / "ct2.nii.gz").string() + " --dicom " +
+                                     (dir_ / "dicom").string() + " --size 32,32,20",
+                                 dir_);
+  EXPECT_EQ(again.exit_code, 1);
+  EXPECT_NE(again.err.find("not an empty directory"), std::string::npos) << again.err;
+}
+
+TEST_F(Cli, PhantomRejectsBadOptionsAndUnknownExtensions) {
+  const CommandRun small = run_organsim("phantom -o " + (dir_ / "ct.nii.gz").string() + " --size 8,8,8", dir_);
+  EXPECT_EQ(small.exit_code, 1);
+  EXPECT_NE(small.err.find("at least 16 voxels"), std::string::npos) << small.err;
+  const CommandRun extension = run_organsim("phantom -o " + (dir_ / "ct.png").string() + " --size 16,16,16", dir_);
+  EXPECT_EQ(extension.exit_code, 1);
+  EXPECT_NE(extension.err.find("unsupported extension"), std::string::npos) << extension.err;
+  EXPECT_EQ(files_in_dir(), 0u);
+}
+
+}  // namespace
+}  // namespace organsim

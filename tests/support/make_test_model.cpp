@@ -1,0 +1,42 @@
+// organsim-test-model: writes the test helpers' models to files, for the demo,
+// the fuzz corpus and benchmarks.
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+
+#include "organsim/model/model_file.h"
+#include "test_models.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"Write a model with known geometry (test helper)"};
+  std::string output, shape = "cylinder";
+  organsim::testing::CylinderSpec cylinder;
+  double radius_mm = cylinder.radius * 1e3, length_mm = cylinder.length * 1e3;
+  std::size_t sphere_vertices = 100000;
+  std::uint32_t stations = 20;
+  app.add_option("shape", shape, "cylinder or sphere")->check(CLI::IsMember({"cylinder", "sphere"}));
+  app.add_option("-o,--output", output, "Model file to write")->required();
+  app.add_option("--radius-mm", radius_mm, "Cylinder radius, mm")->capture_default_str();
+  app.add_option("--length-mm", length_mm, "Cylinder length, mm")->capture_default_str();
+  app.add_option("--segments", cylinder.segments, "Cylinder segments around")->capture_default_str();
+  app.add_option("--rings", cylinder.rings, "Cylinder rings along")->capture_default_str();
+  app.add_option("--vertices", sphere_vertices, "Sphere surface vertices")->capture_default_str();
+  app.add_option("--stations", stations, "Beam stations")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  try {
+    organsim::OrganModel model;
+    if (shape == "cylinder") {
+      cylinder.radius = radius_mm * 1e-3;
+      cylinder.length = length_mm * 1e-3;
+      cylinder.stations = stations;
+      model = organsim::testing::make_cylinder_model(cylinder);
+    } else {
+      model = organsim::testing::make_sphere_model(sphere_vertices, stations);
+    }
+    organsim::write_organ_model_file(model, output);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "organsim-test-model: error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

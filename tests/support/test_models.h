@@ -1,0 +1,35 @@
+// Models with known geometry for tests, benchmarks and the demo, built without
+// the pipeline so that runtime tests do not depend on it.
+#pragma once
+
+#include <cstdint>
+
+#include "organsim/model/organ_model.h"
+
+namespace organsim::testing {
+
+/// A solid circular cylinder along +x from x = 0 to x = length, radius `radius`
+/// (metres), fixed at the centre of the x = 0 cap. Its surface is a closed,
+/// outward triangulation (`segments` around, `rings` along, cap centres); its
+/// tetrahedra fill the same polygonal solid; its beam tables hold the sections
+/// of the exact circular cylinder, traced as fine polygons in each beam's frame.
+struct CylinderSpec {
+  double radius = 0.03;
+  double length = 0.15;
+  unsigned segments = 24;
+  unsigned rings = 12;
+  std::uint32_t stations = 20;
+  unsigned section_polygon_vertices = 720;  ///< boundary resolution of each integrated section
+};
+
+OrganModel make_cylinder_model(const CylinderSpec& spec);
+
+/// Liver-like default material (E = 5 kPa-scale soft tissue; see docs/model-format.md).
+Material default_test_material();
+
+/// A model with a large closed surface (a UV sphere with about `vertex_count`
+/// vertices), tetrahedra from a fan to the centre, and constant beam tables —
+/// for load and throughput benchmarks where only the sizes matter.
+OrganModel make_sphere_model(std::size_t vertex_count, std::uint32_t stations);
+
+}  // namespace organsim::testing

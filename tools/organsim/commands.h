@@ -1,0 +1,18 @@
+// The subcommands of the `organsim` program. Each registers its options on the
+// given CLI11 app and returns the function that runs it; the function returns
+// the process exit code and throws std::exception with a one-line message on
+// failure.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <functional>
+
+namespace organsim::cli {
+
+using Command = std::function<int()>;
+
+Command add_info_command(CLI::App& app);
+Command add_phantom_command(CLI::App& app);
+
+}  // namespace organsim::cli

@@ -1,0 +1,188 @@
+// `organsim info MODEL [--json] [--beam V]`: what a model file holds.
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <stdexcept>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "organsim/geometry/model_measures.h"
+#include "organsim/model/beam_frame.h"
+#include "organsim/model/model_file.h"
+
+namespace organsim::cli {
+namespace {
+
+struct InfoOptions {
+  std::string model_path;
+  bool json = false;
+  long long beam_vertex = -1;
+};
+
+nlohmann::json as_json(const Point3& p) { return {p[0], p[1], p[2]}; }
+nlohmann::json as_json(const Eigen::Vector3d& p) { return {p[0], p[1], p[2]}; }
+
+nlohmann::json beam_json(const OrganModel& m, std::size_t v) {
+  nlohmann::json beam;
+  beam["vertex"] = v;
+  beam["position_m"] = as_json(m.surface_vertices[v]);
+  const Point3& root = m.fixed_points.front();
+  const Point3& tip = m.surface_vertices[v];
+  beam["length_m"] = std::hypot(tip[0] - root[0], tip[1] - root[1], tip[2] - root[2]);
+  BeamFrame frame;
+  if (make_beam_frame(root, tip, frame))
+    beam["frame"] = {{"x", as_json(frame.x)}, {"y", as_json(frame.y)}, {"z", as_json(frame.z)}};
+  else
+    beam["frame"] = nullptr;  // the vertex coincides with the fixed point
+  nlohmann::json stations = nlohmann::json::array();
+  for (std::uint32_t s = 0; s < m.beams.stations_per_beam; ++s) {
+    const BeamSection& section = m.beams.at(v, s);
+    stations.push_back({{"t", (s + 0.5) / m.beams.stations_per_beam},
+                        {"area_m2", section.area},
+                        {"i_yy_m4", section.i_yy},
+                        {"i_zz_m4", section.i_zz},
+                        {"i_yz_m4", section.i_yz},
+                        {"torsion_j_m4", section.torsion_j},
+                        {"centroid_y_m", section.centroid_y},
+                        {"centroid_z_m", section.centroid_z}});
+  }
+  beam["stations"] = stations;
+  return beam;
+}
+
+nlohmann::json summary_json(const InfoOptions& o, const ModelReadResult& read) {
+  const OrganModel& m = *read.model;
+  const ModelMeasures measures = measure_model(m);
+  nlohmann::json j;
+  j["file"] = o.model_path;
+  j["format_version"] = fmt::format("{}.{}", read.file.version.major, read.file.version.minor);
+  j["file_bytes"] = read.file.file_bytes;
+  nlohmann::json sections = nlohmann::json::array();
+  for (const auto& s : read.file.sections)
+    sections.push_back({{"tag", s.tag}, {"bytes", s.bytes}, {"understood", s.understood}});
+  j["sections"] = sections;
+  j["units"] = "SI";
+  j["coordinate_frame"] = m.provenance.coordinate_frame;
+  j["counts"] = {{"surface_vertices", m.surface_vertices.size()},
+                 {"surface_triangles", m.surface_triangles.size()},
+                 {"texture_coordinates", m.surface_texcoords.size()},
+                 {"volume_vertices", m.volume_vertices.size()},
+                 {"tetrahedra", m.tetrahedra.size()},
+                 {"fixed_points", m.fixed_points.size()},
+                 {"beam_stations", m.beams.stations_per_beam}};
+  j["bounding_box_m"] = {{"min", as_json(measures.bounds_min)},
+                         {"max", as_json(measures.bounds_max)},
+                         {"size", as_json(Eigen::Vector3d(measures.bounds_max - measures.bounds_min))}};
+  j["volume_m3"] = {{"tetrahedra", m.tetrahedra.empty() ? nlohmann::json(nullptr)
+                                                         : nlohmann::json(measures.tetrahedra_volume)},
+                    {"surface", measures.surface_enclosed_volume}};
+  j["surface_area_m2"] = measures.surface_area;
+  const Material& mat = m.material;
+  j["material"] = {{"young_modulus_pa", mat.young_modulus},
+                   {"poisson_ratio", mat.poisson_ratio},
+                   {"density_kg_m3", mat.density},
+                   {"attenuation_alpha", mat.attenuation_alpha},
+                   {"attenuation_beta_per_m", mat.attenuation_beta}};
+  nlohmann::json fixed = nlohmann::json::array();
+  for (const Point3& p : m.fixed_points) fixed.push_back(as_json(p));
+  j["fixed_points_m"] = fixed;
+  j["provenance"] = {{"program_version", m.provenance.program_version},
+                     {"input_sha256", m.provenance.input_sha256},
+                     {"parameters", m.provenance.parameters}};
+  if (o.beam_vertex >= 0) j["beam"] = beam_json(m, static_cast<std::size_t>(o.beam_vertex));
+  return j;
+}
+
+void print_text(const nlohmann::json& j) {
+  auto vec_mm = [](const nlohmann::json& v) {
+    return fmt::format("{:.1f}, {:.1f}, {:.1f}", v[0].get<double>() * 1e3, v[1].get<double>() * 1e3,
+                       v[2].get<double>() * 1e3);
+  };
+  const auto& c = j["counts"];
+  fmt::print("model           {}\n", j["file"].get<std::string>());
+  fmt::print("format          .organ {} ({} bytes; sections:", j["format_version"].get<std::string>(),
+             j["file_bytes"].get<std::uint64_t>());
+  for (const auto& s : j["sections"]) fmt::print(" {}", s["tag"].get<std::string>());
+  fmt::print(")\n");
+  fmt::print("units           SI (m, kg, s, N, Pa); coordinates in the patient frame {}\n",
+             j["coordinate_frame"].get<std::string>());
+  fmt::print("surface         {} vertices, {} triangles{}\n", c["surface_vertices"].get<std::size_t>(),
+             c["surface_triangles"].get<std::size_t>(),
+             c["texture_coordinates"].get<std::size_t>() > 0 ? ", with texture coordinates" : "");
+  fmt::print("tetrahedra      {} tetrahedra on {} vertices\n", c["tetrahedra"].get<std::size_t>(),
+             c["volume_vertices"].get<std::size_t>());
+  fmt::print("bounding box    min ({}) mm, max ({}) mm, size ({}) mm\n", vec_mm(j["bounding_box_m"]["min"]),
+             vec_mm(j["bounding_box_m"]["max"]), vec_mm(j["bounding_box_m"]["size"]));
+  const auto& volume = j["volume_m3"];
+  if (!volume["tetrahedra"].is_null())
+    fmt::print("volume          {:.6g} m³ ({:.1f} mL) from the tetrahedra; {:.1f} mL enclosed by the surface\n",
+               volume["tetrahedra"].get<double>(), volume["tetrahedra"].get<double>() * 1e6,
+               volume["surface"].get<double>() * 1e6);
+  else
+    fmt::print("volume          {:.1f} mL enclosed by the surface (no tetrahedra)\n",
+               volume["surface"].get<double>() * 1e6);
+  fmt::print("surface area    {:.6g} m² ({:.1f} cm²)\n", j["surface_area_m2"].get<double>(),
+             j["surface_area_m2"].get<double>() * 1e4);
+  const auto& mat = j["material"];
+  fmt::print("material        E = {:g} Pa, nu = {:g}, rho = {:g} kg/m³, attenuation alpha = {:g}, beta = {:g} 1/m\n",
+             mat["young_modulus_pa"].get<double>(), mat["poisson_ratio"].get<double>(),
+             mat["density_kg_m3"].get<double>(), mat["attenuation_alpha"].get<double>(),
+             mat["attenuation_beta_per_m"].get<double>());
+  for (const auto& p : j["fixed_points_m"]) fmt::print("fixed point     ({}) mm\n", vec_mm(p));
+  fmt::print("beam tables     {}\n", c["beam_stations"].get<unsigned>() > 0
+                                        ? fmt::format("{} stations per surface vertex", c["beam_stations"].get<unsigned>())
+                                        : std::string("none"));
+  const auto& prov = j["provenance"];
+  const std::string sha = prov["input_sha256"].get<std::string>();
+  fmt::print("written by      organsim {}\n", prov["program_version"].get<std::string>());
+  fmt::print("input image     {}\n", sha.empty() ? std::string("none (synthetic model)") : "voxel SHA-256 " + sha);
+  for (const auto& [name, value] : prov["parameters"].items())
+    fmt::print("parameter       {} = {}\n", name, value.get<std::string>());
+  if (j.contains("beam")) {
+    const auto& b = j["beam"];
+    fmt::print("\nbeam to surface vertex {} at ({}) mm, length {:.2f} mm\n", b["vertex"].get<std::size_t>(),
+               vec_mm(b["position_m"]), b["length_m"].get<double>() * 1e3);
+    fmt::print("{:>6} {:>12} {:>12} {:>12} {:>12} {:>12} {:>10} {:>10}\n", "t", "A mm²", "Iyy mm⁴", "Izz mm⁴",
+               "Iyz mm⁴", "J mm⁴", "cy mm", "cz mm");
+    for (const auto& s : b["stations"])
+      fmt::print("{:>6.3f} {:>12.4g} {:>12.4g} {:>12.4g} {:>12.4g} {:>12.4g} {:>10.3f} {:>10.3f}\n",
+                 s["t"].get<double>(), s["area_m2"].get<double>() * 1e6, s["i_yy_m4"].get<double>() * 1e12,
+                 s["i_zz_m4"].get<double>() * 1e12, s["i_yz_m4"].get<double>() * 1e12,
+                 s["torsion_j_m4"].get<double>() * 1e12, s["centroid_y_m"].get<double>() * 1e3,
+                 s["centroid_z_m"].get<double>() * 1e3);
+  }
+}
+
+int run_info(const InfoOptions& o) {
+  const ModelReadResult read = read_organ_model_file(o.model_path);
+  if (!read) throw std::runtime_error(read.error);
+  const OrganModel& m = *read.model;
+  if (o.beam_vertex >= 0) {
+    if (m.beams.empty())
+      throw std::runtime_error(o.model_path + ": the model has no beam tables; re-bake it with --stations N");
+    if (static_cast<std::size_t>(o.beam_vertex) >= m.surface_vertices.size())
+      throw std::runtime_error(fmt::format("--beam {} is out of range: the model has {} surface vertices (0..{})",
+                                           o.beam_vertex, m.surface_vertices.size(), m.surface_vertices.size() - 1));
+  }
+  const nlohmann::json j = summary_json(o, read);
+  if (o.json)
+    std::cout << j.dump() << '\n';
+  else
+    print_text(j);
+  return 0;
+}
+
+}  // namespace
+
+Command add_info_command(CLI::App& app) {
+  auto options = std::make_shared<InfoOptions>();
+  app.add_option("MODEL", options->model_path, "Model file (.organ)")->required();
+  app.add_flag("--json", options->json, "Print one JSON object (keys: docs/cli.md) instead of text");
+  app.add_option("--beam", options->beam_vertex, "Also print the beam table of this surface vertex")
+      ->check(CLI::NonNegativeNumber);
+  return [options] { return run_info(*options); };
+}
+
+}  // namespace organsim::cli
