@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 namespace organsim {
 
@@ -25,6 +26,20 @@ std::string first_bad_index(const std::vector<std::array<std::uint32_t, N>>& cel
         return std::string(what) + " " + std::to_string(i) + " refers to vertex " + std::to_string(v) +
                " but there are only " + std::to_string(vertex_count) + " " + vertices;
   return {};
+}
+
+/// Fast path for millions of beam sections: true when every value is finite and
+/// no area, second moment or torsion constant is negative. Branch-free so that
+/// the compiler vectorizes it; the slow loop then finds the culprit.
+bool beam_values_plausible(const std::vector<BeamSection>& sections) {
+  double probe = 0.0;  // x - x is 0 for finite x and NaN otherwise
+  bool negative = false;
+  for (const BeamSection& s : sections) {
+    probe += (s.area - s.area) + (s.i_yy - s.i_yy) + (s.i_zz - s.i_zz) + (s.i_yz - s.i_yz) +
+             (s.torsion_j - s.torsion_j) + (s.centroid_y - s.centroid_y) + (s.centroid_z - s.centroid_z);
+    negative |= (s.area < 0) | (s.i_yy < 0) | (s.i_zz < 0) | (s.torsion_j < 0);
+  }
+  return probe == 0.0 && !negative;
 }
 
 bool is_lower_hex(const std::string& s) {
@@ -97,6 +112,7 @@ std::optional<ModelIssue> find_model_issue(const OrganModel& m) {
       return issue(format::Section::BeamTables, "beam tables hold " + std::to_string(b.sections.size()) + " sections, expected " +
              std::to_string(m.surface_vertices.size()) + " vertices x " +
              std::to_string(b.stations_per_beam) + " stations");
+    if (beam_values_plausible(b.sections)) return std::nullopt;
     for (std::size_t i = 0; i < b.sections.size(); ++i) {
       const BeamSection& s = b.sections[i];
       const double v[] = {s.area, s.i_yy, s.i_zz, s.i_yz, s.torsion_j, s.centroid_y, s.centroid_z};
