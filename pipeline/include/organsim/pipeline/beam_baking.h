@@ -1,0 +1,52 @@
+// Stage 5 of the pipeline: beam section tables. For every simulation-surface
+// vertex v, the beam from the fixed point f to v is cut into N equal elements;
+// at each element's midpoint the organ is cut by the plane perpendicular to the
+// beam, and the connected piece of that section containing (or nearest to) the
+// axis point gives A, I_yy, I_zz, I_yz, J and the centroid offset in the beam
+// frame of beam_frame.h (see docs/model-format.md).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "organsim/model/beam_frame.h"
+#include "organsim/model/organ_model.h"
+#include "organsim/pipeline/ct_image.h"
+
+namespace organsim::pipeline {
+
+struct BeamBakingOptions {
+  std::uint32_t stations = 20;
+  unsigned samples_per_side = 96;  ///< section grid resolution over the organ's extent
+  unsigned threads = 0;            ///< 0: one per hardware thread
+};
+
+/// Samples a binary mask in physical space (metres) with trilinear interpolation.
+class MaskSampler {
+ public:
+  explicit MaskSampler(const MaskImage& mask);
+  /// Interpolated mask value in [0, 1]; 0 outside the volume.
+  double value(const Point3& point_m) const;
+  /// Centre and radius (m) of a sphere containing every voxel of the organ.
+  const Point3& organ_centre() const { return centre_; }
+  double organ_radius() const { return radius_; }
+
+ private:
+  const MaskImage& mask_;
+  double to_index_[3][3];  // physical (m) → continuous index
+  double offset_[3];
+  long size_[3];
+  Point3 centre_{};
+  double radius_ = 0.0;
+};
+
+/// The organ section through `axis_point` (m) perpendicular to frame.x.
+BeamSection organ_section(const MaskSampler& sampler, const Point3& axis_point, const BeamFrame& frame,
+                          unsigned samples_per_side);
+
+/// Beam tables for every surface vertex (m), multithreaded; deterministic
+/// regardless of the thread count.
+BeamTables bake_beam_tables(const MaskImage& mask, const std::vector<Point3>& surface_vertices,
+                            const Point3& fixed_point, const BeamBakingOptions& options);
+
+}  // namespace organsim::pipeline

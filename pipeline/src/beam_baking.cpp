@@ -1,0 +1,173 @@
+#include "organsim/pipeline/beam_baking.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <thread>
+
+namespace organsim::pipeline {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kMetresPerMillimetre = 1e-3;
+
+}  // namespace
+
+MaskSampler::MaskSampler(const MaskImage& mask) : mask_(mask) {
+  const auto size = mask.GetLargestPossibleRegion().GetSize();
+  const auto spacing = mask.GetSpacing();
+  const auto origin = mask.GetOrigin();
+  const auto inverse = mask.GetInverseDirection();
+  for (int r = 0; r < 3; ++r) {
+    size_[r] = static_cast<long>(size[r]);
+    offset_[r] = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      // index = D⁻¹ (p − o) / s, with p in mm = 1000 × metres.
+      to_index_[r][c] = inverse[r][c] / spacing[r] / kMetresPerMillimetre;
+      offset_[r] -= inverse[r][c] * origin[c] / spacing[r];
+    }
+  }
+  // Bounding sphere of the organ's voxels, from the index bounding box.
+  long lo[3] = {size_[0], size_[1], size_[2]}, hi[3] = {-1, -1, -1};
+  const std::uint8_t* v = mask.GetBufferPointer();
+  for (long k = 0, n = 0; k < size_[2]; ++k)
+    for (long j = 0; j < size_[1]; ++j)
+      for (long i = 0; i < size_[0]; ++i, ++n)
+        if (v[n]) {
+          lo[0] = std::min(lo[0], i), hi[0] = std::max(hi[0], i);
+          lo[1] = std::min(lo[1], j), hi[1] = std::max(hi[1], j);
+          lo[2] = std::min(lo[2], k), hi[2] = std::max(hi[2], k);
+        }
+  if (hi[0] < 0) return;  // empty mask: radius 0
+  MaskImage::PointType a, b;
+  mask.TransformContinuousIndexToPhysicalPoint(
+      itk::ContinuousIndex<double, 3>(std::array<double, 3>{lo[0] - 1.0, lo[1] - 1.0, lo[2] - 1.0}.data()), a);
+  mask.TransformContinuousIndexToPhysicalPoint(
+      itk::ContinuousIndex<double, 3>(std::array<double, 3>{hi[0] + 1.0, hi[1] + 1.0, hi[2] + 1.0}.data()), b);
+  for (int k = 0; k < 3; ++k) centre_[k] = 0.5 * (a[k] + b[k]) * kMetresPerMillimetre;
+  radius_ = 0.5 * std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]) * kMetresPerMillimetre;
+}
+
+double MaskSampler::value(const Point3& p) const {
+  double index[3];
+  for (int r = 0; r < 3; ++r)
+    index[r] = to_index_[r][0] * p[0] + to_index_[r][1] * p[1] + to_index_[r][2] * p[2] + offset_[r];
+  long base[3];
+  double fraction[3];
+  for (int r = 0; r < 3; ++r) {
+    const double f = std::floor(index[r]);
+    if (!(f >= -1.0 && f < static_cast<double>(size_[r]))) return 0.0;
+    base[r] = static_cast<long>(f);
+    fraction[r] = index[r] - f;
+  }
+  const std::uint8_t* v = mask_.GetBufferPointer();
+  double sum = 0.0;
+  for (int corner = 0; corner < 8; ++corner) {
+    long at[3];
+    double weight = 1.0;
+    for (int r = 0; r < 3; ++r) {
+      const int upper = (corner >> r) & 1;
+      at[r] = base[r] + upper;
+      weight *= upper ? fraction[r] : 1.0 - fraction[r];
+    }
+    if (weight == 0.0 || at[0] < 0 || at[1] < 0 || at[2] < 0 || at[0] >= size_[0] || at[1] >= size_[1] ||
+        at[2] >= size_[2])
+      continue;
+    sum += weight * v[(at[2] * size_[1] + at[1]) * size_[0] + at[0]];
+  }
+  return sum;
+}
+
+BeamSection organ_section(const MaskSampler& sampler, const Point3& c, const BeamFrame& frame, unsigned n) {
+  BeamSection section;
+  // The section lies in the disc where the plane cuts the organ's bounding sphere.
+  const Point3& o = sampler.organ_centre();
+  const double along = (o[0] - c[0]) * frame.x[0] + (o[1] - c[1]) * frame.x[1] + (o[2] - c[2]) * frame.x[2];
+  const double disc2 = sampler.organ_radius() * sampler.organ_radius() - along * along;
+  if (disc2 <= 0.0 || n < 2) return section;
+  const double half = std::sqrt(disc2);
+  const double oy = (o[0] - c[0]) * frame.y[0] + (o[1] - c[1]) * frame.y[1] + (o[2] - c[2]) * frame.y[2];
+  const double oz = (o[0] - c[0]) * frame.z[0] + (o[1] - c[1]) * frame.z[1] + (o[2] - c[2]) * frame.z[2];
+  const double h = 2.0 * half / n;
+  auto local = [&](unsigned i, unsigned j) {
+    return std::array<double, 2>{oy - half + (i + 0.5) * h, oz - half + (j + 0.5) * h};
+  };
+  std::vector<std::uint8_t> inside(static_cast<std::size_t>(n) * n);
+  for (unsigned j = 0; j < n; ++j)
+    for (unsigned i = 0; i < n; ++i) {
+      const auto [y, z] = local(i, j);
+      const Point3 p{c[0] + y * frame.y[0] + z * frame.z[0], c[1] + y * frame.y[1] + z * frame.z[1],
+                     c[2] + y * frame.y[2] + z * frame.z[2]};
+      inside[j * n + i] = sampler.value(p) >= 0.5;
+    }
+  // The connected piece containing the axis point, or the piece nearest to it.
+  std::size_t start = inside.size();
+  double nearest = std::numeric_limits<double>::infinity();
+  for (unsigned j = 0; j < n; ++j)
+    for (unsigned i = 0; i < n; ++i)
+      if (inside[j * n + i]) {
+        const auto [y, z] = local(i, j);
+        const double d = y * y + z * z;
+        if (d < nearest) nearest = d, start = j * n + i;
+      }
+  if (start == inside.size()) return section;
+  std::vector<std::size_t> stack{start};
+  inside[start] = 2;
+  double count = 0, sy = 0, sz = 0, syy = 0, szz = 0, syz = 0;
+  while (!stack.empty()) {
+    const std::size_t at = stack.back();
+    stack.pop_back();
+    const unsigned i = static_cast<unsigned>(at % n), j = static_cast<unsigned>(at / n);
+    const auto [y, z] = local(i, j);
+    count += 1;
+    sy += y, sz += z, syy += y * y, szz += z * z, syz += y * z;
+    const std::size_t neighbours[4] = {i > 0 ? at - 1 : at, i + 1 < n ? at + 1 : at, j > 0 ? at - n : at,
+                                       j + 1 < n ? at + n : at};
+    for (std::size_t next : neighbours)
+      if (inside[next] == 1) inside[next] = 2, stack.push_back(next);
+  }
+  const double cell = h * h;
+  section.area = count * cell;
+  section.centroid_y = sy / count;
+  section.centroid_z = sz / count;
+  // Each sample is an h × h square: add its own second moment h²/12.
+  section.i_yy = (szz / count - section.centroid_z * section.centroid_z + h * h / 12.0) * section.area;
+  section.i_zz = (syy / count - section.centroid_y * section.centroid_y + h * h / 12.0) * section.area;
+  section.i_yz = (syz / count - section.centroid_y * section.centroid_z) * section.area;
+  // Saint-Venant's approximation J ≈ A⁴ / (4π² I_p): exact for ellipses, and
+  // never above the polar moment I_p as J of a general section must be.
+  section.torsion_j = std::pow(section.area, 4) / (4.0 * kPi * kPi * (section.i_yy + section.i_zz));
+  return section;
+}
+
+BeamTables bake_beam_tables(const MaskImage& mask, const std::vector<Point3>& vertices, const Point3& fixed_point,
+                            const BeamBakingOptions& options) {
+  const MaskSampler sampler(mask);
+  BeamTables tables;
+  tables.stations_per_beam = options.stations;
+  tables.sections.resize(vertices.size() * options.stations);
+  std::atomic<std::size_t> next{0};
+  auto work = [&] {
+    for (std::size_t v = next++; v < vertices.size(); v = next++) {
+      BeamFrame frame;
+      if (!make_beam_frame(fixed_point, vertices[v], frame)) continue;  // vertex at the fixed point: zero sections
+      for (std::uint32_t s = 0; s < options.stations; ++s) {
+        const double t = (s + 0.5) / options.stations;
+        const Point3 axis_point{fixed_point[0] + t * (vertices[v][0] - fixed_point[0]),
+                                fixed_point[1] + t * (vertices[v][1] - fixed_point[1]),
+                                fixed_point[2] + t * (vertices[v][2] - fixed_point[2])};
+        tables.sections[v * options.stations + s] =
+            organ_section(sampler, axis_point, frame, options.samples_per_side);
+      }
+    }
+  };
+  const unsigned threads = options.threads ? options.threads : std::max(1u, std::thread::hardware_concurrency());
+  std::vector<std::thread> pool;
+  for (unsigned i = 1; i < threads; ++i) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+  return tables;
+}
+
+}  // namespace organsim::pipeline

@@ -1,0 +1,198 @@
+#include "organsim/pipeline/ct_input.h"
+
+#include <itkBinaryThresholdImageFilter.h>
+#include <itkGDCMImageIO.h>
+#include <itkGDCMSeriesFileNames.h>
+#include <itkImageFileReader.h>
+#include <itkImageIOFactory.h>
+#include <itkImageSeriesReader.h>
+
+#include <zlib.h>
+
+#include <filesystem>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace organsim::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+
+[[noreturn]] void fail(const std::string& path, const std::string& problem) {
+  throw std::runtime_error("'" + path + "': " + problem);
+}
+
+void check_input_path(const std::string& path) {
+  std::error_code error;
+  if (!fs::exists(path, error)) fail(path, "no such file or directory; check the path");
+}
+
+/// ITK's descriptions can span lines; the first line says what went wrong.
+std::string first_line(const char* text) {
+  std::string s(text ? text : "");
+  const auto newline = s.find('\n');
+  return newline == std::string::npos ? s : s.substr(0, newline);
+}
+
+void check_three_dimensional(const std::string& path, const itk::ImageBase<3>& image) {
+  const auto size = image.GetLargestPossibleRegion().GetSize();
+  if (size[0] < 2 || size[1] < 2 || size[2] < 2)
+    fail(path, fmt::format("is a {}x{}x{} image, not a 3-D volume; pass a CT volume or a DICOM series directory",
+                           size[0], size[1], size[2]));
+}
+
+int image_dimensions(const std::string& path) {
+  auto io = itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::CommonEnums::IOFileMode::ReadMode);
+  if (!io)
+    fail(path, "is not an image ITK can read; pass a DICOM series directory, NIfTI (.nii, .nii.gz), NRRD or "
+               "MetaImage (.mha, .mhd) file");
+  try {
+    io->SetFileName(path);
+    io->ReadImageInformation();
+  } catch (const itk::ExceptionObject& e) {
+    fail(path, "cannot read the image header (" + first_line(e.GetDescription()) + "); the file may be truncated");
+  }
+  return static_cast<int>(io->GetNumberOfDimensions());
+}
+
+/// ITK reads a truncated gzip stream without complaint (the missing voxels
+/// come back as zeros), so gzip-compressed inputs are checked to the end first.
+void check_gzip_stream_complete(const std::string& path) {
+  if (path.size() < 3 || path.compare(path.size() - 3, 3, ".gz") != 0) return;
+  gzFile file = ::gzopen(path.c_str(), "rb");
+  if (!file) fail(path, "cannot be opened; check the path and permissions");
+  std::vector<char> buffer(1 << 20);
+  int n = 0;
+  while ((n = ::gzread(file, buffer.data(), static_cast<unsigned>(buffer.size()))) > 0) {
+  }
+  // A stream cut short ends with Z_BUF_ERROR ("unexpected end of file").
+  int error = Z_OK;
+  const std::string message = ::gzerror(file, &error);
+  ::gzclose(file);
+  if (n < 0 || error != Z_OK) fail(path, "is damaged (" + message + "); the file is probably truncated: copy or export it again");
+}
+
+template <typename Image>
+typename Image::Pointer read_volume_file(const std::string& path) {
+  check_gzip_stream_complete(path);
+  if (image_dimensions(path) < 3)
+    fail(path, "is a 2-D image, not a 3-D volume; pass a CT volume or a DICOM series directory");
+  auto reader = itk::ImageFileReader<Image>::New();
+  reader->SetFileName(path);
+  try {
+    reader->Update();
+  } catch (const itk::ExceptionObject& e) {
+    fail(path, "cannot read the voxels (" + first_line(e.GetDescription()) + "); the file may be truncated");
+  }
+  typename Image::Pointer image = reader->GetOutput();
+  check_three_dimensional(path, *image);
+  return image;
+}
+
+}  // namespace
+
+std::vector<DicomSeriesSummary> list_dicom_series(const std::string& directory) {
+  auto names = itk::GDCMSeriesFileNames::New();
+  names->SetUseSeriesDetails(false);
+  names->SetDirectory(directory);
+  std::vector<DicomSeriesSummary> series;
+  for (const std::string& uid : names->GetSeriesUIDs()) {
+    DicomSeriesSummary s;
+    s.uid = uid;
+    const auto files = names->GetFileNames(uid);
+    s.files = files.size();
+    if (!files.empty()) {
+      auto io = itk::GDCMImageIO::New();
+      io->SetFileName(files.front());
+      try {
+        io->ReadImageInformation();
+        io->GetValueFromTag("0008|103e", s.description);
+      } catch (const itk::ExceptionObject&) {
+        // A series without a readable description is still listed by its UID.
+      }
+      while (!s.description.empty() && s.description.back() == ' ') s.description.pop_back();
+    }
+    series.push_back(s);
+  }
+  return series;
+}
+
+CtImage::Pointer read_ct(const std::string& path, const std::string& series_uid) {
+  check_input_path(path);
+  if (!fs::is_directory(path)) return read_volume_file<CtImage>(path);
+
+  const auto series = list_dicom_series(path);
+  if (series.empty()) fail(path, "holds no DICOM series; pass a directory of DICOM files or a volume file");
+  std::string chosen = series_uid;
+  if (chosen.empty()) {
+    if (series.size() > 1) {
+      std::string list;
+      for (const auto& s : series)
+        list += fmt::format("{}{} ({} files{})", list.empty() ? "" : ", ", s.uid, s.files,
+                            s.description.empty() ? "" : ", \"" + s.description + "\"");
+      fail(path, fmt::format("holds {} DICOM series; choose one with --series UID: {}", series.size(), list));
+    }
+    chosen = series.front().uid;
+  }
+  auto names = itk::GDCMSeriesFileNames::New();
+  names->SetUseSeriesDetails(false);
+  names->SetDirectory(path);
+  // GDCM sorts the files of a series by their position along the slice normal.
+  const auto files = names->GetFileNames(chosen);
+  if (files.empty()) fail(path, "holds no DICOM series with UID " + chosen + "; list them by omitting --series");
+  if (files.size() < 2) fail(path, "the series has a single slice, not a 3-D volume");
+  auto reader = itk::ImageSeriesReader<CtImage>::New();
+  reader->SetImageIO(itk::GDCMImageIO::New());
+  reader->SetFileNames(files);
+  try {
+    reader->Update();
+  } catch (const itk::ExceptionObject& e) {
+    fail(path, "cannot read the DICOM series (" + first_line(e.GetDescription()) + ")");
+  }
+  CtImage::Pointer image = reader->GetOutput();
+  // Keep only the geometry: the series' metadata (patient tags) stays behind.
+  image->SetMetaDataDictionary(itk::MetaDataDictionary());
+  check_three_dimensional(path, *image);
+  return image;
+}
+
+MaskImage::Pointer read_label_mask(const std::string& path, int label_value, const CtImage& reference) {
+  check_input_path(path);
+  using LabelImage = itk::Image<int, 3>;
+  LabelImage::Pointer labels =
+      fs::is_directory(path) ? nullptr : read_volume_file<LabelImage>(path);
+  if (!labels) fail(path, "is a directory; pass the label map as one NIfTI, NRRD or MetaImage file");
+
+  const auto size = labels->GetLargestPossibleRegion().GetSize();
+  const auto reference_size = reference.GetLargestPossibleRegion().GetSize();
+  bool same = size == reference_size;
+  for (unsigned k = 0; k < 3 && same; ++k) {
+    same &= std::abs(labels->GetSpacing()[k] - reference.GetSpacing()[k]) < 1e-3;
+    same &= std::abs(labels->GetOrigin()[k] - reference.GetOrigin()[k]) < 1e-3;
+    for (unsigned j = 0; j < 3; ++j)
+      same &= std::abs(labels->GetDirection()[k][j] - reference.GetDirection()[k][j]) < 1e-4;
+  }
+  if (!same)
+    fail(path, fmt::format("the label map's grid ({}x{}x{} voxels) does not match the CT's ({}x{}x{} voxels, with "
+                           "spacing, origin and direction); resample it onto the CT grid first",
+                           size[0], size[1], size[2], reference_size[0], reference_size[1], reference_size[2]));
+
+  auto threshold = itk::BinaryThresholdImageFilter<LabelImage, MaskImage>::New();
+  threshold->SetInput(labels);
+  threshold->SetLowerThreshold(label_value);
+  threshold->SetUpperThreshold(label_value);
+  threshold->SetInsideValue(1);
+  threshold->SetOutsideValue(0);
+  threshold->Update();
+  MaskImage::Pointer mask = threshold->GetOutput();
+  const std::uint8_t* voxels = mask->GetBufferPointer();
+  const std::size_t count = mask->GetLargestPossibleRegion().GetNumberOfPixels();
+  if (std::find(voxels, voxels + count, 1) == voxels + count)
+    fail(path, fmt::format("no voxel has label value {}; check --label-value", label_value));
+  // Geometry is the CT's (equal within tolerance): downstream stages use one grid.
+  mask->CopyInformation(&reference);
+  return mask;
+}
+
+}  // namespace organsim::pipeline

@@ -1,0 +1,155 @@
+#include "organsim/pipeline/segmentation.h"
+
+#include <itkBinaryBallStructuringElement.h>
+#include <itkBinaryFillholeImageFilter.h>
+#include <itkBinaryMorphologicalClosingImageFilter.h>
+#include <itkBinaryThresholdImageFilter.h>
+#include <itkConnectedComponentImageFilter.h>
+#include <itkConnectedThresholdImageFilter.h>
+#include <itkConstantPadImageFilter.h>
+#include <itkRegionOfInterestImageFilter.h>
+#include <itkRelabelComponentImageFilter.h>
+
+#include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace organsim::pipeline {
+namespace {
+
+MaskImage::Pointer fill_holes(const MaskImage& mask) {
+  auto fill = itk::BinaryFillholeImageFilter<MaskImage>::New();
+  fill->SetInput(&mask);
+  fill->SetForegroundValue(1);
+  fill->SetFullyConnected(false);
+  fill->Update();
+  return fill->GetOutput();
+}
+
+MaskImage::Pointer close(const MaskImage& mask, double radius_mm) {
+  using Ball = itk::BinaryBallStructuringElement<std::uint8_t, 3>;
+  Ball ball;
+  Ball::SizeType radius;
+  for (unsigned k = 0; k < 3; ++k)
+    radius[k] = static_cast<itk::SizeValueType>(std::lround(radius_mm / mask.GetSpacing()[k]));
+  if (radius[0] + radius[1] + radius[2] == 0) {
+    MaskImage::Pointer copy = fill_holes(mask);  // fill_holes already returns a new image
+    return copy;
+  }
+  ball.SetRadius(radius);
+  ball.CreateStructuringElement();
+  // Pad first so that closing does not glue the organ to the volume border.
+  auto pad = itk::ConstantPadImageFilter<MaskImage, MaskImage>::New();
+  pad->SetInput(&mask);
+  pad->SetPadBound(radius);
+  pad->SetConstant(0);
+  auto closing = itk::BinaryMorphologicalClosingImageFilter<MaskImage, MaskImage, Ball>::New();
+  closing->SetInput(pad->GetOutput());
+  closing->SetKernel(ball);
+  closing->SetForegroundValue(1);
+  auto crop = itk::RegionOfInterestImageFilter<MaskImage, MaskImage>::New();
+  crop->SetInput(closing->GetOutput());
+  crop->SetRegionOfInterest(mask.GetLargestPossibleRegion());
+  crop->Update();
+  MaskImage::Pointer result = crop->GetOutput();
+  result->CopyInformation(&mask);
+  return result;
+}
+
+MaskImage::Pointer largest_component(const MaskImage& mask) {
+  using LabelImage = itk::Image<std::uint32_t, 3>;
+  auto components = itk::ConnectedComponentImageFilter<MaskImage, LabelImage>::New();
+  components->SetInput(&mask);
+  components->SetFullyConnected(false);
+  auto relabel = itk::RelabelComponentImageFilter<LabelImage, LabelImage>::New();
+  relabel->SetInput(components->GetOutput());  // label 1 is the largest
+  auto select = itk::BinaryThresholdImageFilter<LabelImage, MaskImage>::New();
+  select->SetInput(relabel->GetOutput());
+  select->SetLowerThreshold(1);
+  select->SetUpperThreshold(1);
+  select->SetInsideValue(1);
+  select->SetOutsideValue(0);
+  select->Update();
+  return select->GetOutput();
+}
+
+}  // namespace
+
+std::size_t count_voxels(const MaskImage& mask) {
+  const std::uint8_t* v = mask.GetBufferPointer();
+  const std::size_t n = mask.GetLargestPossibleRegion().GetNumberOfPixels();
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < n; ++i) count += v[i] != 0;
+  return count;
+}
+
+double dice_coefficient(const MaskImage& a, const MaskImage& b) {
+  const std::size_t n = a.GetLargestPossibleRegion().GetNumberOfPixels();
+  if (n != b.GetLargestPossibleRegion().GetNumberOfPixels())
+    throw std::invalid_argument("dice_coefficient: the masks have different grids");
+  const std::uint8_t *va = a.GetBufferPointer(), *vb = b.GetBufferPointer();
+  std::size_t both = 0, sum = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    both += (va[i] != 0) & (vb[i] != 0);
+    sum += (va[i] != 0) + (vb[i] != 0);
+  }
+  return sum == 0 ? 1.0 : 2.0 * static_cast<double>(both) / static_cast<double>(sum);
+}
+
+std::array<long, 3> voxel_of_point(const CtImage& ct, const std::array<double, 3>& point_mm) {
+  CtImage::PointType point;
+  for (unsigned k = 0; k < 3; ++k) point[k] = point_mm[k];
+  CtImage::IndexType index;
+  if (!ct.TransformPhysicalPointToIndex(point, index)) {
+    const auto size = ct.GetLargestPossibleRegion().GetSize();
+    throw std::runtime_error(fmt::format(
+        "point ({:.1f}, {:.1f}, {:.1f}) mm lies outside the volume ({}x{}x{} voxels); give LPS millimetres inside "
+        "the CT, or a voxel index",
+        point_mm[0], point_mm[1], point_mm[2], size[0], size[1], size[2]));
+  }
+  return {index[0], index[1], index[2]};
+}
+
+MaskImage::Pointer clean_mask(const MaskImage& mask, double closing_radius_mm) {
+  if (count_voxels(mask) == 0) throw std::runtime_error("the segmentation is empty");
+  MaskImage::Pointer filled = fill_holes(mask);
+  MaskImage::Pointer closed = closing_radius_mm > 0 ? close(*filled, closing_radius_mm) : filled;
+  return fill_holes(*largest_component(*closed));
+}
+
+MaskImage::Pointer segment_by_region_growing(const CtImage& ct, const RegionGrowingOptions& o) {
+  const auto size = ct.GetLargestPossibleRegion().GetSize();
+  CtImage::IndexType seed;
+  for (unsigned k = 0; k < 3; ++k) {
+    if (o.seed_voxel[k] < 0 || o.seed_voxel[k] >= static_cast<long>(size[k]))
+      throw std::runtime_error(fmt::format("seed voxel ({}, {}, {}) lies outside the volume ({}x{}x{} voxels); "
+                                           "choose a voxel inside the organ",
+                                           o.seed_voxel[0], o.seed_voxel[1], o.seed_voxel[2], size[0], size[1],
+                                           size[2]));
+    seed[k] = o.seed_voxel[k];
+  }
+  if (!(o.hu_low < o.hu_high))
+    throw std::runtime_error(fmt::format("HU window {},{} is empty; give LO,HI with LO < HI", o.hu_low, o.hu_high));
+  const double seed_hu = ct.GetPixel(seed);
+  if (seed_hu < o.hu_low || seed_hu > o.hu_high)
+    throw std::runtime_error(fmt::format("the seed voxel has {} HU, outside the window {},{}; move the seed into "
+                                         "the organ or widen --hu-window",
+                                         seed_hu, o.hu_low, o.hu_high));
+  auto grow = itk::ConnectedThresholdImageFilter<CtImage, MaskImage>::New();
+  grow->SetInput(&ct);
+  grow->SetSeed(seed);
+  grow->SetLower(static_cast<CtImage::PixelType>(std::ceil(o.hu_low)));
+  grow->SetUpper(static_cast<CtImage::PixelType>(std::floor(o.hu_high)));
+  grow->SetReplaceValue(1);
+  grow->Update();
+  MaskImage::Pointer mask = clean_mask(*grow->GetOutput(), o.closing_radius_mm);
+  const std::size_t voxels = count_voxels(*mask);
+  if (voxels < o.minimum_voxels)
+    throw std::runtime_error(fmt::format("the segmentation has only {} voxels (at least {} expected); check the seed "
+                                         "and --hu-window",
+                                         voxels, o.minimum_voxels));
+  return mask;
+}
+
+}  // namespace organsim::pipeline

@@ -1,0 +1,81 @@
+// Synthetic volumes with analytic geometry for pipeline tests: an ellipsoid on
+// a grid with anisotropic spacing, a rotated direction matrix and an offset
+// origin, so that every stage is checked in true physical space.
+#pragma once
+
+#include <array>
+#include <cmath>
+
+#include <itkImageRegionIteratorWithIndex.h>
+
+#include "organsim/pipeline/ct_image.h"
+
+namespace organsim::pipeline::testing {
+
+struct Ellipsoid {
+  std::array<double, 3> centre_mm{-12.0, 20.0, 95.0};
+  std::array<double, 3> semi_axes_mm{60.0, 40.0, 30.0};
+  /// Principal axes (unit, orthonormal): a rotation of the world axes.
+  std::array<std::array<double, 3>, 3> axes{};
+
+  Ellipsoid() {
+    const double c = std::cos(0.4), s = std::sin(0.4), c2 = std::cos(0.25), s2 = std::sin(0.25);
+    // Rotation about z by 0.4 rad, then about x by 0.25 rad.
+    axes[0] = {c, s * c2, s * s2};
+    axes[1] = {-s, c * c2, c * s2};
+    axes[2] = {0.0, -s2, c2};
+  }
+  bool contains(const std::array<double, 3>& p) const {
+    double sum = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const double along = (p[0] - centre_mm[0]) * axes[k][0] + (p[1] - centre_mm[1]) * axes[k][1] +
+                           (p[2] - centre_mm[2]) * axes[k][2];
+      sum += along * along / (semi_axes_mm[k] * semi_axes_mm[k]);
+    }
+    return sum <= 1.0;
+  }
+  double volume_mm3() const { return 4.0 / 3.0 * M_PI * semi_axes_mm[0] * semi_axes_mm[1] * semi_axes_mm[2]; }
+};
+
+/// A grid with spacing (0.9, 1.1, 1.6) mm and a direction matrix rotated about
+/// z by 0.3 rad, covering the ellipsoid with a margin.
+template <typename Image>
+typename Image::Pointer make_grid(const Ellipsoid& e, std::array<double, 3> spacing = {0.9, 1.1, 1.6}) {
+  auto image = Image::New();
+  typename Image::RegionType region;
+  typename Image::SpacingType s;
+  typename Image::DirectionType direction;
+  typename Image::PointType origin;
+  const double c = std::cos(0.3), sn = std::sin(0.3);
+  direction.SetIdentity();
+  direction[0][0] = c, direction[0][1] = -sn, direction[1][0] = sn, direction[1][1] = c;
+  const double extent = 2.0 * e.semi_axes_mm[0] + 16.0;
+  for (unsigned k = 0; k < 3; ++k) {
+    region.SetSize(k, static_cast<itk::SizeValueType>(std::ceil(extent / spacing[k])));
+    s[k] = spacing[k];
+  }
+  // Origin so that the grid centre is the ellipsoid centre.
+  for (unsigned r = 0; r < 3; ++r) {
+    origin[r] = e.centre_mm[r];
+    for (unsigned k = 0; k < 3; ++k) origin[r] -= direction[r][k] * 0.5 * (region.GetSize(k) - 1) * spacing[k];
+  }
+  image->SetRegions(region);
+  image->SetSpacing(s);
+  image->SetDirection(direction);
+  image->SetOrigin(origin);
+  image->Allocate(true);
+  return image;
+}
+
+inline MaskImage::Pointer make_ellipsoid_mask(const Ellipsoid& e, std::array<double, 3> spacing = {0.9, 1.1, 1.6}) {
+  auto mask = make_grid<MaskImage>(e, spacing);
+  itk::ImageRegionIteratorWithIndex<MaskImage> it(mask, mask->GetLargestPossibleRegion());
+  for (; !it.IsAtEnd(); ++it) {
+    MaskImage::PointType p;
+    mask->TransformIndexToPhysicalPoint(it.GetIndex(), p);
+    it.Set(e.contains({p[0], p[1], p[2]}) ? 1 : 0);
+  }
+  return mask;
+}
+
+}  // namespace organsim::pipeline::testing
