@@ -1,0 +1,33 @@
+// Stage 3 of the pipeline: the organ surface from the mask (flying edges,
+// windowed-sinc smoothing, decimation to a target size), in metres, patient
+// frame, closed, manifold and outward oriented.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "organsim/model/organ_model.h"
+#include "organsim/pipeline/ct_image.h"
+
+namespace organsim::pipeline {
+
+struct SurfaceOptions {
+  std::size_t target_vertices = 3000;  ///< decimate to about this many vertices
+  int smoothing_iterations = 20;       ///< windowed sinc
+  double smoothing_passband = 0.05;    ///< windowed sinc pass band (smaller: smoother)
+};
+
+struct SurfaceMesh {
+  std::vector<Point3> vertices;     ///< m, patient frame
+  std::vector<Triangle> triangles;  ///< counter-clockwise seen from outside
+};
+
+/// Throws std::runtime_error with one line when the mask is empty or the
+/// result is not a closed manifold (each edge shared by exactly two triangles).
+SurfaceMesh extract_surface(const MaskImage& mask, const SurfaceOptions& options);
+
+/// Signed enclosed volume (m³; > 0 for outward triangles) and area (m²).
+double enclosed_volume(const SurfaceMesh& mesh);
+double surface_area(const SurfaceMesh& mesh);
+
+}  // namespace organsim::pipeline
