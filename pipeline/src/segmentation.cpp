@@ -33,10 +33,8 @@ MaskImage::Pointer close(const MaskImage& mask, double radius_mm) {
   Ball::SizeType radius;
   for (unsigned k = 0; k < 3; ++k)
     radius[k] = static_cast<itk::SizeValueType>(std::lround(radius_mm / mask.GetSpacing()[k]));
-  if (radius[0] + radius[1] + radius[2] == 0) {
-    MaskImage::Pointer copy = fill_holes(mask);  // fill_holes already returns a new image
-    return copy;
-  }
+  // A radius below half a voxel closes nothing; the caller's mask is already hole-filled.
+  if (radius[0] + radius[1] + radius[2] == 0) return fill_holes(mask);
   ball.SetRadius(radius);
   ball.CreateStructuringElement();
   // Pad first so that closing does not glue the organ to the volume border.

@@ -2,7 +2,6 @@
 
 #include "model_validation.h"
 
-#include <cmath>
 #include <string>
 
 namespace organsim {
