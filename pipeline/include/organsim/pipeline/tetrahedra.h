@@ -1,0 +1,46 @@
+// Stage 4 of the pipeline: tetrahedra filling the organ surface (CGAL Mesh_3
+// on the closed surface of stage 3), with the quality figures a user checks
+// before trusting a simulation: dihedral angles, radius–edge ratios, volumes.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "organsim/model/organ_model.h"
+#include "organsim/pipeline/surface.h"
+
+namespace organsim::pipeline {
+
+struct TetrahedraOptions {
+  double tet_size_mm = 8.0;              ///< target edge length scale: cell size and facet size, mm
+  double facet_distance_mm = 0.4;        ///< largest distance of a boundary facet from the surface, mm
+  double facet_angle_deg = 25.0;         ///< smallest boundary-facet angle (Mesh_3's facet_angle)
+  double radius_edge_ratio = 3.0;        ///< largest circumradius / shortest edge of a tetrahedron
+  bool optimize = true;                  ///< sliver perturbation and exudation after refinement
+};
+
+struct TetrahedralMesh {
+  std::vector<Point3> vertices;          ///< m, patient frame
+  std::vector<Tetrahedron> tetrahedra;   ///< positively oriented
+};
+
+struct TetrahedralQuality {
+  std::size_t tetrahedra = 0;
+  double min_dihedral_deg = 0.0;
+  double max_dihedral_deg = 0.0;
+  double max_radius_edge_ratio = 0.0;    ///< circumradius / shortest edge; 0.612 for a regular tetrahedron
+  double mean_radius_edge_ratio = 0.0;
+  double min_volume_m3 = 0.0;
+  double total_volume_m3 = 0.0;
+};
+
+/// Meshes the inside of `surface` (closed, manifold, outward; in metres).
+/// Deterministic: the same surface and options give the same mesh. Throws
+/// std::runtime_error with one line when the options are unusable or the
+/// mesher produces no tetrahedra ("meshing failure").
+TetrahedralMesh make_tetrahedra(const SurfaceMesh& surface, const TetrahedraOptions& options);
+
+/// Quality figures of a tetrahedral mesh (empty meshes give all zeros).
+TetrahedralQuality measure_quality(const TetrahedralMesh& mesh);
+
+}  // namespace organsim::pipeline
