@@ -11,6 +11,11 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kMetresPerMillimetre = 1e-3;
+constexpr int kBlockShift = 2;  // blocks of 4³ voxels
+constexpr long kBlock = 1L << kBlockShift;
+enum BlockState : std::uint8_t { kEmpty, kFull, kMixed };
+// The coarse pass of a section samples every kCoarseStep-th grid point.
+constexpr unsigned kCoarseStep = 4;
 
 }  // namespace
 
@@ -39,6 +44,25 @@ MaskSampler::MaskSampler(const MaskImage& mask) : mask_(mask) {
           lo[1] = std::min(lo[1], j), hi[1] = std::max(hi[1], j);
           lo[2] = std::min(lo[2], k), hi[2] = std::max(hi[2], k);
         }
+  // Block b holds the samples whose base voxel lies in [4b, 4b + 3]; their
+  // trilinear corners span voxels [4b, 4b + 4] along each axis.
+  for (int r = 0; r < 3; ++r) blocks_[r] = (size_[r] + kBlock - 1) / kBlock;
+  block_.assign(static_cast<std::size_t>(blocks_[0] * blocks_[1] * blocks_[2]), kEmpty);
+  for (long bk = 0, b = 0; bk < blocks_[2]; ++bk)
+    for (long bj = 0; bj < blocks_[1]; ++bj)
+      for (long bi = 0; bi < blocks_[0]; ++bi, ++b) {
+        const long first[3] = {bi * kBlock, bj * kBlock, bk * kBlock};
+        bool any = false, all = true;
+        for (long k = first[2]; k <= first[2] + kBlock; ++k)
+          for (long j = first[1]; j <= first[1] + kBlock; ++j)
+            for (long i = first[0]; i <= first[0] + kBlock; ++i) {
+              const bool in_volume = i < size_[0] && j < size_[1] && k < size_[2];
+              const bool set = in_volume && v[(k * size_[1] + j) * size_[0] + i] != 0;
+              any |= set;
+              all &= set;
+            }
+        block_[static_cast<std::size_t>(b)] = all ? kFull : any ? kMixed : kEmpty;
+      }
   if (hi[0] < 0) return;  // empty mask: radius 0
   MaskImage::PointType a, b;
   mask.TransformContinuousIndexToPhysicalPoint(
@@ -49,10 +73,29 @@ MaskSampler::MaskSampler(const MaskImage& mask) : mask_(mask) {
   radius_ = 0.5 * std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]) * kMetresPerMillimetre;
 }
 
-double MaskSampler::value(const Point3& p) const {
-  double index[3];
+MaskSampler::Index MaskSampler::index_of(const Point3& p) const {
+  Index index;
   for (int r = 0; r < 3; ++r)
     index[r] = to_index_[r][0] * p[0] + to_index_[r][1] * p[1] + to_index_[r][2] * p[2] + offset_[r];
+  return index;
+}
+
+double MaskSampler::value(const Point3& p) const { return value_at(index_of(p)); }
+
+bool MaskSampler::inside(const Index& index) const {
+  // Samples whose base voxel is inside the volume use the block table; the
+  // rest (the volume's border, NaN) take the exact path.
+  if (index[0] >= 0.0 && index[1] >= 0.0 && index[2] >= 0.0 && index[0] < size_[0] && index[1] < size_[1] &&
+      index[2] < size_[2]) {
+    const long i = static_cast<long>(index[0]) >> kBlockShift, j = static_cast<long>(index[1]) >> kBlockShift,
+               k = static_cast<long>(index[2]) >> kBlockShift;
+    const std::uint8_t state = block_[static_cast<std::size_t>((k * blocks_[1] + j) * blocks_[0] + i)];
+    if (state != kMixed) return state == kFull;
+  }
+  return value_at(index) >= 0.5;
+}
+
+double MaskSampler::value_at(const Index& index) const {
   long base[3];
   double fraction[3];
   for (int r = 0; r < 3; ++r) {
@@ -93,14 +136,39 @@ BeamSection organ_section(const MaskSampler& sampler, const Point3& c, const Bea
   auto local = [&](unsigned i, unsigned j) {
     return std::array<double, 2>{oy - half + (i + 0.5) * h, oz - half + (j + 0.5) * h};
   };
-  std::vector<std::uint8_t> inside(static_cast<std::size_t>(n) * n);
-  for (unsigned j = 0; j < n; ++j)
-    for (unsigned i = 0; i < n; ++i) {
-      const auto [y, z] = local(i, j);
-      const Point3 p{c[0] + y * frame.y[0] + z * frame.z[0], c[1] + y * frame.y[1] + z * frame.z[1],
-                     c[2] + y * frame.y[2] + z * frame.z[2]};
-      inside[j * n + i] = sampler.value(p) >= 0.5;
-    }
+  // Grid point (i, j) has the continuous voxel index first + i di + j dj.
+  auto physical = [&](double y, double z) {
+    return Point3{c[0] + y * frame.y[0] + z * frame.z[0], c[1] + y * frame.y[1] + z * frame.z[1],
+                  c[2] + y * frame.y[2] + z * frame.z[2]};
+  };
+  const auto [y0, z0] = local(0, 0);
+  const MaskSampler::Index first = sampler.index_of(physical(y0, z0)), along_i = sampler.index_of(physical(y0 + h, z0)),
+                           along_j = sampler.index_of(physical(y0, z0 + h));
+  const double di[3] = {along_i[0] - first[0], along_i[1] - first[1], along_i[2] - first[2]};
+  const double dj[3] = {along_j[0] - first[0], along_j[1] - first[1], along_j[2] - first[2]};
+  auto inside_at = [&](unsigned i, unsigned j) {
+    return sampler.inside({first[0] + i * di[0] + j * dj[0], first[1] + i * di[1] + j * dj[1],
+                           first[2] + i * di[2] + j * dj[2]});
+  };
+  // Coarse pass: the organ's extent in the plane, plus one coarse step, plus
+  // the neighbourhood of the axis point (small sections near the beam's tip).
+  long lo_i = n, hi_i = -1, lo_j = n, hi_j = -1;
+  auto include = [&](long i, long j) {
+    lo_i = std::min(lo_i, i), hi_i = std::max(hi_i, i), lo_j = std::min(lo_j, j), hi_j = std::max(hi_j, j);
+  };
+  for (unsigned j = kCoarseStep / 2; j < n; j += kCoarseStep)
+    for (unsigned i = kCoarseStep / 2; i < n; i += kCoarseStep)
+      if (inside_at(i, j)) include(i, j);
+  const double axis_i = (half - oy) / h - 0.5, axis_j = (half - oz) / h - 0.5;
+  if (axis_i >= 0.0 && axis_i < n && axis_j >= 0.0 && axis_j < n)
+    include(static_cast<long>(axis_i), static_cast<long>(axis_j));
+  if (hi_i < 0) return section;
+  lo_i = std::max(0L, lo_i - static_cast<long>(kCoarseStep)), hi_i = std::min(n - 1L, hi_i + static_cast<long>(kCoarseStep));
+  lo_j = std::max(0L, lo_j - static_cast<long>(kCoarseStep)), hi_j = std::min(n - 1L, hi_j + static_cast<long>(kCoarseStep));
+  std::vector<std::uint8_t> inside(static_cast<std::size_t>(n) * n, 0);
+  for (long j = lo_j; j <= hi_j; ++j)
+    for (long i = lo_i; i <= hi_i; ++i)
+      inside[static_cast<std::size_t>(j) * n + i] = inside_at(static_cast<unsigned>(i), static_cast<unsigned>(j));
   // The connected piece containing the axis point, or the piece nearest to it.
   std::size_t start = inside.size();
   double nearest = std::numeric_limits<double>::infinity();
@@ -142,14 +210,15 @@ BeamSection organ_section(const MaskSampler& sampler, const Point3& c, const Bea
 }
 
 BeamTables bake_beam_tables(const MaskImage& mask, const std::vector<Point3>& vertices, const Point3& fixed_point,
-                            const BeamBakingOptions& options) {
+                            const BeamBakingOptions& options, const std::function<void(double)>& progress) {
   const MaskSampler sampler(mask);
   BeamTables tables;
   tables.stations_per_beam = options.stations;
   tables.sections.resize(vertices.size() * options.stations);
   std::atomic<std::size_t> next{0};
-  auto work = [&] {
+  auto work = [&](bool reports) {
     for (std::size_t v = next++; v < vertices.size(); v = next++) {
+      if (reports && progress && v % 64 == 0) progress(static_cast<double>(v) / vertices.size());
       BeamFrame frame;
       if (!make_beam_frame(fixed_point, vertices[v], frame)) continue;  // vertex at the fixed point: zero sections
       for (std::uint32_t s = 0; s < options.stations; ++s) {
@@ -164,8 +233,8 @@ BeamTables bake_beam_tables(const MaskImage& mask, const std::vector<Point3>& ve
   };
   const unsigned threads = options.threads ? options.threads : std::max(1u, std::thread::hardware_concurrency());
   std::vector<std::thread> pool;
-  for (unsigned i = 1; i < threads; ++i) pool.emplace_back(work);
-  work();
+  for (unsigned i = 1; i < threads; ++i) pool.emplace_back(work, false);
+  work(true);
   for (std::thread& t : pool) t.join();
   return tables;
 }

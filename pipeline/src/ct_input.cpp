@@ -6,10 +6,15 @@
 #include <itkImageFileReader.h>
 #include <itkImageIOFactory.h>
 #include <itkImageSeriesReader.h>
+#include <itkNearestNeighborInterpolateImageFunction.h>
+#include <itkResampleImageFilter.h>
 
 #include <zlib.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
+#include <vector>
 #include <filesystem>
 #include <stdexcept>
 
@@ -91,6 +96,48 @@ typename Image::Pointer read_volume_file(const std::string& path) {
   return image;
 }
 
+/// Same size, spacing, origin and direction (within 1e-3 mm and 1e-4).
+template <typename A, typename B>
+bool same_grid(const A& a, const B& b) {
+  if (a.GetLargestPossibleRegion().GetSize() != b.GetLargestPossibleRegion().GetSize()) return false;
+  for (unsigned k = 0; k < 3; ++k) {
+    if (std::abs(a.GetSpacing()[k] - b.GetSpacing()[k]) >= 1e-3) return false;
+    if (std::abs(a.GetOrigin()[k] - b.GetOrigin()[k]) >= 1e-3) return false;
+    for (unsigned j = 0; j < 3; ++j)
+      if (std::abs(a.GetDirection()[k][j] - b.GetDirection()[k][j]) >= 1e-4) return false;
+  }
+  return true;
+}
+
+/// Whether every voxel centre of `reference` is a voxel centre of `labels` and
+/// the two have as many voxels: the same lattice, in another axis order.
+template <typename A, typename B>
+bool same_lattice(const A& labels, const B& reference) {
+  if (labels.GetLargestPossibleRegion().GetNumberOfPixels() != reference.GetLargestPossibleRegion().GetNumberOfPixels())
+    return false;
+  const auto size = reference.GetLargestPossibleRegion().GetSize();
+  const auto label_size = labels.GetLargestPossibleRegion().GetSize();
+  // The index map is affine: the origin, the three unit steps and the eight
+  // corners landing on in-range integer indices settle it.
+  std::vector<std::array<long, 3>> probes = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  for (int corner = 0; corner < 8; ++corner)
+    probes.push_back({corner & 1 ? static_cast<long>(size[0]) - 1 : 0, corner & 2 ? static_cast<long>(size[1]) - 1 : 0,
+                      corner & 4 ? static_cast<long>(size[2]) - 1 : 0});
+  for (const auto& probe : probes) {
+    typename B::IndexType index;
+    for (unsigned k = 0; k < 3; ++k) index[k] = probe[k];
+    typename B::PointType point;
+    reference.TransformIndexToPhysicalPoint(index, point);
+    itk::ContinuousIndex<double, 3> at;
+    labels.TransformPhysicalPointToContinuousIndex(point, at);
+    for (unsigned k = 0; k < 3; ++k)
+      if (std::abs(at[k] - std::round(at[k])) > 1e-3 || std::round(at[k]) < 0 ||
+          std::round(at[k]) > static_cast<double>(label_size[k]) - 1)
+        return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 std::vector<DicomSeriesSummary> list_dicom_series(const std::string& directory) {
@@ -167,17 +214,26 @@ MaskImage::Pointer read_label_mask(const std::string& path, int label_value, con
 
   const auto size = labels->GetLargestPossibleRegion().GetSize();
   const auto reference_size = reference.GetLargestPossibleRegion().GetSize();
-  bool same = size == reference_size;
-  for (unsigned k = 0; k < 3 && same; ++k) {
-    same &= std::abs(labels->GetSpacing()[k] - reference.GetSpacing()[k]) < 1e-3;
-    same &= std::abs(labels->GetOrigin()[k] - reference.GetOrigin()[k]) < 1e-3;
-    for (unsigned j = 0; j < 3; ++j)
-      same &= std::abs(labels->GetDirection()[k][j] - reference.GetDirection()[k][j]) < 1e-4;
+  if (!same_grid(*labels, reference)) {
+    // Converters (dcm2niix, for one) may store the same voxels with an axis
+    // flipped or permuted: then the label map is re-ordered onto the CT's grid,
+    // exactly (nearest neighbour on a shared lattice). Anything else is an error.
+    if (!same_lattice(*labels, reference))
+      fail(path, fmt::format("the label map's grid ({}x{}x{} voxels) does not match the CT's ({}x{}x{} voxels, with "
+                             "spacing, origin and direction); resample it onto the CT grid first",
+                             size[0], size[1], size[2], reference_size[0], reference_size[1], reference_size[2]));
+    auto resample = itk::ResampleImageFilter<LabelImage, LabelImage>::New();
+    resample->SetInput(labels);
+    resample->SetInterpolator(itk::NearestNeighborInterpolateImageFunction<LabelImage>::New());
+    resample->SetSize(reference_size);
+    resample->SetOutputOrigin(reference.GetOrigin());
+    resample->SetOutputSpacing(reference.GetSpacing());
+    resample->SetOutputDirection(reference.GetDirection());
+    resample->SetOutputStartIndex(reference.GetLargestPossibleRegion().GetIndex());
+    resample->SetDefaultPixelValue(0);
+    resample->Update();
+    labels = resample->GetOutput();
   }
-  if (!same)
-    fail(path, fmt::format("the label map's grid ({}x{}x{} voxels) does not match the CT's ({}x{}x{} voxels, with "
-                           "spacing, origin and direction); resample it onto the CT grid first",
-                           size[0], size[1], size[2], reference_size[0], reference_size[1], reference_size[2]));
 
   auto threshold = itk::BinaryThresholdImageFilter<LabelImage, MaskImage>::New();
   threshold->SetInput(labels);

@@ -14,8 +14,8 @@
 #include <vector>
 
 #include <fmt/format.h>
-#include <sys/stat.h>
-#include <unistd.h>
+
+#include "atomic_output.h"
 
 namespace organsim::pipeline {
 namespace {
@@ -35,43 +35,9 @@ std::string image_extension(const std::string& path) {
                            "': unsupported extension; use .nii.gz, .nii, .nrrd or .mha");
 }
 
-/// A unique temporary file next to `path` with the same extension (ITK picks
-/// the file format by extension), renamed over `path` by commit().
-class AtomicOutput {
- public:
-  explicit AtomicOutput(const std::string& path) : path_(path) {
-    const std::string extension = image_extension(path);
-    const fs::path target(path);
-    const fs::path directory = target.has_parent_path() ? target.parent_path() : fs::path(".");
-    std::string pattern = (directory / ("." + target.filename().string() + ".tmp-XXXXXX" + extension)).string();
-    const int fd = ::mkstemps(pattern.data(), static_cast<int>(extension.size()));
-    if (fd < 0)
-      throw std::runtime_error("cannot write '" + path + "': " + std::strerror(errno) +
-                               "; check that the directory exists and is writable");
-    ::fchmod(fd, 0644);  // mkstemps creates 0600; outputs are ordinary readable files
-    ::close(fd);
-    temp_ = pattern;
-  }
-  AtomicOutput(const AtomicOutput&) = delete;
-  AtomicOutput& operator=(const AtomicOutput&) = delete;
-  ~AtomicOutput() {
-    if (!temp_.empty()) ::unlink(temp_.c_str());
-  }
-  const std::string& temp_path() const { return temp_; }
-  void commit() {
-    if (std::rename(temp_.c_str(), path_.c_str()) != 0)
-      throw std::runtime_error("cannot write '" + path_ + "': " + std::strerror(errno));
-    temp_.clear();
-  }
-
- private:
-  std::string path_;
-  std::string temp_;
-};
-
 template <typename ImageType>
 void write_image(const ImageType& image, const std::string& path) {
-  AtomicOutput output(path);
+  AtomicOutput output(path, image_extension(path));
   auto writer = itk::ImageFileWriter<ImageType>::New();
   writer->SetInput(&image);
   writer->SetFileName(output.temp_path());

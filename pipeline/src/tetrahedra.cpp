@@ -34,9 +34,12 @@ using Criteria = CGAL::Mesh_criteria_3<Triangulation>;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kMillimetre = 1e-3;
-// Optimization stops once every dihedral angle exceeds this bound. A bound, not
-// a time limit: a time limit would make the mesh depend on the machine's speed.
+// Optimization: ODT smoothing then sliver exudation, bounded by iterations and
+// angles, never by time (a time limit would make the mesh depend on the
+// machine's speed). Mesh_3's sliver perturber is not used: its result depends
+// on memory addresses, so two runs gave different meshes.
 constexpr double kSliverBoundDeg = 12.0;
+constexpr int kOdtIterations = 10;
 
 /// Mesh_3 works in millimetres so that its criteria read as the user gave them.
 CgalSurface to_cgal(const SurfaceMesh& surface) {
@@ -112,8 +115,8 @@ TetrahedralMesh make_tetrahedra(const SurfaceMesh& surface, const TetrahedraOpti
                           p::facet_distance = options.facet_distance_mm,
                           p::cell_radius_edge_ratio = options.radius_edge_ratio, p::cell_size = options.tet_size_mm);
   const Complex complex = options.optimize
-                              ? CGAL::make_mesh_3<Complex>(domain, criteria, p::perturb(p::sliver_bound = kSliverBoundDeg),
-                                                           p::exude(p::sliver_bound = kSliverBoundDeg))
+                              ? CGAL::make_mesh_3<Complex>(domain, criteria, p::odt(p::max_iteration_number = kOdtIterations),
+                                                           p::no_perturb(), p::exude(p::sliver_bound = kSliverBoundDeg))
                               : CGAL::make_mesh_3<Complex>(domain, criteria, p::no_perturb(), p::no_exude());
 
   TetrahedralMesh mesh;

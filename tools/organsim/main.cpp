@@ -16,6 +16,8 @@ int main(int argc, char** argv) {
     CLI::App* sub = app.add_subcommand(name, description);
     commands[sub] = add_command(*sub);
   };
+  add("bake", "Bake a model file from a CT: segmentation, surface, tetrahedra, beam tables",
+      organsim::cli::add_bake_command);
   add("info", "Summarize a model file (counts, size, volume, material, provenance)", organsim::cli::add_info_command);
   add("phantom", "Make a synthetic abdominal CT with a liver-like organ", organsim::cli::add_phantom_command);
 

@@ -31,6 +31,10 @@ MaskImage::Pointer segment_by_region_growing(const CtImage& ct, const RegionGrow
 /// also applied to imported label maps. Throws when the mask is empty.
 MaskImage::Pointer clean_mask(const MaskImage& mask, double closing_radius_mm);
 
+/// The smallest region holding every organ voxel, grown by `margin` voxels per
+/// axis and clipped to the image. Throws std::runtime_error when the mask is empty.
+MaskImage::RegionType organ_bounding_box(const MaskImage& mask, const std::array<long, 3>& margin);
+
 /// Number of voxels set in a mask.
 std::size_t count_voxels(const MaskImage& mask);
 

@@ -1,0 +1,101 @@
+// The whole pipeline in one call: CT → mask → fixed point → surface →
+// tetrahedra → beam tables → an OrganModel, with a report of what was made and
+// how long each stage took. `organsim bake` is a thin shell around bake().
+//
+// Errors are std::runtime_error with one line saying what is wrong and what to
+// do. Nothing here names the input file or any DICOM tag in the model, the
+// report or the progress messages: only the SHA-256 of the voxels identifies
+// the input.
+#pragma once
+
+#include <array>
+#include <functional>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "organsim/model/organ_model.h"
+#include "organsim/pipeline/beam_baking.h"
+#include "organsim/pipeline/ct_image.h"
+#include "organsim/pipeline/surface.h"
+#include "organsim/pipeline/tetrahedra.h"
+
+namespace organsim::pipeline {
+
+/// Liver defaults; the sources are in docs/model-format.md ("Material defaults").
+Material liver_default_material();
+
+struct BakeOptions {
+  std::string ct_path;     ///< DICOM series directory, NIfTI, NRRD or MHA/MHD
+  std::string series_uid;  ///< chooses one series in a directory that holds several
+
+  // Segmentation: a label map, or region growing from a seed (physical point or voxel).
+  std::string label_path;
+  int label_value = 1;
+  std::optional<std::array<double, 3>> seed_mm;     ///< LPS, mm
+  std::optional<std::array<long, 3>> seed_voxel;    ///< i, j, k
+  double hu_low = 0.0, hu_high = 150.0;             ///< region-growing window, HU
+  std::optional<double> closing_radius_mm;          ///< default: 3 mm after region growing, none for label maps
+  std::size_t minimum_voxels = 1000;                ///< smaller masks are an error
+
+  // The beams' clamp; default: the deepest interior point of the mask.
+  std::optional<std::array<double, 3>> fixed_point_mm;
+  std::optional<std::array<long, 3>> fixed_point_voxel;
+
+  SurfaceOptions surface;
+  TetrahedraOptions tetrahedra;
+  BeamBakingOptions beams;
+  Material material = liver_default_material();
+
+  std::string program_version;     ///< written into the model's provenance
+  std::string intermediates_dir;  ///< when set: mask.nii.gz, surface.vtp, surface.stl, tetrahedra.vtu
+};
+
+/// What the pipeline made, for the user to check before simulating.
+struct BakeReport {
+  std::array<std::size_t, 3> image_size{};
+  std::array<double, 3> image_spacing_mm{};
+  std::string segmentation;  ///< "label map (value N)" or "region growing (...)"
+  std::size_t mask_voxels = 0;
+  double mask_volume_ml = 0.0;
+  std::array<double, 3> fixed_point_mm{};
+  std::string fixed_point_source;  ///< "given point", "given voxel" or "deepest interior point"
+  double fixed_point_depth_mm = 0.0;    ///< deepest interior point: its distance to the mask boundary
+  double fixed_point_outside_mm = 0.0;  ///< given point or voxel: distance to the nearest organ voxel (0 inside)
+  std::size_t surface_vertices = 0, surface_triangles = 0;
+  double surface_area_cm2 = 0.0, surface_volume_ml = 0.0;
+  std::size_t volume_vertices = 0;
+  TetrahedralQuality tetrahedra;
+  double tetrahedra_volume_ml = 0.0;
+  std::uint32_t stations = 0;
+  std::size_t beam_sections = 0;
+  std::vector<std::pair<std::string, double>> stage_seconds;  ///< in pipeline order
+  double total_seconds = 0.0;
+};
+
+struct BakeResult {
+  OrganModel model;
+  BakeReport report;
+};
+
+/// Called when a stage starts (fraction 0), advances and ends (fraction 1).
+using BakeProgress = std::function<void(const std::string& stage, double fraction)>;
+
+/// Runs the pipeline. The result is deterministic: the same input and options
+/// give the same model (the report's timings aside).
+BakeResult bake(const BakeOptions& options, const BakeProgress& progress = {});
+
+/// SHA-256 (lowercase hex) of a CT's grid (size, spacing, origin, direction as
+/// little-endian u64/f64) followed by its voxels (little-endian int16).
+std::string image_sha256(const CtImage& ct);
+
+/// The deepest interior voxel of a mask (largest distance to the boundary;
+/// the first in memory order on ties) as a physical point (mm), with its depth (mm).
+std::pair<std::array<double, 3>, double> deepest_interior_point(const MaskImage& mask);
+
+/// Spherical texture coordinates about the vertices' centroid: u from the
+/// azimuth, v from the polar angle, both in [0, 1].
+std::vector<TexCoord> spherical_texture_coordinates(const std::vector<Point3>& vertices);
+
+}  // namespace organsim::pipeline
