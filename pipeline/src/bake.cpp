@@ -213,7 +213,7 @@ std::map<std::string, std::string> provenance_parameters(const BakeOptions& o, c
   p["facet_distance_mm"] = fmt::format("{}", o.tetrahedra.facet_distance_mm);
   p["facet_angle_deg"] = fmt::format("{}", o.tetrahedra.facet_angle_deg);
   p["radius_edge_ratio"] = fmt::format("{}", o.tetrahedra.radius_edge_ratio);
-  p["mesh_optimization"] = o.tetrahedra.optimize ? "perturb+exude" : "none";
+  p["mesh_optimization"] = o.tetrahedra.optimize ? "lloyd+exude" : "none";
   p["stations"] = fmt::format("{}", o.beams.stations);
   p["section_samples_per_side"] = fmt::format("{}", o.beams.samples_per_side);
   return p;
@@ -285,8 +285,12 @@ std::pair<std::array<double, 3>, double> deepest_interior_point(const MaskImage&
   distance->SetInput(crop->GetOutput());
   distance->SetUseImageSpacing(true);
   distance->SetSquaredDistance(false);
-  distance->SetInsideIsPositive(true);
-  distance->SetBackgroundValue(0);
+  // The organ is the filter's "background" and the voxels outside it are the
+  // object: an organ voxel's (positive) value is then its distance to the
+  // nearest voxel outside the organ. (With the organ as the object, the inside
+  // values measured to its contour came out up to 2 voxels short.)
+  distance->SetInsideIsPositive(false);
+  distance->SetBackgroundValue(1);
   distance->SetNumberOfWorkUnits(1);  // the same result on every machine
   distance->Update();
   const DistanceImage& map = *distance->GetOutput();

@@ -218,7 +218,7 @@ BeamTables bake_beam_tables(const MaskImage& mask, const std::vector<Point3>& ve
   std::atomic<std::size_t> next{0};
   auto work = [&](bool reports) {
     for (std::size_t v = next++; v < vertices.size(); v = next++) {
-      if (reports && progress && v % 64 == 0) progress(static_cast<double>(v) / vertices.size());
+      if (reports && progress && v % 64 == 0 && v > 0) progress(static_cast<double>(v) / vertices.size());
       BeamFrame frame;
       if (!make_beam_frame(fixed_point, vertices[v], frame)) continue;  // vertex at the fixed point: zero sections
       for (std::uint32_t s = 0; s < options.stations; ++s) {

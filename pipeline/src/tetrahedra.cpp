@@ -34,12 +34,13 @@ using Criteria = CGAL::Mesh_criteria_3<Triangulation>;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kMillimetre = 1e-3;
-// Optimization: ODT smoothing then sliver exudation, bounded by iterations and
-// angles, never by time (a time limit would make the mesh depend on the
+// Optimization: Lloyd smoothing then sliver exudation, bounded by iterations
+// and angles, never by time (a time limit would make the mesh depend on the
 // machine's speed). Mesh_3's sliver perturber is not used: its result depends
-// on memory addresses, so two runs gave different meshes.
+// on memory addresses, so two runs gave different meshes. Lloyd left fewer
+// slivers than ODT on the phantom liver (min dihedral 5.3° against 1.9°).
 constexpr double kSliverBoundDeg = 12.0;
-constexpr int kOdtIterations = 10;
+constexpr int kSmoothingIterations = 10;
 
 /// Mesh_3 works in millimetres so that its criteria read as the user gave them.
 CgalSurface to_cgal(const SurfaceMesh& surface) {
@@ -59,7 +60,7 @@ void check_options(const TetrahedraOptions& o) {
   auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
   if (!positive(o.tet_size_mm)) throw std::runtime_error(fmt::format("--tet-size must be positive (got {})", o.tet_size_mm));
   if (!positive(o.facet_distance_mm))
-    throw std::runtime_error(fmt::format("the facet distance must be positive (got {} mm)", o.facet_distance_mm));
+    throw std::runtime_error(fmt::format("--facet-distance must be positive (got {} mm)", o.facet_distance_mm));
   if (!(o.facet_angle_deg > 0.0 && o.facet_angle_deg <= 30.0))
     throw std::runtime_error(
         fmt::format("the facet angle must lie in (0, 30] degrees, where Mesh_3 terminates (got {})", o.facet_angle_deg));
@@ -115,7 +116,7 @@ TetrahedralMesh make_tetrahedra(const SurfaceMesh& surface, const TetrahedraOpti
                           p::facet_distance = options.facet_distance_mm,
                           p::cell_radius_edge_ratio = options.radius_edge_ratio, p::cell_size = options.tet_size_mm);
   const Complex complex = options.optimize
-                              ? CGAL::make_mesh_3<Complex>(domain, criteria, p::odt(p::max_iteration_number = kOdtIterations),
+                              ? CGAL::make_mesh_3<Complex>(domain, criteria, p::lloyd(p::max_iteration_number = kSmoothingIterations),
                                                            p::no_perturb(), p::exude(p::sliver_bound = kSliverBoundDeg))
                               : CGAL::make_mesh_3<Complex>(domain, criteria, p::no_perturb(), p::no_exude());
 

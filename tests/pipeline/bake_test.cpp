@@ -1,0 +1,222 @@
+// The whole pipeline (bake()) on the phantom, the real CT samples and
+// synthetic volumes: what it makes, that it is deterministic, and its errors.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <limits>
+#include <fstream>
+#include <string>
+
+#include "organsim/model/model_file.h"
+#include "organsim/pipeline/bake.h"
+#include "organsim/pipeline/ct_input.h"
+#include "organsim/pipeline/image_io.h"
+#include "organsim/pipeline/phantom.h"
+#include "organsim/pipeline/segmentation.h"
+#include "synthetic_volumes.h"
+
+namespace organsim::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kSamples = ORGANSIM_DATA_SAMPLES;
+
+class Bake : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("organsim_bake_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  /// Options for the shipped phantom, segmented by region growing in the right lobe.
+  static BakeOptions phantom_options() {
+    BakeOptions o;
+    o.ct_path = (kSamples / "phantom_ct.nii.gz").string();
+    o.seed_mm = std::array<double, 3>{-65.0, 5.0, 0.0};
+    o.surface.target_vertices = 1500;
+    o.tetrahedra.tet_size_mm = 10.0;
+    o.beams.stations = 10;
+    o.beams.samples_per_side = 48;
+    o.program_version = "test";
+    return o;
+  }
+  fs::path dir_;
+};
+
+double relative_difference(double value, double reference) { return std::abs(value / reference - 1.0); }
+
+TEST_F(Bake, PhantomByRegionGrowingGivesAValidModelWithConsistentVolumes) {
+  BakeOptions o = phantom_options();
+  o.fixed_point_mm = std::array<double, 3>{-29.76, 16.10, -70.96};  // the portal vein entry
+  std::vector<std::string> stages;
+  const BakeResult result = bake(o, [&](const std::string& stage, double fraction) {
+    if (fraction == 0.0) stages.push_back(stage);
+  });
+  const OrganModel& m = result.model;
+  const BakeReport& r = result.report;
+  EXPECT_EQ(validate_organ_model(m), "");
+  EXPECT_EQ(stages, (std::vector<std::string>{"read CT", "segment", "fixed point", "surface", "tetrahedra",
+                                               "beam tables", "assemble"}));
+  EXPECT_EQ(r.stage_seconds.size(), stages.size());
+
+  // Volumes: tetrahedra and surface within 3 % of the mask; the mask near the
+  // phantom's ground truth (region growing excludes the portal vein).
+  EXPECT_LT(relative_difference(r.tetrahedra_volume_ml, r.mask_volume_ml), 0.03);
+  EXPECT_LT(relative_difference(r.surface_volume_ml, r.mask_volume_ml), 0.03);
+  EXPECT_LT(relative_difference(r.mask_volume_ml, 1573.7), 0.05);
+  EXPECT_NEAR(static_cast<double>(m.surface_vertices.size()), 1500.0, 150.0);
+  EXPECT_GT(r.tetrahedra.min_dihedral_deg, 5.0);
+  EXPECT_GT(r.tetrahedra.min_volume_m3, 0.0);
+
+  // The fixed point as given, in metres; the beams go from it to every vertex.
+  ASSERT_EQ(m.fixed_points.size(), 1u);
+  EXPECT_NEAR(m.fixed_points[0][0], -0.02976, 1e-12);
+  EXPECT_EQ(r.fixed_point_source, "given point");
+  EXPECT_LT(r.fixed_point_outside_mm, 10.0);
+  EXPECT_EQ(m.beams.stations_per_beam, 10u);
+  EXPECT_EQ(m.beams.sections.size(), 10 * m.surface_vertices.size());
+
+  // Provenance: the image hash, every parameter, never a path.
+  EXPECT_EQ(m.provenance.input_sha256, image_sha256(*read_ct(o.ct_path)));
+  EXPECT_EQ(m.provenance.input_sha256.size(), 64u);
+  EXPECT_EQ(m.provenance.parameters.at("tet_size_mm"), "10");
+  EXPECT_EQ(m.provenance.parameters.at("fixed_point_source"), "given point");
+  for (const auto& [key, value] : m.provenance.parameters) EXPECT_EQ(value.find("phantom_ct"), std::string::npos) << key;
+  EXPECT_EQ(m.material, liver_default_material());
+
+  ASSERT_EQ(m.surface_texcoords.size(), m.surface_vertices.size());
+  for (const TexCoord& t : m.surface_texcoords) {
+    EXPECT_TRUE(t[0] >= 0.0 && t[0] <= 1.0 && t[1] >= 0.0 && t[1] <= 1.0);
+  }
+}
+
+TEST_F(Bake, SameInputAndOptionsGiveTheSameModelBytes) {
+  BakeOptions o = phantom_options();
+  const std::vector<std::uint8_t> first = serialize_organ_model(bake(o).model);
+  o.beams.threads = 1;  // the thread count must not matter either
+  const std::vector<std::uint8_t> second = serialize_organ_model(bake(o).model);
+  EXPECT_TRUE(first == second);
+}
+
+TEST_F(Bake, DefaultFixedPointIsTheDeepestInteriorPoint) {
+  // A sphere: on an ellipsoid the distance map's ridge is nearly flat.
+  testing::Ellipsoid e;
+  e.semi_axes_mm = {30.0, 30.0, 30.0};
+  const MaskImage::Pointer mask = testing::make_ellipsoid_mask(e, {1.0, 1.0, 1.0});
+  const auto [point, depth] = deepest_interior_point(*mask);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(point[k], e.centre_mm[k], 1.5);
+  // The depth is the distance to the nearest background voxel, by brute force.
+  double nearest = std::numeric_limits<double>::infinity();
+  itk::ImageRegionConstIteratorWithIndex<MaskImage> it(mask, mask->GetLargestPossibleRegion());
+  for (; !it.IsAtEnd(); ++it)
+    if (!it.Get()) {
+      MaskImage::PointType p;
+      mask->TransformIndexToPhysicalPoint(it.GetIndex(), p);
+      nearest = std::min(nearest, std::hypot(p[0] - point[0], p[1] - point[1], p[2] - point[2]));
+    }
+  EXPECT_NEAR(depth, nearest, 1.0);
+  EXPECT_NEAR(depth, e.semi_axes_mm[0], 1.5);
+}
+
+TEST_F(Bake, IntermediatesAreWrittenForInspection) {
+  BakeOptions o = phantom_options();
+  o.intermediates_dir = (dir_ / "intermediates").string();
+  const BakeResult result = bake(o);
+  for (const char* name : {"mask.nii.gz", "surface.vtp", "surface.stl", "tetrahedra.vtu"}) {
+    const fs::path path = dir_ / "intermediates" / name;
+    ASSERT_TRUE(fs::exists(path)) << name;
+    EXPECT_GT(fs::file_size(path), 1000u) << name;
+  }
+  // The mask is on the CT's grid: it can be fed back as --label.
+  const CtImage::Pointer ct = read_ct(o.ct_path);
+  const MaskImage::Pointer mask = read_label_mask((dir_ / "intermediates" / "mask.nii.gz").string(), 1, *ct);
+  EXPECT_EQ(count_voxels(*mask), result.report.mask_voxels);
+  // Binary STL: 84-byte header and count, 50 bytes per triangle.
+  EXPECT_EQ(fs::file_size(dir_ / "intermediates" / "surface.stl"), 84 + 50 * result.model.surface_triangles.size());
+  for (const auto& entry : fs::directory_iterator(dir_ / "intermediates"))
+    EXPECT_EQ(entry.path().filename().string().find(".tmp"), std::string::npos);  // no temporary left
+}
+
+TEST_F(Bake, RealCtWithItsLiverLabelNifti) {
+  BakeOptions o;
+  o.ct_path = (kSamples / "real_ct_totalseg" / "example_ct.nii.gz").string();
+  o.label_path = (kSamples / "real_ct_totalseg" / "liver_mask_ct.nii.gz").string();
+  o.beams.samples_per_side = 48;
+  const BakeResult result = bake(o);
+  const BakeReport& r = result.report;
+  EXPECT_NEAR(static_cast<double>(r.mask_voxels), 41692.0, 10.0);  // hole filling may add a few
+  EXPECT_LT(relative_difference(r.tetrahedra_volume_ml, r.mask_volume_ml), 0.03);
+  EXPECT_EQ(r.fixed_point_source, "deepest interior point");
+  EXPECT_GT(r.fixed_point_depth_mm, 20.0);
+  EXPECT_EQ(validate_organ_model(result.model), "");
+  RecordProperty("tet_volume_error", std::to_string(r.tetrahedra_volume_ml / r.mask_volume_ml - 1));
+}
+
+TEST_F(Bake, RealCtDicomSeriesWithAFlippedLabelMap) {
+  BakeOptions o;
+  o.ct_path = (kSamples / "real_ct_totalseg" / "example_ct_dicom").string();
+  o.label_path = (kSamples / "real_ct_totalseg" / "liver_mask_dicom.nii.gz").string();
+  o.beams.samples_per_side = 48;
+  const BakeResult result = bake(o);
+  const BakeReport& r = result.report;
+  EXPECT_EQ(r.image_size, (std::array<std::size_t, 3>{512, 512, 20}));
+  EXPECT_NEAR(r.mask_volume_ml, 699.0, 10.0);
+  EXPECT_LT(relative_difference(r.tetrahedra_volume_ml, r.mask_volume_ml), 0.03);
+  RecordProperty("tet_volume_error", std::to_string(r.tetrahedra_volume_ml / r.mask_volume_ml - 1));
+}
+
+void expect_error(const BakeOptions& o, const std::string& fragment) {
+  try {
+    bake(o);
+    ADD_FAILURE() << "no error; expected one mentioning \"" << fragment << "\"";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(Bake, BadOptionsAndInputsAreOneLineErrors) {
+  BakeOptions o = phantom_options();
+  o.seed_mm.reset();
+  expect_error(o, "no segmentation");
+  o = phantom_options();
+  o.label_path = (kSamples / "phantom_liver_mask.nii.gz").string();
+  expect_error(o, "not both");
+  o = phantom_options();
+  o.fixed_point_mm = std::array<double, 3>{150.0, 150.0, 90.0};
+  expect_error(o, "outside the organ");
+  o = phantom_options();
+  o.fixed_point_voxel = std::array<long, 3>{500, 0, 0};
+  expect_error(o, "outside the image");
+  o = phantom_options();
+  o.seed_mm = std::array<double, 3>{0.0, -100.0, 0.0};  // visceral fat
+  expect_error(o, "outside the window");
+  o = phantom_options();
+  o.seed_mm = std::array<double, 3>{900.0, 0.0, 0.0};
+  expect_error(o, "outside the volume");
+  o = phantom_options();
+  o.minimum_voxels = 10'000'000;
+  expect_error(o, "voxels");
+  o = phantom_options();
+  o.label_path = (kSamples / "phantom_liver_mask.nii.gz").string();
+  o.seed_mm.reset();
+  o.label_value = 7;
+  expect_error(o, "label value 7");
+  o = phantom_options();
+  o.label_path = (kSamples / "real_ct_totalseg" / "liver_mask_ct.nii.gz").string();
+  o.seed_mm.reset();
+  expect_error(o, "does not match");
+  o = phantom_options();
+  o.material.poisson_ratio = 0.5;
+  expect_error(o, "--poisson-ratio");
+  o = phantom_options();
+  o.ct_path = (dir_ / "missing.nii.gz").string();
+  expect_error(o, "missing.nii.gz");
+}
+
+}  // namespace
+}  // namespace organsim::pipeline
