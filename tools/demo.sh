@@ -1,17 +1,24 @@
 #!/usr/bin/env bash
-# README command (a): set up, build, and run the main job on the shipped sample.
-# For now: make a phantom CT, write a model with the test helpers, and print the
-# model summary (later issues make this CT -> bake -> replayed session).
+# README command (a): set up, build, and run the main job on the shipped sample:
+# a real CT with its liver label map -> organsim bake -> the model's summary.
+# (The replayed multi-tool session joins when the real-time engine exists.)
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 bash "$repo/tools/setup.sh"
 build=${ORGANSIM_BUILD_DIR:-$repo/build}
 out=${ORGANSIM_DEMO_DIR:-$repo/demo_output}
+sample=$repo/data_samples/real_ct_totalseg
 mkdir -p "$out"
 
-echo "== organsim phantom: synthetic abdominal CT with a liver-like organ"
-"$build/tools/organsim" phantom -o "$out/phantom_ct.nii.gz" --mask "$out/phantom_liver_mask.nii.gz"
+echo "== organsim bake: real abdominal CT (TotalSegmentator sample, CC BY 4.0) + its liver label map"
+"$build/tools/organsim" bake "$sample/example_ct.nii.gz" --label "$sample/liver_mask_ct.nii.gz" \
+  -o "$out/liver.organ" --intermediates "$out/liver_intermediates"
 echo
-echo "== model written by the test helpers (a cylinder with exact beam tables)"
-"$build/tests/organsim-test-model" cylinder -o "$out/cylinder.organ"
-"$build/tools/organsim" info "$out/cylinder.organ" --beam 300
+echo "== organsim bake: the synthetic phantom, region growing from a seed, clamped at the portal vein entry"
+"$build/tools/organsim" bake "$repo/data_samples/phantom_ct.nii.gz" --seed -65,5,0 \
+  --fixed-point -29.76,16.10,-70.96 -o "$out/phantom_liver.organ"
+echo
+echo "== organsim info: what the baked model holds"
+"$build/tools/organsim" info "$out/liver.organ" --beam 0
+echo
+echo "Outputs in $out (models; mask, surface and tetrahedra for 3D Slicer / ParaView in liver_intermediates/)."
