@@ -15,5 +15,6 @@ using Command = std::function<int()>;
 Command add_bake_command(CLI::App& app);
 Command add_info_command(CLI::App& app);
 Command add_phantom_command(CLI::App& app);
+Command add_poke_command(CLI::App& app);
 
 }  // namespace organsim::cli

@@ -1,0 +1,78 @@
+// The immutable runtime form of an organ for the multi-beam model: the model
+// file's contents plus what every contact needs (a closest-point tree over the
+// surface, the vertex–triangle adjacency for normals, the elastic constants).
+// Built once at load (allocates, may throw); shared read-only by every thread.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "organsim/geometry/closest_point.h"
+#include "organsim/model/organ_model.h"
+#include "organsim/multibeam/clamped_beam.h"
+
+namespace organsim::multibeam {
+
+class BeamOrgan {
+ public:
+  /// Takes a valid model (see validate_organ_model). Throws std::invalid_argument
+  /// with a one-line reason when it has no beam tables. The surface vertices are
+  /// renumbered along a Morton (Z-order) curve, so that neighbours in memory are
+  /// neighbours in space (vector loops then mostly share one beam element, and
+  /// threads write disjoint memory); model() is the renumbered model and
+  /// file_vertex_index() maps back to the file's numbering.
+  explicit BeamOrgan(OrganModel model);
+  BeamOrgan(const BeamOrgan&) = delete;  // the tree refers into the model's arrays
+  BeamOrgan& operator=(const BeamOrgan&) = delete;
+
+  const OrganModel& model() const noexcept { return model_; }
+  std::size_t vertex_count() const noexcept { return model_.surface_vertices.size(); }
+  std::uint32_t stations() const noexcept { return model_.beams.stations_per_beam; }
+  const Eigen::Vector3d& fixed_point() const noexcept { return fixed_point_; }
+  const BeamElasticity& elasticity() const noexcept { return elasticity_; }
+  /// κ of the attenuation exp(−κ d) = α^(−β d): κ = β ln α, 1/m.
+  double attenuation_rate() const noexcept { return attenuation_rate_; }
+  const SurfaceBvh& surface_tree() const noexcept { return tree_; }
+
+  /// The one-ring of vertex v: ring()[ring_offsets()[v] .. ring_offsets()[v + 1]).
+  /// When ring_closed()[v], the neighbours in counter-clockwise order (seen from
+  /// outside) around v; otherwise (a vertex on a border or a non-manifold
+  /// vertex) the pairs (a, b) of its triangles (v, a, b).
+  const std::vector<std::uint32_t>& ring_offsets() const noexcept { return ring_offsets_; }
+  const std::vector<std::uint32_t>& ring() const noexcept { return ring_; }
+  const std::vector<std::uint8_t>& ring_closed() const noexcept { return ring_closed_; }
+  /// file_vertex_index()[v]: the model file's index of surface vertex v.
+  const std::vector<std::uint32_t>& file_vertex_index() const noexcept { return file_index_; }
+  /// Rest positions (m) as three coordinate arrays, padded with kPadding
+  /// copies of the last vertex so that vector loops may read whole registers
+  /// past the end.
+  const double* rest_x() const noexcept { return rest_[0].data(); }
+  const double* rest_y() const noexcept { return rest_[1].data(); }
+  const double* rest_z() const noexcept { return rest_[2].data(); }
+  static constexpr std::size_t kPadding = 8;
+
+ private:
+  std::vector<std::uint32_t> file_index_;  // declared before model_: filled while model_ is built
+  OrganModel model_;
+  Eigen::Vector3d fixed_point_;
+  BeamElasticity elasticity_;
+  double attenuation_rate_;
+  SurfaceBvh tree_;
+  std::vector<std::uint32_t> ring_offsets_;
+  std::vector<std::uint32_t> ring_;
+  std::vector<std::uint8_t> ring_closed_;
+  std::vector<double> rest_[3];
+};
+
+/// Area-weighted vertex normals (unit; zero for an isolated vertex) of the
+/// surface with vertex positions `positions` for vertices [first, last): the
+/// normalized sum of the incident triangles' cross products, which around a
+/// closed ring n_0..n_k−1 is Σ n_j × n_j+1 (the centre cancels), so each
+/// neighbour is read once.
+/// Allocates nothing; ranges may run on different threads.
+void compute_vertex_normals(const BeamOrgan& organ, const Point3* positions, Point3* normals, std::size_t first,
+                            std::size_t last) noexcept;
+
+}  // namespace organsim::multibeam

@@ -1,0 +1,126 @@
+// The multi-beam deformation model (paper 000): one clamped beam per tool from
+// the organ's fixed point to the tool's action point on the surface; the force
+// on each tool from its beam; the whole organ moved by the space distortion of
+// all beams, merged by the influence function or by superposition.
+//
+// Shaped for real time: construct once (allocates everything for max_tools
+// tools); attach() builds a beam when a contact begins (tables interpolated,
+// stiffness assembled, factorized and condensed: microseconds); force() is one
+// 3×3 product (haptic rate); deform() moves every vertex and recomputes normals
+// (frame rate). None of these allocates, locks, throws or does I/O.
+//
+// Units: metres, newtons. Frame: the model's (LPS or RAS, see the model file).
+//
+// Rules (docs/multibeam.md):
+// - action point: the surface point closest to the tool point; refused
+//   (far_from_organ) beyond `snap_distance`;
+// - beam: from the fixed point to the action point, `stations` elements; its
+//   sections are the baked tables of the action point's triangle, interpolated
+//   with its barycentric weights as frame-independent section tensors;
+//   refused (at_fixed_point) when shorter than `min_beam_length`;
+// - force on the tool for a tip displacement d: −K d, K the condensed tip
+//   stiffness (the organ pushes back);
+// - distortion of vertex x by beam i: t = projection of x on the beam axis,
+//   clamped to [0, 1]; s(x) = u(t) + θ(t) × q + ½ θ(t) × (θ(t) × q), q = x − b(t)
+//   (plane sections stay plane and, to second order, rigid); u(t) Hermite
+//   between nodes (axial part linear), θ(t) linear; attenuated by α^(−β d), d =
+//   |x − action point|;
+// - merging: `influence` weights beam i by f_i(x) (eq. 7), tools whose action
+//   points lie within `merge_distance` of an earlier tool's share one weight
+//   equally; `sum` adds the fields (eq. 5).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/StdVector>
+
+#include "organsim/geometry/closest_point.h"
+#include "organsim/multibeam/beam_organ.h"
+#include "organsim/multibeam/clamped_beam.h"
+#include "organsim/multibeam/influence.h"
+#include "organsim/multibeam/status.h"
+
+namespace organsim::multibeam {
+
+struct MultiBeamOptions {
+  std::uint32_t max_tools = 4;     ///< 1..kMaxTools
+  BeamBuildOptions beam;           ///< Euler–Bernoulli, eccentric sections
+  MergeRule merge = MergeRule::influence;
+  double snap_distance = 0.010;    ///< m: farthest a tool point may be from the surface
+  double merge_distance = 0.001;   ///< m: action points closer than this share one influence weight
+  double min_beam_length = 0.002;  ///< m: shorter beams (action point at the clamp) are refused
+};
+
+/// One tool's beam, fixed from attach() to detach().
+struct ToolBeam {
+  bool attached = false;
+  SurfacePoint action;                                    ///< action point on the rest surface
+  double length = 0.0;                                    ///< beam length, m
+  Eigen::Matrix3d frame = Eigen::Matrix3d::Identity();    ///< columns: beam x, y, z (world)
+  Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();    ///< condensed tip stiffness K (world), N/m
+};
+
+class MultiBeam {
+ public:
+  MultiBeam(const BeamOrgan& organ, const MultiBeamOptions& options);
+
+  const BeamOrgan& organ() const noexcept { return organ_; }
+  const MultiBeamOptions& options() const noexcept { return options_; }
+  std::uint32_t max_tools() const noexcept { return options_.max_tools; }
+
+  /// Contact begins: snaps `point` (m) to the surface and builds tool's beam.
+  Status attach(std::uint32_t tool, const Eigen::Vector3d& point) noexcept;
+  /// Contact ends.
+  void detach(std::uint32_t tool) noexcept;
+  const ToolBeam& beam(std::uint32_t tool) const noexcept { return tools_[tool]; }
+
+  /// Force on the tool (N, world) when its action point is displaced by
+  /// `tip_displacement` (m, world): −K d. Zero force unless the status is ok.
+  Status force(std::uint32_t tool, const Eigen::Vector3d& tip_displacement, Eigen::Vector3d& force_on_tool) const noexcept;
+
+  /// Deformed vertex positions (m) and unit normals for the tip displacements of
+  /// the attached tools (`tip_displacements[tool]`, m, world; entries of detached
+  /// tools are ignored). Both buffers hold vertex_count() points. Equivalent to
+  /// prepare() + distort(0, n) + normals(0, n).
+  Status deform(const Eigen::Vector3d* tip_displacements, Point3* positions, Point3* normals,
+                std::size_t capacity) noexcept;
+
+  /// The steps of deform(), for callers that split the vertices over threads:
+  /// prepare() once, then distort() on disjoint ranges, then (after all
+  /// distort() calls have finished) normals() on disjoint ranges. Vertex
+  /// indices are the BeamOrgan's (see BeamOrgan::file_vertex_index).
+  Status prepare(const Eigen::Vector3d* tip_displacements) noexcept;
+  void distort(std::size_t first, std::size_t last, Point3* positions) const noexcept;
+  void normals(std::size_t first, std::size_t last, const Point3* positions, Point3* normals) const noexcept;
+
+ private:
+  // Per active tool, per element: cubic coefficients of the displacement
+  // u(ξ) = c0 + c1 ξ + c2 ξ² + c3 ξ³ (3 components each) and the rotation
+  // θ(ξ) = r0 + r1 ξ, world frame; 18 arrays of `stations` values.
+  static constexpr int kCoefficients = 18;
+  const double* coefficients(std::uint32_t slot, int k) const noexcept {
+    return coefficient_data_.data() + (static_cast<std::size_t>(slot) * kCoefficients + k) * organ_.stations();
+  }
+  double* coefficients(std::uint32_t slot, int k) noexcept {
+    return coefficient_data_.data() + (static_cast<std::size_t>(slot) * kCoefficients + k) * organ_.stations();
+  }
+
+  const BeamOrgan& organ_;
+  MultiBeamOptions options_;
+  std::vector<ToolBeam> tools_;
+  std::vector<ClampedBeam> solvers_;   // per tool
+  std::vector<BeamSection> sections_;  // scratch for attach(): stations entries
+
+  // Filled by prepare(): the active tools in slot order and their merge data.
+  std::uint32_t active_count_ = 0;
+  std::uint32_t active_tool_[kMaxTools] = {};
+  Eigen::Vector3d active_point_[kMaxTools];
+  std::uint32_t active_group_[kMaxTools] = {};  // index into the influence function's points
+  double group_share_[kMaxTools] = {};          // 1 / members of the tool's group
+  InfluenceFunction influence_;
+  std::vector<double> coefficient_data_;
+};
+
+}  // namespace organsim::multibeam

@@ -1,0 +1,130 @@
+#include "organsim/geometry/closest_point.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+namespace organsim {
+namespace {
+
+Eigen::Vector3d point(const Point3& p) { return {p[0], p[1], p[2]}; }
+
+constexpr std::uint32_t kLeafSize = 4;
+constexpr int kMaxDepth = 64;  // median splits: depth ≤ log2(triangles) + 1
+
+}  // namespace
+
+Eigen::Vector3d closest_point_barycentric(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                          const Eigen::Vector3d& c) noexcept {
+  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0.0 && d2 <= 0.0) return {1.0, 0.0, 0.0};
+  const Eigen::Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0.0 && d4 <= d3) return {0.0, 1.0, 0.0};
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+    const double v = d1 / (d1 - d3);
+    return {1.0 - v, v, 0.0};
+  }
+  const Eigen::Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0.0 && d5 <= d6) return {0.0, 0.0, 1.0};
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+    const double w = d2 / (d2 - d6);
+    return {1.0 - w, 0.0, w};
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    return {0.0, 1.0 - w, w};
+  }
+  const double denominator = va + vb + vc;
+  if (!(denominator > 0.0)) return {1.0, 0.0, 0.0};  // degenerate triangle: its first vertex
+  const double v = vb / denominator, w = vc / denominator;
+  return {1.0 - v - w, v, w};
+}
+
+SurfaceBvh::SurfaceBvh(const std::vector<Point3>& vertices, const std::vector<Triangle>& triangles)
+    : vertices_(vertices), triangles_(triangles), order_(triangles.size()) {
+  std::iota(order_.begin(), order_.end(), 0u);
+  std::vector<Eigen::Vector3d> centroids(triangles.size());
+  for (std::size_t t = 0; t < triangles.size(); ++t)
+    centroids[t] = (point(vertices[triangles[t][0]]) + point(vertices[triangles[t][1]]) +
+                    point(vertices[triangles[t][2]])) /
+                   3.0;
+  nodes_.reserve(2 * triangles.size() / kLeafSize + 2);
+  if (!triangles.empty()) build(0, static_cast<std::uint32_t>(triangles.size()), centroids);
+}
+
+std::uint32_t SurfaceBvh::build(std::uint32_t first, std::uint32_t count, std::vector<Eigen::Vector3d>& centroids) {
+  const auto index = static_cast<std::uint32_t>(nodes_.size());
+  nodes_.emplace_back();
+  Eigen::AlignedBox3d box, centre_box;
+  for (std::uint32_t i = first; i < first + count; ++i) {
+    for (std::uint32_t corner : triangles_[order_[i]]) box.extend(point(vertices_[corner]));
+    centre_box.extend(centroids[order_[i]]);
+  }
+  nodes_[index].box = box;
+  if (count <= kLeafSize) {
+    nodes_[index].first = first;
+    nodes_[index].count = count;
+    return index;
+  }
+  int axis = 0;
+  centre_box.sizes().maxCoeff(&axis);
+  const std::uint32_t half = count / 2;
+  // Ties broken by triangle index so the tree does not depend on the sort.
+  std::nth_element(order_.begin() + first, order_.begin() + first + half, order_.begin() + first + count,
+                   [&](std::uint32_t a, std::uint32_t b) {
+                     return centroids[a][axis] < centroids[b][axis] ||
+                            (centroids[a][axis] == centroids[b][axis] && a < b);
+                   });
+  const std::uint32_t left = build(first, half, centroids);
+  const std::uint32_t right = build(first + half, count - half, centroids);
+  nodes_[index].first = left;
+  nodes_[index].right = right;
+  nodes_[index].count = 0;
+  return index;
+}
+
+SurfacePoint SurfaceBvh::closest_point(const Eigen::Vector3d& query) const noexcept {
+  SurfacePoint best;
+  double best_squared = std::numeric_limits<double>::infinity();
+  if (nodes_.empty()) return best;
+  std::uint32_t stack[kMaxDepth * 2];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Node& node = nodes_[stack[--top]];
+    if (node.box.squaredExteriorDistance(query) >= best_squared) continue;
+    if (node.count > 0) {
+      for (std::uint32_t i = node.first; i < node.first + node.count; ++i) {
+        const Triangle& t = triangles_[order_[i]];
+        const Eigen::Vector3d a = point(vertices_[t[0]]), b = point(vertices_[t[1]]), c = point(vertices_[t[2]]);
+        const Eigen::Vector3d weights = closest_point_barycentric(query, a, b, c);
+        const Eigen::Vector3d candidate = weights[0] * a + weights[1] * b + weights[2] * c;
+        const double squared = (candidate - query).squaredNorm();
+        if (squared < best_squared) {
+          best_squared = squared;
+          best.triangle = order_[i];
+          best.barycentric = weights;
+          best.position = candidate;
+        }
+      }
+      continue;
+    }
+    // Visit the nearer child first so that far subtrees are pruned.
+    const std::uint32_t left = node.first, right = node.right;
+    const bool left_nearer =
+        nodes_[left].box.squaredExteriorDistance(query) <= nodes_[right].box.squaredExteriorDistance(query);
+    stack[top++] = left_nearer ? right : left;
+    stack[top++] = left_nearer ? left : right;
+  }
+  best.distance = std::sqrt(best_squared);
+  return best;
+}
+
+}  // namespace organsim

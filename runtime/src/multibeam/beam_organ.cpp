@@ -1,0 +1,157 @@
+#include "organsim/multibeam/beam_organ.h"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+
+namespace organsim::multibeam {
+namespace {
+
+// The model with its surface vertices renumbered along a Morton curve (21 bits
+// per axis over the bounding box, interleaved); file_index[new] = old.
+OrganModel surface_in_morton_order(OrganModel model, std::vector<std::uint32_t>& file_index) {
+  const std::size_t n = model.surface_vertices.size();
+  Eigen::AlignedBox3d box;
+  for (const Point3& p : model.surface_vertices) box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
+  const Eigen::Vector3d extent = n > 0 ? Eigen::Vector3d(box.sizes().cwiseMax(1e-12)) : Eigen::Vector3d::Ones();
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keys(n);
+  for (std::size_t v = 0; v < n; ++v) {
+    std::uint64_t key = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double unit = (model.surface_vertices[v][k] - box.min()[k]) / extent[k];
+      const auto cell = static_cast<std::uint64_t>(std::clamp(unit, 0.0, 1.0) * ((1u << 21) - 1));
+      for (int bit = 0; bit < 21; ++bit) key |= ((cell >> bit) & 1u) << (3 * bit + k);
+    }
+    keys[v] = {key, static_cast<std::uint32_t>(v)};
+  }
+  std::sort(keys.begin(), keys.end());
+  file_index.resize(n);
+  std::vector<std::uint32_t> new_index(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    file_index[i] = keys[i].second;
+    new_index[keys[i].second] = static_cast<std::uint32_t>(i);
+  }
+  auto permute = [&](auto& values, std::size_t per_vertex) {
+    if (values.size() != n * per_vertex) return;
+    auto copy = values;
+    for (std::size_t i = 0; i < n; ++i)
+      std::copy_n(copy.begin() + file_index[i] * per_vertex, per_vertex, values.begin() + i * per_vertex);
+  };
+  permute(model.surface_vertices, 1);
+  permute(model.surface_texcoords, 1);
+  permute(model.beams.sections, model.beams.stations_per_beam);
+  for (Triangle& t : model.surface_triangles)
+    for (std::uint32_t& v : t) v = new_index[v];
+  return model;
+}
+
+}  // namespace
+
+BeamOrgan::BeamOrgan(OrganModel model)
+    : model_(surface_in_morton_order(std::move(model), file_index_)),
+      fixed_point_(model_.fixed_points.empty() ? Eigen::Vector3d::Zero()
+                                               : Eigen::Vector3d(model_.fixed_points[0][0], model_.fixed_points[0][1],
+                                                                 model_.fixed_points[0][2])),
+      elasticity_(BeamElasticity::from(model_.material.young_modulus, model_.material.poisson_ratio)),
+      attenuation_rate_(model_.material.attenuation_beta * std::log(model_.material.attenuation_alpha)),
+      tree_(model_.surface_vertices, model_.surface_triangles) {
+  if (model_.beams.empty())
+    throw std::invalid_argument("the model has no beam tables; bake it with --stations N (N > 0)");
+  if (model_.fixed_points.empty()) throw std::invalid_argument("the model has no fixed point");
+  if (model_.surface_vertices.empty()) throw std::invalid_argument("the model has no surface");
+
+  const std::size_t n = model_.surface_vertices.size();
+  // Each triangle (v, a, b), rotated to start at v, contributes the edge a → b
+  // of v's ring; a closed manifold ring chains these edges into one cycle.
+  std::vector<std::uint32_t> edge_offsets(n + 1, 0);
+  for (const Triangle& t : model_.surface_triangles)
+    for (std::uint32_t v : t) ++edge_offsets[v + 1];
+  for (std::size_t v = 0; v < n; ++v) edge_offsets[v + 1] += edge_offsets[v];
+  std::vector<std::array<std::uint32_t, 2>> edges(edge_offsets[n]);
+  std::vector<std::uint32_t> fill(edge_offsets.begin(), edge_offsets.end() - 1);
+  for (const Triangle& t : model_.surface_triangles)
+    for (int k = 0; k < 3; ++k) edges[fill[t[k]]++] = {t[(k + 1) % 3], t[(k + 2) % 3]};
+
+  ring_offsets_.assign(n + 1, 0);
+  ring_closed_.assign(n, 0);
+  ring_.reserve(edges.size() * 2);
+  for (std::size_t v = 0; v < n; ++v) {
+    const std::uint32_t first = edge_offsets[v], count = edge_offsets[v + 1] - first;
+    std::vector<std::uint32_t> cycle;
+    if (count >= 3) {
+      cycle.push_back(edges[first][0]);
+      std::uint32_t current = edges[first][1];
+      while (cycle.size() <= count && current != cycle.front()) {
+        std::uint32_t next = UINT32_MAX, matches = 0;
+        for (std::uint32_t e = first; e < first + count; ++e)
+          if (edges[e][0] == current) {
+            next = edges[e][1];
+            ++matches;
+          }
+        if (matches != 1) break;
+        cycle.push_back(current);
+        current = next;
+      }
+      if (current != cycle.front() || cycle.size() != count) cycle.clear();
+    }
+    if (!cycle.empty()) {
+      ring_closed_[v] = 1;
+      ring_.insert(ring_.end(), cycle.begin(), cycle.end());
+    } else {
+      for (std::uint32_t e = first; e < first + count; ++e) ring_.insert(ring_.end(), {edges[e][0], edges[e][1]});
+    }
+    ring_offsets_[v + 1] = static_cast<std::uint32_t>(ring_.size());
+  }
+
+  for (auto& axis : rest_) axis.resize(n + kPadding);
+  for (std::size_t i = 0; i < n + kPadding; ++i)
+    for (int k = 0; k < 3; ++k) rest_[k][i] = model_.surface_vertices[std::min(i, n - 1)][k];
+}
+
+void compute_vertex_normals(const BeamOrgan& organ, const Point3* positions, Point3* normals, std::size_t first,
+                            std::size_t last) noexcept {
+  const auto& offsets = organ.ring_offsets();
+  const std::uint32_t* ring = organ.ring().data();
+  const auto& closed = organ.ring_closed();
+  for (std::size_t v = first; v < last; ++v) {
+    double nx = 0.0, ny = 0.0, nz = 0.0;
+    const std::uint32_t begin = offsets[v], end = offsets[v + 1];
+    if (closed[v]) {
+      // Relative to the centre (which cancels in exact arithmetic) to keep the
+      // products small: edges are millimetres, coordinates decimetres.
+      const Point3& c = positions[v];
+      const Point3& last_neighbour = positions[ring[end - 1]];
+      double ax = last_neighbour[0] - c[0], ay = last_neighbour[1] - c[1], az = last_neighbour[2] - c[2];
+      for (std::uint32_t k = begin; k < end; ++k) {
+        const Point3& b = positions[ring[k]];
+        const double bx = b[0] - c[0], by = b[1] - c[1], bz = b[2] - c[2];
+        nx += ay * bz - az * by;
+        ny += az * bx - ax * bz;
+        nz += ax * by - ay * bx;
+        ax = bx;
+        ay = by;
+        az = bz;
+      }
+    } else {
+      const Point3& c = positions[v];
+      for (std::uint32_t k = begin; k < end; k += 2) {
+        const Point3& a = positions[ring[k]];
+        const Point3& b = positions[ring[k + 1]];
+        const double ux = a[0] - c[0], uy = a[1] - c[1], uz = a[2] - c[2];
+        const double wx = b[0] - c[0], wy = b[1] - c[1], wz = b[2] - c[2];
+        nx += uy * wz - uz * wy;
+        ny += uz * wx - ux * wz;
+        nz += ux * wy - uy * wx;
+      }
+    }
+    const double length = std::sqrt(nx * nx + ny * ny + nz * nz);
+    const double scale = length > 0.0 ? 1.0 / length : 0.0;
+    normals[v] = {nx * scale, ny * scale, nz * scale};
+  }
+}
+
+}  // namespace organsim::multibeam

@@ -1,0 +1,330 @@
+#include "organsim/multibeam/multibeam.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "organsim/model/beam_frame.h"
+#include "vector_math.h"
+
+namespace organsim::multibeam {
+namespace {
+
+Eigen::Vector3d vec(const std::array<double, 3>& p) { return {p[0], p[1], p[2]}; }
+
+// Vertices are distorted in blocks so that per-tool distances and weights live
+// in small stack arrays and the inner loops run over contiguous vertices.
+constexpr std::size_t kBlock = 128;
+constexpr std::size_t kLanes = BeamOrgan::kPadding;  // one AVX-512 register of doubles
+
+}  // namespace
+
+MultiBeam::MultiBeam(const BeamOrgan& organ, const MultiBeamOptions& options) : organ_(organ), options_(options) {
+  if (options_.max_tools == 0 || options_.max_tools > kMaxTools)
+    throw std::invalid_argument("max_tools must be between 1 and 16");
+  if (!(options_.snap_distance >= 0.0) || !(options_.merge_distance >= 0.0) || !(options_.min_beam_length > 0.0))
+    throw std::invalid_argument("snap, merge and minimum beam distances must be non-negative (m)");
+  const std::uint32_t stations = organ_.stations();
+  tools_.resize(options_.max_tools);
+  solvers_.reserve(options_.max_tools);
+  for (std::uint32_t i = 0; i < options_.max_tools; ++i) solvers_.emplace_back(stations);
+  sections_.resize(stations);
+  coefficient_data_.assign(static_cast<std::size_t>(options_.max_tools) * kCoefficients * stations, 0.0);
+}
+
+Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point) noexcept {
+  if (tool >= options_.max_tools) return Status::too_many_tools;
+  ToolBeam& beam = tools_[tool];
+  beam.attached = false;
+  if (!point.allFinite()) return Status::not_finite;
+  const SurfacePoint action = organ_.surface_tree().closest_point(point);
+  if (action.distance > options_.snap_distance) return Status::far_from_organ;
+
+  const Eigen::Vector3d& fixed = organ_.fixed_point();
+  const double length = (action.position - fixed).norm();
+  BeamFrame frame;
+  if (!(length >= options_.min_beam_length) ||
+      !make_beam_frame({fixed[0], fixed[1], fixed[2]},
+                       {action.position[0], action.position[1], action.position[2]}, frame))
+    return Status::at_fixed_point;
+  const Eigen::Vector3d x = vec(frame.x), y = vec(frame.y), z = vec(frame.z);
+
+  // Interpolate the three corner beams' sections. Each corner's section is
+  // baked in its own beam frame, so the second moments are carried as world
+  // tensors (frame-independent) and the centroid offsets as world vectors, then
+  // read back in this beam's frame.
+  const OrganModel& model = organ_.model();
+  const Triangle& triangle = model.surface_triangles[action.triangle];
+  Eigen::Vector3d corner_y[3], corner_z[3];
+  double weight[3];
+  for (int k = 0; k < 3; ++k) {
+    BeamFrame f;
+    weight[k] = make_beam_frame({fixed[0], fixed[1], fixed[2]}, model.surface_vertices[triangle[k]], f)
+                    ? action.barycentric[k]
+                    : 0.0;  // a corner at the fixed point has no section
+    corner_y[k] = vec(f.y);
+    corner_z[k] = vec(f.z);
+    if (weight[k] == 0.0) corner_y[k] = corner_z[k] = Eigen::Vector3d::Zero();
+  }
+  const double total = weight[0] + weight[1] + weight[2];
+  if (!(total > 0.0)) return Status::at_fixed_point;
+  const std::uint32_t stations = organ_.stations();
+  for (std::uint32_t s = 0; s < stations; ++s) {
+    Eigen::Matrix3d tensor = Eigen::Matrix3d::Zero();  // ∫ r rᵀ dA over the section, world
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    double area = 0.0, torsion = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      if (weight[k] == 0.0) continue;
+      const BeamSection& c = model.beams.at(triangle[k], s);
+      const double w = weight[k] / total;
+      const Eigen::Vector3d& cy = corner_y[k];
+      const Eigen::Vector3d& cz = corner_z[k];
+      tensor += w * (c.i_zz * cy * cy.transpose() + c.i_yy * cz * cz.transpose() +
+                     c.i_yz * (cy * cz.transpose() + cz * cy.transpose()));
+      centroid += w * (c.centroid_y * cy + c.centroid_z * cz);
+      area += w * c.area;
+      torsion += w * c.torsion_j;
+    }
+    BeamSection& section = sections_[s];
+    section.area = area;
+    section.torsion_j = torsion;
+    section.i_zz = y.dot(tensor * y);
+    section.i_yy = z.dot(tensor * z);
+    section.i_yz = y.dot(tensor * z);
+    section.centroid_y = y.dot(centroid);
+    section.centroid_z = z.dot(centroid);
+  }
+  const Status status = solvers_[tool].build(sections_.data(), stations, length, organ_.elasticity(), options_.beam);
+  if (status != Status::ok) return status;
+
+  beam.action = action;
+  beam.length = length;
+  beam.frame.col(0) = x;
+  beam.frame.col(1) = y;
+  beam.frame.col(2) = z;
+  beam.stiffness = beam.frame * solvers_[tool].tip_stiffness() * beam.frame.transpose();
+  beam.attached = true;
+  return Status::ok;
+}
+
+void MultiBeam::detach(std::uint32_t tool) noexcept {
+  if (tool < options_.max_tools) tools_[tool].attached = false;
+}
+
+Status MultiBeam::force(std::uint32_t tool, const Eigen::Vector3d& tip_displacement,
+                        Eigen::Vector3d& force_on_tool) const noexcept {
+  force_on_tool.setZero();
+  if (tool >= options_.max_tools) return Status::too_many_tools;
+  if (!tools_[tool].attached) return Status::no_contact;
+  if (!tip_displacement.allFinite()) return Status::not_finite;
+  force_on_tool.noalias() = -tools_[tool].stiffness * tip_displacement;
+  return Status::ok;
+}
+
+Status MultiBeam::prepare(const Eigen::Vector3d* tip_displacements) noexcept {
+  active_count_ = 0;
+  const std::uint32_t stations = organ_.stations();
+  for (std::uint32_t tool = 0; tool < options_.max_tools; ++tool) {
+    if (!tools_[tool].attached) continue;
+    if (!tip_displacements[tool].allFinite()) {
+      active_count_ = 0;
+      return Status::not_finite;
+    }
+  }
+  Eigen::Vector3d group_point[kMaxTools];
+  std::uint32_t group_members[kMaxTools] = {};
+  std::uint32_t groups = 0;
+  for (std::uint32_t tool = 0; tool < options_.max_tools; ++tool) {
+    const ToolBeam& beam = tools_[tool];
+    if (!beam.attached) continue;
+    const std::uint32_t slot = active_count_++;
+    active_tool_[slot] = tool;
+    active_point_[slot] = beam.action.position;
+
+    // Merging: coinciding action points make the distance matrix singular.
+    std::uint32_t group = groups;
+    for (std::uint32_t g = 0; g < groups; ++g)
+      if ((group_point[g] - beam.action.position).norm() <= options_.merge_distance) {
+        group = g;
+        break;
+      }
+    if (group == groups) group_point[groups++] = beam.action.position;
+    active_group_[slot] = group;
+    ++group_members[group];
+
+    // Nodal displacements and rotations in the world frame, then per element
+    // the Hermite cubic of the transverse displacement (slopes θ × x), the
+    // linear axial displacement and the linear rotation.
+    const ClampedBeam& solver = solvers_[tool];
+    const Eigen::Vector3d local_tip = beam.frame.transpose() * tip_displacements[tool];
+    const Eigen::Vector3d axis = beam.frame.col(0);
+    const double h = beam.length / stations;
+    Eigen::Vector3d u_a = Eigen::Vector3d::Zero(), theta_a = Eigen::Vector3d::Zero();
+    double* c[kCoefficients];
+    for (int k = 0; k < kCoefficients; ++k) c[k] = coefficients(slot, k);
+    for (std::uint32_t e = 0; e < stations; ++e) {
+      const Eigen::Matrix<double, 6, 1> node = solver.node_response(e + 1) * local_tip;
+      const Eigen::Vector3d u_b = beam.frame * node.head<3>();
+      const Eigen::Vector3d theta_b = beam.frame * node.tail<3>();
+      const Eigen::Vector3d slope_a = h * theta_a.cross(axis), slope_b = h * theta_b.cross(axis);
+      const Eigen::Vector3d ut_a = u_a - u_a.dot(axis) * axis, ut_b = u_b - u_b.dot(axis) * axis;
+      const Eigen::Vector3d c1 = slope_a + (u_b - u_a).dot(axis) * axis;
+      const Eigen::Vector3d c2 = -3.0 * ut_a - 2.0 * slope_a + 3.0 * ut_b - slope_b;
+      const Eigen::Vector3d c3 = 2.0 * ut_a + slope_a - 2.0 * ut_b + slope_b;
+      const Eigen::Vector3d r1 = theta_b - theta_a;
+      for (int k = 0; k < 3; ++k) {
+        c[k][e] = u_a[k];
+        c[3 + k][e] = c1[k];
+        c[6 + k][e] = c2[k];
+        c[9 + k][e] = c3[k];
+        c[12 + k][e] = theta_a[k];
+        c[15 + k][e] = r1[k];
+      }
+      u_a = u_b;
+      theta_a = theta_b;
+    }
+  }
+  for (std::uint32_t slot = 0; slot < active_count_; ++slot)
+    group_share_[slot] = 1.0 / group_members[active_group_[slot]];
+  if (options_.merge == MergeRule::influence && groups > 0 && !influence_.set_points(group_point, groups)) {
+    active_count_ = 0;
+    return Status::not_finite;
+  }
+  return Status::ok;
+}
+
+void MultiBeam::distort(std::size_t first, std::size_t last, Point3* positions) const noexcept {
+  const double* rx = organ_.rest_x();
+  const double* ry = organ_.rest_y();
+  const double* rz = organ_.rest_z();
+  const std::uint32_t stations = organ_.stations();
+  const double rate = organ_.attenuation_rate();
+  const bool influence = options_.merge == MergeRule::influence;
+  const std::uint32_t groups = influence_.count();
+  const Eigen::Vector3d& fixed = organ_.fixed_point();
+
+  for (std::size_t begin = first; begin < last; begin += kBlock) {
+    const std::size_t count = std::min(kBlock, last - begin);
+    const std::size_t n = (count + kLanes - 1) / kLanes * kLanes;  // the rest arrays are padded
+    const double* x = rx + begin;
+    const double* y = ry + begin;
+    const double* z = rz + begin;
+    alignas(64) double out_x[kBlock], out_y[kBlock], out_z[kBlock];
+    for (std::size_t v = 0; v < n; ++v) out_x[v] = out_y[v] = out_z[v] = 0.0;
+
+    alignas(64) double weight[kMaxTools][kBlock];
+    if (influence && groups > 1) {
+      // f(p) = L⁻¹ l(p) / ‖L⁻¹ l(p)‖₁ per vertex, with l(p) the group distances.
+      alignas(64) double distance[kMaxTools][kBlock];
+      for (std::uint32_t g = 0; g < groups; ++g) {
+        const Eigen::Vector3d& p = influence_.point(g);
+        for (std::size_t v = 0; v < n; ++v) {
+          const double dx = x[v] - p[0], dy = y[v] - p[1], dz = z[v] - p[2];
+          distance[g][v] = std::sqrt(dx * dx + dy * dy + dz * dz);
+        }
+      }
+      const auto& inverse = influence_.inverse_distances();
+      alignas(64) double norm[kBlock];
+      for (std::size_t v = 0; v < n; ++v) norm[v] = 0.0;
+      for (std::uint32_t i = 0; i < groups; ++i) {
+        for (std::size_t v = 0; v < n; ++v) weight[i][v] = 0.0;
+        for (std::uint32_t j = 0; j < groups; ++j) {
+          const double m = inverse(i, j);
+          for (std::size_t v = 0; v < n; ++v) weight[i][v] += m * distance[j][v];
+        }
+        for (std::size_t v = 0; v < n; ++v) norm[v] += std::abs(weight[i][v]);
+      }
+      for (std::size_t v = 0; v < n; ++v) norm[v] = norm[v] > 0.0 ? 1.0 / norm[v] : 0.0;
+      for (std::uint32_t i = 0; i < groups; ++i)
+        for (std::size_t v = 0; v < n; ++v) weight[i][v] *= norm[v];
+    } else {
+      for (std::uint32_t i = 0; i < std::max(groups, 1u); ++i)
+        for (std::size_t v = 0; v < n; ++v) weight[i][v] = 1.0;
+    }
+
+    for (std::uint32_t slot = 0; slot < active_count_; ++slot) {
+      const ToolBeam& beam = tools_[active_tool_[slot]];
+      const double share = influence ? group_share_[slot] : 1.0;
+      const double* w = weight[influence ? active_group_[slot] : 0];
+      const double ax = beam.frame(0, 0), ay = beam.frame(1, 0), az = beam.frame(2, 0);
+      const double inverse_length = 1.0 / beam.length, length = beam.length;
+      const double px = active_point_[slot][0], py = active_point_[slot][1], pz = active_point_[slot][2];
+      const double scale = static_cast<double>(stations);
+      const int last_element = static_cast<int>(stations) - 1;
+      const double ox = fixed[0], oy = fixed[1], oz = fixed[2];
+      const double* c[kCoefficients];
+      for (int k = 0; k < kCoefficients; ++k) c[k] = coefficients(slot, k);
+      // Chunks of kLanes vertices. Vertices are numbered in Morton order, so the
+      // lanes of a chunk usually fall in one beam element and its coefficients
+      // are broadcast; otherwise they are gathered. The arithmetic is
+      // branch-free over the lanes so that it vectorizes.
+      for (std::size_t chunk = 0; chunk < n; chunk += kLanes) {
+        const double* cx = x + chunk;
+        const double* cy = y + chunk;
+        const double* cz = z + chunk;
+        alignas(64) double t[kLanes], xi[kLanes];
+        alignas(64) int element[kLanes];
+        for (std::size_t l = 0; l < kLanes; ++l) {
+          double s = ((cx[l] - ox) * ax + (cy[l] - oy) * ay + (cz[l] - oz) * az) * inverse_length;
+          s = s < 0.0 ? 0.0 : s;
+          s = s > 1.0 ? 1.0 : s;
+          const double tau = s * scale;
+          int e = static_cast<int>(tau);
+          e = e > last_element ? last_element : e;
+          t[l] = s;
+          element[l] = e;
+          xi[l] = tau - e;
+        }
+        bool uniform = true;
+        for (std::size_t l = 1; l < kLanes; ++l) uniform &= element[l] == element[0];
+        alignas(64) double k_[kCoefficients][kLanes];
+        if (uniform) {
+          for (int k = 0; k < kCoefficients; ++k) {
+            const double value = c[k][element[0]];
+            for (std::size_t l = 0; l < kLanes; ++l) k_[k][l] = value;
+          }
+        } else {
+          for (int k = 0; k < kCoefficients; ++k)
+            for (std::size_t l = 0; l < kLanes; ++l) k_[k][l] = c[k][element[l]];
+        }
+        for (std::size_t l = 0; l < kLanes; ++l) {
+          const double e = xi[l];
+          const double ux = ((k_[9][l] * e + k_[6][l]) * e + k_[3][l]) * e + k_[0][l];
+          const double uy = ((k_[10][l] * e + k_[7][l]) * e + k_[4][l]) * e + k_[1][l];
+          const double uz = ((k_[11][l] * e + k_[8][l]) * e + k_[5][l]) * e + k_[2][l];
+          const double tx = k_[12][l] + e * k_[15][l];
+          const double ty = k_[13][l] + e * k_[16][l];
+          const double tz = k_[14][l] + e * k_[17][l];
+          const double along = t[l] * length;  // q = x − b(t), b(t) = fixed + t L axis
+          const double qx = cx[l] - ox - along * ax, qy = cy[l] - oy - along * ay, qz = cz[l] - oz - along * az;
+          const double rx1 = ty * qz - tz * qy, ry1 = tz * qx - tx * qz, rz1 = tx * qy - ty * qx;
+          const double rx2 = ty * rz1 - tz * ry1, ry2 = tz * rx1 - tx * rz1, rz2 = tx * ry1 - ty * rx1;
+          const double dx = cx[l] - px, dy = cy[l] - py, dz = cz[l] - pz;
+          const double attenuation =
+              exp_nonpositive(-rate * std::sqrt(dx * dx + dy * dy + dz * dz)) * share * w[chunk + l];
+          out_x[chunk + l] += attenuation * (ux + rx1 + 0.5 * rx2);
+          out_y[chunk + l] += attenuation * (uy + ry1 + 0.5 * ry2);
+          out_z[chunk + l] += attenuation * (uz + rz1 + 0.5 * rz2);
+        }
+      }
+    }
+    for (std::size_t v = 0; v < count; ++v) positions[begin + v] = {x[v] + out_x[v], y[v] + out_y[v], z[v] + out_z[v]};
+  }
+}
+
+void MultiBeam::normals(std::size_t first, std::size_t last, const Point3* positions, Point3* normals) const noexcept {
+  compute_vertex_normals(organ_, positions, normals, first, last);
+}
+
+Status MultiBeam::deform(const Eigen::Vector3d* tip_displacements, Point3* positions, Point3* normals_out,
+                         std::size_t capacity) noexcept {
+  const std::size_t n = organ_.vertex_count();
+  if (capacity < n) return Status::buffer_too_small;
+  const Status status = prepare(tip_displacements);
+  if (status != Status::ok) return status;
+  distort(0, n, positions);
+  normals(0, n, positions, normals_out);
+  return Status::ok;
+}
+
+}  // namespace organsim::multibeam

@@ -1,0 +1,165 @@
+// Multi-beam model speed: beam creation per contact, force per tool per haptic
+// tick, and whole-organ distortion (normals included) for 2.4k- and
+// 100k-vertex organs with 1–8 tools on one and two threads.
+#include <atomic>
+#include <cmath>
+#include <thread>
+
+#include <benchmark/benchmark.h>
+
+#include "organsim/multibeam/multibeam.h"
+#include "test_models.h"
+
+namespace {
+
+using namespace organsim;
+using namespace organsim::multibeam;
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kRadius = 0.08;  // the test sphere's radius, m
+
+const BeamOrgan& organ(std::size_t vertices) {
+  static const BeamOrgan small(testing::make_sphere_model(2400, 20));
+  static const BeamOrgan large(testing::make_sphere_model(100000, 20));
+  return vertices <= 2400 ? small : large;
+}
+
+// Tool points spread over the sphere (a Fibonacci lattice), pressed inwards 5 mm.
+Eigen::Vector3d tool_point(int i, int count) {
+  const double z = 1.0 - (2.0 * i + 1.0) / count;
+  const double azimuth = i * kPi * (3.0 - std::sqrt(5.0));
+  const double r = std::sqrt(1.0 - z * z);
+  return kRadius * Eigen::Vector3d(r * std::cos(azimuth), r * std::sin(azimuth), z);
+}
+
+MultiBeam attached(const BeamOrgan& o, int tools, std::vector<Eigen::Vector3d>& displacements) {
+  MultiBeamOptions options;
+  options.max_tools = static_cast<std::uint32_t>(tools);
+  MultiBeam beams(o, options);
+  displacements.clear();
+  for (int i = 0; i < tools; ++i) {
+    const Eigen::Vector3d p = tool_point(i, tools);
+    if (beams.attach(i, p) != Status::ok) throw std::runtime_error("attach failed");
+    displacements.push_back(-0.005 * p.normalized());
+  }
+  return beams;
+}
+
+void BM_BeamCreation(benchmark::State& state) {
+  const BeamOrgan& o = organ(2400);
+  MultiBeam beams(o, {});
+  int i = 0;
+  for (auto _ : state) {
+    const Status s = beams.attach(0, tool_point(i++ % 64, 64));
+    benchmark::DoNotOptimize(s);
+  }
+  state.counters["elements"] = o.stations();
+}
+BENCHMARK(BM_BeamCreation)->Unit(benchmark::kMicrosecond);
+
+void BM_ForcePerTool(benchmark::State& state) {
+  const int tools = static_cast<int>(state.range(0));
+  std::vector<Eigen::Vector3d> displacements;
+  MultiBeam beams = attached(organ(2400), tools, displacements);
+  Eigen::Vector3d force;
+  for (auto _ : state)
+    for (int i = 0; i < tools; ++i) {
+      beams.force(i, displacements[i], force);
+      benchmark::DoNotOptimize(force);
+    }
+  state.SetItemsProcessed(state.iterations() * tools);  // items = tool forces
+}
+BENCHMARK(BM_ForcePerTool)->Arg(1)->Arg(4)->Arg(8)->Unit(benchmark::kNanosecond);
+
+void BM_Normals(benchmark::State& state) {
+  const BeamOrgan& o = organ(static_cast<std::size_t>(state.range(0)));
+  std::vector<Point3> normals(o.vertex_count());
+  for (auto _ : state) {
+    compute_vertex_normals(o, o.model().surface_vertices.data(), normals.data(), 0, o.vertex_count());
+    benchmark::ClobberMemory();
+  }
+}
+BENCHMARK(BM_Normals)->Arg(2400)->Arg(100000)->Unit(benchmark::kMicrosecond);
+
+// A helper thread that runs the second half of each phase; the caller runs the
+// first half and waits for it (spinning: this is a throughput benchmark).
+class SecondThread {
+ public:
+  template <typename Work>
+  explicit SecondThread(Work work)
+      : thread_([this, work] {
+          std::uint64_t seen = 0;
+          while (true) {
+            std::uint64_t g;
+            while ((g = generation_.load(std::memory_order_acquire)) == seen) std::this_thread::yield();
+            if (g == kStop) return;
+            seen = g;
+            work(phase_.load(std::memory_order_relaxed));
+            done_.store(g, std::memory_order_release);
+          }
+        }) {}
+  ~SecondThread() {
+    generation_.store(kStop, std::memory_order_release);
+    thread_.join();
+  }
+  void start(int phase) {
+    phase_.store(phase, std::memory_order_relaxed);
+    generation_.store(++issued_, std::memory_order_release);
+  }
+  void wait() const {
+    while (done_.load(std::memory_order_acquire) != issued_) std::this_thread::yield();
+  }
+
+ private:
+  static constexpr std::uint64_t kStop = ~std::uint64_t{0};
+  std::atomic<std::uint64_t> generation_{0}, done_{0};
+  std::atomic<int> phase_{0};
+  std::uint64_t issued_ = 0;
+  std::thread thread_;
+};
+
+void BM_Deformation(benchmark::State& state) {
+  const std::size_t vertices = static_cast<std::size_t>(state.range(0));
+  const int tools = static_cast<int>(state.range(1));
+  const bool two_threads = state.range(2) == 2;
+  const BeamOrgan& o = organ(vertices);
+  std::vector<Eigen::Vector3d> displacements;
+  MultiBeam beams = attached(o, tools, displacements);
+  const std::size_t n = o.vertex_count(), half = n / 2;
+  std::vector<Point3> positions(n), normals(n);
+  if (!two_threads) {
+    for (auto _ : state) {
+      beams.deform(displacements.data(), positions.data(), normals.data(), n);
+      benchmark::ClobberMemory();
+    }
+  } else {
+    SecondThread helper([&](int phase) {
+      if (phase == 0)
+        beams.distort(half, n, positions.data());
+      else
+        beams.normals(half, n, positions.data(), normals.data());
+    });
+    for (auto _ : state) {
+      beams.prepare(displacements.data());
+      helper.start(0);
+      beams.distort(0, half, positions.data());
+      helper.wait();
+      helper.start(1);
+      beams.normals(0, half, positions.data(), normals.data());
+      helper.wait();
+      benchmark::ClobberMemory();
+    }
+  }
+  state.counters["vertices"] = static_cast<double>(n);
+  state.counters["ns_per_vertex_per_tool"] = benchmark::Counter(
+      static_cast<double>(n) * tools * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_Deformation)
+    ->ArgNames({"vertices", "tools", "threads"})
+    ->ArgsProduct({{2400, 100000}, {1, 2, 4, 8}, {1, 2}})
+    ->Unit(benchmark::kMicrosecond)
+    ->UseRealTime();
+
+}  // namespace
+
+BENCHMARK_MAIN();
