@@ -125,7 +125,7 @@ void BM_Deformation(benchmark::State& state) {
   const BeamOrgan& o = organ(vertices);
   std::vector<Eigen::Vector3d> displacements;
   MultiBeam beams = attached(o, tools, displacements);
-  const std::size_t n = o.vertex_count(), half = n / 2;
+  const std::size_t n = o.vertex_count(), half = n / 2 / BeamOrgan::kPadding * BeamOrgan::kPadding;
   std::vector<Point3> positions(n), normals(n);
   if (!two_threads) {
     for (auto _ : state) {

@@ -87,6 +87,7 @@ int run_poke(const PokeOptions& o) {
   if (!read) throw std::runtime_error(read.error);
   if (read.model->beams.empty())
     throw std::runtime_error(o.model_path + ": the model has no beam tables; re-bake it with --stations N");
+  const std::vector<Triangle> file_triangles = read.model->surface_triangles;
   const BeamOrgan organ(std::move(*read.model));
   const OrganModel& model = organ.model();
 
@@ -122,7 +123,7 @@ int run_poke(const PokeOptions& o) {
   if (deformed != Status::ok) throw std::runtime_error(describe(deformed));
 
   double max_displacement = 0.0;
-  std::size_t max_vertex = 0;
+  std::size_t max_vertex = 0;  // in the runtime's numbering; reported in the file's
   for (std::size_t v = 0; v < positions.size(); ++v) {
     const Point3& r = model.surface_vertices[v];
     const double d = std::hypot(positions[v][0] - r[0], positions[v][1] - r[1], positions[v][2] - r[2]);
@@ -135,7 +136,12 @@ int run_poke(const PokeOptions& o) {
   const double deformed_volume = enclosed_volume(positions, model.surface_triangles);
   const double volume_change = (deformed_volume - rest_volume) / rest_volume;
 
-  if (!o.out_path.empty()) pipeline::write_surface_vtp({positions, model.surface_triangles}, o.out_path);
+  if (!o.out_path.empty()) {
+    // Back to the file's vertex numbering, so the output matches the model file.
+    std::vector<Point3> in_file_order(positions.size());
+    for (std::size_t v = 0; v < positions.size(); ++v) in_file_order[organ.file_vertex_index()[v]] = positions[v];
+    pipeline::write_surface_vtp({in_file_order, file_triangles}, o.out_path);
+  }
 
   if (o.json) {
     nlohmann::json j;
@@ -156,7 +162,7 @@ int run_poke(const PokeOptions& o) {
     j["tools"] = list;
     j["organ"] = {{"vertices", positions.size()},
                   {"max_displacement_mm", max_displacement * 1e3},
-                  {"max_displacement_vertex", max_vertex},
+                  {"max_displacement_vertex", organ.file_vertex_index()[max_vertex]},
                   {"rest_volume_ml", rest_volume * 1e6},
                   {"deformed_volume_ml", deformed_volume * 1e6},
                   {"volume_change_percent", volume_change * 100.0}};
@@ -178,9 +184,11 @@ int run_poke(const PokeOptions& o) {
                              mm(tools[i].displacement_mm), forces[i][0], forces[i][1], forces[i][2], forces[i].norm());
   }
   std::cout << fmt::format("{:<14}max vertex displacement {:.2f} mm (vertex {}); volume {:.1f} -> {:.1f} mL ({:+.2f} %)\n",
-                           "organ", max_displacement * 1e3, max_vertex, rest_volume * 1e6, deformed_volume * 1e6,
+                           "organ", max_displacement * 1e3, organ.file_vertex_index()[max_vertex], rest_volume * 1e6,
+                           deformed_volume * 1e6,
                            volume_change * 100.0);
-  std::cout << fmt::format("{:<14}beam {:.1f} us per tool, force {:.3f} us per tool, deformation {:.3f} ms (normals included)\n",
+  std::cout << fmt::format("{:<14}beam {:.1f} us per tool, force {:.3f} us per tool, deformation {:.3f} ms "
+                           "(first frame of a contact, normals included)\n",
                            "time", attach_seconds * 1e6, force_seconds * 1e6, deform_seconds * 1e3);
   if (!o.out_path.empty()) std::cout << fmt::format("{:<14}{} (LPS, mm)\n", "deformed", o.out_path);
   return 0;

@@ -30,11 +30,14 @@ MultiBeam::MultiBeam(const BeamOrgan& organ, const MultiBeamOptions& options) : 
   for (std::uint32_t i = 0; i < options_.max_tools; ++i) solvers_.emplace_back(stations);
   sections_.resize(stations);
   coefficient_data_.assign(static_cast<std::size_t>(options_.max_tools) * kCoefficients * stations, 0.0);
+  vertex_stride_ = organ_.vertex_count() + BeamOrgan::kPadding;
+  vertex_data_.assign(static_cast<std::size_t>(options_.max_tools) * kVertexFields * vertex_stride_, 0.0);
 }
 
 Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point) noexcept {
   if (tool >= options_.max_tools) return Status::too_many_tools;
   ToolBeam& beam = tools_[tool];
+  if (beam.attached) ++contact_generation_;
   beam.attached = false;
   if (!point.allFinite()) return Status::not_finite;
   const SurfacePoint action = organ_.surface_tree().closest_point(point);
@@ -104,11 +107,15 @@ Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point) noexc
   beam.frame.col(2) = z;
   beam.stiffness = beam.frame * solvers_[tool].tip_stiffness() * beam.frame.transpose();
   beam.attached = true;
+  ++contact_generation_;
   return Status::ok;
 }
 
 void MultiBeam::detach(std::uint32_t tool) noexcept {
-  if (tool < options_.max_tools) tools_[tool].attached = false;
+  if (tool < options_.max_tools && tools_[tool].attached) {
+    tools_[tool].attached = false;
+    ++contact_generation_;
+  }
 }
 
 Status MultiBeam::force(std::uint32_t tool, const Eigen::Vector3d& tip_displacement,
@@ -190,28 +197,26 @@ Status MultiBeam::prepare(const Eigen::Vector3d* tip_displacements) noexcept {
     active_count_ = 0;
     return Status::not_finite;
   }
+  vertex_data_stale_ = prepared_generation_ != contact_generation_;
+  prepared_generation_ = contact_generation_;
   return Status::ok;
 }
 
-void MultiBeam::distort(std::size_t first, std::size_t last, Point3* positions) const noexcept {
+void MultiBeam::build_vertex_data(std::size_t first, std::size_t last) noexcept {
   const double* rx = organ_.rest_x();
   const double* ry = organ_.rest_y();
   const double* rz = organ_.rest_z();
-  const std::uint32_t stations = organ_.stations();
   const double rate = organ_.attenuation_rate();
   const bool influence = options_.merge == MergeRule::influence;
   const std::uint32_t groups = influence_.count();
   const Eigen::Vector3d& fixed = organ_.fixed_point();
+  const double scale = static_cast<double>(organ_.stations());
 
   for (std::size_t begin = first; begin < last; begin += kBlock) {
-    const std::size_t count = std::min(kBlock, last - begin);
-    const std::size_t n = (count + kLanes - 1) / kLanes * kLanes;  // the rest arrays are padded
+    const std::size_t n = std::min(kBlock, last - begin);
     const double* x = rx + begin;
     const double* y = ry + begin;
     const double* z = rz + begin;
-    alignas(64) double out_x[kBlock], out_y[kBlock], out_z[kBlock];
-    for (std::size_t v = 0; v < n; ++v) out_x[v] = out_y[v] = out_z[v] = 0.0;
-
     alignas(64) double weight[kMaxTools][kBlock];
     if (influence && groups > 1) {
       // f(p) = L⁻¹ l(p) / ‖L⁻¹ l(p)‖₁ per vertex, with l(p) the group distances.
@@ -238,8 +243,7 @@ void MultiBeam::distort(std::size_t first, std::size_t last, Point3* positions) 
       for (std::uint32_t i = 0; i < groups; ++i)
         for (std::size_t v = 0; v < n; ++v) weight[i][v] *= norm[v];
     } else {
-      for (std::uint32_t i = 0; i < std::max(groups, 1u); ++i)
-        for (std::size_t v = 0; v < n; ++v) weight[i][v] = 1.0;
+      for (std::size_t v = 0; v < n; ++v) weight[0][v] = 1.0;
     }
 
     for (std::uint32_t slot = 0; slot < active_count_; ++slot) {
@@ -249,66 +253,95 @@ void MultiBeam::distort(std::size_t first, std::size_t last, Point3* positions) 
       const double ax = beam.frame(0, 0), ay = beam.frame(1, 0), az = beam.frame(2, 0);
       const double inverse_length = 1.0 / beam.length, length = beam.length;
       const double px = active_point_[slot][0], py = active_point_[slot][1], pz = active_point_[slot][2];
-      const double scale = static_cast<double>(stations);
-      const int last_element = static_cast<int>(stations) - 1;
       const double ox = fixed[0], oy = fixed[1], oz = fixed[2];
+      double* tau = vertex_field(slot, 0) + begin;
+      double* qx = vertex_field(slot, 1) + begin;
+      double* qy = vertex_field(slot, 2) + begin;
+      double* qz = vertex_field(slot, 3) + begin;
+      double* factor = vertex_field(slot, 4) + begin;
+      for (std::size_t v = 0; v < n; ++v) {
+        const double fx = x[v] - ox, fy = y[v] - oy, fz = z[v] - oz;
+        double t = (fx * ax + fy * ay + fz * az) * inverse_length;
+        t = t < 0.0 ? 0.0 : t;
+        t = t > 1.0 ? 1.0 : t;
+        tau[v] = t * scale;
+        const double along = t * length;  // q = x − b(t), b(t) = fixed + t L axis
+        qx[v] = fx - along * ax;
+        qy[v] = fy - along * ay;
+        qz[v] = fz - along * az;
+        const double dx = x[v] - px, dy = y[v] - py, dz = z[v] - pz;
+        factor[v] = exp_nonpositive(-rate * std::sqrt(dx * dx + dy * dy + dz * dz)) * share * w[v];
+      }
+    }
+  }
+}
+
+void MultiBeam::distort(std::size_t first, std::size_t last, Point3* positions) noexcept {
+  if (vertex_data_stale_) build_vertex_data(first, last);
+  const double* rx = organ_.rest_x();
+  const double* ry = organ_.rest_y();
+  const double* rz = organ_.rest_z();
+  const int last_element = static_cast<int>(organ_.stations()) - 1;
+
+  for (std::size_t begin = first; begin < last; begin += kBlock) {
+    const std::size_t count = std::min(kBlock, last - begin);
+    const std::size_t n = (count + kLanes - 1) / kLanes * kLanes;  // the vertex arrays are padded
+    alignas(64) double out_x[kBlock], out_y[kBlock], out_z[kBlock];
+    for (std::size_t v = 0; v < n; ++v) out_x[v] = out_y[v] = out_z[v] = 0.0;
+
+    for (std::uint32_t slot = 0; slot < active_count_; ++slot) {
       const double* c[kCoefficients];
       for (int k = 0; k < kCoefficients; ++k) c[k] = coefficients(slot, k);
+      const double* tau = vertex_field(slot, 0) + begin;
+      const double* qx = vertex_field(slot, 1) + begin;
+      const double* qy = vertex_field(slot, 2) + begin;
+      const double* qz = vertex_field(slot, 3) + begin;
+      const double* factor = vertex_field(slot, 4) + begin;
       // Chunks of kLanes vertices. Vertices are numbered in Morton order, so the
-      // lanes of a chunk usually fall in one beam element and its coefficients
-      // are broadcast; otherwise they are gathered. The arithmetic is
+      // lanes of a chunk often fall in one beam element, whose coefficients are
+      // then broadcast (gathers are several times slower). The arithmetic is
       // branch-free over the lanes so that it vectorizes.
       for (std::size_t chunk = 0; chunk < n; chunk += kLanes) {
-        const double* cx = x + chunk;
-        const double* cy = y + chunk;
-        const double* cz = z + chunk;
-        alignas(64) double t[kLanes], xi[kLanes];
+        alignas(64) double xi[kLanes];
         alignas(64) int element[kLanes];
         for (std::size_t l = 0; l < kLanes; ++l) {
-          double s = ((cx[l] - ox) * ax + (cy[l] - oy) * ay + (cz[l] - oz) * az) * inverse_length;
-          s = s < 0.0 ? 0.0 : s;
-          s = s > 1.0 ? 1.0 : s;
-          const double tau = s * scale;
-          int e = static_cast<int>(tau);
+          int e = static_cast<int>(tau[chunk + l]);
           e = e > last_element ? last_element : e;
-          t[l] = s;
           element[l] = e;
-          xi[l] = tau - e;
+          xi[l] = tau[chunk + l] - e;
         }
-        bool uniform = true;
-        for (std::size_t l = 1; l < kLanes; ++l) uniform &= element[l] == element[0];
-        alignas(64) double k_[kCoefficients][kLanes];
-        if (uniform) {
-          for (int k = 0; k < kCoefficients; ++k) {
-            const double value = c[k][element[0]];
-            for (std::size_t l = 0; l < kLanes; ++l) k_[k][l] = value;
+        int lowest = element[0], highest = element[0];
+        for (std::size_t l = 1; l < kLanes; ++l) {
+          lowest = element[l] < lowest ? element[l] : lowest;
+          highest = element[l] > highest ? element[l] : highest;
+        }
+        // coefficient(k, lane): broadcast from one element, or gathered per lane.
+        auto accumulate = [&](auto coefficient) {
+          for (std::size_t l = 0; l < kLanes; ++l) {
+            const std::size_t v = chunk + l;
+            const double e = xi[l];
+            const double ux = ((coefficient(9, l) * e + coefficient(6, l)) * e + coefficient(3, l)) * e + coefficient(0, l);
+            const double uy = ((coefficient(10, l) * e + coefficient(7, l)) * e + coefficient(4, l)) * e + coefficient(1, l);
+            const double uz = ((coefficient(11, l) * e + coefficient(8, l)) * e + coefficient(5, l)) * e + coefficient(2, l);
+            const double tx = coefficient(12, l) + e * coefficient(15, l);
+            const double ty = coefficient(13, l) + e * coefficient(16, l);
+            const double tz = coefficient(14, l) + e * coefficient(17, l);
+            const double rx1 = ty * qz[v] - tz * qy[v], ry1 = tz * qx[v] - tx * qz[v], rz1 = tx * qy[v] - ty * qx[v];
+            const double rx2 = ty * rz1 - tz * ry1, ry2 = tz * rx1 - tx * rz1, rz2 = tx * ry1 - ty * rx1;
+            out_x[v] += factor[v] * (ux + rx1 + 0.5 * rx2);
+            out_y[v] += factor[v] * (uy + ry1 + 0.5 * ry2);
+            out_z[v] += factor[v] * (uz + rz1 + 0.5 * rz2);
           }
+        };
+        if (lowest == highest) {
+          accumulate([&](int k, std::size_t) { return c[k][lowest]; });
         } else {
-          for (int k = 0; k < kCoefficients; ++k)
-            for (std::size_t l = 0; l < kLanes; ++l) k_[k][l] = c[k][element[l]];
-        }
-        for (std::size_t l = 0; l < kLanes; ++l) {
-          const double e = xi[l];
-          const double ux = ((k_[9][l] * e + k_[6][l]) * e + k_[3][l]) * e + k_[0][l];
-          const double uy = ((k_[10][l] * e + k_[7][l]) * e + k_[4][l]) * e + k_[1][l];
-          const double uz = ((k_[11][l] * e + k_[8][l]) * e + k_[5][l]) * e + k_[2][l];
-          const double tx = k_[12][l] + e * k_[15][l];
-          const double ty = k_[13][l] + e * k_[16][l];
-          const double tz = k_[14][l] + e * k_[17][l];
-          const double along = t[l] * length;  // q = x − b(t), b(t) = fixed + t L axis
-          const double qx = cx[l] - ox - along * ax, qy = cy[l] - oy - along * ay, qz = cz[l] - oz - along * az;
-          const double rx1 = ty * qz - tz * qy, ry1 = tz * qx - tx * qz, rz1 = tx * qy - ty * qx;
-          const double rx2 = ty * rz1 - tz * ry1, ry2 = tz * rx1 - tx * rz1, rz2 = tx * ry1 - ty * rx1;
-          const double dx = cx[l] - px, dy = cy[l] - py, dz = cz[l] - pz;
-          const double attenuation =
-              exp_nonpositive(-rate * std::sqrt(dx * dx + dy * dy + dz * dz)) * share * w[chunk + l];
-          out_x[chunk + l] += attenuation * (ux + rx1 + 0.5 * rx2);
-          out_y[chunk + l] += attenuation * (uy + ry1 + 0.5 * ry2);
-          out_z[chunk + l] += attenuation * (uz + rz1 + 0.5 * rz2);
+          accumulate([&](int k, std::size_t l) { return c[k][element[l]]; });
         }
       }
     }
-    for (std::size_t v = 0; v < count; ++v) positions[begin + v] = {x[v] + out_x[v], y[v] + out_y[v], z[v] + out_z[v]};
+    for (std::size_t v = 0; v < count; ++v)
+      positions[begin + v] = {rx[begin + v] + out_x[v], ry[begin + v] + out_y[v], rz[begin + v] + out_z[v]};
   }
 }
 

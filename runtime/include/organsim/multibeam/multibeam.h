@@ -90,9 +90,17 @@ class MultiBeam {
   /// The steps of deform(), for callers that split the vertices over threads:
   /// prepare() once, then distort() on disjoint ranges, then (after all
   /// distort() calls have finished) normals() on disjoint ranges. Vertex
-  /// indices are the BeamOrgan's (see BeamOrgan::file_vertex_index).
+  /// indices are the BeamOrgan's (see BeamOrgan::file_vertex_index); range
+  /// bounds other than 0 and vertex_count() must be multiples of
+  /// BeamOrgan::kPadding (vector loops read whole registers).
+  ///
+  /// What does not change while the contacts stay the same (each vertex's
+  /// place along each beam, its offset from the axis, its attenuation and
+  /// influence weight) is computed by the first distort() after a contact
+  /// began or ended, so that frame costs about twice a steady one; later frames
+  /// only evaluate the beams' shape functions.
   Status prepare(const Eigen::Vector3d* tip_displacements) noexcept;
-  void distort(std::size_t first, std::size_t last, Point3* positions) const noexcept;
+  void distort(std::size_t first, std::size_t last, Point3* positions) noexcept;
   void normals(std::size_t first, std::size_t last, const Point3* positions, Point3* normals) const noexcept;
 
  private:
@@ -103,6 +111,13 @@ class MultiBeam {
   const double* coefficients(std::uint32_t slot, int k) const noexcept {
     return coefficient_data_.data() + (static_cast<std::size_t>(slot) * kCoefficients + k) * organ_.stations();
   }
+  // Per active tool, per vertex (valid between contact changes): τ = t·stations,
+  // q = x − b(t) (3 fields) and the weight α^(−βd)·f(x)/group size.
+  static constexpr int kVertexFields = 5;
+  double* vertex_field(std::uint32_t slot, int k) noexcept {
+    return vertex_data_.data() + (static_cast<std::size_t>(slot) * kVertexFields + k) * vertex_stride_;
+  }
+  void build_vertex_data(std::size_t first, std::size_t last) noexcept;
   double* coefficients(std::uint32_t slot, int k) noexcept {
     return coefficient_data_.data() + (static_cast<std::size_t>(slot) * kCoefficients + k) * organ_.stations();
   }
@@ -121,6 +136,11 @@ class MultiBeam {
   double group_share_[kMaxTools] = {};          // 1 / members of the tool's group
   InfluenceFunction influence_;
   std::vector<double> coefficient_data_;
+  std::uint64_t contact_generation_ = 0;   // bumped by every attach and detach
+  std::uint64_t prepared_generation_ = ~std::uint64_t{0};
+  bool vertex_data_stale_ = true;
+  std::size_t vertex_stride_ = 0;
+  std::vector<double> vertex_data_;
 };
 
 }  // namespace organsim::multibeam
