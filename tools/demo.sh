@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # README command (a): set up, build, and run the main job on the shipped sample:
 # a real CT with its liver label map -> organsim bake -> the model's summary ->
-# a static two-tool press (organsim poke). (The replayed multi-tool session
-# joins when the real-time engine exists.)
+# a static two-tool press (organsim poke) -> a replayed two-tool session in
+# real time (organsim replay) with forces and loop timings.
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 bash "$repo/tools/setup.sh"
@@ -25,5 +25,9 @@ echo
 echo "== organsim poke: two tools press the baked liver (multi-beam model): forces and deformation"
 "$build/tools/organsim" poke "$out/liver.organ" --tool -7.1,-252.0,356.2/0,5,0 --tool -99.4,-217.0,387.9/-4,0,0 \
   --out "$out/liver_poked.vtp"
+echo
+echo "== organsim replay: a recorded two-tool session through the real-time engine (1 kHz forces, 60 Hz deformation)"
+"$build/tools/organsim" replay "$out/liver.organ" "$repo/data_samples/liver_two_tools.session" \
+  --forces "$out/liver_two_tools_forces.csv"
 echo
 echo "Outputs in $out (models; mask, surface and tetrahedra for 3D Slicer / ParaView in liver_intermediates/)."

@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include "organsim/multibeam/multibeam.h"
+#include "organsim/realtime/engine.h"
+#include "organsim/realtime/session.h"
 #include "test_models.h"
 
 namespace {
@@ -62,6 +64,27 @@ TEST(RealTime, AttachForceAndDeformAllocateNothing) {
     EXPECT_EQ(after - before, 0) << "allocations in the real-time calls";
     EXPECT_TRUE(total.allFinite());
   }
+}
+
+TEST(RealTime, EngineLoopsAllocateNothing) {
+  const testing::CylinderSpec spec;
+  const BeamOrgan organ(testing::make_cylinder_model(spec));
+  realtime::Trajectory press, side;
+  press.times = {0.0, 0.3, 0.6};
+  press.positions = {{0.16, 0.0, 0.0}, {0.144, 0.002, 0.0}, {0.16, 0.0, 0.0}};
+  side.times = {0.0, 0.2, 0.6};
+  side.positions = {{0.08, 0.04, 0.0}, {0.08, 0.026, 0.0}, {0.08, 0.04, 0.0}};
+  realtime::ScriptedDevice a(press, {}, 1000), b(side, {}, 1000);
+  realtime::Engine engine(organ, {&a, &b}, {});
+  const long before = allocations.load();
+  for (int tick = 0; tick <= 600; ++tick) {
+    if (tick % 17 == 0) engine.deformation_step(tick * 1e-3);  // contacts begin, deform, end
+    engine.force_tick(tick * 1e-3);
+  }
+  const long after = allocations.load();
+  EXPECT_EQ(after - before, 0) << "allocations in the engine's loops";
+  EXPECT_EQ(engine.telemetry(0).contacts, 1u);
+  EXPECT_EQ(engine.telemetry(1).contacts, 1u);
 }
 
 }  // namespace

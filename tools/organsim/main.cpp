@@ -21,6 +21,8 @@ int main(int argc, char** argv) {
   add("info", "Summarize a model file (counts, size, volume, material, provenance)", organsim::cli::add_info_command);
   add("poke", "Press the organ with tools: the force each tool feels and the deformed organ (multi-beam model)",
       organsim::cli::add_poke_command);
+  add("replay", "Replay a recorded multi-tool session through the real-time engine: forces, contacts, loop timings",
+      organsim::cli::add_replay_command);
   add("phantom", "Make a synthetic abdominal CT with a liver-like organ", organsim::cli::add_phantom_command);
 
   CLI11_PARSE(app, argc, argv);

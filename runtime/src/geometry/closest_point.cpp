@@ -48,7 +48,7 @@ Eigen::Vector3d closest_point_barycentric(const Eigen::Vector3d& p, const Eigen:
 }
 
 SurfaceBvh::SurfaceBvh(const std::vector<Point3>& vertices, const std::vector<Triangle>& triangles)
-    : vertices_(vertices), triangles_(triangles), order_(triangles.size()) {
+    : vertices_(vertices.data()), triangles_(triangles), order_(triangles.size()) {
   std::iota(order_.begin(), order_.end(), 0u);
   std::vector<Eigen::Vector3d> centroids(triangles.size());
   for (std::size_t t = 0; t < triangles.size(); ++t)
@@ -88,6 +88,72 @@ std::uint32_t SurfaceBvh::build(std::uint32_t first, std::uint32_t count, std::v
   nodes_[index].right = right;
   nodes_[index].count = 0;
   return index;
+}
+
+void SurfaceBvh::refit(const Point3* positions) noexcept {
+  vertices_ = positions;
+  // Children are created after their parent, so a reverse sweep sees both
+  // children of a node before the node.
+  for (std::size_t k = nodes_.size(); k-- > 0;) {
+    Node& node = nodes_[k];
+    node.box.setEmpty();
+    if (node.count > 0) {
+      for (std::uint32_t i = node.first; i < node.first + node.count; ++i)
+        for (std::uint32_t corner : triangles_[order_[i]]) node.box.extend(point(vertices_[corner]));
+    } else {
+      node.box.extend(nodes_[node.first].box);
+      node.box.extend(nodes_[node.right].box);
+    }
+  }
+}
+
+bool SurfaceBvh::first_crossing(const Eigen::Vector3d& from, const Eigen::Vector3d& to, bool entering_only,
+                                SegmentHit& hit) const noexcept {
+  if (nodes_.empty() || !from.allFinite() || !to.allFinite()) return false;
+  const Eigen::Vector3d direction = to - from;
+  bool found = false;
+  double best = std::numeric_limits<double>::infinity();
+  std::uint32_t stack[kMaxDepth * 2];
+  int top = 0;
+  stack[top++] = 0;
+  const Eigen::AlignedBox3d segment_box(from.cwiseMin(to), from.cwiseMax(to));
+  while (top > 0) {
+    const Node& node = nodes_[stack[--top]];
+    if (!node.box.intersects(segment_box)) continue;
+    if (node.count == 0) {
+      stack[top++] = node.first;
+      stack[top++] = node.right;
+      continue;
+    }
+    for (std::uint32_t i = node.first; i < node.first + node.count; ++i) {
+      // Möller–Trumbore, on the closed triangle (edges count: no gaps between triangles).
+      const Triangle& t = triangles_[order_[i]];
+      const Eigen::Vector3d a = point(vertices_[t[0]]), b = point(vertices_[t[1]]), c = point(vertices_[t[2]]);
+      const Eigen::Vector3d ab = b - a, ac = c - a;
+      const Eigen::Vector3d p = direction.cross(ac);
+      const double determinant = ab.dot(p);
+      if (determinant == 0.0) continue;  // parallel to the plane
+      const bool entering = determinant > 0.0;  // against the outward normal ab × ac
+      if (entering_only && !entering) continue;
+      const double inverse = 1.0 / determinant;
+      const Eigen::Vector3d s = from - a;
+      const double u = s.dot(p) * inverse;
+      if (u < 0.0 || u > 1.0) continue;
+      const Eigen::Vector3d q = s.cross(ab);
+      const double v = direction.dot(q) * inverse;
+      if (v < 0.0 || u + v > 1.0) continue;
+      const double along = ac.dot(q) * inverse;
+      if (along < 0.0 || along > 1.0 || along >= best) continue;
+      best = along;
+      found = true;
+      hit.triangle = order_[i];
+      hit.barycentric = {1.0 - u - v, u, v};
+      hit.position = from + along * direction;
+      hit.along = along;
+      hit.entering = entering;
+    }
+  }
+  return found;
 }
 
 SurfacePoint SurfaceBvh::closest_point(const Eigen::Vector3d& query) const noexcept {

@@ -25,15 +25,36 @@ struct SurfacePoint {
   double distance = 0.0;  ///< from the query point, m
 };
 
-/// An axis-aligned bounding-box tree over a fixed triangle surface for
-/// closest-point queries. Built once (allocates); queries allocate nothing.
+/// Where a segment first crosses a surface.
+struct SegmentHit {
+  std::uint32_t triangle = 0;
+  Eigen::Vector3d barycentric = Eigen::Vector3d::Zero();
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  double along = 0.0;     ///< segment parameter of the crossing, in [0, 1]
+  bool entering = false;  ///< the segment runs against the triangle's outward normal
+};
+
+/// An axis-aligned bounding-box tree over a triangle surface for closest-point
+/// and segment queries. Built once on the rest positions (allocates); when the
+/// surface deforms, refit() recomputes the boxes for new positions without
+/// changing the tree (no allocation). Queries allocate nothing.
 class SurfaceBvh {
  public:
   SurfaceBvh(const std::vector<Point3>& vertices, const std::vector<Triangle>& triangles);
 
+  /// Makes the tree describe the same triangles at `positions` (one per vertex,
+  /// kept by pointer until the next refit): boxes recomputed bottom-up.
+  void refit(const Point3* positions) noexcept;
+
   /// The surface point closest to `query` (finite). Exact: every triangle whose
   /// box could hold a closer point is tested.
   SurfacePoint closest_point(const Eigen::Vector3d& query) const noexcept;
+
+  /// The first crossing of the segment from `from` to `to` with the surface
+  /// (smallest segment parameter), if any. With `entering_only`, crossings
+  /// from inside to outside are ignored.
+  bool first_crossing(const Eigen::Vector3d& from, const Eigen::Vector3d& to, bool entering_only,
+                      SegmentHit& hit) const noexcept;
 
  private:
   struct Node {
@@ -44,7 +65,7 @@ class SurfaceBvh {
   };
   std::uint32_t build(std::uint32_t first, std::uint32_t count, std::vector<Eigen::Vector3d>& centroids);
 
-  const std::vector<Point3>& vertices_;
+  const Point3* vertices_;
   const std::vector<Triangle>& triangles_;
   std::vector<std::uint32_t> order_;
   std::vector<Node> nodes_;

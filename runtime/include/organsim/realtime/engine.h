@@ -1,0 +1,130 @@
+// The real-time engine: a force loop (≥ 1 kHz) and a deformation loop (≥ 60 Hz)
+// around one multi-beam state (paper 000, §3), with haptic devices, contact
+// detection and force safety. docs/realtime.md states the rules.
+//
+// Threads: force_tick() belongs to the force loop (a 1 kHz thread, or a device's
+// servo callback), deformation_step() to the deformation loop; each may run on
+// its own thread. They share nothing but three wait-free triple buffers: the
+// force loop publishes tool tips and releases, the deformation loop publishes
+// each tool's contact (action point, normal, condensed stiffness) and the
+// deformed surface. Neither call allocates, locks, throws or does I/O.
+//
+// Contact rule: a tool's contact begins when its tip's path since the previous
+// deformation frame crosses the current deformed surface inwards (a swept test,
+// so a fast tool cannot pass through a thin part); the crossing point, mapped to
+// the rest surface, is the action point and a beam is built to it. The force
+// loop then renders F = −K (tip − action point) and ends the contact as soon as
+// the tip is back outside the tangent plane of the rest surface at the action
+// point, (tip − action point) · n ≥ 0.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "organsim/geometry/closest_point.h"
+#include "organsim/multibeam/multibeam.h"
+#include "organsim/realtime/force_safety.h"
+#include "organsim/realtime/haptic_device.h"
+#include "organsim/realtime/triple_buffer.h"
+
+namespace organsim::realtime {
+
+using multibeam::kMaxTools;
+
+struct EngineOptions {
+  multibeam::MultiBeamOptions beams;  ///< merge rule, beam theory, distances (max_tools is set from the devices)
+  double force_period = 1e-3;         ///< s
+  double deformation_period = 1.0 / 60.0;  ///< s
+};
+
+/// A tool's contact as the deformation loop publishes it.
+struct ToolContact {
+  bool active = false;
+  std::uint32_t generation = 0;                           ///< counts this tool's contacts
+  Eigen::Vector3d action_point = Eigen::Vector3d::Zero();  ///< rest surface, m
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();        ///< outward, rest surface
+  Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();     ///< condensed tip stiffness, N/m, device-limited
+};
+
+struct ContactFrame {
+  std::array<ToolContact, kMaxTools> tools{};
+  double time = -1.0;  ///< s, when the deformation loop published it
+};
+
+/// The force loop's view of the tools, published every tick.
+struct ToolFrame {
+  std::array<Eigen::Vector3d, kMaxTools> tips{};
+  std::array<bool, kMaxTools> tip_valid{};
+  std::array<std::uint32_t, kMaxTools> released{};  ///< generation of the last contact the force loop ended
+  double time = -1.0;
+};
+
+/// The deformed organ for viewers (model's vertex order of BeamOrgan).
+struct SurfaceFrame {
+  std::vector<Point3> positions;  ///< m
+  std::vector<Point3> normals;    ///< unit
+  std::uint64_t frame = 0;
+  double time = 0.0;
+};
+
+/// What the force loop saw of one tool (read after the loops have stopped).
+struct ToolTelemetry {
+  std::uint32_t contacts = 0;   ///< contacts begun
+  double peak_force = 0.0;      ///< N, after safety
+  bool in_contact = false;
+  Eigen::Vector3d last_force = Eigen::Vector3d::Zero();
+};
+
+class Engine {
+ public:
+  /// Devices are not owned and must outlive the engine; at most kMaxTools.
+  Engine(const multibeam::BeamOrgan& organ, const std::vector<HapticDevice*>& devices, const EngineOptions& options);
+
+  /// One force-loop iteration at time `now` (s).
+  void force_tick(double now) noexcept;
+  /// One deformation-loop iteration at time `now` (s).
+  void deformation_step(double now) noexcept;
+
+  std::size_t tool_count() const noexcept { return devices_.size(); }
+  const EngineOptions& options() const noexcept { return options_; }
+  const multibeam::BeamOrgan& organ() const noexcept { return organ_; }
+  /// The latest deformed surface: call update() then read() from one reader thread.
+  TripleBuffer<SurfaceFrame>& surfaces() noexcept { return surfaces_; }
+  /// Force-loop telemetry; read when the force loop is not running.
+  const ToolTelemetry& telemetry(std::size_t tool) const noexcept { return telemetry_[tool]; }
+  const ForceSafety& safety(std::size_t tool) const noexcept { return safety_[tool]; }
+  /// Beam builds refused by the deformation loop (far from organ, at the clamp…).
+  std::uint64_t refused_contacts() const noexcept { return refused_; }
+
+ private:
+  const multibeam::BeamOrgan& organ_;
+  std::vector<HapticDevice*> devices_;
+  EngineOptions options_;
+
+  // Force loop only.
+  std::array<ForceSafety, kMaxTools> safety_{};
+  std::array<std::uint32_t, kMaxTools> released_{};
+  std::array<ToolTelemetry, kMaxTools> telemetry_{};
+  std::array<std::uint32_t, kMaxTools> seen_generation_{};
+  double previous_tick_ = -1.0;
+
+  // Deformation loop only.
+  multibeam::MultiBeam beams_;
+  SurfaceBvh deformed_tree_;
+  ContactFrame contacts_;
+  std::array<Eigen::Vector3d, kMaxTools> previous_tip_{};
+  std::array<bool, kMaxTools> previous_valid_{};
+  std::array<Eigen::Vector3d, kMaxTools> displacement_{};
+  std::uint64_t frame_ = 0;
+  std::uint64_t refused_ = 0;
+
+  // Hand-offs.
+  TripleBuffer<ContactFrame> contact_frames_;
+  TripleBuffer<ToolFrame> tool_frames_;
+  TripleBuffer<SurfaceFrame> surfaces_;
+};
+
+}  // namespace organsim::realtime

@@ -1,0 +1,146 @@
+#include "organsim/realtime/engine.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <Eigen/Eigenvalues>
+
+namespace organsim::realtime {
+namespace {
+
+multibeam::MultiBeamOptions with_tools(multibeam::MultiBeamOptions options, std::size_t tools) {
+  options.max_tools = static_cast<std::uint32_t>(tools);
+  return options;
+}
+
+SurfaceFrame rest_frame(const multibeam::BeamOrgan& organ) {
+  SurfaceFrame frame;
+  frame.positions = organ.model().surface_vertices;
+  frame.normals.resize(frame.positions.size());
+  multibeam::compute_vertex_normals(organ, frame.positions.data(), frame.normals.data(), 0, frame.positions.size());
+  return frame;
+}
+
+Eigen::Vector3d vec(const Point3& p) { return {p[0], p[1], p[2]}; }
+
+}  // namespace
+
+Engine::Engine(const multibeam::BeamOrgan& organ, const std::vector<HapticDevice*>& devices,
+               const EngineOptions& options)
+    : organ_(organ),
+      devices_(devices),
+      options_(options),
+      beams_(organ, with_tools(options.beams, std::max<std::size_t>(devices.size(), 1))),
+      deformed_tree_(organ.model().surface_vertices, organ.model().surface_triangles),
+      surfaces_(rest_frame(organ)) {
+  if (devices.empty() || devices.size() > kMaxTools) throw std::invalid_argument("an engine drives 1 to 16 tools");
+  for (HapticDevice* d : devices)
+    if (d == nullptr) throw std::invalid_argument("a haptic device is missing");
+  for (std::size_t i = 0; i < devices.size(); ++i) safety_[i] = ForceSafety(devices[i]->limits());
+}
+
+void Engine::force_tick(double now) noexcept {
+  contact_frames_.update();
+  const ContactFrame& contacts = contact_frames_.read();
+  const double dt = previous_tick_ < 0.0 ? options_.force_period : now - previous_tick_;
+  previous_tick_ = now;
+  // Before the first deformation frame nothing is in contact; the watchdog
+  // measures silence from the latest frame once there is one.
+  const double last_frame = contacts.time < 0.0 ? now : contacts.time;
+
+  ToolFrame& out = tool_frames_.write_slot();
+  out.time = now;
+  for (std::size_t i = 0; i < devices_.size(); ++i) {
+    Eigen::Vector3d tip;
+    const bool valid = devices_[i]->read_tip(now, tip) && tip.allFinite();
+    out.tips[i] = valid ? tip : Eigen::Vector3d::Zero();
+    out.tip_valid[i] = valid;
+
+    Eigen::Vector3d force = Eigen::Vector3d::Zero();
+    bool touching = false;
+    const ToolContact& contact = contacts.tools[i];
+    if (contact.active && released_[i] != contact.generation) {
+      if (seen_generation_[i] != contact.generation) {
+        seen_generation_[i] = contact.generation;
+        ++telemetry_[i].contacts;
+      }
+      if (valid) {
+        const Eigen::Vector3d displacement = tip - contact.action_point;
+        if (displacement.dot(contact.normal) >= 0.0) {
+          released_[i] = contact.generation;  // back outside: the contact ends now
+        } else {
+          force.noalias() = -contact.stiffness * displacement;
+          touching = true;
+        }
+      }
+    }
+    out.released[i] = released_[i];
+    const Eigen::Vector3d safe = safety_[i].filter(force, now, last_frame, dt);
+    devices_[i]->write_force(now, safe, touching);
+    ToolTelemetry& t = telemetry_[i];
+    t.in_contact = touching;
+    t.last_force = safe;
+    t.peak_force = std::max(t.peak_force, safe.norm());
+  }
+  tool_frames_.publish();
+}
+
+void Engine::deformation_step(double now) noexcept {
+  tool_frames_.update();
+  const ToolFrame& tools = tool_frames_.read();
+  const auto& rest = organ_.model().surface_vertices;
+  const auto& triangles = organ_.model().surface_triangles;
+  for (std::size_t i = 0; i < devices_.size(); ++i) {
+    ToolContact& contact = contacts_.tools[i];
+    const auto tool = static_cast<std::uint32_t>(i);
+    if (contact.active && tools.released[i] == contact.generation) {
+      beams_.detach(tool);
+      contact.active = false;
+    }
+    const bool valid = tools.time >= 0.0 && tools.tip_valid[i];
+    SegmentHit hit;
+    if (!contact.active && valid && previous_valid_[i] &&
+        deformed_tree_.first_crossing(previous_tip_[i], tools.tips[i], true, hit)) {
+      const Triangle& t = triangles[hit.triangle];
+      const Eigen::Vector3d rest_point = hit.barycentric[0] * vec(rest[t[0]]) + hit.barycentric[1] * vec(rest[t[1]]) +
+                                         hit.barycentric[2] * vec(rest[t[2]]);
+      if (beams_.attach(tool, rest_point) == multibeam::Status::ok) {
+        const multibeam::ToolBeam& beam = beams_.beam(tool);
+        const Triangle& at = triangles[beam.action.triangle];
+        const Eigen::Vector3d a = vec(rest[at[0]]);
+        contact.normal = (vec(rest[at[1]]) - a).cross(vec(rest[at[2]]) - a).normalized();
+        contact.action_point = beam.action.position;
+        // A contact stiffer than the device can render is softened to its limit.
+        contact.stiffness = beam.stiffness;
+        const double stiffest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(
+                                    0.5 * (beam.stiffness + beam.stiffness.transpose()), Eigen::EigenvaluesOnly)
+                                    .eigenvalues()
+                                    .maxCoeff();
+        const double limit = devices_[i]->limits().max_stiffness;
+        if (stiffest > limit) contact.stiffness *= limit / stiffest;
+        contact.active = true;
+        ++contact.generation;
+      } else {
+        ++refused_;
+      }
+    }
+    previous_tip_[i] = tools.tips[i];
+    previous_valid_[i] = valid;
+    displacement_[i] = contact.active ? Eigen::Vector3d(tools.tips[i] - contact.action_point) : Eigen::Vector3d::Zero();
+  }
+  contacts_.time = now;
+  contact_frames_.write_slot() = contacts_;
+  contact_frames_.publish();
+
+  SurfaceFrame& frame = surfaces_.write_slot();
+  if (beams_.deform(displacement_.data(), frame.positions.data(), frame.normals.data(), frame.positions.size()) !=
+      multibeam::Status::ok)
+    return;  // cannot happen with finite tips; keep showing the previous frame
+  deformed_tree_.refit(frame.positions.data());
+  frame.frame = ++frame_;
+  frame.time = now;
+  surfaces_.publish();
+}
+
+}  // namespace organsim::realtime

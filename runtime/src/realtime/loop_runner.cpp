@@ -1,0 +1,163 @@
+#include "organsim/realtime/loop_runner.h"
+
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
+#include <time.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <thread>
+
+namespace organsim::realtime {
+namespace {
+
+constexpr double kDeadline = 2e-3;  // s: a force period longer than this is a miss
+constexpr double kSpinAhead = 3e-4;  // s: wake this early and spin to the deadline (timer wake-up jitter)
+
+double seconds(const timespec& t) { return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec); }
+
+timespec now_monotonic() {
+  timespec t;
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return t;
+}
+
+void advance(timespec& t, double period) {
+  const auto step = static_cast<long long>(std::llround(period * 1e9));
+  long long nanoseconds = static_cast<long long>(t.tv_sec) * 1000000000LL + t.tv_nsec + step;
+  t.tv_sec = static_cast<time_t>(nanoseconds / 1000000000LL);
+  t.tv_nsec = static_cast<long>(nanoseconds % 1000000000LL);
+}
+
+std::size_t ticks_for(double duration, double period) {
+  return static_cast<std::size_t>(std::floor(duration / period + 1e-9)) + 1;
+}
+
+// Runs `body(time)` every `period` until `count` ticks have run or `stop` is
+// set, sleeping to absolute deadlines so that lateness does not accumulate.
+// The samples arrays are sized (and so touched: no page faults) beforehand
+// and trimmed to what was recorded afterwards.
+template <typename Body>
+void periodic(double period, std::size_t count, const timespec& start, std::vector<double>& periods,
+              std::vector<double>& computes, std::atomic<bool>& stop, Body body) {
+  timespec next = start;
+  double previous = -1.0;
+  std::size_t recorded_periods = 0, recorded = 0;
+  for (std::size_t k = 0; k < count && !stop.load(std::memory_order_relaxed); ++k) {
+    timespec early = next;
+    advance(early, -kSpinAhead);
+    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &early, nullptr);
+    while (seconds(now_monotonic()) < seconds(next)) {
+    }
+    const timespec begin = now_monotonic();
+    const double time = seconds(begin) - seconds(start);
+    body(time);
+    const timespec end = now_monotonic();
+    if (previous >= 0.0) periods[recorded_periods++] = time - previous;
+    computes[recorded++] = seconds(end) - seconds(begin);
+    previous = time;
+    advance(next, period);
+  }
+  periods.resize(recorded_periods);
+  computes.resize(recorded);
+}
+
+
+}  // namespace
+
+Percentiles percentiles(std::vector<double> samples) {
+  Percentiles p;
+  if (samples.empty()) return p;
+  std::sort(samples.begin(), samples.end());
+  auto at = [&](double q) {
+    const auto index = static_cast<std::size_t>(std::ceil(q * static_cast<double>(samples.size()))) - 1;
+    return samples[std::min(samples.size() - 1, index)];
+  };
+  p.p50 = at(0.50);
+  p.p99 = at(0.99);
+  p.max = samples.back();
+  return p;
+}
+
+RunTimings run_fast(Engine& engine, double duration, const std::function<void()>& after_frame) {
+  RunTimings timings;
+  const EngineOptions& o = engine.options();
+  const std::size_t ticks = ticks_for(duration, o.force_period);
+  timings.force_computes.reserve(ticks);
+  timings.deformation_computes.reserve(ticks_for(duration, o.deformation_period) + 1);
+  const auto wall_start = std::chrono::steady_clock::now();
+  std::size_t next_frame = 0;  // index of the next deformation frame
+  for (std::size_t k = 0; k < ticks; ++k) {
+    // Session time from integers, so every run steps the same times.
+    const double time = static_cast<double>(k) * o.force_period;
+    if (time + 1e-12 >= static_cast<double>(next_frame) * o.deformation_period) {
+      const auto begin = std::chrono::steady_clock::now();
+      engine.deformation_step(time);
+      timings.deformation_computes.push_back(
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
+      ++next_frame;
+      if (after_frame) after_frame();
+    }
+    const auto begin = std::chrono::steady_clock::now();
+    engine.force_tick(time);
+    timings.force_computes.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
+  }
+  timings.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return timings;
+}
+
+RunTimings run_realtime(Engine& engine, double duration, const std::function<void()>& poll) {
+  RunTimings timings;
+  const EngineOptions& o = engine.options();
+  const std::size_t force_ticks = ticks_for(duration, o.force_period);
+  const std::size_t frames = ticks_for(duration, o.deformation_period);
+  timings.force_periods.assign(force_ticks, 0.0);
+  timings.force_computes.assign(force_ticks, 0.0);
+  timings.deformation_periods.assign(frames, 0.0);
+  timings.deformation_computes.assign(frames, 0.0);
+  // Keep every page resident: a page fault in the force loop costs a deadline.
+  const bool locked = mlockall(MCL_CURRENT | MCL_FUTURE) == 0;
+
+  std::atomic<bool> stop{false}, force_done{false}, deformation_done{false};
+  std::atomic<int> priority_error{0};
+  timespec start = now_monotonic();
+  advance(start, 0.01);  // both loops start together, after the threads exist
+  const auto wall_start = std::chrono::steady_clock::now();
+
+  std::thread force([&] {
+    sched_param parameter{};
+    parameter.sched_priority = 80;
+    priority_error.store(pthread_setschedparam(pthread_self(), SCHED_FIFO, &parameter));
+    periodic(o.force_period, force_ticks, start, timings.force_periods, timings.force_computes, stop,
+             [&](double time) { engine.force_tick(time); });
+    force_done.store(true);
+  });
+  std::thread deformation([&] {
+    periodic(o.deformation_period, frames, start, timings.deformation_periods, timings.deformation_computes, stop,
+             [&](double time) { engine.deformation_step(time); });
+    deformation_done.store(true);
+  });
+  while (!force_done.load() || !deformation_done.load()) {
+    if (poll) poll();
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  force.join();
+  deformation.join();
+  if (locked) munlockall();
+  if (poll) poll();
+  timings.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  const int error = priority_error.load();
+  timings.realtime_priority = error == 0;
+  if (error != 0)
+    timings.priority_warning = std::string("the force loop runs without real-time priority (SCHED_FIFO: ") +
+                               std::strerror(error) + "); run as root or grant CAP_SYS_NICE for steadier timing";
+  for (double p : timings.force_periods)
+    if (p > kDeadline) ++timings.force_deadline_misses;
+  return timings;
+}
+
+}  // namespace organsim::realtime

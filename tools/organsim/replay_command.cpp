@@ -1,0 +1,203 @@
+// `organsim replay MODEL SESSION`: a recorded multi-tool session through the
+// real engine, with scripted devices: forces, contacts and loop timings.
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "organsim/model/model_file.h"
+#include "organsim/pipeline/mesh_io.h"
+#include "organsim/realtime/loop_runner.h"
+#include "organsim/realtime/session.h"
+
+namespace organsim::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace organsim::realtime;
+
+struct ReplayOptions {
+  std::string model_path;
+  std::string session_path;
+  std::string merge = "influence";
+  std::string forces_path;
+  std::string frames_dir;
+  bool fast = false;
+  bool json = false;
+  double max_force = SafetyLimits{}.max_force;
+  double max_stiffness = SafetyLimits{}.max_stiffness;
+};
+
+// Writes each published deformation frame as VTP (LPS, mm; the model file's
+// vertex order) and, at the end, a ParaView collection (.pvd) indexing them.
+class FrameWriter {
+ public:
+  FrameWriter(const std::string& directory, const multibeam::BeamOrgan& organ, std::vector<Triangle> triangles)
+      : directory_(directory), organ_(organ), triangles_(std::move(triangles)) {
+    if (directory_.empty()) return;
+    fs::create_directories(directory_);
+  }
+  void take(TripleBuffer<SurfaceFrame>& frames) {
+    if (directory_.empty() || !frames.update()) return;
+    const SurfaceFrame& frame = frames.read();
+    std::vector<Point3> in_file_order(frame.positions.size());
+    for (std::size_t v = 0; v < frame.positions.size(); ++v)
+      in_file_order[organ_.file_vertex_index()[v]] = frame.positions[v];
+    const std::string name = fmt::format("frame_{:05d}.vtp", frame.frame);
+    pipeline::write_surface_vtp({in_file_order, triangles_}, (fs::path(directory_) / name).string());
+    index_.emplace_back(frame.time, name);
+  }
+  void finish() const {
+    if (directory_.empty()) return;
+    std::ostringstream pvd;
+    pvd << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n  <Collection>\n";
+    for (const auto& [time, name] : index_)
+      pvd << fmt::format("    <DataSet timestep=\"{:.6f}\" file=\"{}\"/>\n", time, name);
+    pvd << "  </Collection>\n</VTKFile>\n";
+    const std::string text = pvd.str();
+    write_file_atomically((fs::path(directory_) / "frames.pvd").string(), reinterpret_cast<const std::uint8_t*>(text.data()),
+                          text.size());
+  }
+  std::size_t count() const { return index_.size(); }
+
+ private:
+  std::string directory_;
+  const multibeam::BeamOrgan& organ_;
+  std::vector<Triangle> triangles_;
+  std::vector<std::pair<double, std::string>> index_;
+};
+
+nlohmann::json timing_json(const Percentiles& p) {
+  return {{"p50_ms", p.p50 * 1e3}, {"p99_ms", p.p99 * 1e3}, {"max_ms", p.max * 1e3}};
+}
+
+int run_replay(const ReplayOptions& o) {
+  if (!o.frames_dir.empty() && fs::exists(o.frames_dir) && !fs::is_directory(o.frames_dir))
+    throw std::runtime_error("--frames " + o.frames_dir + " is a file; give a directory");
+  ModelReadResult read = read_organ_model_file(o.model_path);
+  if (!read) throw std::runtime_error(read.error);
+  if (read.model->beams.empty())
+    throw std::runtime_error(o.model_path + ": the model has no beam tables; re-bake it with --stations N");
+  const Session session = read_session(o.session_path);
+  const std::vector<Triangle> file_triangles = read.model->surface_triangles;
+  const multibeam::BeamOrgan organ(std::move(*read.model));
+
+  SafetyLimits limits;
+  limits.max_force = o.max_force;
+  limits.max_stiffness = o.max_stiffness;
+  EngineOptions options;
+  options.beams.merge = o.merge == "sum" ? multibeam::MergeRule::sum : multibeam::MergeRule::influence;
+  const auto records = static_cast<std::size_t>(session.duration / options.force_period) + 16;
+  std::vector<std::unique_ptr<ScriptedDevice>> devices;
+  std::vector<HapticDevice*> device_pointers;
+  for (const Trajectory& t : session.tools) {
+    devices.push_back(std::make_unique<ScriptedDevice>(t, limits, records));
+    device_pointers.push_back(devices.back().get());
+  }
+  Engine engine(organ, device_pointers, options);
+  FrameWriter frames(o.frames_dir, organ, file_triangles);
+
+  const RunTimings timings = o.fast ? run_fast(engine, session.duration, [&] { frames.take(engine.surfaces()); })
+                                    : run_realtime(engine, session.duration, [&] { frames.take(engine.surfaces()); });
+  frames.finish();
+  if (!timings.priority_warning.empty() && !o.fast) std::fprintf(stderr, "organsim replay: warning: %s\n", timings.priority_warning.c_str());
+
+  if (!o.forces_path.empty()) {
+    std::ostringstream csv;
+    csv << "t_s,tool,fx_n,fy_n,fz_n,in_contact\n";
+    for (std::size_t i = 0; i < devices.size(); ++i)
+      for (std::size_t r = 0; r < devices[i]->record_count(); ++r) {
+        const ForceRecord& f = devices[i]->record(r);
+        csv << fmt::format("{:.6f},{},{:.9g},{:.9g},{:.9g},{}\n", f.time, i + 1, f.force[0], f.force[1], f.force[2],
+                           f.in_contact ? 1 : 0);
+      }
+    const std::string text = csv.str();
+    write_file_atomically(o.forces_path, reinterpret_cast<const std::uint8_t*>(text.data()), text.size());
+  }
+
+  const Percentiles period = percentiles(timings.force_periods), compute = percentiles(timings.force_computes);
+  const Percentiles deform = percentiles(timings.deformation_computes);
+  if (o.json) {
+    nlohmann::json j;
+    j["model"] = o.model_path;
+    j["session"] = o.session_path;
+    j["mode"] = o.fast ? "fast" : "realtime";
+    j["merge"] = o.merge;
+    j["duration_s"] = session.duration;
+    j["wall_s"] = timings.wall_seconds;
+    nlohmann::json tools = nlohmann::json::array();
+    for (std::size_t i = 0; i < devices.size(); ++i)
+      tools.push_back({{"tool", i + 1},
+                       {"contacts", engine.telemetry(i).contacts},
+                       {"peak_force_n", engine.telemetry(i).peak_force},
+                       {"clamped_ticks", engine.safety(i).clamp_count()},
+                       {"watchdog_ticks", engine.safety(i).stalled_count()},
+                       {"non_finite_forces", engine.safety(i).non_finite_count()}});
+    j["tools"] = tools;
+    j["force_loop"] = {{"ticks", timings.force_computes.size()},
+                       {"period", o.fast ? nlohmann::json(nullptr) : timing_json(period)},
+                       {"compute", timing_json(compute)},
+                       {"deadline_misses", timings.force_deadline_misses},
+                       {"realtime_priority", timings.realtime_priority}};
+    j["deformation_loop"] = {{"frames", timings.deformation_computes.size()}, {"compute", timing_json(deform)}};
+    j["refused_contacts"] = engine.refused_contacts();
+    if (!o.forces_path.empty()) j["forces_csv"] = o.forces_path;
+    if (!o.frames_dir.empty()) j["frames"] = {{"directory", o.frames_dir}, {"count", frames.count()}};
+    std::cout << j.dump() << '\n';
+    return 0;
+  }
+  std::cout << fmt::format("{:<16}{} with {} ({} tools, {:.2f} s, {} mode, {} merge)\n", "replay", o.session_path,
+                           o.model_path, devices.size(), session.duration, o.fast ? "fast" : "real-time", o.merge);
+  for (std::size_t i = 0; i < devices.size(); ++i)
+    std::cout << fmt::format("{:<16}{} contact(s), peak force {:.3f} N{}\n", fmt::format("tool {}", i + 1),
+                             engine.telemetry(i).contacts, engine.telemetry(i).peak_force,
+                             engine.safety(i).clamp_count() > 0 ? fmt::format(" (clamped to {:.2f} N in {} ticks)",
+                                                                              o.max_force, engine.safety(i).clamp_count())
+                                                                : std::string());
+  if (o.fast)
+    std::cout << fmt::format("{:<16}{} ticks, compute p50 {:.2f} us, p99 {:.2f} us, max {:.2f} us\n", "force loop",
+                             timings.force_computes.size(), compute.p50 * 1e6, compute.p99 * 1e6, compute.max * 1e6);
+  else
+    std::cout << fmt::format(
+        "{:<16}{} ticks, period p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms; compute p50 {:.2f} us, p99 {:.2f} us, "
+        "max {:.2f} us; {} deadline misses (> 2 ms){}\n",
+        "force loop", timings.force_computes.size(), period.p50 * 1e3, period.p99 * 1e3, period.max * 1e3,
+        compute.p50 * 1e6, compute.p99 * 1e6, compute.max * 1e6, timings.force_deadline_misses,
+        timings.realtime_priority ? ", real-time priority" : "");
+  std::cout << fmt::format("{:<17} {} frames, compute p50 {:.3f} ms, p99 {:.3f} ms\n", "deformation loop",
+                           timings.deformation_computes.size(), deform.p50 * 1e3, deform.p99 * 1e3);
+  if (!o.forces_path.empty()) std::cout << fmt::format("{:<16}{}\n", "forces", o.forces_path);
+  if (!o.frames_dir.empty())
+    std::cout << fmt::format("{:<16}{} frames in {} (frames.pvd for ParaView)\n", "surfaces", frames.count(), o.frames_dir);
+  return 0;
+}
+
+}  // namespace
+
+Command add_replay_command(CLI::App& app) {
+  auto o = std::make_shared<ReplayOptions>();
+  app.add_option("model", o->model_path, "Model file (.organ)")->required();
+  app.add_option("session", o->session_path, "Session file: recorded tool trajectories (docs/session-format.md)")
+      ->required();
+  app.add_option("--merge", o->merge, "How beams combine: influence (eq. 7) or sum (eq. 5)")
+      ->check(CLI::IsMember({"influence", "sum"}))
+      ->capture_default_str();
+  app.add_option("--forces", o->forces_path, "Write every force sent to the devices (CSV: t_s,tool,fx_n,fy_n,fz_n,in_contact)");
+  app.add_option("--frames", o->frames_dir, "Write the deformed surface of every frame (VTP + frames.pvd) into this directory");
+  app.add_flag("--fast", o->fast, "Step the loops deterministically as fast as possible (bit-identical forces)");
+  app.add_flag("--json", o->json, "Print the summary as one JSON object on stdout");
+  app.add_option("--max-force", o->max_force, "Device force limit, N")->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--max-stiffness", o->max_stiffness, "Device stiffness limit, N/m")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  return [o] { return run_replay(*o); };
+}
+
+}  // namespace organsim::cli
