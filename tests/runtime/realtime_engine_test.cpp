@@ -23,32 +23,40 @@ struct Payload {
 
 TEST(TripleBuffer, ReaderSeesOnlyWholeValuesInOrderUnderConcurrentLoad) {
   TripleBuffer<Payload> buffer;
-  constexpr std::uint64_t kWrites = 2'000'000;
+  constexpr std::uint64_t kReads = 20000;
+  std::atomic<std::uint64_t> reads{0};
   std::atomic<bool> done{false};
+  std::uint64_t written = 0;
+  // The writer publishes until the reader has taken kReads values (however the
+  // two threads get scheduled), then stops.
   std::thread writer([&] {
-    for (std::uint64_t s = 1; s <= kWrites; ++s) {
+    for (std::uint64_t s = 1; reads.load(std::memory_order_relaxed) < kReads && s < 500'000'000; ++s) {
       Payload& p = buffer.write_slot();
       p.sequence = s;
       for (int k = 0; k < 15; ++k) p.check[k] = s * (k + 1);
       buffer.publish();
+      written = s;
     }
-    done.store(true);
+    done.store(true, std::memory_order_release);
   });
-  std::uint64_t last = 0, reads = 0, torn = 0, backwards = 0;
-  while (!done.load() || buffer.update()) {
-    if (!buffer.update() && !done.load()) continue;
-    const Payload& p = buffer.read();
-    for (int k = 0; k < 15; ++k) torn += p.check[k] != p.sequence * (k + 1);
-    backwards += p.sequence < last;
-    last = p.sequence;
-    ++reads;
+  std::uint64_t last = 0, torn = 0, backwards = 0;
+  while (true) {
+    const bool finished = done.load(std::memory_order_acquire);
+    if (buffer.update()) {
+      const Payload& p = buffer.read();
+      for (int k = 0; k < 15; ++k) torn += p.check[k] != p.sequence * (k + 1);
+      backwards += p.sequence <= last;
+      last = p.sequence;
+      reads.fetch_add(1, std::memory_order_relaxed);
+    } else if (finished) {
+      break;
+    }
   }
   writer.join();
-  buffer.update();
   EXPECT_EQ(torn, 0u);
-  EXPECT_EQ(backwards, 0u);
-  EXPECT_GT(reads, 100u);
-  EXPECT_EQ(buffer.read().sequence, kWrites);  // the last value always arrives
+  EXPECT_EQ(backwards, 0u);  // each update brings a newer value
+  EXPECT_GE(reads.load(), kReads);
+  EXPECT_EQ(last, written);  // the last value always arrives
 }
 
 TEST(ForceSafety, ClampsToTheDeviceLimitAndNeverPassesNaN) {

@@ -23,6 +23,8 @@ int main(int argc, char** argv) {
       organsim::cli::add_poke_command);
   add("replay", "Replay a recorded multi-tool session through the real-time engine: forces, contacts, loop timings",
       organsim::cli::add_replay_command);
+  add("touch", "Feel the organ with PHANToM / Touch devices (OpenHaptics, loaded at run time)",
+      organsim::cli::add_touch_command);
   add("phantom", "Make a synthetic abdominal CT with a liver-like organ", organsim::cli::add_phantom_command);
 
   CLI11_PARSE(app, argc, argv);

@@ -1,0 +1,132 @@
+// A stand-in for the OpenHaptics HD library (libHD.so) for tests: the same C
+// entry points, a servo scheduler thread at 1 kHz, devices whose tip follows a
+// straight path set by the test, and a record of every force commanded.
+// Positions are millimetres, forces newtons, as in the real library.
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <thread>
+#include <vector>
+
+namespace {
+
+using HHD = unsigned int;
+using HDenum = unsigned int;
+using HDCallbackCode = unsigned int;
+using HDSchedulerHandle = unsigned long;
+using HDSchedulerCallback = HDCallbackCode (*)(void*);
+
+struct Device {
+  std::array<double, 3> from{}, to{};
+  double seconds = 1.0;
+  bool force_output = false;
+  bool in_frame = false;
+  std::vector<std::array<double, 3>> forces;
+};
+
+constexpr HHD kInvalidHandle = 0xFFFFFFFF;
+constexpr int kDevices = 4;
+constexpr double kMaxForce = 2.5;      // N: below organsim's default, so that the device's limit shows
+constexpr double kMaxStiffness = 0.8;  // N/mm
+
+Device devices[kDevices];
+int opened = 0;
+thread_local HHD current = 0;
+std::atomic<bool> running{false};
+std::thread scheduler;
+HDSchedulerCallback callback = nullptr;
+void* callback_data = nullptr;
+std::atomic<std::uint64_t> ticks{0};
+std::atomic<int> frame_errors{0};
+std::chrono::steady_clock::time_point start;
+
+}  // namespace
+
+extern "C" {
+
+struct HDErrorInfo {
+  unsigned int errorCode;
+  int internalErrorCode;
+  HHD hHD;
+};
+
+HHD hdInitDevice(const char*) {
+  if (opened == kDevices) return kInvalidHandle;
+  devices[opened].forces.reserve(100000);
+  return static_cast<HHD>(opened++);
+}
+void hdDisableDevice(HHD) {}
+void hdMakeCurrentDevice(HHD device) { current = device; }
+void hdBeginFrame(HHD device) {
+  devices[device].in_frame = true;
+  current = device;
+}
+void hdEndFrame(HHD device) { devices[device].in_frame = false; }
+void hdEnable(HDenum capability) {
+  if (capability == 0x4000) devices[current].force_output = true;
+}
+
+void hdGetDoublev(HDenum what, double* values) {
+  const Device& d = devices[current];
+  switch (what) {
+    case 0x2050: {  // HD_CURRENT_POSITION
+      const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const double s = t < 0.0 ? 0.0 : (t > d.seconds ? 1.0 : t / d.seconds);
+      for (int k = 0; k < 3; ++k) values[k] = d.from[k] + s * (d.to[k] - d.from[k]);
+      break;
+    }
+    case 0x2603: values[0] = kMaxForce; break;      // HD_NOMINAL_MAX_FORCE
+    case 0x2602: values[0] = kMaxStiffness; break;  // HD_NOMINAL_MAX_STIFFNESS
+    default: break;
+  }
+}
+
+void hdSetDoublev(HDenum what, const double* values) {
+  Device& d = devices[current];
+  if (what != 0x2700) return;  // HD_CURRENT_FORCE
+  if (!d.in_frame || !d.force_output) frame_errors.fetch_add(1);
+  d.forces.push_back({values[0], values[1], values[2]});
+}
+
+void hdStartScheduler() {
+  if (running.exchange(true)) return;
+  start = std::chrono::steady_clock::now();
+  scheduler = std::thread([] {
+    auto next = std::chrono::steady_clock::now();
+    while (running.load()) {
+      next += std::chrono::microseconds(1000);
+      std::this_thread::sleep_until(next);
+      if (callback != nullptr && callback(callback_data) == 0) callback = nullptr;  // HD_CALLBACK_DONE
+      ticks.fetch_add(1);
+    }
+  });
+}
+void hdStopScheduler() {
+  if (!running.exchange(false)) return;
+  scheduler.join();
+}
+HDSchedulerHandle hdScheduleAsynchronous(HDSchedulerCallback function, void* data, unsigned short) {
+  callback = function;
+  callback_data = data;
+  return 1;
+}
+void hdUnschedule(HDSchedulerHandle) { callback = nullptr; }
+HDErrorInfo hdGetError() { return {0, 0, 0}; }
+
+// --- test controls ---
+void fakehd_set_path(HHD device, const double* from_mm, const double* to_mm, double seconds) {
+  for (int k = 0; k < 3; ++k) {
+    devices[device].from[k] = from_mm[k];
+    devices[device].to[k] = to_mm[k];
+  }
+  devices[device].seconds = seconds;
+}
+std::uint64_t fakehd_ticks() { return ticks.load(); }
+int fakehd_frame_errors() { return frame_errors.load(); }
+std::size_t fakehd_force_count(HHD device) { return devices[device].forces.size(); }
+void fakehd_force(HHD device, std::size_t i, double* newtons) {
+  for (int k = 0; k < 3; ++k) newtons[k] = devices[device].forces[i][k];
+}
+
+}  // extern "C"
