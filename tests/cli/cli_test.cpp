@@ -521,7 +521,7 @@ TEST_F(Cli, ReplayBadInputsFailWithOneLine) {
   }
   const std::vector<std::pair<std::string, std::string>> cases = {
       {(dir_ / "absent.session").string(), "cannot open the session file"},
-      {bad.string(), "bad.session:2: expected 5 comma-separated fields"},
+      {bad.string(), "bad.session:2: expected 5 or 8 comma-separated fields"},
   };
   for (const auto& [arguments, message] : cases) {
     const CommandRun run = run_organsim("replay " + model + " " + arguments + " --fast", dir_);

@@ -188,6 +188,25 @@ TEST_F(CylinderEngine, AFastToolCannotPassThroughTheOrgan) {
   EXPECT_GT(engine.safety(0).clamp_count(), 0u);
 }
 
+TEST_F(CylinderEngine, AShaftPressingSidewaysMakesContactAlongTheShaft) {
+  // The tip stays below the organ (never inside it); the vertical shaft sweeps
+  // into its side (y from +40 mm to +25 mm at x = 100 mm). The contact is where
+  // the shaft entered, and the organ pushes the shaft back towards +y (and,
+  // through the beam's much stiffer axial direction, along x as well).
+  Trajectory t = path({{0.0, {0.1, 0.04, -0.06}}, {0.3, {0.1, 0.025, -0.06}}, {0.6, {0.1, 0.025, -0.06}}});
+  t.shafts.assign(3, Eigen::Vector3d(0.0, 0.0, 1.0));
+  SafetyLimits limits;
+  limits.max_force = 10.0;
+  ScriptedDevice device(t, limits, 1000);
+  Engine engine(organ, {&device}, {});
+  run_fast(engine, 0.6);
+  EXPECT_EQ(engine.telemetry(0).contacts, 1u);
+  const ForceRecord& last = device.record(device.record_count() - 1);
+  EXPECT_TRUE(last.in_contact);
+  EXPECT_GT(last.force[1], 0.01);
+  EXPECT_LT(std::abs(last.force[2]), 0.2 * last.force.norm());
+}
+
 TEST_F(CylinderEngine, FastModeIsBitIdenticalAcrossRuns) {
   auto run = [&] {
     ScriptedDevice a(path({{0.0, {0.16, 0.0, 0.0}}, {0.4, {0.144, 0.003, 0.0}}, {0.6, {0.16, 0.0, 0.0}}}), {}, 1000);
@@ -236,12 +255,13 @@ TEST(Session, ReadsTheDocumentedFormatAndRejectsBadFiles) {
   EXPECT_DOUBLE_EQ(s.duration, 1.0);
   EXPECT_DOUBLE_EQ(s.tools[0].positions[1][2], 0.006);  // mm → m
   ScriptedDevice device(s.tools[0], {}, 4);
-  Eigen::Vector3d tip;
-  ASSERT_TRUE(device.read_tip(0.5, tip));
-  EXPECT_TRUE(tip.isApprox(Eigen::Vector3d(0.0025, 0.0035, 0.0045)));
+  ToolPose pose;
+  ASSERT_TRUE(device.read_pose(0.5, pose));
+  EXPECT_TRUE(pose.tip.isApprox(Eigen::Vector3d(0.0025, 0.0035, 0.0045)));
+  EXPECT_EQ(pose.shaft, Eigen::Vector3d::Zero());  // no shaft columns
   const std::pair<const char*, const char*> bad[] = {
       {"0,1,1,2,3\n", "first line"},
-      {"# organsim session 1\n0,1,1,2\n", "5 comma-separated"},
+      {"# organsim session 1\n0,1,1,2\n", "5 or 8 comma-separated"},
       {"# organsim session 1\n0,1,nan,2,3\n", "not a finite number"},
       {"# organsim session 1\n1,1,0,0,0\n0.5,1,0,0,0\n", "must increase"},
       {"# organsim session 1\n0,17,0,0,0\n", "1 to 16"},

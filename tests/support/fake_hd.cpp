@@ -70,10 +70,16 @@ void hdEnable(HDenum capability) {
 void hdGetDoublev(HDenum what, double* values) {
   const Device& d = devices[current];
   switch (what) {
-    case 0x2050: {  // HD_CURRENT_POSITION
+    case 0x2050:    // HD_CURRENT_POSITION
+    case 0x2052: {  // HD_CURRENT_TRANSFORM: identity rotation (stylus along −z), translation
       const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       const double s = t < 0.0 ? 0.0 : (t > d.seconds ? 1.0 : t / d.seconds);
-      for (int k = 0; k < 3; ++k) values[k] = d.from[k] + s * (d.to[k] - d.from[k]);
+      double* position = values;
+      if (what == 0x2052) {
+        for (int k = 0; k < 16; ++k) values[k] = k % 5 == 0 ? 1.0 : 0.0;
+        position = values + 12;
+      }
+      for (int k = 0; k < 3; ++k) position[k] = d.from[k] + s * (d.to[k] - d.from[k]);
       break;
     }
     case 0x2603: values[0] = kMaxForce; break;      // HD_NOMINAL_MAX_FORCE

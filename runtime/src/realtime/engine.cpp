@@ -52,9 +52,10 @@ void Engine::force_tick(double now) noexcept {
   ToolFrame& out = tool_frames_.write_slot();
   out.time = now;
   for (std::size_t i = 0; i < devices_.size(); ++i) {
-    Eigen::Vector3d tip;
-    const bool valid = devices_[i]->read_tip(now, tip) && tip.allFinite();
-    out.tips[i] = valid ? tip : Eigen::Vector3d::Zero();
+    ToolPose pose;
+    const bool valid = devices_[i]->read_pose(now, pose) && pose.tip.allFinite() && pose.shaft.allFinite();
+    out.tips[i] = valid ? pose.tip : Eigen::Vector3d::Zero();
+    out.shafts[i] = valid ? pose.shaft : Eigen::Vector3d::Zero();
     out.tip_valid[i] = valid;
 
     Eigen::Vector3d force = Eigen::Vector3d::Zero();
@@ -66,7 +67,7 @@ void Engine::force_tick(double now) noexcept {
         ++telemetry_[i].contacts;
       }
       if (valid) {
-        const Eigen::Vector3d displacement = tip - contact.action_point;
+        const Eigen::Vector3d displacement = pose.tip + contact.shaft_offset * pose.shaft - contact.action_point;
         if (displacement.dot(contact.normal) >= 0.0) {
           released_[i] = contact.generation;  // back outside: the contact ends now
         } else {
@@ -100,8 +101,18 @@ void Engine::deformation_step(double now) noexcept {
     }
     const bool valid = tools.time >= 0.0 && tools.tip_valid[i];
     SegmentHit hit;
-    if (!contact.active && valid && previous_valid_[i] &&
-        deformed_tree_.first_crossing(previous_tip_[i], tools.tips[i], true, hit)) {
+    double shaft_offset = 0.0;
+    bool crossed = false;
+    if (!contact.active && valid) {
+      crossed = previous_valid_[i] && deformed_tree_.first_crossing(previous_tip_[i], tools.tips[i], true, hit);
+      const Eigen::Vector3d& shaft = tools.shafts[i];
+      if (!crossed && shaft.squaredNorm() > 0.0) {
+        const Eigen::Vector3d handle = tools.tips[i] + options_.shaft_length * shaft;
+        crossed = deformed_tree_.first_crossing(handle, tools.tips[i], true, hit);
+        shaft_offset = (1.0 - hit.along) * options_.shaft_length;
+      }
+    }
+    if (crossed) {
       const Triangle& t = triangles[hit.triangle];
       const Eigen::Vector3d rest_point = hit.barycentric[0] * vec(rest[t[0]]) + hit.barycentric[1] * vec(rest[t[1]]) +
                                          hit.barycentric[2] * vec(rest[t[2]]);
@@ -119,6 +130,7 @@ void Engine::deformation_step(double now) noexcept {
                                     .maxCoeff();
         const double limit = devices_[i]->limits().max_stiffness;
         if (stiffest > limit) contact.stiffness *= limit / stiffest;
+        contact.shaft_offset = shaft_offset;
         contact.active = true;
         ++contact.generation;
       } else {
@@ -127,7 +139,9 @@ void Engine::deformation_step(double now) noexcept {
     }
     previous_tip_[i] = tools.tips[i];
     previous_valid_[i] = valid;
-    displacement_[i] = contact.active ? Eigen::Vector3d(tools.tips[i] - contact.action_point) : Eigen::Vector3d::Zero();
+    displacement_[i] = contact.active ? Eigen::Vector3d(tools.tips[i] + contact.shaft_offset * tools.shafts[i] -
+                                                        contact.action_point)
+                                      : Eigen::Vector3d::Zero();
   }
   contacts_.time = now;
   contact_frames_.write_slot() = contacts_;

@@ -1,5 +1,6 @@
 #include "organsim/realtime/session.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -35,12 +36,13 @@ Session read_session(const std::string& path) {
       continue;
     }
     if (!header_seen) fail(path, line_number, "not an organsim session (the first line must be '# organsim session 1')");
-    double values[5];
+    const auto fields = static_cast<int>(std::count(text.begin(), text.end(), ',')) + 1;
+    if (fields != 5 && fields != 8)
+      fail(path, line_number, "expected 5 or 8 comma-separated fields: time_s,tool,x_mm,y_mm,z_mm[,shaft_x,shaft_y,shaft_z]");
+    double values[8];
     std::size_t start = 0;
-    for (int k = 0; k < 5; ++k) {
-      const std::size_t end = k < 4 ? text.find(',', start) : text.size();
-      if (end == std::string::npos)
-        fail(path, line_number, "expected 5 comma-separated fields: time_s,tool,x_mm,y_mm,z_mm");
+    for (int k = 0; k < fields; ++k) {
+      const std::size_t end = k + 1 < fields ? text.find(',', start) : text.size();
       const std::string field = text.substr(start, end - start);
       char* stop = nullptr;
       values[k] = std::strtod(field.c_str(), &stop);
@@ -57,8 +59,15 @@ Session read_session(const std::string& path) {
     if (values[0] < 0.0) fail(path, line_number, "times start at 0 s");
     if (!t.times.empty() && values[0] <= t.times.back())
       fail(path, line_number, "times of a tool must increase");
+    if (!t.times.empty() && t.shafts.empty() != (fields == 5))
+      fail(path, line_number, "a tool's samples must all have a shaft direction or all have none");
     t.times.push_back(values[0]);
     t.positions.emplace_back(values[2] * 1e-3, values[3] * 1e-3, values[4] * 1e-3);
+    if (fields == 8) {
+      const Eigen::Vector3d shaft(values[5], values[6], values[7]);
+      if (!(shaft.norm() > 0.0)) fail(path, line_number, "the shaft direction is zero");
+      t.shafts.push_back(shaft.normalized());
+    }
     session.duration = std::max(session.duration, values[0]);
   }
   if (session.tools.empty()) fail(path, line_number, "the session has no samples");
@@ -70,13 +79,19 @@ Session read_session(const std::string& path) {
 
 void write_session(const Session& session, const std::string& path) {
   std::ostringstream out;
-  out << "# organsim session 1\n# time_s,tool,x_mm,y_mm,z_mm (model frame)\n";
-  char line[160];
+  out << "# organsim session 1\n# time_s,tool,x_mm,y_mm,z_mm[,shaft_x,shaft_y,shaft_z] (model frame)\n";
+  char line[200];
   for (std::size_t k = 0; k < session.tools.size(); ++k)
     for (std::size_t i = 0; i < session.tools[k].times.size(); ++i) {
       const Eigen::Vector3d p = session.tools[k].positions[i] * 1e3;
-      std::snprintf(line, sizeof line, "%.4f,%zu,%.3f,%.3f,%.3f\n", session.tools[k].times[i], k + 1, p[0], p[1], p[2]);
+      std::snprintf(line, sizeof line, "%.4f,%zu,%.3f,%.3f,%.3f", session.tools[k].times[i], k + 1, p[0], p[1], p[2]);
       out << line;
+      if (!session.tools[k].shafts.empty()) {
+        const Eigen::Vector3d& a = session.tools[k].shafts[i];
+        std::snprintf(line, sizeof line, ",%.6f,%.6f,%.6f", a[0], a[1], a[2]);
+        out << line;
+      }
+      out << '\n';
     }
   const std::string text = out.str();
   write_file_atomically(path, reinterpret_cast<const std::uint8_t*>(text.data()), text.size());
@@ -85,18 +100,24 @@ void write_session(const Session& session, const std::string& path) {
 ScriptedDevice::ScriptedDevice(Trajectory trajectory, const SafetyLimits& limits, std::size_t max_records)
     : trajectory_(std::move(trajectory)), limits_(limits), records_(max_records) {}
 
-bool ScriptedDevice::read_tip(double time, Eigen::Vector3d& tip) noexcept {
+bool ScriptedDevice::read_pose(double time, ToolPose& pose) noexcept {
   const auto& times = trajectory_.times;
   if (times.empty() || !std::isfinite(time)) return false;
   if (cursor_ >= times.size() || (cursor_ > 0 && times[cursor_ - 1] > time)) cursor_ = 0;  // time went back
   while (cursor_ < times.size() && times[cursor_] <= time) ++cursor_;
-  if (cursor_ == 0) {
-    tip = trajectory_.positions.front();
-  } else if (cursor_ == times.size()) {
-    tip = trajectory_.positions.back();
+  const bool has_shaft = !trajectory_.shafts.empty();
+  pose.shaft.setZero();
+  if (cursor_ == 0 || cursor_ == times.size()) {
+    const std::size_t i = cursor_ == 0 ? 0 : times.size() - 1;
+    pose.tip = trajectory_.positions[i];
+    if (has_shaft) pose.shaft = trajectory_.shafts[i];
   } else {
     const double s = (time - times[cursor_ - 1]) / (times[cursor_] - times[cursor_ - 1]);
-    tip = (1.0 - s) * trajectory_.positions[cursor_ - 1] + s * trajectory_.positions[cursor_];
+    pose.tip = (1.0 - s) * trajectory_.positions[cursor_ - 1] + s * trajectory_.positions[cursor_];
+    if (has_shaft) {
+      const Eigen::Vector3d shaft = (1.0 - s) * trajectory_.shafts[cursor_ - 1] + s * trajectory_.shafts[cursor_];
+      if (shaft.norm() > 0.0) pose.shaft = shaft.normalized();
+    }
   }
   return true;
 }

@@ -23,7 +23,7 @@ struct HDErrorInfo {
   HHD hHD;
 };
 constexpr HHD kInvalidHandle = 0xFFFFFFFF;
-constexpr HDenum kCurrentPosition = 0x2050;  // 3 doubles, mm
+constexpr HDenum kCurrentTransform = 0x2052;  // 16 doubles, column-major 4×4, translation in mm
 constexpr HDenum kCurrentForce = 0x2700;     // 3 doubles, N
 constexpr HDenum kNominalMaxStiffness = 0x2602;  // N/mm
 constexpr HDenum kNominalMaxForce = 0x2603;      // N
@@ -109,14 +109,17 @@ OpenHapticsDevice::OpenHapticsDevice(const HdLibrary& library, const std::string
 
 OpenHapticsDevice::~OpenHapticsDevice() { library_.api().disable_device(handle_); }
 
-bool OpenHapticsDevice::read_tip(double, Eigen::Vector3d& tip) noexcept {
+bool OpenHapticsDevice::read_pose(double, realtime::ToolPose& pose) noexcept {
   const HdLibrary::Api& hd = library_.api();
-  double millimetres[3] = {0.0, 0.0, 0.0};
+  double transform[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   hd.make_current_device(handle_);
-  hd.get_doublev(kCurrentPosition, millimetres);
-  const Eigen::Vector3d device(millimetres[0] * 1e-3, millimetres[1] * 1e-3, millimetres[2] * 1e-3);
-  tip = placement_.offset + placement_.scale * (placement_.rotation * device);
-  return tip.allFinite();
+  hd.get_doublev(kCurrentTransform, transform);
+  const Eigen::Vector3d device(transform[12] * 1e-3, transform[13] * 1e-3, transform[14] * 1e-3);
+  const Eigen::Vector3d stylus_z(transform[8], transform[9], transform[10]);
+  pose.tip = placement_.offset + placement_.scale * (placement_.rotation * device);
+  pose.shaft = stylus_z.norm() > 0.0 ? Eigen::Vector3d(placement_.rotation * stylus_z.normalized())
+                                     : Eigen::Vector3d::Zero();
+  return pose.tip.allFinite() && pose.shaft.allFinite();
 }
 
 void OpenHapticsDevice::write_force(double, const Eigen::Vector3d& force, bool) noexcept {

@@ -11,11 +11,14 @@
 //
 // Contact rule: a tool's contact begins when its tip's path since the previous
 // deformation frame crosses the current deformed surface inwards (a swept test,
-// so a fast tool cannot pass through a thin part); the crossing point, mapped to
-// the rest surface, is the action point and a beam is built to it. The force
-// loop then renders F = −K (tip − action point) and ends the contact as soon as
-// the tip is back outside the tangent plane of the rest surface at the action
-// point, (tip − action point) · n ≥ 0.
+// so a fast tool cannot pass through a thin part), or else, for a tool whose
+// shaft is known, when its shaft (from the handle, shaft_length away, to the
+// tip) crosses the surface inwards. The crossing point, mapped to the rest
+// surface, is the action point and a beam is built to it; the tool's contact
+// point is the tip, or the shaft point at the crossing's distance from the tip.
+// The force loop renders F = −K (contact point − action point) and ends the
+// contact as soon as the contact point is back outside the tangent plane of the
+// rest surface at the action point, (contact point − action point) · n ≥ 0.
 #pragma once
 
 #include <array>
@@ -38,6 +41,7 @@ struct EngineOptions {
   multibeam::MultiBeamOptions beams;  ///< merge rule, beam theory, distances (max_tools is set from the devices)
   double force_period = 1e-3;         ///< s
   double deformation_period = 1.0 / 60.0;  ///< s
+  double shaft_length = 0.30;              ///< m, tip to handle (laparoscopic instruments: 30–36 cm)
 };
 
 /// A tool's contact as the deformation loop publishes it.
@@ -47,6 +51,7 @@ struct ToolContact {
   Eigen::Vector3d action_point = Eigen::Vector3d::Zero();  ///< rest surface, m
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();        ///< outward, rest surface
   Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();     ///< condensed tip stiffness, N/m, device-limited
+  double shaft_offset = 0.0;  ///< m from the tip along the shaft to the tool's contact point (0: the tip)
 };
 
 struct ContactFrame {
@@ -57,6 +62,7 @@ struct ContactFrame {
 /// The force loop's view of the tools, published every tick.
 struct ToolFrame {
   std::array<Eigen::Vector3d, kMaxTools> tips{};
+  std::array<Eigen::Vector3d, kMaxTools> shafts{};  ///< unit, tip to handle; zero when unknown
   std::array<bool, kMaxTools> tip_valid{};
   std::array<std::uint32_t, kMaxTools> released{};  ///< generation of the last contact the force loop ended
   double time = -1.0;

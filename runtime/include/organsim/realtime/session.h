@@ -14,10 +14,12 @@
 
 namespace organsim::realtime {
 
-/// One tool's path: positions (model frame, m) at increasing times (s).
+/// One tool's path: tip positions (model frame, m) at increasing times (s), and
+/// optionally the shaft direction (unit, from the tip towards the handle) at each.
 struct Trajectory {
   std::vector<double> times;
   std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>> positions;
+  std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>> shafts;  ///< empty, or one per time
 };
 
 struct Session {
@@ -39,14 +41,15 @@ struct ForceRecord {
   bool in_contact = false;
 };
 
-/// Plays a trajectory (linear between samples; held before the first and after
-/// the last) and records every force written, up to `max_records`.
+/// Plays a trajectory (linear between samples, the shaft direction normalized
+/// after interpolation; held before the first and after the last sample) and
+/// records every force written, up to `max_records`.
 class ScriptedDevice final : public HapticDevice {
  public:
   ScriptedDevice(Trajectory trajectory, const SafetyLimits& limits, std::size_t max_records);
 
   const SafetyLimits& limits() const noexcept override { return limits_; }
-  bool read_tip(double time, Eigen::Vector3d& tip) noexcept override;
+  bool read_pose(double time, ToolPose& pose) noexcept override;
   void write_force(double time, const Eigen::Vector3d& force, bool in_contact) noexcept override;
 
   std::size_t record_count() const noexcept { return count_; }

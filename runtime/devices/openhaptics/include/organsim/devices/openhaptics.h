@@ -46,8 +46,10 @@ struct DevicePlacement {
   double scale = 1.0;                                 ///< model metres per device metre
 };
 
-/// One HD device as a HapticDevice. read_tip/write_force must be called inside
+/// One HD device as a HapticDevice. read_pose/write_force must be called inside
 /// the servo tick (between hdBeginFrame and hdEndFrame), as OpenHapticsServo does.
+/// The shaft is the stylus axis: the +z column of HD_CURRENT_TRANSFORM (the
+/// stylus points along −z, so +z runs from the tip towards the hand).
 class OpenHapticsDevice final : public realtime::HapticDevice {
  public:
   /// Opens the device named `name` ("" = the default device) and enables force
@@ -58,7 +60,7 @@ class OpenHapticsDevice final : public realtime::HapticDevice {
   ~OpenHapticsDevice() override;
 
   const realtime::SafetyLimits& limits() const noexcept override { return limits_; }
-  bool read_tip(double time, Eigen::Vector3d& tip) noexcept override;
+  bool read_pose(double time, realtime::ToolPose& pose) noexcept override;
   void write_force(double time, const Eigen::Vector3d& force, bool in_contact) noexcept override;
 
   std::uint32_t handle() const noexcept { return handle_; }
