@@ -3,6 +3,7 @@
 // 100k-vertex organs with 1–8 tools on one and two threads.
 #include <atomic>
 #include <cmath>
+#include <memory>
 #include <thread>
 
 #include <benchmark/benchmark.h>
@@ -32,14 +33,14 @@ Eigen::Vector3d tool_point(int i, int count) {
   return kRadius * Eigen::Vector3d(r * std::cos(azimuth), r * std::sin(azimuth), z);
 }
 
-MultiBeam attached(const BeamOrgan& o, int tools, std::vector<Eigen::Vector3d>& displacements) {
+std::unique_ptr<MultiBeam> attached(const BeamOrgan& o, int tools, std::vector<Eigen::Vector3d>& displacements) {
   MultiBeamOptions options;
   options.max_tools = static_cast<std::uint32_t>(tools);
-  MultiBeam beams(o, options);
+  auto beams = std::make_unique<MultiBeam>(o, options);
   displacements.clear();
   for (int i = 0; i < tools; ++i) {
     const Eigen::Vector3d p = tool_point(i, tools);
-    if (beams.attach(i, p) != Status::ok) throw std::runtime_error("attach failed");
+    if (beams->attach(i, p) != Status::ok) throw std::runtime_error("attach failed");
     displacements.push_back(-0.005 * p.normalized());
   }
   return beams;
@@ -60,11 +61,11 @@ BENCHMARK(BM_BeamCreation)->Unit(benchmark::kMicrosecond);
 void BM_ForcePerTool(benchmark::State& state) {
   const int tools = static_cast<int>(state.range(0));
   std::vector<Eigen::Vector3d> displacements;
-  MultiBeam beams = attached(organ(2400), tools, displacements);
+  const auto beams = attached(organ(2400), tools, displacements);
   Eigen::Vector3d force;
   for (auto _ : state)
     for (int i = 0; i < tools; ++i) {
-      beams.force(i, displacements[i], force);
+      beams->force(i, displacements[i], force);
       benchmark::DoNotOptimize(force);
     }
   state.SetItemsProcessed(state.iterations() * tools);  // items = tool forces
@@ -124,28 +125,28 @@ void BM_Deformation(benchmark::State& state) {
   const bool two_threads = state.range(2) == 2;
   const BeamOrgan& o = organ(vertices);
   std::vector<Eigen::Vector3d> displacements;
-  MultiBeam beams = attached(o, tools, displacements);
+  const auto beams = attached(o, tools, displacements);
   const std::size_t n = o.vertex_count(), half = n / 2 / BeamOrgan::kPadding * BeamOrgan::kPadding;
   std::vector<Point3> positions(n), normals(n);
   if (!two_threads) {
     for (auto _ : state) {
-      beams.deform(displacements.data(), positions.data(), normals.data(), n);
+      beams->deform(displacements.data(), positions.data(), normals.data(), n);
       benchmark::ClobberMemory();
     }
   } else {
     SecondThread helper([&](int phase) {
       if (phase == 0)
-        beams.distort(half, n, positions.data());
+        beams->distort(half, n, positions.data());
       else
-        beams.normals(half, n, positions.data(), normals.data());
+        beams->normals(half, n, positions.data(), normals.data());
     });
     for (auto _ : state) {
-      beams.prepare(displacements.data());
+      beams->prepare(displacements.data());
       helper.start(0);
-      beams.distort(0, half, positions.data());
+      beams->distort(0, half, positions.data());
       helper.wait();
       helper.start(1);
-      beams.normals(0, half, positions.data(), normals.data());
+      beams->normals(0, half, positions.data(), normals.data());
       helper.wait();
       benchmark::ClobberMemory();
     }

@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 
 #include <sys/wait.h>
 
@@ -30,10 +33,11 @@ struct CommandRun {
   std::string err;
 };
 
-/// Runs the organsim binary with `arguments` (already shell-quoted).
-CommandRun run_organsim(const std::string& arguments, const fs::path& dir) {
+/// Runs the organsim binary with `arguments` (already shell-quoted), after
+/// `prefix` (e.g. a wrapper command).
+CommandRun run_organsim_with_prefix(const std::string& prefix, const std::string& arguments, const fs::path& dir) {
   const fs::path err_file = dir / "stderr.txt";
-  const std::string command = std::string(ORGANSIM_EXECUTABLE) + " " + arguments + " 2>" + err_file.string();
+  const std::string command = prefix + std::string(ORGANSIM_EXECUTABLE) + " " + arguments + " 2>" + err_file.string();
   CommandRun run;
   FILE* pipe = ::popen(command.c_str(), "r");
   std::array<char, 4096> buffer{};
@@ -46,6 +50,8 @@ CommandRun run_organsim(const std::string& arguments, const fs::path& dir) {
   fs::remove(err_file);
   return run;
 }
+
+CommandRun run_organsim(const std::string& arguments, const fs::path& dir) { return run_organsim_with_prefix("", arguments, dir); }
 
 class Cli : public ::testing::Test {
  protected:
@@ -545,6 +551,95 @@ TEST_F(Cli, TouchRunsOpenHapticsDevicesFromALibraryLoadedAtRunTime) {
   EXPECT_EQ(missing.exit_code, 1);
   EXPECT_NE(missing.err.find("cannot load the OpenHaptics HD library"), std::string::npos) << missing.err;
   EXPECT_EQ(std::count(missing.err.begin(), missing.err.end(), '\n'), 1) << missing.err;
+}
+
+// Runs organsim under a virtual X server (the viewer renders with OpenGL).
+CommandRun run_viewer(const std::string& arguments, const fs::path& dir) {
+  return run_organsim_with_prefix("xvfb-run -a -s '-screen 0 1280x1024x24' ", arguments, dir);
+}
+
+// A cylinder (helper model, axis x, radius 30 mm) pressed 10 mm down into its
+// top (+z, the top of the viewer's default picture), and held.
+fs::path write_press_session(const fs::path& dir) {
+  const fs::path session = dir / "press.session";
+  std::ofstream out(session);
+  out << "# organsim session 1\n0,1,100,0,50\n0.4,1,100,0,20\n1.0,1,100,0,20\n";
+  return session;
+}
+
+TEST_F(Cli, ViewScreenshotShowsTheOrganMovedWhereTheToolPushed) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  write_organ_model_file(testing::make_cylinder_model({}), model);
+  const std::string session = write_press_session(dir_).string();
+  const fs::path rest = dir_ / "rest.png", pushed = dir_ / "pushed.png";
+  const CommandRun first = run_viewer("view " + model + " --session " + session +
+                                          " --offscreen --hide-tools --frames 1 --screenshot " + rest.string(),
+                                      dir_);
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  const CommandRun last = run_viewer(
+      "view " + model + " --session " + session + " --offscreen --hide-tools --json --screenshot " + pushed.string(), dir_);
+  ASSERT_EQ(last.exit_code, 0) << last.err;
+  const nlohmann::json j = nlohmann::json::parse(last.out);
+  EXPECT_EQ(j["frames"], 61);
+  EXPECT_EQ(j["tools"][0]["contacts"], 1);
+  const double tip_x = j["tools"][0]["tip_px"][0].get<double>(), tip_y = j["tools"][0]["tip_px"][1].get<double>();
+
+  const cv::Mat a = cv::imread(rest.string()), b = cv::imread(pushed.string());
+  ASSERT_FALSE(a.empty());
+  ASSERT_EQ(a.size(), b.size());
+  cv::Mat difference;
+  cv::absdiff(a, b, difference);
+  cv::cvtColor(difference, difference, cv::COLOR_BGR2GRAY);
+  // The beam bends the whole cylinder a little, but the surface moves most
+  // under the tool: compare the changed pixels around the tool with those
+  // around the same-sized spot near the clamped end (480 px to the left, about
+  // 14 mm from the fixed point).
+  long changed = 0, near_tool = 0, near_clamp = 0;
+  for (int r = 0; r < difference.rows; ++r)
+    for (int c = 0; c < difference.cols; ++c)
+      if (difference.at<unsigned char>(r, c) > 20) {
+        ++changed;
+        near_tool += std::hypot(c - tip_x, r - tip_y) < 80.0;
+        near_clamp += std::hypot(c - (tip_x - 480.0), r - tip_y) < 80.0;
+      }
+  ASSERT_GT(changed, 300) << "the organ did not move on screen";
+  EXPECT_GT(near_tool, 2000) << "around the tool the picture changed little";
+  EXPECT_GT(near_tool, 3 * near_clamp) << near_tool << " changed pixels near the tool, " << near_clamp << " near the clamp";
+}
+
+TEST_F(Cli, ViewRecordsEveryFrameAndStartsWithoutABrokenBackground) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  write_organ_model_file(testing::make_cylinder_model({}), model);
+  const std::string session = write_press_session(dir_).string();
+  const fs::path video = dir_ / "session.avi", shot = dir_ / "shot.png";
+  const CommandRun run = run_viewer("view " + model + " --session " + session + " --offscreen --frames 30 --record " +
+                                        video.string() + " --background " + (dir_ / "missing.png").string() +
+                                        " --screenshot " + shot.string(),
+                                    dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("warning"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("missing.png does not exist"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("starting without a background"), std::string::npos) << run.err;
+  EXPECT_TRUE(fs::exists(shot));
+  cv::VideoCapture capture(video.string());
+  ASSERT_TRUE(capture.isOpened());
+  int frames = 0;
+  cv::Mat frame;
+  while (capture.read(frame)) ++frames;
+  EXPECT_EQ(frames, 30);
+  EXPECT_EQ(frame.empty() ? 0 : frame.cols, 0);  // read past the end
+  // A background that is an image is drawn behind the organ.
+  const fs::path backdrop = dir_ / "backdrop.png";
+  cv::imwrite(backdrop.string(), cv::Mat(120, 160, CV_8UC3, cv::Scalar(0, 200, 0)));
+  const fs::path green = dir_ / "green.png";
+  const CommandRun with = run_viewer("view " + model + " --session " + session + " --offscreen --frames 1 --background " +
+                                         backdrop.string() + " --screenshot " + green.string(),
+                                     dir_);
+  ASSERT_EQ(with.exit_code, 0) << with.err;
+  const cv::Mat picture = cv::imread(green.string());
+  const cv::Vec3b corner = picture.at<cv::Vec3b>(5, 5);
+  EXPECT_GT(corner[1], 150);  // green backdrop in the corner
+  EXPECT_LT(corner[2], 60);
 }
 
 }  // namespace

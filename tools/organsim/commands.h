@@ -18,5 +18,6 @@ Command add_phantom_command(CLI::App& app);
 Command add_poke_command(CLI::App& app);
 Command add_replay_command(CLI::App& app);
 Command add_touch_command(CLI::App& app);
+Command add_view_command(CLI::App& app);
 
 }  // namespace organsim::cli

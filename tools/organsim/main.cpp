@@ -25,6 +25,8 @@ int main(int argc, char** argv) {
       organsim::cli::add_replay_command);
   add("touch", "Feel the organ with PHANToM / Touch devices (OpenHaptics, loaded at run time)",
       organsim::cli::add_touch_command);
+  add("view", "The trainee's view: the organ deforming under replayed or mouse-driven tools (VTK + OpenCV)",
+      organsim::cli::add_view_command);
   add("phantom", "Make a synthetic abdominal CT with a liver-like organ", organsim::cli::add_phantom_command);
 
   CLI11_PARSE(app, argc, argv);

@@ -105,7 +105,10 @@ int run_replay(const ReplayOptions& o) {
   FrameWriter frames(o.frames_dir, organ, file_triangles);
 
   const RunTimings timings = o.fast ? run_fast(engine, session.duration, [&] { frames.take(engine.surfaces()); })
-                                    : run_realtime(engine, session.duration, [&] { frames.take(engine.surfaces()); });
+                                    : run_realtime(engine, session.duration, [&] {
+                                        frames.take(engine.surfaces());
+                                        return true;
+                                      });
   frames.finish();
   if (!timings.priority_warning.empty() && !o.fast) std::fprintf(stderr, "organsim replay: warning: %s\n", timings.priority_warning.c_str());
 

@@ -61,7 +61,7 @@ Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point) noexc
   Eigen::Vector3d corner_y[3], corner_z[3];
   double weight[3];
   for (int k = 0; k < 3; ++k) {
-    BeamFrame f;
+    BeamFrame f{};
     weight[k] = make_beam_frame({fixed[0], fixed[1], fixed[2]}, model.surface_vertices[triangle[k]], f)
                     ? action.barycentric[k]
                     : 0.0;  // a corner at the fixed point has no section
@@ -197,7 +197,11 @@ Status MultiBeam::prepare(const Eigen::Vector3d* tip_displacements) noexcept {
     active_count_ = 0;
     return Status::not_finite;
   }
-  vertex_data_stale_ = prepared_generation_ != contact_generation_;
+  // Stale until a distort() has rebuilt it: a prepare() that no distort()
+  // followed must not clear the flag.
+  vertex_data_stale_ = (vertex_data_stale_ && !distorted_.load(std::memory_order_relaxed)) ||
+                       prepared_generation_ != contact_generation_;
+  distorted_.store(false, std::memory_order_relaxed);
   prepared_generation_ = contact_generation_;
   return Status::ok;
 }
@@ -278,6 +282,7 @@ void MultiBeam::build_vertex_data(std::size_t first, std::size_t last) noexcept 
 
 void MultiBeam::distort(std::size_t first, std::size_t last, Point3* positions) noexcept {
   if (vertex_data_stale_) build_vertex_data(first, last);
+  distorted_.store(true, std::memory_order_relaxed);
   const double* rx = organ_.rest_x();
   const double* ry = organ_.rest_y();
   const double* rz = organ_.rest_z();

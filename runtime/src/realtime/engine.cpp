@@ -24,6 +24,14 @@ SurfaceFrame rest_frame(const multibeam::BeamOrgan& organ) {
 
 Eigen::Vector3d vec(const Point3& p) { return {p[0], p[1], p[2]}; }
 
+// m: a contact ends when its point is this far outside the tangent plane, so
+// that a contact beginning exactly on the surface (a shaft's) is not ended by
+// rounding on its first tick. The force there is K times 10 µm: imperceptible.
+constexpr double kReleaseMargin = 1e-5;
+// m: a refused contact (no beam could be built) is not retried until the tool
+// has moved this far.
+constexpr double kRetryDistance = 1e-3;
+
 }  // namespace
 
 Engine::Engine(const multibeam::BeamOrgan& organ, const std::vector<HapticDevice*>& devices,
@@ -38,6 +46,7 @@ Engine::Engine(const multibeam::BeamOrgan& organ, const std::vector<HapticDevice
   for (HapticDevice* d : devices)
     if (d == nullptr) throw std::invalid_argument("a haptic device is missing");
   for (std::size_t i = 0; i < devices.size(); ++i) safety_[i] = ForceSafety(devices[i]->limits());
+  for (auto& d : displacement_) d.setZero();
 }
 
 void Engine::force_tick(double now) noexcept {
@@ -66,9 +75,10 @@ void Engine::force_tick(double now) noexcept {
         seen_generation_[i] = contact.generation;
         ++telemetry_[i].contacts;
       }
-      if (valid) {
+      // A shaft contact needs the shaft: without it the contact point is unknown.
+      if (valid && (contact.shaft_offset == 0.0 || pose.shaft.squaredNorm() > 0.0)) {
         const Eigen::Vector3d displacement = pose.tip + contact.shaft_offset * pose.shaft - contact.action_point;
-        if (displacement.dot(contact.normal) >= 0.0) {
+        if (displacement.dot(contact.normal) > kReleaseMargin) {
           released_[i] = contact.generation;  // back outside: the contact ends now
         } else {
           force.noalias() = -contact.stiffness * displacement;
@@ -103,7 +113,8 @@ void Engine::deformation_step(double now) noexcept {
     SegmentHit hit;
     double shaft_offset = 0.0;
     bool crossed = false;
-    if (!contact.active && valid) {
+    const bool retry = !refused_valid_[i] || (tools.tips[i] - refused_at_[i]).norm() > kRetryDistance;
+    if (!contact.active && valid && retry) {
       crossed = previous_valid_[i] && deformed_tree_.first_crossing(previous_tip_[i], tools.tips[i], true, hit);
       const Eigen::Vector3d& shaft = tools.shafts[i];
       if (!crossed && shaft.squaredNorm() > 0.0) {
@@ -133,15 +144,22 @@ void Engine::deformation_step(double now) noexcept {
         contact.shaft_offset = shaft_offset;
         contact.active = true;
         ++contact.generation;
+        refused_valid_[i] = false;
       } else {
         ++refused_;
+        refused_at_[i] = tools.tips[i];
+        refused_valid_[i] = true;
       }
     }
     previous_tip_[i] = tools.tips[i];
     previous_valid_[i] = valid;
-    displacement_[i] = contact.active ? Eigen::Vector3d(tools.tips[i] + contact.shaft_offset * tools.shafts[i] -
-                                                        contact.action_point)
-                                      : Eigen::Vector3d::Zero();
+    // Without a valid pose (or, for a shaft contact, without the shaft) the
+    // organ keeps its last shape rather than following a meaningless point.
+    const bool located = valid && (contact.shaft_offset == 0.0 || tools.shafts[i].squaredNorm() > 0.0);
+    if (!contact.active)
+      displacement_[i].setZero();
+    else if (located)
+      displacement_[i] = tools.tips[i] + contact.shaft_offset * tools.shafts[i] - contact.action_point;
   }
   contacts_.time = now;
   contact_frames_.write_slot() = contacts_;

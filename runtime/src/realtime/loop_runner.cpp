@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <exception>
 #include <thread>
 
 namespace organsim::realtime {
@@ -110,7 +111,7 @@ RunTimings run_fast(Engine& engine, double duration, const std::function<void()>
   return timings;
 }
 
-RunTimings run_realtime(Engine& engine, double duration, const std::function<void()>& poll) {
+RunTimings run_realtime(Engine& engine, double duration, const std::function<bool()>& poll) {
   RunTimings timings;
   const EngineOptions& o = engine.options();
   const std::size_t force_ticks = ticks_for(duration, o.force_period);
@@ -141,13 +142,20 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<voi
              [&](double time) { engine.deformation_step(time); });
     deformation_done.store(true);
   });
+  std::exception_ptr failure;
   while (!force_done.load() || !deformation_done.load()) {
-    if (poll) poll();
+    try {
+      if (poll && !failure && !poll()) stop.store(true);
+    } catch (...) {  // stop and join the loops before reporting it
+      failure = std::current_exception();
+      stop.store(true);
+    }
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
   force.join();
   deformation.join();
   if (locked) munlockall();
+  if (failure) std::rethrow_exception(failure);
   if (poll) poll();
   timings.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   const int error = priority_error.load();

@@ -103,7 +103,7 @@ ScriptedDevice::ScriptedDevice(Trajectory trajectory, const SafetyLimits& limits
 bool ScriptedDevice::read_pose(double time, ToolPose& pose) noexcept {
   const auto& times = trajectory_.times;
   if (times.empty() || !std::isfinite(time)) return false;
-  if (cursor_ >= times.size() || (cursor_ > 0 && times[cursor_ - 1] > time)) cursor_ = 0;  // time went back
+  if (cursor_ > 0 && times[cursor_ - 1] > time) cursor_ = 0;  // time went back
   while (cursor_ < times.size() && times[cursor_] <= time) ++cursor_;
   const bool has_shaft = !trajectory_.shafts.empty();
   pose.shaft.setZero();

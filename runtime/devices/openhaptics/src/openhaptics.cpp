@@ -94,6 +94,7 @@ OpenHapticsDevice::OpenHapticsDevice(const HdLibrary& library, const std::string
   const HdLibrary::Api& hd = library.api();
   handle_ = hd.init_device(name.empty() ? nullptr : name.c_str());
   const HDErrorInfo error = hd.get_error();
+  if (handle_ != kInvalidHandle && error.errorCode != 0) hd.disable_device(handle_);
   if (handle_ == kInvalidHandle || error.errorCode != 0)
     throw std::runtime_error("cannot open the haptic device " + (name.empty() ? std::string("(default)") : name) +
                              " (HD error " + std::to_string(error.errorCode) +
@@ -104,6 +105,9 @@ OpenHapticsDevice::OpenHapticsDevice(const HdLibrary& library, const std::string
   hd.get_doublev(kNominalMaxStiffness, &max_stiffness);
   if (max_force > 0.0) limits_.max_force = std::min(limits_.max_force, max_force);
   if (max_stiffness > 0.0) limits_.max_stiffness = std::min(limits_.max_stiffness, max_stiffness * 1e3);  // N/mm → N/m
+  // A model displacement is `scale` times the hand's, and forces are not
+  // scaled: the hand feels scale × K, so K is limited to the device's limit / scale.
+  limits_.max_stiffness /= placement_.scale;
   hd.enable(kForceOutput);
 }
 
@@ -145,6 +149,7 @@ void OpenHapticsServo::start() {
   hd.start_scheduler();
   const HDErrorInfo error = hd.get_error();
   if (error.errorCode != 0) {
+    hd.stop_scheduler();
     hd.unschedule(schedule_);
     throw std::runtime_error("the HD servo scheduler did not start (HD error " + std::to_string(error.errorCode) + ")");
   }

@@ -30,6 +30,7 @@
 //   equally; `sum` adds the fields (eq. 5).
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <vector>
 
@@ -139,6 +140,7 @@ class MultiBeam {
   std::uint64_t contact_generation_ = 0;   // bumped by every attach and detach
   std::uint64_t prepared_generation_ = ~std::uint64_t{0};
   bool vertex_data_stale_ = true;
+  std::atomic<bool> distorted_{false};  // a distort() ran since the last prepare() (any thread)
   std::size_t vertex_stride_ = 0;
   std::vector<double> vertex_data_;
 };

@@ -124,6 +124,8 @@ class Engine {
   std::array<Eigen::Vector3d, kMaxTools> previous_tip_{};
   std::array<bool, kMaxTools> previous_valid_{};
   std::array<Eigen::Vector3d, kMaxTools> displacement_{};
+  std::array<Eigen::Vector3d, kMaxTools> refused_at_{};  // where a contact was last refused
+  std::array<bool, kMaxTools> refused_valid_{};
   std::uint64_t frame_ = 0;
   std::uint64_t refused_ = 0;
 

@@ -38,7 +38,8 @@ RunTimings run_fast(Engine& engine, double duration, const std::function<void()>
 /// Runs the loops on two threads at their rates for `duration` (s) of wall
 /// time, the force thread with real-time priority where the OS permits.
 /// `poll` (may be empty) runs repeatedly on the calling thread meanwhile (for
-/// example to save published frames), and once more after the loops stop.
-RunTimings run_realtime(Engine& engine, double duration, const std::function<void()>& poll = {});
+/// example to save or draw published frames; returning false stops the loops
+/// early), and once more after the loops stop.
+RunTimings run_realtime(Engine& engine, double duration, const std::function<bool()>& poll = {});
 
 }  // namespace organsim::realtime
