@@ -642,5 +642,22 @@ TEST_F(Cli, ViewRecordsEveryFrameAndStartsWithoutABrokenBackground) {
   EXPECT_LT(corner[2], 60);
 }
 
+TEST_F(Cli, ViewRunsMouseToolsAndPhantomDevicesInRealTime) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  write_organ_model_file(testing::make_cylinder_model({}), model);
+  // Mouse tools: a window (under Xvfb) with the loops on their threads.
+  const CommandRun mouse = run_viewer("view " + model + " --frames 20 --json", dir_);
+  ASSERT_EQ(mouse.exit_code, 0) << mouse.err;
+  EXPECT_EQ(nlohmann::json::parse(mouse.out)["frames"], 20);
+  // PHANToM devices from the HD library (here the stand-in): the servo drives the force loop.
+  const CommandRun phantom = run_viewer(
+      "view " + model + " --phantom --hd-library " + std::string(FAKE_HD_LIBRARY) + " --frames 20 --json", dir_);
+  ASSERT_EQ(phantom.exit_code, 0) << phantom.err;
+  EXPECT_EQ(nlohmann::json::parse(phantom.out)["frames"], 20);
+  const CommandRun missing = run_viewer("view " + model + " --phantom --hd-library /nonexistent/libHD.so --frames 2", dir_);
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_NE(missing.err.find("cannot load the OpenHaptics HD library"), std::string::npos) << missing.err;
+}
+
 }  // namespace
 }  // namespace organsim

@@ -9,13 +9,11 @@
 #include <thread>
 #include <vector>
 
+#include "hd_abi.h"
+
 namespace {
 
-using HHD = unsigned int;
-using HDenum = unsigned int;
-using HDCallbackCode = unsigned int;
-using HDSchedulerHandle = unsigned long;
-using HDSchedulerCallback = HDCallbackCode (*)(void*);
+using namespace organsim::devices::hd;
 
 struct Device {
   std::array<double, 3> from{}, to{};
@@ -25,7 +23,6 @@ struct Device {
   std::vector<std::array<double, 3>> forces;
 };
 
-constexpr HHD kInvalidHandle = 0xFFFFFFFF;
 constexpr int kDevices = 4;
 constexpr double kMaxForce = 2.5;      // N: below organsim's default, so that the device's limit shows
 constexpr double kMaxStiffness = 0.8;  // N/mm
@@ -45,12 +42,6 @@ std::chrono::steady_clock::time_point start;
 
 extern "C" {
 
-struct HDErrorInfo {
-  unsigned int errorCode;
-  int internalErrorCode;
-  HHD hHD;
-};
-
 HHD hdInitDevice(const char*) {
   if (opened == kDevices) return kInvalidHandle;
   devices[opened].forces.reserve(100000);
@@ -64,33 +55,33 @@ void hdBeginFrame(HHD device) {
 }
 void hdEndFrame(HHD device) { devices[device].in_frame = false; }
 void hdEnable(HDenum capability) {
-  if (capability == 0x4000) devices[current].force_output = true;
+  if (capability == kForceOutput) devices[current].force_output = true;
 }
 
 void hdGetDoublev(HDenum what, double* values) {
   const Device& d = devices[current];
   switch (what) {
-    case 0x2050:    // HD_CURRENT_POSITION
-    case 0x2052: {  // HD_CURRENT_TRANSFORM: identity rotation (stylus along −z), translation
+    case kCurrentPosition:
+    case kCurrentTransform: {  // identity rotation (stylus along −z), translation
       const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       const double s = t < 0.0 ? 0.0 : (t > d.seconds ? 1.0 : t / d.seconds);
       double* position = values;
-      if (what == 0x2052) {
+      if (what == kCurrentTransform) {
         for (int k = 0; k < 16; ++k) values[k] = k % 5 == 0 ? 1.0 : 0.0;
         position = values + 12;
       }
       for (int k = 0; k < 3; ++k) position[k] = d.from[k] + s * (d.to[k] - d.from[k]);
       break;
     }
-    case 0x2603: values[0] = kMaxForce; break;      // HD_NOMINAL_MAX_FORCE
-    case 0x2602: values[0] = kMaxStiffness; break;  // HD_NOMINAL_MAX_STIFFNESS
+    case kNominalMaxForce: values[0] = kMaxForce; break;
+    case kNominalMaxStiffness: values[0] = kMaxStiffness; break;
     default: break;
   }
 }
 
 void hdSetDoublev(HDenum what, const double* values) {
   Device& d = devices[current];
-  if (what != 0x2700) return;  // HD_CURRENT_FORCE
+  if (what != kCurrentForce) return;
   if (!d.in_frame || !d.force_output) frame_errors.fetch_add(1);
   d.forces.push_back({values[0], values[1], values[2]});
 }
@@ -103,7 +94,7 @@ void hdStartScheduler() {
     while (running.load()) {
       next += std::chrono::microseconds(1000);
       std::this_thread::sleep_until(next);
-      if (callback != nullptr && callback(callback_data) == 0) callback = nullptr;  // HD_CALLBACK_DONE
+      if (callback != nullptr && callback(callback_data) == kCallbackDone) callback = nullptr;
       ticks.fetch_add(1);
     }
   });

@@ -11,8 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
-#include "organsim/devices/openhaptics.h"
-#include "organsim/geometry/model_measures.h"
+#include "haptic_rig.h"
 #include "organsim/model/model_file.h"
 
 namespace organsim::cli {
@@ -20,12 +19,8 @@ namespace {
 
 struct TouchOptions {
   std::string model_path;
-  std::string library = "libHD.so";
-  std::vector<std::string> devices;
+  HapticRigOptions rig;
   double seconds = 60.0;
-  double scale = 1.0;
-  std::vector<double> offset_mm;
-  double max_force = realtime::SafetyLimits{}.max_force;
   bool json = false;
 };
 
@@ -34,34 +29,12 @@ int run_touch(const TouchOptions& o) {
   if (!read) throw std::runtime_error(read.error);
   if (read.model->beams.empty())
     throw std::runtime_error(o.model_path + ": the model has no beam tables; re-bake it with --stations N");
-  const ModelMeasures measures = measure_model(*read.model);
   const multibeam::BeamOrgan organ(std::move(*read.model));
-
-  // By default the device's workspace centre sits 20 mm in front of the organ
-  // (anterior: −y in LPS), so that the tool starts outside it.
-  devices::DevicePlacement placement;
-  placement.scale = o.scale;
-  if (o.offset_mm.size() == 3) {
-    placement.offset = Eigen::Vector3d(o.offset_mm[0], o.offset_mm[1], o.offset_mm[2]) * 1e-3;
-  } else {
-    placement.offset = 0.5 * (measures.bounds_min + measures.bounds_max);
-    placement.offset[1] = measures.bounds_min[1] - 0.02;
-  }
-  realtime::SafetyLimits limits;
-  limits.max_force = o.max_force;
-
-  const devices::HdLibrary library(o.library);
-  const std::vector<std::string> names = o.devices.empty() ? std::vector<std::string>{""} : o.devices;
-  std::vector<std::unique_ptr<devices::OpenHapticsDevice>> owned;
-  std::vector<realtime::HapticDevice*> tools;
-  std::vector<devices::OpenHapticsDevice*> servo_devices;
-  for (const std::string& name : names) {
-    owned.push_back(std::make_unique<devices::OpenHapticsDevice>(library, name, placement, limits));
-    tools.push_back(owned.back().get());
-    servo_devices.push_back(owned.back().get());
-  }
+  const HapticRig rig = open_haptic_rig(o.rig, organ);
+  const auto& owned = rig.devices;
+  const std::vector<realtime::HapticDevice*> tools = rig.tools();
   realtime::Engine engine(organ, tools, {});
-  devices::OpenHapticsServo servo(library, servo_devices, engine);
+  devices::OpenHapticsServo servo(*rig.library, rig.servo_devices(), engine);
   std::fprintf(stderr, "organsim touch: %zu device(s) on %s for %.0f s; the force loop runs in the HD servo scheduler\n",
                owned.size(), o.model_path.c_str(), o.seconds);
   const auto begin = std::chrono::steady_clock::now();
@@ -108,16 +81,8 @@ int run_touch(const TouchOptions& o) {
 Command add_touch_command(CLI::App& app) {
   auto o = std::make_shared<TouchOptions>();
   app.add_option("model", o->model_path, "Model file (.organ)")->required();
-  app.add_option("--hd-library", o->library, "The OpenHaptics HD library to load")->capture_default_str();
-  app.add_option("--device", o->devices, "Device name as configured in Touch Setup (repeat for more tools; default: the default device)");
+  o->rig.add_to(app);
   app.add_option("--seconds", o->seconds, "How long to run")->check(CLI::PositiveNumber)->capture_default_str();
-  app.add_option("--scale", o->scale, "Model millimetres per device millimetre")->check(CLI::PositiveNumber)->capture_default_str();
-  app.add_option("--offset", o->offset_mm, "Model point X,Y,Z (mm) at the device's workspace centre (default: 20 mm in front of the organ)")
-      ->expected(3)
-      ->delimiter(',');
-  app.add_option("--max-force", o->max_force, "Force limit, N (the device's own maximum applies too)")
-      ->check(CLI::PositiveNumber)
-      ->capture_default_str();
   app.add_flag("--json", o->json, "Print the summary as one JSON object on stdout");
   return [o] { return run_touch(*o); };
 }

@@ -23,6 +23,7 @@
 #include <vtkRenderer.h>
 
 #include "commands.h"
+#include "haptic_rig.h"
 #include "organsim/model/model_file.h"
 #include "organsim/realtime/loop_runner.h"
 #include "organsim/realtime/session.h"
@@ -51,6 +52,8 @@ struct ViewOptions {
   bool json = false;
   long frames = 0;  // 0: the whole session, or until the window closes
   double seconds = 600.0;
+  bool phantom = false;
+  HapticRigOptions rig;
   std::vector<int> size{960, 720};
 };
 
@@ -221,10 +224,13 @@ int run_view(const ViewOptions& o) {
     }
   }
 
+  if (o.phantom && !o.session_path.empty()) throw std::runtime_error("--phantom and --session are exclusive; choose one");
   const bool scripted = !o.session_path.empty();
   Session session;
   if (scripted) session = read_session(o.session_path);
-  const std::size_t tool_count = scripted ? session.tools.size() : kMouseTools;
+  HapticRig rig;
+  if (o.phantom) rig = open_haptic_rig(o.rig, organ);
+  const std::size_t tool_count = scripted ? session.tools.size() : o.phantom ? rig.devices.size() : kMouseTools;
   OrganScene scene(organ, tool_count, std::move(scene_options));
   Recorder recorder(o.record_path, cv::Size(o.size[0], o.size[1]));
   long frames = 0;
@@ -279,6 +285,46 @@ int run_view(const ViewOptions& o) {
       }
       if (o.frames > 0 && frames >= o.frames) stop = true;
     });
+  } else if (o.phantom) {
+    // PHANToM / Touch devices: the HD servo runs the force loop; the
+    // deformation loop and the drawing run here at 60 Hz.
+    const std::vector<HapticDevice*> pointers = rig.tools();
+    Engine engine(organ, pointers, {});
+    devices::OpenHapticsServo servo(*rig.library, rig.servo_devices(), engine);
+    vtkNew<vtkRenderWindowInteractor> interactor;
+    vtkNew<vtkInteractorStyleTrackballCamera> style;
+    interactor->SetInteractorStyle(style);
+    interactor->SetRenderWindow(scene.window());
+    interactor->Initialize();
+    const auto start = std::chrono::steady_clock::now();
+    auto next = start;
+    servo.start();
+    std::vector<Eigen::Vector3d> forces(pointers.size());
+    while (!interactor->GetDone() && (o.frames == 0 || frames < o.frames) &&
+           std::chrono::steady_clock::now() - start < std::chrono::duration<double>(o.seconds)) {
+      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      engine.deformation_step(elapsed);
+      engine.surfaces().update();
+      scene.show_surface(engine.surfaces().read());
+      for (std::size_t i = 0; i < pointers.size(); ++i) {
+        ToolPose pose;
+        // Drawing only: the device reports the pose the servo last read.
+        const bool seen = rig.devices[i]->last_pose(pose);
+        forces[i] = rig.devices[i]->last_force();
+        scene.show_tool(i, seen && !o.hide_tools, pose, forces[i], forces[i].norm() > 0.0);
+      }
+      if (!o.hide_tools)
+        scene.show_text(overlay(forces, std::vector<bool>(pointers.size(), true), servo.ticks() / std::max(elapsed, 1e-3),
+                                frames / std::max(elapsed, 1e-3), false));
+      scene.next_background_frame();
+      scene.render();
+      interactor->ProcessEvents();
+      ++frames;
+      if (!o.record_path.empty()) recorder.add(scene.capture());
+      next += std::chrono::microseconds(16667);
+      std::this_thread::sleep_until(next);
+    }
+    servo.stop();
   } else {
     // Mouse and keyboard tools, with the loops on their threads in real time.
     std::vector<MouseTool> tools(kMouseTools);
@@ -356,6 +402,8 @@ Command add_view_command(CLI::App& app) {
   app.add_option("--size", o->size, "Window size WIDTH,HEIGHT in pixels")->delimiter(',')->expected(2)->capture_default_str();
   app.add_flag("--hide-tools", o->hide_tools, "Draw the organ alone: no instruments, arrows or text");
   app.add_flag("--json", o->json, "Print a summary as one JSON object on stdout");
+  app.add_flag("--phantom", o->phantom, "Tools are PHANToM / Touch devices (OpenHaptics, loaded at run time)");
+  o->rig.add_to(app);
   return [o] { return run_view(*o); };
 }
 

@@ -7,29 +7,12 @@
 #include <stdexcept>
 #include <type_traits>
 
+#include "hd_abi.h"
+
 namespace organsim::devices {
 namespace {
 
-// The HD API's ABI (OpenHaptics hdDefines.h / hdDevice.h / hdScheduler.h):
-// what we call, with the values and types the library uses.
-using HHD = unsigned int;
-using HDenum = unsigned int;
-using HDCallbackCode = unsigned int;
-using HDSchedulerHandle = unsigned long;
-using HDSchedulerCallback = HDCallbackCode (*)(void*);
-struct HDErrorInfo {
-  unsigned int errorCode;
-  int internalErrorCode;
-  HHD hHD;
-};
-constexpr HHD kInvalidHandle = 0xFFFFFFFF;
-constexpr HDenum kCurrentTransform = 0x2052;  // 16 doubles, column-major 4×4, translation in mm
-constexpr HDenum kCurrentForce = 0x2700;     // 3 doubles, N
-constexpr HDenum kNominalMaxStiffness = 0x2602;  // N/mm
-constexpr HDenum kNominalMaxForce = 0x2603;      // N
-constexpr HDenum kForceOutput = 0x4000;
-constexpr HDCallbackCode kCallbackContinue = 1;
-constexpr unsigned short kMaxSchedulerPriority = 0xFFFF;
+using namespace hd;
 
 double monotonic_seconds() {
   timespec t;
@@ -123,10 +106,26 @@ bool OpenHapticsDevice::read_pose(double, realtime::ToolPose& pose) noexcept {
   pose.tip = placement_.offset + placement_.scale * (placement_.rotation * device);
   pose.shaft = stylus_z.norm() > 0.0 ? Eigen::Vector3d(placement_.rotation * stylus_z.normalized())
                                      : Eigen::Vector3d::Zero();
-  return pose.tip.allFinite() && pose.shaft.allFinite();
+  const bool valid = pose.tip.allFinite() && pose.shaft.allFinite();
+  seen_.write_slot() = {valid, pose};
+  seen_.publish();
+  return valid;
+}
+
+bool OpenHapticsDevice::last_pose(realtime::ToolPose& pose) {
+  seen_.update();
+  pose = seen_.read().pose;
+  return seen_.read().valid;
+}
+
+Eigen::Vector3d OpenHapticsDevice::last_force() {
+  sent_.update();
+  return sent_.read();
 }
 
 void OpenHapticsDevice::write_force(double, const Eigen::Vector3d& force, bool) noexcept {
+  sent_.write_slot() = force;
+  sent_.publish();
   // Forces are not scaled with the workspace: newtons in the model are newtons on the hand.
   const Eigen::Vector3d device = placement_.rotation.transpose() * force;
   const double newtons[3] = {device[0], device[1], device[2]};

@@ -18,6 +18,7 @@
 
 #include "organsim/realtime/engine.h"
 #include "organsim/realtime/haptic_device.h"
+#include "organsim/realtime/triple_buffer.h"
 
 namespace organsim::devices {
 
@@ -65,11 +66,22 @@ class OpenHapticsDevice final : public realtime::HapticDevice {
 
   std::uint32_t handle() const noexcept { return handle_; }
 
+  /// For drawing, from one other thread: the pose the servo last read (false
+  /// before the first) and the force it last sent (N, model frame). Wait-free.
+  bool last_pose(realtime::ToolPose& pose);
+  Eigen::Vector3d last_force();
+
  private:
+  struct Seen {
+    bool valid = false;
+    realtime::ToolPose pose;
+  };
   const HdLibrary& library_;
   std::uint32_t handle_;
   DevicePlacement placement_;
   realtime::SafetyLimits limits_;
+  realtime::TripleBuffer<Seen> seen_;
+  realtime::TripleBuffer<Eigen::Vector3d> sent_{Eigen::Vector3d::Zero()};
 };
 
 /// Runs the engine's force loop in the HD servo scheduler (≈ 1 kHz) for the
