@@ -545,7 +545,7 @@ TEST_F(Cli, TouchRunsOpenHapticsDevicesFromALibraryLoadedAtRunTime) {
       run_organsim("touch " + model + " --hd-library " + std::string(FAKE_HD_LIBRARY) + " --seconds 0.5 --json", dir_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const nlohmann::json j = nlohmann::json::parse(run.out);
-  EXPECT_NEAR(j["servo_rate_hz"].get<double>(), 1000.0, 150.0);
+  EXPECT_NEAR(j["servo_rate_hz"].get<double>(), 1000.0, 300.0);  // wide: CI runs two test programs at once
   EXPECT_GE(j["deformation_frames"].get<int>(), 25);
   EXPECT_DOUBLE_EQ(j["tools"][0]["max_force_n"].get<double>(), 2.5);  // the stand-in device's limit
   const CommandRun missing = run_organsim("touch " + model + " --hd-library /nonexistent/libHD.so --seconds 0.1", dir_);

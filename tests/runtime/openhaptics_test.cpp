@@ -51,7 +51,7 @@ TEST(OpenHaptics, ServoDrivesTheForceLoopWithinTheDeviceLimits) {
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
 
   const auto ticks = control<std::uint64_t (*)()>("fakehd_ticks")();
-  EXPECT_NEAR(static_cast<double>(ticks) / seconds, 1000.0, 150.0);
+  EXPECT_NEAR(static_cast<double>(ticks) / seconds, 1000.0, 300.0);  // wide: CI runs two test programs at once
   EXPECT_EQ(servo.ticks(), ticks);
   EXPECT_EQ(control<int (*)()>("fakehd_frame_errors")(), 0);  // forces only inside servo frames, output enabled
   const auto count = control<std::size_t (*)(unsigned)>("fakehd_force_count")(device.handle());
