@@ -120,6 +120,8 @@ class Engine {
   // Deformation loop only.
   multibeam::MultiBeam beams_;
   SurfaceBvh deformed_tree_;
+  const Point3* tree_positions_ = nullptr;  // the last published surface
+  bool tree_stale_ = false;                 // the tree does not describe it yet
   ContactFrame contacts_;
   std::array<Eigen::Vector3d, kMaxTools> previous_tip_{};
   std::array<bool, kMaxTools> previous_valid_{};
