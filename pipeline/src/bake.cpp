@@ -221,16 +221,6 @@ std::map<std::string, std::string> provenance_parameters(const BakeOptions& o, c
 
 }  // namespace
 
-Material liver_default_material() {
-  Material m;
-  m.young_modulus = 5000.0;
-  m.poisson_ratio = 0.45;
-  m.density = 1060.0;
-  m.attenuation_alpha = std::exp(1.0);
-  m.attenuation_beta = 20.0;
-  return m;
-}
-
 std::string image_sha256(const CtImage& ct) {
   std::unique_ptr<EVP_MD_CTX, decltype(&EVP_MD_CTX_free)> context(EVP_MD_CTX_new(), &EVP_MD_CTX_free);
   if (!context || EVP_DigestInit_ex(context.get(), EVP_sha256(), nullptr) != 1)

@@ -1,5 +1,7 @@
 #include "organsim/pipeline/surface.h"
 
+#include "organsim/geometry/model_measures.h"
+
 #include <vtkCellArray.h>
 #include <vtkCleanPolyData.h>
 #include <vtkFlyingEdges3D.h>
@@ -103,16 +105,7 @@ void check_closed_manifold(const SurfaceMesh& mesh) {
 
 }  // namespace
 
-double enclosed_volume(const SurfaceMesh& m) {
-  double volume = 0.0;
-  for (const Triangle& t : m.triangles) {
-    const Point3 &a = m.vertices[t[0]], &b = m.vertices[t[1]], &c = m.vertices[t[2]];
-    volume += (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
-               a[2] * (b[0] * c[1] - b[1] * c[0])) /
-              6.0;
-  }
-  return volume;
-}
+double enclosed_volume(const SurfaceMesh& m) { return organsim::enclosed_volume(m.vertices, m.triangles); }
 
 double surface_area(const SurfaceMesh& m) {
   double area = 0.0;

@@ -65,7 +65,7 @@ TEST(ClampedBeam, TorsionalComplianceIsLOverGJ) {
 }
 
 TEST(ClampedBeam, TimoshenkoAddsTheShearCompliance) {
-  const double radius = 0.03, length = 0.10;  // stubby: shear matters
+  const double radius = 0.03, length = 0.10;  // short and thick: shear matters
   Cantilever c;
   c.sections.assign(20, circle(radius));
   BeamBuildOptions options;

@@ -64,16 +64,6 @@ BeamSection cylinder_section(const CylinderSpec& c, const Point3& centre, const 
 
 }  // namespace
 
-Material default_test_material() {
-  Material m;
-  m.young_modulus = 5.0e3;
-  m.poisson_ratio = 0.45;
-  m.density = 1060.0;
-  m.attenuation_alpha = std::exp(1.0);
-  m.attenuation_beta = 20.0;
-  return m;
-}
-
 OrganModel make_cylinder_model(const CylinderSpec& c) {
   OrganModel m;
   m.provenance.program_version = "test";
@@ -134,7 +124,7 @@ OrganModel make_cylinder_model(const CylinderSpec& c) {
   }
 
   m.fixed_points.push_back({0.0, 0.0, 0.0});
-  m.material = default_test_material();
+  m.material = liver_default_material();
   m.beams.stations_per_beam = c.stations;
   m.beams.sections.resize(m.surface_vertices.size() * c.stations);
   for (std::size_t v = 0; v < m.surface_vertices.size(); ++v) {
@@ -183,7 +173,7 @@ OrganModel make_sphere_model(std::size_t vertex_count, std::uint32_t stations) {
   const auto centre = static_cast<std::uint32_t>(m.volume_vertices.size() - 1);
   for (const Triangle& t : m.surface_triangles) m.tetrahedra.push_back({centre, t[0], t[1], t[2]});
   m.fixed_points.push_back({0.0, 0.0, 0.0});
-  m.material = default_test_material();
+  m.material = liver_default_material();
   m.beams.stations_per_beam = stations;
   BeamSection section;
   section.area = kPi * 0.02 * 0.02;

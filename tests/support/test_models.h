@@ -24,9 +24,6 @@ struct CylinderSpec {
 
 OrganModel make_cylinder_model(const CylinderSpec& spec);
 
-/// Liver-like default material (E = 5 kPa-scale soft tissue; see docs/model-format.md).
-Material default_test_material();
-
 /// A model with a large closed surface (a UV sphere with about `vertex_count`
 /// vertices), tetrahedra from a fan to the centre, and constant beam tables —
 /// for load and throughput benchmarks where only the sizes matter.

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "organsim/geometry/model_measures.h"
 #include "organsim/model/model_file.h"
 #include "organsim/multibeam/multibeam.h"
 #include "organsim/pipeline/mesh_io.h"
@@ -68,17 +69,6 @@ Eigen::Vector3d action_normal(const OrganModel& model, std::uint32_t triangle) {
     return Eigen::Vector3d(v[0], v[1], v[2]);
   };
   return (p(1) - p(0)).cross(p(2) - p(0)).normalized();
-}
-
-double enclosed_volume(const std::vector<Point3>& p, const std::vector<Triangle>& triangles) {
-  double volume = 0.0;
-  for (const Triangle& t : triangles) {
-    const Eigen::Vector3d a(p[t[0]][0], p[t[0]][1], p[t[0]][2]);
-    const Eigen::Vector3d b(p[t[1]][0], p[t[1]][1], p[t[1]][2]);
-    const Eigen::Vector3d c(p[t[2]][0], p[t[2]][1], p[t[2]][2]);
-    volume += a.dot(b.cross(c)) / 6.0;
-  }
-  return volume;
 }
 
 double seconds_since(std::chrono::steady_clock::time_point start) {

@@ -9,6 +9,13 @@ Eigen::Vector3d as_vector(const Point3& p) { return {p[0], p[1], p[2]}; }
 
 }  // namespace
 
+double enclosed_volume(const std::vector<Point3>& vertices, const std::vector<Triangle>& triangles) {
+  double volume = 0.0;
+  for (const Triangle& t : triangles)
+    volume += as_vector(vertices[t[0]]).dot(as_vector(vertices[t[1]]).cross(as_vector(vertices[t[2]]))) / 6.0;
+  return volume;
+}
+
 ModelMeasures measure_model(const OrganModel& model) {
   ModelMeasures m;
   m.bounds_min.setConstant(std::numeric_limits<double>::infinity());
@@ -22,8 +29,8 @@ ModelMeasures measure_model(const OrganModel& model) {
     const Eigen::Vector3d b = as_vector(model.surface_vertices[t[1]]);
     const Eigen::Vector3d c = as_vector(model.surface_vertices[t[2]]);
     m.surface_area += 0.5 * (b - a).cross(c - a).norm();
-    m.surface_enclosed_volume += a.dot(b.cross(c)) / 6.0;
   }
+  m.surface_enclosed_volume = enclosed_volume(model.surface_vertices, model.surface_triangles);
   if (!model.tetrahedra.empty()) m.min_tetrahedron_volume = std::numeric_limits<double>::infinity();
   for (const Tetrahedron& t : model.tetrahedra) {
     const Eigen::Vector3d a = as_vector(model.volume_vertices[t[0]]);

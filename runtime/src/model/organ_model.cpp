@@ -1,10 +1,22 @@
 #include "organsim/model/organ_model.h"
 
+#include <cmath>
+
 #include "model_validation.h"
 
 #include <string>
 
 namespace organsim {
+
+Material liver_default_material() {
+  Material m;
+  m.young_modulus = 5000.0;
+  m.poisson_ratio = 0.45;
+  m.density = 1060.0;
+  m.attenuation_alpha = std::exp(1.0);
+  m.attenuation_beta = 20.0;
+  return m;
+}
 
 bool Material::operator==(const Material& o) const {
   return young_modulus == o.young_modulus && poisson_ratio == o.poisson_ratio &&

@@ -23,9 +23,6 @@
 
 namespace organsim::pipeline {
 
-/// Liver defaults; the sources are in docs/model-format.md ("Material defaults").
-Material liver_default_material();
-
 struct BakeOptions {
   std::string ct_path;     ///< DICOM series directory, NIfTI, NRRD or MHA/MHD
   std::string series_uid;  ///< chooses one series in a directory that holds several

@@ -18,6 +18,10 @@ struct ModelMeasures {
   double min_tetrahedron_volume = 0.0;   ///< smallest signed tetrahedron volume, m³ (< 0 means inverted)
 };
 
+/// Signed volume enclosed by a closed triangle surface (divergence theorem;
+/// > 0 for outward triangles), m³.
+double enclosed_volume(const std::vector<Point3>& vertices, const std::vector<Triangle>& triangles);
+
 /// Measures a model; the model must be valid (see validate_organ_model).
 ModelMeasures measure_model(const OrganModel& model);
 

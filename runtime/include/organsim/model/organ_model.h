@@ -31,6 +31,10 @@ struct Material {
   bool operator==(const Material& other) const;
 };
 
+/// Healthy-liver material: the defaults of `organsim bake` (values and sources
+/// in docs/model-format.md).
+Material liver_default_material();
+
 /// Cross-section properties of the organ at one beam station, in the beam's
 /// local frame (see beam_frame.h): x along the beam from the fixed point to the
 /// surface vertex, y and z spanning the section plane.

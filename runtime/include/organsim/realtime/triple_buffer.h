@@ -36,7 +36,6 @@ class TripleBuffer {
   }
   /// The value taken by the last update() (or the initial value).
   const T& read() const noexcept { return slots_[front_]; }
-  T& read() noexcept { return slots_[front_]; }
 
  private:
   static constexpr std::uint8_t kIndex = 0x3, kFresh = 0x4;
