@@ -61,16 +61,6 @@ ToolSpec parse_tool(const std::string& text) {
 
 nlohmann::json triple(const Eigen::Vector3d& v) { return {v[0], v[1], v[2]}; }
 
-// Outward unit normal of a surface triangle (rest state).
-Eigen::Vector3d action_normal(const OrganModel& model, std::uint32_t triangle) {
-  const Triangle& t = model.surface_triangles[triangle];
-  auto p = [&](int k) {
-    const Point3& v = model.surface_vertices[t[k]];
-    return Eigen::Vector3d(v[0], v[1], v[2]);
-  };
-  return (p(1) - p(0)).cross(p(2) - p(0)).normalized();
-}
-
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -155,7 +145,7 @@ int run_poke(const PokeOptions& o) {
                       {"action_point_mm", triple(b.action.position * 1e3)},
                       {"snap_distance_mm", b.action.distance * 1e3},
                       {"beam_length_mm", b.length * 1e3},
-                      {"normal", triple(action_normal(model, b.action.triangle))},
+                      {"normal", triple(triangle_normal(model, b.action.triangle))},
                       {"displacement_mm", triple(tools[i].displacement_mm)},
                       {"force_n", triple(forces[i])},
                       {"force_magnitude_n", forces[i].norm()}});

@@ -16,6 +16,12 @@ double enclosed_volume(const std::vector<Point3>& vertices, const std::vector<Tr
   return volume;
 }
 
+Eigen::Vector3d triangle_normal(const OrganModel& model, std::uint32_t triangle) {
+  const Triangle& t = model.surface_triangles[triangle];
+  const Eigen::Vector3d a = as_vector(model.surface_vertices[t[0]]);
+  return (as_vector(model.surface_vertices[t[1]]) - a).cross(as_vector(model.surface_vertices[t[2]]) - a).normalized();
+}
+
 ModelMeasures measure_model(const OrganModel& model) {
   ModelMeasures m;
   m.bounds_min.setConstant(std::numeric_limits<double>::infinity());

@@ -6,6 +6,8 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "organsim/geometry/model_measures.h"
+
 namespace organsim::realtime {
 namespace {
 
@@ -137,9 +139,7 @@ void Engine::deformation_step(double now) noexcept {
                                          hit.barycentric[2] * vec(rest[t[2]]);
       if (beams_.attach(tool, rest_point) == multibeam::Status::ok) {
         const multibeam::ToolBeam& beam = beams_.beam(tool);
-        const Triangle& at = triangles[beam.action.triangle];
-        const Eigen::Vector3d a = vec(rest[at[0]]);
-        contact.normal = (vec(rest[at[1]]) - a).cross(vec(rest[at[2]]) - a).normalized();
+        contact.normal = triangle_normal(organ_.model(), beam.action.triangle);
         contact.action_point = beam.action.position;
         // A contact stiffer than the device can render is softened to its limit.
         contact.stiffness = beam.stiffness;

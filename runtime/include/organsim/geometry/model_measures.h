@@ -22,6 +22,9 @@ struct ModelMeasures {
 /// > 0 for outward triangles), m³.
 double enclosed_volume(const std::vector<Point3>& vertices, const std::vector<Triangle>& triangles);
 
+/// Unit outward normal of a surface triangle of the model (rest state).
+Eigen::Vector3d triangle_normal(const OrganModel& model, std::uint32_t triangle);
+
 /// Measures a model; the model must be valid (see validate_organ_model).
 ModelMeasures measure_model(const OrganModel& model);
 
