@@ -403,7 +403,8 @@ TEST_F(Cli, PokeBadInputsFailWithOneLine) {
   // Two tools at the same point are merged, not an error.
   const CommandRun same = run_organsim("poke " + model + " --tool 150,0,0/0,5,0 --tool 150,0,0/0,5,0 --json", dir_);
   ASSERT_EQ(same.exit_code, 0) << same.err;
-  EXPECT_NEAR(nlohmann::json::parse(same.out)["organ"]["max_displacement_mm"].get<double>(), 5.0, 1e-9);
+  // Within the single-precision distortion's 10 nm (docs/multibeam.md).
+  EXPECT_NEAR(nlohmann::json::parse(same.out)["organ"]["max_displacement_mm"].get<double>(), 5.0, 1e-5);
 }
 
 std::vector<double> numbers(const nlohmann::json& array) {

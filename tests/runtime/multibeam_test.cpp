@@ -13,6 +13,11 @@ namespace organsim::multibeam {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+// The distortion runs in single precision (docs/multibeam.md): displacements
+// come out within 10⁻⁶ of themselves plus 10 nm.
+constexpr double kDistortionRelative = 1e-6;
+constexpr double kDistortionAbsolute = 1e-8;  // m
+double distortion_tolerance(double displacement) { return kDistortionRelative * displacement + kDistortionAbsolute; }
 
 Eigen::Vector3d vec(const Point3& p) { return {p[0], p[1], p[2]}; }
 
@@ -69,13 +74,13 @@ TEST_F(CylinderOrgan, ActionPointMovesExactlyByTheToolDisplacementAndTheClampSta
   ASSERT_EQ(beams.deform(tip, positions.data(), normals.data(), positions.size()), Status::ok);
   const std::uint32_t action = nearest_vertex(organ.model(), far_cap_centre);
   const std::uint32_t clamp = nearest_vertex(organ.model(), Eigen::Vector3d::Zero());
-  EXPECT_LT((vec(positions[action]) - far_cap_centre - tip[0]).norm(), 1e-12);
+  EXPECT_LT((vec(positions[action]) - far_cap_centre - tip[0]).norm(), distortion_tolerance(tip[0].norm()));
   EXPECT_LT((vec(positions[clamp]) - vec(organ.model().surface_vertices[clamp])).norm(), 1e-15);
   // Every vertex moved less than the tip, and in the direction of the press.
   for (std::size_t v = 0; v < positions.size(); ++v) {
     const Eigen::Vector3d moved = vec(positions[v]) - vec(organ.model().surface_vertices[v]);
-    EXPECT_LE(moved.norm(), tip[0].norm() * (1.0 + 1e-9)) << v;
-    EXPECT_GE(moved.dot(tip[0]), -1e-12) << v;
+    EXPECT_LE(moved.norm(), tip[0].norm() + distortion_tolerance(tip[0].norm())) << v;
+    EXPECT_GE(moved.dot(tip[0]), -distortion_tolerance(tip[0].norm()) * tip[0].norm()) << v;
     EXPECT_NEAR(vec(normals[v]).norm(), 1.0, 1e-12) << v;
   }
 }
@@ -111,7 +116,7 @@ TEST_F(CylinderOrgan, AttenuationScalesEachDisplacementByAlphaToTheMinusBetaD) {
     const Eigen::Vector3d attenuated = vec(positions[v]) - rest, full = vec(plain[v]) - rest;
     const double d = (rest - far_cap_centre).norm();
     const double expected = std::pow(m.attenuation_alpha, -m.attenuation_beta * d);
-    EXPECT_LT((attenuated - expected * full).norm(), 1e-12 + 1e-9 * full.norm()) << v;
+    EXPECT_LT((attenuated - expected * full).norm(), 2.0 * distortion_tolerance(full.norm())) << v;
     by_distance.emplace_back(d, expected);
   }
   std::sort(by_distance.begin(), by_distance.end());
@@ -138,8 +143,8 @@ TEST_F(CylinderOrgan, TwoToolsPullingApartDragEachOtherOnlyUnderSuperposition) {
       EXPECT_GT(error_a, 0.2 * tips[0].norm());
       EXPECT_GT(error_b, 0.2 * tips[1].norm());
     } else {
-      EXPECT_LT(error_a, 1e-12);
-      EXPECT_LT(error_b, 1e-12);
+      EXPECT_LT(error_a, distortion_tolerance(tips[0].norm()));
+      EXPECT_LT(error_b, distortion_tolerance(tips[1].norm()));
     }
   }
 }

@@ -1,12 +1,68 @@
 // Elementary functions written so that the compiler can vectorize the loops
-// that call them (libm's exp is an opaque call that keeps a loop scalar).
+// that call them (libm's exp is an opaque call that keeps a loop scalar), and
+// a small lane type for loops whose vectorization the compiler does not find
+// by itself (GCC/Clang vector extensions: eight floats, one AVX register or
+// two SSE ones, chosen by the compiler for the target).
 #pragma once
 
 #include <algorithm>
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 
+#if defined(__AVX512VL__)
+#include <immintrin.h>
+#endif
+
 namespace organsim::multibeam {
+
+constexpr std::size_t kLanes = 8;
+using Lanes = float __attribute__((vector_size(kLanes * sizeof(float))));
+using LaneIntegers = std::int32_t __attribute__((vector_size(kLanes * sizeof(std::int32_t))));
+
+inline Lanes load_lanes(const float* values) noexcept {
+  Lanes lanes;
+  std::memcpy(&lanes, values, sizeof lanes);
+  return lanes;
+}
+inline void store_lanes(float* values, Lanes lanes) noexcept { std::memcpy(values, &lanes, sizeof lanes); }
+// Written out rather than `Lanes{} + value`, which costs an addition (0 + x is
+// not x for x = −0).
+static_assert(kLanes == 8);
+inline Lanes splat(float v) noexcept { return Lanes{v, v, v, v, v, v, v, v}; }
+inline LaneIntegers splat_integer(std::int32_t v) noexcept { return LaneIntegers{v, v, v, v, v, v, v, v}; }
+
+/// A point or vector of R³ in one register: (x, y, z, 0).
+using Xyz = double __attribute__((vector_size(4 * sizeof(double))));
+inline Xyz load_xyz(const std::array<double, 3>& p) noexcept {
+#if defined(__AVX512VL__)
+  return _mm256_maskz_loadu_pd(0x7, p.data());  // one load; the masked lane is not read (no fault past the end)
+#else
+  return Xyz{p[0], p[1], p[2], 0.0};
+#endif
+}
+/// (y, z, x, 0): a × b = yzx(a ∘ yzx(b) − yzx(a) ∘ b).
+inline Xyz yzx(Xyz v) noexcept { return __builtin_shufflevector(v, v, 1, 2, 0, 3); }
+
+inline std::int32_t horizontal_min(LaneIntegers v) noexcept {
+  LaneIntegers w = __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3);
+  v = w < v ? w : v;
+  w = __builtin_shufflevector(v, v, 2, 3, 0, 1, 6, 7, 4, 5);
+  v = w < v ? w : v;
+  w = __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6);
+  v = w < v ? w : v;
+  return v[0];
+}
+inline std::int32_t horizontal_max(LaneIntegers v) noexcept {
+  LaneIntegers w = __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3);
+  v = w > v ? w : v;
+  w = __builtin_shufflevector(v, v, 2, 3, 0, 1, 6, 7, 4, 5);
+  v = w > v ? w : v;
+  w = __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6);
+  v = w > v ? w : v;
+  return v[0];
+}
 
 /// e^y for y ≤ 0, relative error below 2·10⁻¹⁵; exactly 1 at y = 0; y below
 /// −700 is taken as −700 (e^−700 ≈ 10⁻³⁰⁴). Cody–Waite reduction y = n ln 2 + r,

@@ -51,6 +51,11 @@ class BeamOrgan {
   const double* rest_x() const noexcept { return rest_[0].data(); }
   const double* rest_y() const noexcept { return rest_[1].data(); }
   const double* rest_z() const noexcept { return rest_[2].data(); }
+  /// The same positions relative to the fixed point (m), in single precision
+  /// (about 10 nm here), for the distortion loops (twice the lanes per register).
+  const float* offset_x() const noexcept { return offset_[0].data(); }
+  const float* offset_y() const noexcept { return offset_[1].data(); }
+  const float* offset_z() const noexcept { return offset_[2].data(); }
   static constexpr std::size_t kPadding = 8;
 
  private:
@@ -64,6 +69,7 @@ class BeamOrgan {
   std::vector<std::uint32_t> ring_;
   std::vector<std::uint8_t> ring_closed_;
   std::vector<double> rest_[3];
+  std::vector<float> offset_[3];
 };
 
 /// Area-weighted vertex normals (unit; zero for an isolated vertex) of the

@@ -95,11 +95,11 @@ class MultiBeam {
   /// bounds other than 0 and vertex_count() must be multiples of
   /// BeamOrgan::kPadding (vector loops read whole registers).
   ///
-  /// What does not change while the contacts stay the same (each vertex's
-  /// place along each beam, its offset from the axis, its attenuation and
-  /// influence weight) is computed by the first distort() after a contact
-  /// began or ended, so that frame costs about twice a steady one; later frames
-  /// only evaluate the beams' shape functions.
+  /// Each vertex's weight per tool (attenuation and influence) does not change
+  /// while the contacts stay the same; it is computed by the first distort()
+  /// after a contact began or ended, so that frame costs about twice a steady
+  /// one. The distortion runs in single precision: displacements within about
+  /// 10⁻⁷ of themselves plus a few nanometres (docs/multibeam.md).
   Status prepare(const Eigen::Vector3d* tip_displacements) noexcept;
   void distort(std::size_t first, std::size_t last, Point3* positions) noexcept;
   void normals(std::size_t first, std::size_t last, const Point3* positions, Point3* normals) const noexcept;
@@ -107,21 +107,20 @@ class MultiBeam {
  private:
   // Per active tool, per element: cubic coefficients of the displacement
   // u(ξ) = c0 + c1 ξ + c2 ξ² + c3 ξ³ (3 components each) and the rotation
-  // θ(ξ) = r0 + r1 ξ, world frame; 18 arrays of `stations` values.
+  // θ(ξ) = r0 + r1 ξ, world frame; 18 consecutive values per element, single
+  // precision like the rest of the distortion (see distort()).
   static constexpr int kCoefficients = 18;
-  const double* coefficients(std::uint32_t slot, int k) const noexcept {
-    return coefficient_data_.data() + (static_cast<std::size_t>(slot) * kCoefficients + k) * organ_.stations();
+  float* coefficients(std::uint32_t slot, std::uint32_t element) noexcept {
+    return coefficient_data_.data() + (static_cast<std::size_t>(slot) * organ_.stations() + element) * kCoefficients;
   }
-  // Per active tool, per vertex (valid between contact changes): τ = t·stations,
-  // q = x − b(t) (3 fields) and the weight α^(−βd)·f(x)/group size.
-  static constexpr int kVertexFields = 5;
-  double* vertex_field(std::uint32_t slot, int k) noexcept {
-    return vertex_data_.data() + (static_cast<std::size_t>(slot) * kVertexFields + k) * vertex_stride_;
+  // Per active tool, per vertex (valid between contact changes): the weight
+  // α^(−βd)·f(x)/group size, the only per-vertex term that costs more to
+  // compute (a square root and an exponential per tool, and the influence
+  // function's distances) than to read.
+  float* vertex_weight(std::uint32_t slot) noexcept {
+    return vertex_data_.data() + static_cast<std::size_t>(slot) * vertex_stride_;
   }
   void build_vertex_data(std::size_t first, std::size_t last) noexcept;
-  double* coefficients(std::uint32_t slot, int k) noexcept {
-    return coefficient_data_.data() + (static_cast<std::size_t>(slot) * kCoefficients + k) * organ_.stations();
-  }
 
   const BeamOrgan& organ_;
   MultiBeamOptions options_;
@@ -136,13 +135,13 @@ class MultiBeam {
   std::uint32_t active_group_[kMaxTools] = {};  // index into the influence function's points
   double group_share_[kMaxTools] = {};          // 1 / members of the tool's group
   InfluenceFunction influence_;
-  std::vector<double> coefficient_data_;
+  std::vector<float> coefficient_data_;
   std::uint64_t contact_generation_ = 0;   // bumped by every attach and detach
   std::uint64_t prepared_generation_ = ~std::uint64_t{0};
   bool vertex_data_stale_ = true;
   std::atomic<bool> distorted_{false};  // a distort() ran since the last prepare() (any thread)
   std::size_t vertex_stride_ = 0;
-  std::vector<double> vertex_data_;
+  std::vector<float> vertex_data_;
 };
 
 }  // namespace organsim::multibeam
