@@ -317,11 +317,15 @@ void MultiBeam::distort(std::size_t first, std::size_t last, Point3* positions) 
         // benchmark sphere), else mostly in two (24 %). One element's
         // coefficients are broadcast, several elements' blended lane by lane
         // (gathers are several times slower).
+        const std::int32_t first_lane = element[0];
+        if (all_equal(element, first_lane)) {
+          const float* only = coefficients(slot, static_cast<std::uint32_t>(first_lane));
+          accumulate([&](int k) { return splat(only[k]); });
+          continue;
+        }
         const std::int32_t lowest = horizontal_min(element), highest = horizontal_max(element);
         const float* low = coefficients(slot, static_cast<std::uint32_t>(lowest));
-        if (highest == lowest) {
-          accumulate([&](int k) { return splat(low[k]); });
-        } else if (highest == lowest + 1) {
+        if (highest == lowest + 1) {
           const LaneIntegers in_low = element == lowest;
           const float* high = low + kCoefficients;
           accumulate([&](int k) { return in_low ? splat(low[k]) : splat(high[k]); });

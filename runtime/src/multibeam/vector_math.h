@@ -45,6 +45,14 @@ inline Xyz load_xyz(const std::array<double, 3>& p) noexcept {
 /// (y, z, x, 0): a × b = yzx(a ∘ yzx(b) − yzx(a) ∘ b).
 inline Xyz yzx(Xyz v) noexcept { return __builtin_shufflevector(v, v, 1, 2, 0, 3); }
 
+/// Whether every lane of v equals value.
+inline bool all_equal(LaneIntegers v, std::int32_t value) noexcept {
+  const LaneIntegers differs = v != splat_integer(value);
+  std::uint64_t halves[4];
+  std::memcpy(halves, &differs, sizeof halves);
+  return (halves[0] | halves[1] | halves[2] | halves[3]) == 0;
+}
+
 inline std::int32_t horizontal_min(LaneIntegers v) noexcept {
   LaneIntegers w = __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3);
   v = w < v ? w : v;
