@@ -186,6 +186,44 @@ TEST_F(CylinderOrgan, BadToolInputGivesAClearStatusAndNeverNaN) {
   EXPECT_EQ(beams.deform(good, positions.data(), normals.data(), positions.size() - 1), Status::buffer_too_small);
 }
 
+// Area-weighted vertex normals the plain way: each triangle's cross product
+// added to its three corners.
+std::vector<Eigen::Vector3d> reference_normals(const BeamOrgan& organ, const std::vector<Point3>& positions) {
+  std::vector<Eigen::Vector3d> sum(positions.size(), Eigen::Vector3d::Zero());
+  for (const Triangle& t : organ.model().surface_triangles) {
+    const Eigen::Vector3d a = vec(positions[t[0]]), b = vec(positions[t[1]]), c = vec(positions[t[2]]);
+    const Eigen::Vector3d n = (b - a).cross(c - a);
+    for (std::uint32_t v : t) sum[v] += n;
+  }
+  for (Eigen::Vector3d& n : sum) n.normalize();
+  return sum;
+}
+
+TEST(BeamOrgan, VertexNormalsAreTheAreaWeightedTriangleNormals) {
+  const BeamOrgan sphere(testing::make_sphere_model(2400, 20));
+  const std::size_t n = sphere.vertex_count();
+  std::vector<Point3> positions = sphere.model().surface_vertices, normals(n);
+  compute_vertex_normals(sphere, positions.data(), normals.data(), 0, n);
+  std::vector<Eigen::Vector3d> expected = reference_normals(sphere, positions);
+  for (std::size_t v = 0; v < n; ++v) {
+    EXPECT_LT((vec(normals[v]) - expected[v]).norm(), 1e-12) << v;
+    EXPECT_GT(vec(normals[v]).dot(vec(positions[v]).normalized()), 0.999) << v;  // outward, nearly radial
+  }
+  // Deformed by two tools, and computed in two ranges as two threads would.
+  MultiBeam beams(sphere, {});
+  ASSERT_EQ(beams.attach(0, {0.08, 0.0, 0.0}), Status::ok);
+  ASSERT_EQ(beams.attach(1, {0.0, 0.0, 0.08}), Status::ok);
+  const Eigen::Vector3d tips[2] = {{-0.01, 0.002, 0.0}, {0.0, 0.004, -0.008}};
+  ASSERT_EQ(beams.prepare(tips), Status::ok);
+  const std::size_t half = n / 2 / BeamOrgan::kPadding * BeamOrgan::kPadding;
+  beams.distort(0, half, positions.data());
+  beams.distort(half, n, positions.data());
+  beams.normals(half, n, positions.data(), normals.data());
+  beams.normals(0, half, positions.data(), normals.data());
+  expected = reference_normals(sphere, positions);
+  for (std::size_t v = 0; v < n; ++v) EXPECT_LT((vec(normals[v]) - expected[v]).norm(), 1e-12) << v;
+}
+
 TEST(BeamOrgan, RefusesAModelWithoutBeamTables) {
   OrganModel model = testing::make_cylinder_model({});
   model.beams = BeamTables{};
