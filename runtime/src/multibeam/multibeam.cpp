@@ -31,7 +31,7 @@ MultiBeam::MultiBeam(const BeamOrgan& organ, const MultiBeamOptions& options) : 
   sections_.resize(stations);
   coefficient_data_.assign(static_cast<std::size_t>(options_.max_tools) * kCoefficients * stations, 0.0);
   vertex_stride_ = organ_.vertex_count() + BeamOrgan::kPadding;
-  vertex_data_.assign(static_cast<std::size_t>(options_.max_tools) * vertex_stride_, 0.0);
+  vertex_weights_.assign(static_cast<std::size_t>(options_.max_tools) * vertex_stride_, 0.0);
 }
 
 Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point) noexcept {
@@ -198,14 +198,14 @@ Status MultiBeam::prepare(const Eigen::Vector3d* tip_displacements) noexcept {
   }
   // Stale until a distort() has rebuilt it: a prepare() that no distort()
   // followed must not clear the flag.
-  vertex_data_stale_ = (vertex_data_stale_ && !distorted_.load(std::memory_order_relaxed)) ||
+  vertex_weights_stale_ = (vertex_weights_stale_ && !distorted_.load(std::memory_order_relaxed)) ||
                        prepared_generation_ != contact_generation_;
   distorted_.store(false, std::memory_order_relaxed);
   prepared_generation_ = contact_generation_;
   return Status::ok;
 }
 
-void MultiBeam::build_vertex_data(std::size_t first, std::size_t last) noexcept {
+void MultiBeam::build_vertex_weights(std::size_t first, std::size_t last) noexcept {
   const double* rx = organ_.rest_x();
   const double* ry = organ_.rest_y();
   const double* rz = organ_.rest_z();
@@ -261,7 +261,7 @@ void MultiBeam::build_vertex_data(std::size_t first, std::size_t last) noexcept 
 }
 
 void MultiBeam::distort(std::size_t first, std::size_t last, Point3* positions) noexcept {
-  if (vertex_data_stale_) build_vertex_data(first, last);
+  if (vertex_weights_stale_) build_vertex_weights(first, last);
   distorted_.store(true, std::memory_order_relaxed);
   const std::int32_t last_element = static_cast<std::int32_t>(organ_.stations()) - 1;
   const float scale = static_cast<float>(organ_.stations());

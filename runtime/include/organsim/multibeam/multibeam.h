@@ -118,9 +118,9 @@ class MultiBeam {
   // compute (a square root and an exponential per tool, and the influence
   // function's distances) than to read.
   float* vertex_weight(std::uint32_t slot) noexcept {
-    return vertex_data_.data() + static_cast<std::size_t>(slot) * vertex_stride_;
+    return vertex_weights_.data() + static_cast<std::size_t>(slot) * vertex_stride_;
   }
-  void build_vertex_data(std::size_t first, std::size_t last) noexcept;
+  void build_vertex_weights(std::size_t first, std::size_t last) noexcept;
 
   const BeamOrgan& organ_;
   MultiBeamOptions options_;
@@ -138,10 +138,10 @@ class MultiBeam {
   std::vector<float> coefficient_data_;
   std::uint64_t contact_generation_ = 0;   // bumped by every attach and detach
   std::uint64_t prepared_generation_ = ~std::uint64_t{0};
-  bool vertex_data_stale_ = true;
+  bool vertex_weights_stale_ = true;
   std::atomic<bool> distorted_{false};  // a distort() ran since the last prepare() (any thread)
   std::size_t vertex_stride_ = 0;
-  std::vector<float> vertex_data_;
+  std::vector<float> vertex_weights_;
 };
 
 }  // namespace organsim::multibeam
