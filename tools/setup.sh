@@ -11,7 +11,7 @@ packages=(
   build-essential cmake ninja-build pkg-config
   libinsighttoolkit5-dev libvtk9-dev libcgal-dev libeigen3-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev libxxhash-dev libssl-dev
-  libgtest-dev libgmock-dev libbenchmark-dev
+  libgtest-dev libbenchmark-dev
   clang-14 libclang-rt-14-dev
   libopencv-dev xvfb xauth
 )

@@ -1,9 +1,5 @@
 #include "organsim/pipeline/bake.h"
 
-#include <itkImageRegionConstIteratorWithIndex.h>
-#include <itkRegionOfInterestImageFilter.h>
-#include <itkSignedMaurerDistanceMapImageFilter.h>
-
 #include <openssl/evp.h>
 
 #include <algorithm>
@@ -11,16 +7,19 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <limits>
 #include <map>
 #include <memory>
 #include <stdexcept>
 
 #include <fmt/format.h>
 
+#include "organsim/geometry/model_measures.h"
+#include "organsim/io/atomic_file.h"
+#include "organsim/mesh_io/mesh_io.h"
+#include "organsim/model/model_file.h"
 #include "organsim/pipeline/ct_input.h"
+#include "organsim/pipeline/fixed_point.h"
 #include "organsim/pipeline/image_io.h"
-#include "organsim/pipeline/mesh_io.h"
 #include "organsim/pipeline/segmentation.h"
 
 namespace organsim::pipeline {
@@ -72,11 +71,9 @@ void check_options(const BakeOptions& o) {
     throw std::runtime_error(
         "no segmentation: give --label MASK (a label map) or --seed X,Y,Z / --seed-voxel I,J,K (region growing)");
   if (o.seed_mm && o.seed_voxel) throw std::runtime_error("give either --seed or --seed-voxel, not both");
-  if (o.fixed_point_mm && o.fixed_point_voxel)
-    throw std::runtime_error("give either --fixed-point or --fixed-point-voxel, not both");
   if (!(o.hu_low < o.hu_high))
     throw std::runtime_error(fmt::format("--hu-window {},{} is empty; give LOW,HIGH with LOW < HIGH", o.hu_low, o.hu_high));
-  const Material& m = o.material;
+  const model::Material& m = o.material;
   if (!(std::isfinite(m.young_modulus) && m.young_modulus > 0.0))
     throw std::runtime_error(fmt::format("--young-modulus must be a positive number of pascals (got {})", m.young_modulus));
   if (!(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5))
@@ -119,85 +116,49 @@ MaskImage::Pointer segment(const CtImage& ct, const BakeOptions& o, BakeReport& 
   return mask;
 }
 
-std::array<double, 3> to_array(const itk::Point<double, 3>& p) { return {p[0], p[1], p[2]}; }
-
-/// A fixed point "on" the organ may sit in the notch where a vessel enters
-/// (the portal vein is excluded from a liver mask), so a little way outside.
-constexpr double kFixedPointToleranceMm = 10.0;
-
-/// Distance (mm) from `point` to the nearest organ voxel centre, 0 inside;
-/// any value above `limit` means "farther than limit".
-double distance_to_organ_mm(const MaskImage& mask, const std::array<double, 3>& point, double limit) {
-  itk::Point<double, 3> physical;
-  for (unsigned k = 0; k < 3; ++k) physical[k] = point[k];
-  itk::ContinuousIndex<double, 3> centre;
-  mask.TransformPhysicalPointToContinuousIndex(physical, centre);
-  const auto size = mask.GetLargestPossibleRegion().GetSize();
-  const auto spacing = mask.GetSpacing();
-  long low[3], high[3];
-  for (unsigned k = 0; k < 3; ++k) {
-    low[k] = std::max(0L, static_cast<long>(std::floor(centre[k] - limit / spacing[k])));
-    high[k] = std::min(static_cast<long>(size[k]) - 1, static_cast<long>(std::ceil(centre[k] + limit / spacing[k])));
+/// The intermediates a bake writes on request. Each is written to a temporary
+/// file in the directory as soon as it exists and published only by commit(),
+/// when the whole bake has succeeded: a bake that fails leaves nothing partial
+/// (and removes the directory if it made it and it is still empty).
+class Intermediates {
+ public:
+  explicit Intermediates(std::string directory) : directory_(std::move(directory)) {}
+  Intermediates(const Intermediates&) = delete;
+  Intermediates& operator=(const Intermediates&) = delete;
+  ~Intermediates() {
+    files_.clear();  // removes the uncommitted temporary files
+    std::error_code ignored;
+    if (created_directory_ && !committed_ && std::filesystem::is_empty(directory_, ignored))
+      std::filesystem::remove(directory_, ignored);
   }
-  double nearest = std::numeric_limits<double>::infinity();
-  MaskImage::IndexType index;
-  for (index[2] = low[2]; index[2] <= high[2]; ++index[2])
-    for (index[1] = low[1]; index[1] <= high[1]; ++index[1])
-      for (index[0] = low[0]; index[0] <= high[0]; ++index[0]) {
-        if (!mask.GetPixel(index)) continue;
-        double d2 = 0.0;
-        for (unsigned k = 0; k < 3; ++k) d2 += std::pow((index[k] - centre[k]) * spacing[k], 2);
-        nearest = std::min(nearest, std::sqrt(d2));
-      }
-  return nearest;
-}
 
-/// The fixed point (mm) from the options, checked to lie in or on the organ.
-std::array<double, 3> choose_fixed_point(const MaskImage& mask, const BakeOptions& o, BakeReport& report) {
-  if (!o.fixed_point_mm && !o.fixed_point_voxel) {
-    const auto [point, depth] = deepest_interior_point(mask);
-    report.fixed_point_source = "deepest interior point";
-    report.fixed_point_depth_mm = depth;
-    return point;
-  }
-  std::array<double, 3> point{};
-  if (o.fixed_point_voxel) {
-    const auto& v = *o.fixed_point_voxel;
-    const auto size = mask.GetLargestPossibleRegion().GetSize();
-    for (unsigned k = 0; k < 3; ++k)
-      if (v[k] < 0 || v[k] >= static_cast<long>(size[k]))
-        throw std::runtime_error(fmt::format("--fixed-point-voxel {} is outside the image ({}×{}×{} voxels)",
-                                             format_triple(v), size[0], size[1], size[2]));
-    MaskImage::IndexType index;
-    for (unsigned k = 0; k < 3; ++k) index[k] = v[k];
-    itk::Point<double, 3> physical;
-    mask.TransformIndexToPhysicalPoint(index, physical);
-    point = to_array(physical);
-    report.fixed_point_source = "given voxel";
-  } else {
-    point = *o.fixed_point_mm;
-    report.fixed_point_source = "given point";
-  }
-  const double distance = distance_to_organ_mm(mask, point, kFixedPointToleranceMm);
-  if (distance > kFixedPointToleranceMm)
-    throw std::runtime_error(fmt::format(
-        "the fixed point ({}) mm lies more than {} mm outside the organ; give a point in or on the segmented organ, or "
-        "omit it to use the deepest interior point",
-        format_triple(point), kFixedPointToleranceMm));
-  report.fixed_point_outside_mm = distance;
-  return point;
-}
+  bool wanted() const { return !directory_.empty(); }
 
-/// Where an intermediate goes: `name` in the intermediates directory (created
-/// on first use), or "" when the user did not ask for intermediates.
-std::string intermediate_path(const std::string& directory, const char* name) {
-  if (directory.empty()) return "";
-  std::error_code error;
-  std::filesystem::create_directories(directory, error);
-  if (error)
-    throw std::runtime_error(fmt::format("cannot create the intermediates directory '{}': {}", directory, error.message()));
-  return (std::filesystem::path(directory) / name).string();
-}
+  /// Where to write intermediate `name` (e.g. "mask.nii.gz", whose extension
+  /// picks the writer) until commit().
+  std::string stage(const std::string& name, const std::string& extension) {
+    std::error_code error;
+    if (!std::filesystem::exists(directory_, error)) {
+      std::filesystem::create_directories(directory_, error);
+      if (error)
+        throw std::runtime_error(
+            fmt::format("cannot create the intermediates directory '{}': {}", directory_, error.message()));
+      created_directory_ = true;
+    }
+    files_.push_back(std::make_unique<io::AtomicFile>((std::filesystem::path(directory_) / name).string(), extension));
+    return files_.back()->temp_path();
+  }
+
+  void commit() {
+    for (auto& file : files_) file->commit();
+    committed_ = true;
+  }
+
+ private:
+  std::string directory_;
+  std::vector<std::unique_ptr<io::AtomicFile>> files_;
+  bool created_directory_ = false, committed_ = false;
+};
 
 std::map<std::string, std::string> provenance_parameters(const BakeOptions& o, const BakeReport& report) {
   std::map<std::string, std::string> p;
@@ -263,44 +224,13 @@ std::string image_sha256(const CtImage& ct) {
   return hex;
 }
 
-std::pair<std::array<double, 3>, double> deepest_interior_point(const MaskImage& mask) {
-  // The distance map is computed on the organ's bounding box (plus a margin of
-  // one voxel, so the boundary is seen): a liver fills a fraction of a CT.
-  const MaskImage::RegionType box = organ_bounding_box(mask, {1, 1, 1});
-  auto crop = itk::RegionOfInterestImageFilter<MaskImage, MaskImage>::New();
-  crop->SetInput(&mask);
-  crop->SetRegionOfInterest(box);
-  using DistanceImage = itk::Image<float, 3>;
-  auto distance = itk::SignedMaurerDistanceMapImageFilter<MaskImage, DistanceImage>::New();
-  distance->SetInput(crop->GetOutput());
-  distance->SetUseImageSpacing(true);
-  distance->SetSquaredDistance(false);
-  // The organ is the filter's "background" and the voxels outside it are the
-  // object: an organ voxel's (positive) value is then its distance to the
-  // nearest voxel outside the organ. (With the organ as the object, the inside
-  // values measured to its contour came out up to 2 voxels short.)
-  distance->SetInsideIsPositive(false);
-  distance->SetBackgroundValue(1);
-  distance->SetNumberOfWorkUnits(1);  // the same result on every machine
-  distance->Update();
-  const DistanceImage& map = *distance->GetOutput();
-  itk::ImageRegionConstIteratorWithIndex<DistanceImage> at(&map, map.GetLargestPossibleRegion());
-  float deepest = -std::numeric_limits<float>::infinity();
-  DistanceImage::IndexType best{};
-  for (; !at.IsAtEnd(); ++at)
-    if (at.Get() > deepest) deepest = at.Get(), best = at.GetIndex();
-  itk::Point<double, 3> point;
-  map.TransformIndexToPhysicalPoint(best, point);
-  return {to_array(point), static_cast<double>(deepest)};
-}
-
-std::vector<TexCoord> spherical_texture_coordinates(const std::vector<Point3>& vertices) {
-  Point3 centre{0.0, 0.0, 0.0};
-  for (const Point3& v : vertices)
+std::vector<model::TexCoord> spherical_texture_coordinates(const std::vector<model::Point3>& vertices) {
+  model::Point3 centre{0.0, 0.0, 0.0};
+  for (const model::Point3& v : vertices)
     for (int k = 0; k < 3; ++k) centre[k] += v[k] / static_cast<double>(vertices.size());
-  std::vector<TexCoord> coordinates;
+  std::vector<model::TexCoord> coordinates;
   coordinates.reserve(vertices.size());
-  for (const Point3& v : vertices) {
+  for (const model::Point3& v : vertices) {
     const double x = v[0] - centre[0], y = v[1] - centre[1], z = v[2] - centre[2];
     const double r = std::sqrt(x * x + y * y + z * z);
     if (r == 0.0) {
@@ -322,42 +252,44 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
   const auto size = ct->GetLargestPossibleRegion().GetSize();
   for (unsigned k = 0; k < 3; ++k) report.image_size[k] = size[k], report.image_spacing_mm[k] = ct->GetSpacing()[k];
 
-  // Intermediates are written as soon as they exist, so that a later failure
-  // (say, meshing) leaves them for inspection.
+  Intermediates intermediates(o.intermediates_dir);
   const MaskImage::Pointer mask = clock.run("segment", [&] {
     MaskImage::Pointer segmented = segment(*ct, o, report);
-    if (const std::string path = intermediate_path(o.intermediates_dir, "mask.nii.gz"); !path.empty())
-      write_mask_image(*segmented, path);
+    if (intermediates.wanted()) write_mask_image(*segmented, intermediates.stage("mask.nii.gz", ".nii.gz"));
     return segmented;
   });
-  report.fixed_point_mm = clock.run("fixed point", [&] { return choose_fixed_point(*mask, o, report); });
-  const SurfaceMesh surface = clock.run("surface", [&] {
-    SurfaceMesh extracted = extract_surface(*mask, o.surface);
-    if (const std::string path = intermediate_path(o.intermediates_dir, "surface.vtp"); !path.empty()) {
-      write_surface_vtp(extracted, path);
-      write_surface_stl(extracted, intermediate_path(o.intermediates_dir, "surface.stl"));
+  const FixedPoint fixed_point =
+      clock.run("fixed point", [&] { return choose_fixed_point(*mask, o.fixed_point_mm, o.fixed_point_voxel); });
+  report.fixed_point_mm = fixed_point.point_mm;
+  report.fixed_point_source = fixed_point.source;
+  report.fixed_point_depth_mm = fixed_point.depth_mm;
+  report.fixed_point_outside_mm = fixed_point.outside_mm;
+  const geometry::SurfaceMesh surface = clock.run("surface", [&] {
+    geometry::SurfaceMesh extracted = extract_surface(*mask, o.surface);
+    if (intermediates.wanted()) {
+      mesh_io::write_surface_vtp(extracted, intermediates.stage("surface.vtp", ".vtp"));
+      mesh_io::write_surface_stl(extracted, intermediates.stage("surface.stl", ".stl"));
     }
     return extracted;
   });
   report.surface_vertices = surface.vertices.size();
   report.surface_triangles = surface.triangles.size();
-  report.surface_area_cm2 = surface_area(surface) * 1e4;
-  report.surface_volume_ml = enclosed_volume(surface) * kMillilitresPerCubicMetre;
+  report.surface_area_cm2 = geometry::surface_area(surface.vertices, surface.triangles) * 1e4;
+  report.surface_volume_ml = geometry::enclosed_volume(surface.vertices, surface.triangles) * kMillilitresPerCubicMetre;
 
-  const TetrahedralMesh tetrahedra = clock.run("tetrahedra", [&] {
-    TetrahedralMesh meshed = make_tetrahedra(surface, o.tetrahedra);
-    if (const std::string path = intermediate_path(o.intermediates_dir, "tetrahedra.vtu"); !path.empty())
-      write_tetrahedra_vtu(meshed, path);
+  const geometry::TetrahedralMesh tetrahedra = clock.run("tetrahedra", [&] {
+    geometry::TetrahedralMesh meshed = make_tetrahedra(surface, o.tetrahedra);
+    if (intermediates.wanted()) mesh_io::write_tetrahedra_vtu(meshed, intermediates.stage("tetrahedra.vtu", ".vtu"));
     return meshed;
   });
   report.tetrahedra = measure_quality(tetrahedra);
   report.volume_vertices = tetrahedra.vertices.size();
   report.tetrahedra_volume_ml = report.tetrahedra.total_volume_m3 * kMillilitresPerCubicMetre;
 
-  const Point3 fixed_point_m{report.fixed_point_mm[0] * kMetresPerMillimetre,
+  const model::Point3 fixed_point_m{report.fixed_point_mm[0] * kMetresPerMillimetre,
                              report.fixed_point_mm[1] * kMetresPerMillimetre,
                              report.fixed_point_mm[2] * kMetresPerMillimetre};
-  OrganModel& model = result.model;
+  model::OrganModel& model = result.model;
   model.beams = clock.run("beam tables", [&] {
     return bake_beam_tables(*mask, surface.vertices, fixed_point_m, o.beams,
                             [&](double fraction) { clock.notify("beam tables", fraction); });
@@ -377,9 +309,11 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
     model.tetrahedra = tetrahedra.tetrahedra;
     model.fixed_points = {fixed_point_m};
     model.material = o.material;
-    const std::string problem = validate_organ_model(model);
+    const std::string problem = model::validate_organ_model(model);
     if (!problem.empty()) throw std::runtime_error("the baked model is not valid: " + problem);
   });
+  if (!o.output_path.empty()) model::write_organ_model_file(model, o.output_path);
+  intermediates.commit();
   return result;
 }
 

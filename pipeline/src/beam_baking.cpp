@@ -73,14 +73,14 @@ MaskSampler::MaskSampler(const MaskImage& mask) : mask_(mask) {
   radius_ = 0.5 * std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]) * kMetresPerMillimetre;
 }
 
-MaskSampler::Index MaskSampler::index_of(const Point3& p) const {
+MaskSampler::Index MaskSampler::index_of(const model::Point3& p) const {
   Index index;
   for (int r = 0; r < 3; ++r)
     index[r] = to_index_[r][0] * p[0] + to_index_[r][1] * p[1] + to_index_[r][2] * p[2] + offset_[r];
   return index;
 }
 
-double MaskSampler::value(const Point3& p) const { return value_at(index_of(p)); }
+double MaskSampler::value(const model::Point3& p) const { return value_at(index_of(p)); }
 
 bool MaskSampler::inside(const Index& index) const {
   // Samples whose base voxel is inside the volume use the block table; the
@@ -122,10 +122,10 @@ double MaskSampler::value_at(const Index& index) const {
   return sum;
 }
 
-BeamSection organ_section(const MaskSampler& sampler, const Point3& c, const BeamFrame& frame, unsigned n) {
-  BeamSection section;
+model::BeamSection organ_section(const MaskSampler& sampler, const model::Point3& c, const model::BeamFrame& frame, unsigned n) {
+  model::BeamSection section;
   // The section lies in the disc where the plane cuts the organ's bounding sphere.
-  const Point3& o = sampler.organ_centre();
+  const model::Point3& o = sampler.organ_centre();
   const double along = (o[0] - c[0]) * frame.x[0] + (o[1] - c[1]) * frame.x[1] + (o[2] - c[2]) * frame.x[2];
   const double disc2 = sampler.organ_radius() * sampler.organ_radius() - along * along;
   if (disc2 <= 0.0 || n < 2) return section;
@@ -138,7 +138,7 @@ BeamSection organ_section(const MaskSampler& sampler, const Point3& c, const Bea
   };
   // Grid point (i, j) has the continuous voxel index first + i di + j dj.
   auto physical = [&](double y, double z) {
-    return Point3{c[0] + y * frame.y[0] + z * frame.z[0], c[1] + y * frame.y[1] + z * frame.z[1],
+    return model::Point3{c[0] + y * frame.y[0] + z * frame.z[0], c[1] + y * frame.y[1] + z * frame.z[1],
                   c[2] + y * frame.y[2] + z * frame.z[2]};
   };
   const auto [y0, z0] = local(0, 0);
@@ -209,21 +209,21 @@ BeamSection organ_section(const MaskSampler& sampler, const Point3& c, const Bea
   return section;
 }
 
-BeamTables bake_beam_tables(const MaskImage& mask, const std::vector<Point3>& vertices, const Point3& fixed_point,
+model::BeamTables bake_beam_tables(const MaskImage& mask, const std::vector<model::Point3>& vertices, const model::Point3& fixed_point,
                             const BeamBakingOptions& options, const std::function<void(double)>& progress) {
   const MaskSampler sampler(mask);
-  BeamTables tables;
+  model::BeamTables tables;
   tables.stations_per_beam = options.stations;
   tables.sections.resize(vertices.size() * options.stations);
   std::atomic<std::size_t> next{0};
   auto work = [&](bool reports) {
     for (std::size_t v = next++; v < vertices.size(); v = next++) {
       if (reports && progress && v % 64 == 0 && v > 0) progress(static_cast<double>(v) / vertices.size());
-      BeamFrame frame;
-      if (!make_beam_frame(fixed_point, vertices[v], frame)) continue;  // vertex at the fixed point: zero sections
+      model::BeamFrame frame;
+      if (!model::make_beam_frame(fixed_point, vertices[v], frame)) continue;  // vertex at the fixed point: zero sections
       for (std::uint32_t s = 0; s < options.stations; ++s) {
         const double t = (s + 0.5) / options.stations;
-        const Point3 axis_point{fixed_point[0] + t * (vertices[v][0] - fixed_point[0]),
+        const model::Point3 axis_point{fixed_point[0] + t * (vertices[v][0] - fixed_point[0]),
                                 fixed_point[1] + t * (vertices[v][1] - fixed_point[1]),
                                 fixed_point[2] + t * (vertices[v][2] - fixed_point[2])};
         tables.sections[v * options.stations + s] =

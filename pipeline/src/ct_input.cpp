@@ -19,6 +19,7 @@
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include "itk_factories.h"
 
 namespace organsim::pipeline {
 namespace {
@@ -49,6 +50,7 @@ void check_three_dimensional(const std::string& path, const itk::ImageBase<3>& i
 }
 
 int image_dimensions(const std::string& path) {
+  register_image_io_factories();
   auto io = itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::CommonEnums::IOFileMode::ReadMode);
   if (!io)
     fail(path, "is not an image ITK can read; pass a DICOM series directory, NIfTI (.nii, .nii.gz), NRRD or "
@@ -81,6 +83,7 @@ void check_gzip_stream_complete(const std::string& path) {
 
 template <typename Image>
 typename Image::Pointer read_volume_file(const std::string& path) {
+  register_image_io_factories();
   check_gzip_stream_complete(path);
   if (image_dimensions(path) < 3)
     fail(path, "is a 2-D image, not a 3-D volume; pass a CT volume or a DICOM series directory");

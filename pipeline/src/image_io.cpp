@@ -6,8 +6,6 @@
 #include <itkMetaDataObject.h>
 
 #include <algorithm>
-#include <cerrno>
-#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <stdexcept>
@@ -15,7 +13,8 @@
 
 #include <fmt/format.h>
 
-#include "atomic_output.h"
+#include "itk_factories.h"
+#include "organsim/io/atomic_file.h"
 
 namespace organsim::pipeline {
 namespace {
@@ -37,7 +36,8 @@ std::string image_extension(const std::string& path) {
 
 template <typename ImageType>
 void write_image(const ImageType& image, const std::string& path) {
-  AtomicOutput output(path, image_extension(path));
+  register_image_io_factories();
+  io::AtomicFile output(path, image_extension(path));
   auto writer = itk::ImageFileWriter<ImageType>::New();
   writer->SetInput(&image);
   writer->SetFileName(output.temp_path());
@@ -65,18 +65,8 @@ void write_ct_image(const CtImage& image, const std::string& path) { write_image
 void write_mask_image(const MaskImage& image, const std::string& path) { write_image(image, path); }
 
 void write_dicom_series(const CtImage& image, const std::string& directory, const DicomSeriesInfo& info) {
-  const fs::path target(directory);
-  std::error_code error;
-  if (fs::exists(target) && !(fs::is_directory(target) && fs::is_empty(target)))
-    throw std::runtime_error("cannot write the DICOM series to '" + directory +
-                             "': it exists and is not an empty directory; choose a new directory");
-  const fs::path parent = target.has_parent_path() ? target.parent_path() : fs::path(".");
-  std::string pattern = (parent / ("." + target.filename().string() + ".tmp-XXXXXX")).string();
-  if (::mkdtemp(pattern.data()) == nullptr)
-    throw std::runtime_error("cannot write the DICOM series to '" + directory + "': " + std::strerror(errno));
-  const fs::path temp(pattern);
-  fs::permissions(temp, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
-                            fs::perms::others_read | fs::perms::others_exec, error);
+  io::AtomicDirectory output(directory);
+  const fs::path temp(output.temp_path());
 
   using SliceType = itk::Image<std::int16_t, 2>;
   const auto region = image.GetLargestPossibleRegion();
@@ -130,15 +120,9 @@ void write_dicom_series(const CtImage& image, const std::string& directory, cons
   try {
     writer->Update();
   } catch (const itk::ExceptionObject& e) {
-    fs::remove_all(temp, error);
     throw std::runtime_error("cannot write the DICOM series to '" + directory + "': " + e.GetDescription());
   }
-  if (fs::exists(target)) fs::remove(target, error);
-  fs::rename(temp, target, error);
-  if (error) {
-    fs::remove_all(temp, error);
-    throw std::runtime_error("cannot move the DICOM series into '" + directory + "'");
-  }
+  output.commit();
 }
 
 }  // namespace organsim::pipeline

@@ -89,9 +89,9 @@ Ptr<vtkImageData> to_vtk(const MaskImage& mask, const MaskImage::RegionType& box
   return image;
 }
 
-void check_closed_manifold(const SurfaceMesh& mesh) {
+void check_closed_manifold(const geometry::SurfaceMesh& mesh) {
   std::map<std::pair<std::uint32_t, std::uint32_t>, int> directed;
-  for (const Triangle& t : mesh.triangles)
+  for (const model::Triangle& t : mesh.triangles)
     for (int e = 0; e < 3; ++e) ++directed[{t[e], t[(e + 1) % 3]}];
   for (const auto& [edge, count] : directed) {
     const auto opposite = directed.find({edge.second, edge.first});
@@ -105,20 +105,7 @@ void check_closed_manifold(const SurfaceMesh& mesh) {
 
 }  // namespace
 
-double enclosed_volume(const SurfaceMesh& m) { return organsim::enclosed_volume(m.vertices, m.triangles); }
-
-double surface_area(const SurfaceMesh& m) {
-  double area = 0.0;
-  for (const Triangle& t : m.triangles) {
-    const Point3 &a = m.vertices[t[0]], &b = m.vertices[t[1]], &c = m.vertices[t[2]];
-    const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-    area += 0.5 * std::sqrt(std::pow(u[1] * v[2] - u[2] * v[1], 2) + std::pow(u[2] * v[0] - u[0] * v[2], 2) +
-                            std::pow(u[0] * v[1] - u[1] * v[0], 2));
-  }
-  return area;
-}
-
-SurfaceMesh extract_surface(const MaskImage& mask, const SurfaceOptions& options) {
+geometry::SurfaceMesh extract_surface(const MaskImage& mask, const SurfaceOptions& options) {
   const MaskImage::RegionType box = organ_bounding_box(mask, {0, 0, 0});
   // Down-sample when full resolution would give far more vertices than the
   // target: decimation, not contouring, dominates the cost on fine CTs.
@@ -159,7 +146,7 @@ SurfaceMesh extract_surface(const MaskImage& mask, const SurfaceOptions& options
     surface = triangles->GetOutput();
   }
 
-  SurfaceMesh mesh;
+  geometry::SurfaceMesh mesh;
   const auto direction = mask.GetDirection();
   const auto origin = mask.GetOrigin();
   mesh.vertices.resize(static_cast<std::size_t>(surface->GetNumberOfPoints()));
@@ -179,8 +166,8 @@ SurfaceMesh extract_surface(const MaskImage& mask, const SurfaceOptions& options
       mesh.triangles.push_back({static_cast<std::uint32_t>(ids[0]), static_cast<std::uint32_t>(ids[1]),
                                 static_cast<std::uint32_t>(ids[2])});
   // Flying edges' orientation depends on the image axes' handedness: make it outward.
-  if (enclosed_volume(mesh) < 0)
-    for (Triangle& t : mesh.triangles) std::swap(t[1], t[2]);
+  if (geometry::enclosed_volume(mesh.vertices, mesh.triangles) < 0)
+    for (model::Triangle& t : mesh.triangles) std::swap(t[1], t[2]);
   check_closed_manifold(mesh);
   return mesh;
 }

@@ -21,6 +21,8 @@
 
 #include <fmt/format.h>
 
+#include "organsim/geometry/model_measures.h"
+
 namespace organsim::pipeline {
 namespace {
 
@@ -43,13 +45,13 @@ constexpr double kSliverBoundDeg = 12.0;
 constexpr int kSmoothingIterations = 10;
 
 /// Mesh_3 works in millimetres so that its criteria read as the user gave them.
-CgalSurface to_cgal(const SurfaceMesh& surface) {
+CgalSurface to_cgal(const geometry::SurfaceMesh& surface) {
   CgalSurface mesh;
   std::vector<CgalSurface::Vertex_index> ids;
   ids.reserve(surface.vertices.size());
-  for (const Point3& p : surface.vertices)
+  for (const model::Point3& p : surface.vertices)
     ids.push_back(mesh.add_vertex({p[0] / kMillimetre, p[1] / kMillimetre, p[2] / kMillimetre}));
-  for (const Triangle& t : surface.triangles)
+  for (const model::Triangle& t : surface.triangles)
     if (mesh.add_face(ids[t[0]], ids[t[1]], ids[t[2]]) == CgalSurface::null_face())
       throw std::runtime_error(
           "the surface cannot be meshed: it is not an oriented 2-manifold; rebuild it from a cleaner mask");
@@ -69,30 +71,25 @@ void check_options(const TetrahedraOptions& o) {
         fmt::format("the radius-edge ratio bound must be at least 2, where Mesh_3 terminates (got {})", o.radius_edge_ratio));
 }
 
-Eigen::Vector3d vec(const Point3& p) { return {p[0], p[1], p[2]}; }
-
-double signed_volume(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
-                     const Eigen::Vector3d& d) {
-  return (b - a).dot((c - a).cross(d - a)) / 6.0;
-}
+Eigen::Vector3d vec(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 
 
 /// Mesh_3 visits cells in an order that depends on memory addresses, so the
 /// same mesh comes out in different orders from run to run. Sorting vertices by
 /// position and tetrahedra by their (rotated) indices gives one order.
-void canonicalize(TetrahedralMesh& mesh) {
+void canonicalize(geometry::TetrahedralMesh& mesh) {
   std::vector<std::uint32_t> order(mesh.vertices.size());
   std::iota(order.begin(), order.end(), 0u);
   std::sort(order.begin(), order.end(),
             [&](std::uint32_t a, std::uint32_t b) { return mesh.vertices[a] < mesh.vertices[b]; });
   std::vector<std::uint32_t> new_index(order.size());
-  std::vector<Point3> vertices(order.size());
+  std::vector<model::Point3> vertices(order.size());
   for (std::uint32_t i = 0; i < order.size(); ++i) {
     new_index[order[i]] = i;
     vertices[i] = mesh.vertices[order[i]];
   }
   mesh.vertices = std::move(vertices);
-  for (Tetrahedron& t : mesh.tetrahedra) {
+  for (model::Tetrahedron& t : mesh.tetrahedra) {
     for (std::uint32_t& v : t) v = new_index[v];
     // Smallest index first, by even permutations only (they keep the orientation).
     const auto smallest = std::min_element(t.begin(), t.end()) - t.begin();
@@ -106,7 +103,7 @@ void canonicalize(TetrahedralMesh& mesh) {
 
 }  // namespace
 
-TetrahedralMesh make_tetrahedra(const SurfaceMesh& surface, const TetrahedraOptions& options) {
+geometry::TetrahedralMesh make_tetrahedra(const geometry::SurfaceMesh& surface, const TetrahedraOptions& options) {
   check_options(options);
   const CgalSurface input = to_cgal(surface);
   CGAL::Random random(0);
@@ -120,10 +117,10 @@ TetrahedralMesh make_tetrahedra(const SurfaceMesh& surface, const TetrahedraOpti
                                                            p::no_perturb(), p::exude(p::sliver_bound = kSliverBoundDeg))
                               : CGAL::make_mesh_3<Complex>(domain, criteria, p::no_perturb(), p::no_exude());
 
-  TetrahedralMesh mesh;
+  geometry::TetrahedralMesh mesh;
   std::unordered_map<Triangulation::Vertex_handle, std::uint32_t> index;
   for (auto cell = complex.cells_in_complex_begin(); cell != complex.cells_in_complex_end(); ++cell) {
-    Tetrahedron tet{};
+    model::Tetrahedron tet{};
     for (int corner = 0; corner < 4; ++corner) {
       const auto vertex = cell->vertex(corner);
       auto [at, inserted] = index.try_emplace(vertex, static_cast<std::uint32_t>(mesh.vertices.size()));
@@ -135,7 +132,8 @@ TetrahedralMesh make_tetrahedra(const SurfaceMesh& surface, const TetrahedraOpti
       tet[corner] = at->second;
     }
     const auto& v = mesh.vertices;
-    if (signed_volume(vec(v[tet[0]]), vec(v[tet[1]]), vec(v[tet[2]]), vec(v[tet[3]])) < 0) std::swap(tet[2], tet[3]);
+    if (geometry::signed_tetrahedron_volume(vec(v[tet[0]]), vec(v[tet[1]]), vec(v[tet[2]]), vec(v[tet[3]])) < 0)
+      std::swap(tet[2], tet[3]);
     mesh.tetrahedra.push_back(tet);
   }
   canonicalize(mesh);
@@ -147,7 +145,7 @@ TetrahedralMesh make_tetrahedra(const SurfaceMesh& surface, const TetrahedraOpti
   return mesh;
 }
 
-TetrahedralQuality measure_quality(const TetrahedralMesh& mesh) {
+TetrahedralQuality measure_quality(const geometry::TetrahedralMesh& mesh) {
   TetrahedralQuality q;
   q.tetrahedra = mesh.tetrahedra.size();
   if (mesh.tetrahedra.empty()) return q;
@@ -156,10 +154,10 @@ TetrahedralQuality measure_quality(const TetrahedralMesh& mesh) {
   static constexpr int kEdges[6][4] = {{0, 1, 2, 3}, {0, 2, 1, 3}, {0, 3, 1, 2},
                                        {1, 2, 0, 3}, {1, 3, 0, 2}, {2, 3, 0, 1}};
   double ratio_sum = 0.0;
-  for (const Tetrahedron& t : mesh.tetrahedra) {
+  for (const model::Tetrahedron& t : mesh.tetrahedra) {
     const Eigen::Vector3d p[4] = {vec(mesh.vertices[t[0]]), vec(mesh.vertices[t[1]]), vec(mesh.vertices[t[2]]),
                                   vec(mesh.vertices[t[3]])};
-    const double volume = signed_volume(p[0], p[1], p[2], p[3]);
+    const double volume = geometry::signed_tetrahedron_volume(p[0], p[1], p[2], p[3]);
     q.total_volume_m3 += volume;
     q.min_volume_m3 = std::min(q.min_volume_m3, volume);
     double shortest = std::numeric_limits<double>::infinity();

@@ -51,7 +51,7 @@ void BM_BakePhantom512x512x200(benchmark::State& state) {
   for (auto _ : state) {
     const organsim::pipeline::BakeResult result = organsim::pipeline::bake(options);
     const auto start = std::chrono::steady_clock::now();
-    organsim::write_organ_model_file(result.model, model_path);
+    organsim::model::write_organ_model_file(result.model, model_path);
     write_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     report = result.report;
   }

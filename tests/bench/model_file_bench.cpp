@@ -10,15 +10,15 @@
 
 namespace {
 
-const organsim::OrganModel& large_model() {
-  static const organsim::OrganModel model = organsim::testing::make_sphere_model(100000, 20);
+const organsim::model::OrganModel& large_model() {
+  static const organsim::model::OrganModel model = organsim::testing::make_sphere_model(100000, 20);
   return model;
 }
 
 std::string large_model_file() {
   static const std::string path = [] {
     const std::string p = (std::filesystem::temp_directory_path() / "organsim_bench_100k.organ").string();
-    organsim::write_organ_model_file(large_model(), p);
+    organsim::model::write_organ_model_file(large_model(), p);
     return p;
   }();
   return path;
@@ -27,7 +27,7 @@ std::string large_model_file() {
 void BM_LoadModelFile100k(benchmark::State& state) {
   const std::string path = large_model_file();
   for (auto _ : state) {
-    organsim::ModelReadResult r = organsim::read_organ_model_file(path);
+    organsim::model::ModelReadResult r = organsim::model::read_organ_model_file(path);
     if (!r) state.SkipWithError(r.error.c_str());
     benchmark::DoNotOptimize(r.model->surface_vertices.data());
   }
@@ -38,9 +38,9 @@ void BM_LoadModelFile100k(benchmark::State& state) {
 BENCHMARK(BM_LoadModelFile100k)->Unit(benchmark::kMillisecond);
 
 void BM_ParseInMemory100k(benchmark::State& state) {
-  const std::vector<std::uint8_t> bytes = organsim::serialize_organ_model(large_model());
+  const std::vector<std::uint8_t> bytes = organsim::model::serialize_organ_model(large_model());
   for (auto _ : state) {
-    organsim::ModelReadResult r = organsim::parse_organ_model(bytes.data(), bytes.size(), "bench");
+    organsim::model::ModelReadResult r = organsim::model::parse_organ_model(bytes.data(), bytes.size(), "bench");
     benchmark::DoNotOptimize(r.model->surface_vertices.data());
   }
   state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * bytes.size()));
@@ -49,7 +49,7 @@ BENCHMARK(BM_ParseInMemory100k)->Unit(benchmark::kMillisecond);
 
 void BM_WriteModelFile100k(benchmark::State& state) {
   const std::string path = (std::filesystem::temp_directory_path() / "organsim_bench_write.organ").string();
-  for (auto _ : state) organsim::write_organ_model_file(large_model(), path);
+  for (auto _ : state) organsim::model::write_organ_model_file(large_model(), path);
   std::filesystem::remove(path);
 }
 BENCHMARK(BM_WriteModelFile100k)->Unit(benchmark::kMillisecond);

@@ -80,7 +80,7 @@ double minimum(const std::vector<double>& values) { return *std::min_element(val
 
 void BM_Normals(benchmark::State& state) {
   const BeamOrgan& o = organ(static_cast<std::size_t>(state.range(0)));
-  std::vector<Point3> normals(o.vertex_count());
+  std::vector<model::Point3> normals(o.vertex_count());
   for (auto _ : state) {
     compute_vertex_normals(o, o.model().surface_vertices.data(), normals.data(), 0, o.vertex_count());
     benchmark::ClobberMemory();
@@ -133,7 +133,7 @@ void BM_Deformation(benchmark::State& state) {
   std::vector<Eigen::Vector3d> displacements;
   const auto beams = attached(o, tools, displacements);
   const std::size_t n = o.vertex_count(), half = n / 2 / BeamOrgan::kPadding * BeamOrgan::kPadding;
-  std::vector<Point3> positions(n), normals(n);
+  std::vector<model::Point3> positions(n), normals(n);
   if (!two_threads) {
     for (auto _ : state) {
       beams->deform(displacements.data(), positions.data(), normals.data(), n);

@@ -6,12 +6,13 @@
 #include <benchmark/benchmark.h>
 
 #include "organsim/realtime/engine.h"
-#include "organsim/realtime/session.h"
+#include "organsim/devices/scripted_device.h"
 #include "test_models.h"
 
 namespace {
 
 using namespace organsim;
+using namespace organsim::devices;
 using namespace organsim::realtime;
 
 constexpr double kRadius = 0.08;  // the test sphere, m

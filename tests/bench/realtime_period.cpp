@@ -12,11 +12,12 @@
 #include <memory>
 
 #include "organsim/realtime/loop_runner.h"
-#include "organsim/realtime/session.h"
+#include "organsim/devices/scripted_device.h"
 #include "test_models.h"
 
 int main(int argc, char** argv) {
   using namespace organsim;
+  using namespace organsim::devices;
   using namespace organsim::realtime;
   const double seconds = argc > 1 ? std::atof(argv[1]) : 60.0;
   const auto vertices = static_cast<std::size_t>(argc > 2 ? std::atof(argv[2]) : 100000);

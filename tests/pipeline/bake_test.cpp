@@ -56,9 +56,9 @@ TEST_F(Bake, PhantomByRegionGrowingGivesAValidModelWithConsistentVolumes) {
   const BakeResult result = bake(o, [&](const std::string& stage, double fraction) {
     if (fraction == 0.0) stages.push_back(stage);
   });
-  const OrganModel& m = result.model;
+  const model::OrganModel& m = result.model;
   const BakeReport& r = result.report;
-  EXPECT_EQ(validate_organ_model(m), "");
+  EXPECT_EQ(model::validate_organ_model(m), "");
   EXPECT_EQ(stages, (std::vector<std::string>{"read CT", "segment", "fixed point", "surface", "tetrahedra",
                                                "beam tables", "assemble"}));
   EXPECT_EQ(r.stage_seconds.size(), stages.size());
@@ -86,40 +86,20 @@ TEST_F(Bake, PhantomByRegionGrowingGivesAValidModelWithConsistentVolumes) {
   EXPECT_EQ(m.provenance.parameters.at("tet_size_mm"), "10");
   EXPECT_EQ(m.provenance.parameters.at("fixed_point_source"), "given point");
   for (const auto& [key, value] : m.provenance.parameters) EXPECT_EQ(value.find("phantom_ct"), std::string::npos) << key;
-  EXPECT_EQ(m.material, liver_default_material());
+  EXPECT_EQ(m.material, model::liver_default_material());
 
   ASSERT_EQ(m.surface_texcoords.size(), m.surface_vertices.size());
-  for (const TexCoord& t : m.surface_texcoords) {
+  for (const model::TexCoord& t : m.surface_texcoords) {
     EXPECT_TRUE(t[0] >= 0.0 && t[0] <= 1.0 && t[1] >= 0.0 && t[1] <= 1.0);
   }
 }
 
 TEST_F(Bake, SameInputAndOptionsGiveTheSameModelBytes) {
   BakeOptions o = phantom_options();
-  const std::vector<std::uint8_t> first = serialize_organ_model(bake(o).model);
+  const std::vector<std::uint8_t> first = model::serialize_organ_model(bake(o).model);
   o.beams.threads = 1;  // the thread count must not matter either
-  const std::vector<std::uint8_t> second = serialize_organ_model(bake(o).model);
+  const std::vector<std::uint8_t> second = model::serialize_organ_model(bake(o).model);
   EXPECT_TRUE(first == second);
-}
-
-TEST_F(Bake, DefaultFixedPointIsTheDeepestInteriorPoint) {
-  // A sphere: on an ellipsoid the distance map's ridge is nearly flat.
-  testing::Ellipsoid e;
-  e.semi_axes_mm = {30.0, 30.0, 30.0};
-  const MaskImage::Pointer mask = testing::make_ellipsoid_mask(e, {1.0, 1.0, 1.0});
-  const auto [point, depth] = deepest_interior_point(*mask);
-  for (int k = 0; k < 3; ++k) EXPECT_NEAR(point[k], e.centre_mm[k], 1.5);
-  // The depth is the distance to the nearest background voxel, by brute force.
-  double nearest = std::numeric_limits<double>::infinity();
-  itk::ImageRegionConstIteratorWithIndex<MaskImage> it(mask, mask->GetLargestPossibleRegion());
-  for (; !it.IsAtEnd(); ++it)
-    if (!it.Get()) {
-      MaskImage::PointType p;
-      mask->TransformIndexToPhysicalPoint(it.GetIndex(), p);
-      nearest = std::min(nearest, std::hypot(p[0] - point[0], p[1] - point[1], p[2] - point[2]));
-    }
-  EXPECT_NEAR(depth, nearest, 1.0);
-  EXPECT_NEAR(depth, e.semi_axes_mm[0], 1.5);
 }
 
 TEST_F(Bake, IntermediatesAreWrittenForInspection) {
@@ -141,6 +121,34 @@ TEST_F(Bake, IntermediatesAreWrittenForInspection) {
     EXPECT_EQ(entry.path().filename().string().find(".tmp"), std::string::npos);  // no temporary left
 }
 
+TEST_F(Bake, AFailedBakeLeavesNoIntermediatesAndNoModel) {
+  // The last step fails (the model file's directory is missing), after the
+  // mask, surface and tetrahedra were written.
+  BakeOptions o = phantom_options();
+  o.intermediates_dir = (dir_ / "intermediates").string();
+  o.output_path = (dir_ / "missing" / "liver.organ").string();
+  EXPECT_THROW(bake(o), std::runtime_error);
+  EXPECT_FALSE(fs::exists(dir_ / "intermediates"));  // made by the bake, removed again
+  EXPECT_FALSE(fs::exists(dir_ / "missing"));
+  // An existing directory is kept, with only what was there before.
+  fs::create_directories(dir_ / "intermediates");
+  std::ofstream(dir_ / "intermediates" / "notes.txt") << "mine";
+  EXPECT_THROW(bake(o), std::runtime_error);
+  ASSERT_TRUE(fs::exists(dir_ / "intermediates"));
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir_ / "intermediates"), {}), 1);
+}
+
+TEST_F(Bake, TheModelAndTheIntermediatesAppearTogether) {
+  BakeOptions o = phantom_options();
+  o.intermediates_dir = (dir_ / "intermediates").string();
+  o.output_path = (dir_ / "liver.organ").string();
+  const BakeResult result = bake(o);
+  const model::ModelReadResult read = model::read_organ_model_file(o.output_path);
+  ASSERT_TRUE(read) << read.error;
+  EXPECT_TRUE(*read.model == result.model);
+  EXPECT_TRUE(fs::exists(dir_ / "intermediates" / "tetrahedra.vtu"));
+}
+
 TEST_F(Bake, RealCtWithItsLiverLabelNifti) {
   BakeOptions o;
   o.ct_path = (kSamples / "real_ct_totalseg" / "example_ct.nii.gz").string();
@@ -152,7 +160,7 @@ TEST_F(Bake, RealCtWithItsLiverLabelNifti) {
   EXPECT_LT(relative_difference(r.tetrahedra_volume_ml, r.mask_volume_ml), 0.03);
   EXPECT_EQ(r.fixed_point_source, "deepest interior point");
   EXPECT_GT(r.fixed_point_depth_mm, 20.0);
-  EXPECT_EQ(validate_organ_model(result.model), "");
+  EXPECT_EQ(model::validate_organ_model(result.model), "");
   RecordProperty("tet_volume_error", std::to_string(r.tetrahedra_volume_ml / r.mask_volume_ml - 1));
 }
 

@@ -10,7 +10,7 @@
 namespace organsim::pipeline {
 namespace {
 
-Point3 metres(const std::array<double, 3>& mm) { return {mm[0] * 1e-3, mm[1] * 1e-3, mm[2] * 1e-3}; }
+model::Point3 metres(const std::array<double, 3>& mm) { return {mm[0] * 1e-3, mm[1] * 1e-3, mm[2] * 1e-3}; }
 
 /// A beam along principal axis `axis` of the ellipsoid through its centre: the
 /// sections are ellipses with semi-axes scaled by sqrt(1 − x²/a²). Returns the
@@ -27,7 +27,7 @@ int check_principal_axis_beam(int axis) {
   BeamBakingOptions options;
   options.stations = 18;
   options.samples_per_side = 160;
-  const BeamTables tables = bake_beam_tables(*mask, {metres(to_mm)}, metres(from_mm), options);
+  const model::BeamTables tables = bake_beam_tables(*mask, {metres(to_mm)}, metres(from_mm), options);
   int checked = 0;
   for (std::uint32_t s = 0; s < options.stations; ++s) {
     const double t = (s + 0.5) / options.stations;
@@ -35,7 +35,7 @@ int check_principal_axis_beam(int axis) {
     if (std::abs(x) > 0.75 * a) continue;     // interior stations only
     const double scale = std::sqrt(1.0 - x * x / (a * a));
     const double bs = b * scale * 1e-3, cs = c * scale * 1e-3;  // m
-    const BeamSection& section = tables.at(0, s);
+    const model::BeamSection& section = tables.at(0, s);
     const double area = M_PI * bs * cs;
     EXPECT_NEAR(section.area, area, 0.03 * area) << "axis " << axis << " station " << s;
     // Principal second moments (frame independent): π b c³/4 and π b³ c/4.
@@ -72,17 +72,17 @@ TEST(BeamBaking, UsesTheConnectedPieceNearestTheAxis) {
     it.Set(left || right ? 1 : 0);
   }
   const MaskSampler sampler(*mask);
-  BeamFrame frame;
-  const Point3 centre = metres({e.centre_mm[0] - 15.0, e.centre_mm[1], e.centre_mm[2]});
-  ASSERT_TRUE(make_beam_frame(centre, {centre[0], centre[1] + 0.01, centre[2]}, frame));
-  const BeamSection s = organ_section(sampler, centre, frame, 200);
+  model::BeamFrame frame;
+  const model::Point3 centre = metres({e.centre_mm[0] - 15.0, e.centre_mm[1], e.centre_mm[2]});
+  ASSERT_TRUE(model::make_beam_frame(centre, {centre[0], centre[1] + 0.01, centre[2]}, frame));
+  const model::BeamSection s = organ_section(sampler, centre, frame, 200);
   EXPECT_NEAR(s.area, M_PI * 0.012 * 0.012, 0.04 * M_PI * 0.012 * 0.012);
 }
 
 TEST(BeamBaking, IsDeterministicAcrossThreadCounts) {
   const testing::Ellipsoid e;
   const MaskImage::Pointer mask = testing::make_ellipsoid_mask(e, {2.0, 2.0, 2.0});
-  std::vector<Point3> vertices;
+  std::vector<model::Point3> vertices;
   for (int k = 0; k < 12; ++k)
     vertices.push_back(metres({e.centre_mm[0] + 25.0 * std::cos(k), e.centre_mm[1] + 25.0 * std::sin(k),
                                e.centre_mm[2] + 2.0 * k - 10.0}));

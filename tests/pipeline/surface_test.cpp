@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "organsim/geometry/model_measures.h"
 #include "organsim/pipeline/surface.h"
 #include "synthetic_volumes.h"
 
@@ -21,18 +22,18 @@ TEST(Surface, EllipsoidVolumeAndAreaMatchTheAnalyticValues) {
   const MaskImage::Pointer mask = testing::make_ellipsoid_mask(e);
   SurfaceOptions options;
   options.target_vertices = 4000;
-  const SurfaceMesh mesh = extract_surface(*mask, options);
+  const geometry::SurfaceMesh mesh = extract_surface(*mask, options);
   EXPECT_LE(mesh.vertices.size(), 4400u);
   EXPECT_GE(mesh.vertices.size(), 3000u);
-  const double volume = enclosed_volume(mesh) * 1e9;  // mm³
-  const double area = surface_area(mesh) * 1e6;       // mm²
+  const double volume = geometry::enclosed_volume(mesh.vertices, mesh.triangles) * 1e9;  // mm³
+  const double area = geometry::surface_area(mesh.vertices, mesh.triangles) * 1e6; // mm²
   EXPECT_NEAR(volume, e.volume_mm3(), 0.01 * e.volume_mm3());
   EXPECT_NEAR(area, ellipsoid_area_mm2(e.semi_axes_mm), 0.02 * ellipsoid_area_mm2(e.semi_axes_mm));
   RecordProperty("volume_error", std::to_string(volume / e.volume_mm3() - 1));
   RecordProperty("area_error", std::to_string(area / ellipsoid_area_mm2(e.semi_axes_mm) - 1));
   // In the patient frame: the centroid of the vertices is near the ellipsoid centre.
   double c[3] = {0, 0, 0};
-  for (const Point3& p : mesh.vertices)
+  for (const model::Point3& p : mesh.vertices)
     for (int k = 0; k < 3; ++k) c[k] += p[k] / mesh.vertices.size();
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(c[k] * 1e3, e.centre_mm[k], 1.5);
 }

@@ -2,13 +2,14 @@
 
 #include <string>
 
+#include "organsim/pipeline/surface.h"
 #include "organsim/pipeline/tetrahedra.h"
 #include "synthetic_volumes.h"
 
 namespace organsim::pipeline {
 namespace {
 
-SurfaceMesh ellipsoid_surface() {
+geometry::SurfaceMesh ellipsoid_surface() {
   const testing::Ellipsoid e;
   SurfaceOptions options;
   options.target_vertices = 4000;
@@ -17,10 +18,10 @@ SurfaceMesh ellipsoid_surface() {
 
 TEST(Tetrahedra, EllipsoidVolumeMatchesTheAnalyticValueAndTheQualityIsBounded) {
   const testing::Ellipsoid e;
-  const SurfaceMesh surface = ellipsoid_surface();
+  const geometry::SurfaceMesh surface = ellipsoid_surface();
   TetrahedraOptions options;
   options.tet_size_mm = 8.0;
-  const TetrahedralMesh mesh = make_tetrahedra(surface, options);
+  const geometry::TetrahedralMesh mesh = make_tetrahedra(surface, options);
   const TetrahedralQuality q = measure_quality(mesh);
   ASSERT_GT(q.tetrahedra, 1000u);
   const double volume_mm3 = q.total_volume_m3 * 1e9;
@@ -30,7 +31,7 @@ TEST(Tetrahedra, EllipsoidVolumeMatchesTheAnalyticValueAndTheQualityIsBounded) {
   EXPECT_GT(q.min_dihedral_deg, 5.0);
   EXPECT_LT(q.max_dihedral_deg, 170.0);
   EXPECT_LT(q.mean_radius_edge_ratio, 1.2);
-  for (const Tetrahedron& t : mesh.tetrahedra)
+  for (const model::Tetrahedron& t : mesh.tetrahedra)
     for (std::uint32_t v : t) ASSERT_LT(v, mesh.vertices.size());
   RecordProperty("tetrahedra", std::to_string(q.tetrahedra));
   RecordProperty("volume_error", std::to_string(volume_mm3 / e.volume_mm3() - 1));
@@ -39,7 +40,7 @@ TEST(Tetrahedra, EllipsoidVolumeMatchesTheAnalyticValueAndTheQualityIsBounded) {
 }
 
 TEST(Tetrahedra, SmallerTetSizeGivesMoreTetrahedra) {
-  const SurfaceMesh surface = ellipsoid_surface();
+  const geometry::SurfaceMesh surface = ellipsoid_surface();
   TetrahedraOptions coarse, fine;
   coarse.tet_size_mm = 12.0;
   fine.tet_size_mm = 6.0;
@@ -51,16 +52,16 @@ TEST(Tetrahedra, SmallerTetSizeGivesMoreTetrahedra) {
 }
 
 TEST(Tetrahedra, IsDeterministic) {
-  const SurfaceMesh surface = ellipsoid_surface();
+  const geometry::SurfaceMesh surface = ellipsoid_surface();
   TetrahedraOptions options;
   options.tet_size_mm = 10.0;
-  const TetrahedralMesh a = make_tetrahedra(surface, options), b = make_tetrahedra(surface, options);
+  const geometry::TetrahedralMesh a = make_tetrahedra(surface, options), b = make_tetrahedra(surface, options);
   EXPECT_EQ(a.vertices, b.vertices);
   EXPECT_EQ(a.tetrahedra, b.tetrahedra);
 }
 
 TEST(Tetrahedra, QualityOfARegularTetrahedron) {
-  TetrahedralMesh mesh;
+  geometry::TetrahedralMesh mesh;
   mesh.vertices = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
   mesh.tetrahedra = {{0, 1, 2, 3}};
   const TetrahedralQuality q = measure_quality(mesh);
@@ -72,7 +73,7 @@ TEST(Tetrahedra, QualityOfARegularTetrahedron) {
 }
 
 TEST(Tetrahedra, UnusableOptionsAreErrors) {
-  const SurfaceMesh surface = ellipsoid_surface();
+  const geometry::SurfaceMesh surface = ellipsoid_surface();
   TetrahedraOptions options;
   options.tet_size_mm = 0.0;
   EXPECT_THROW(make_tetrahedra(surface, options), std::runtime_error);

@@ -23,7 +23,7 @@ std::uint64_t checksum(const std::uint8_t* data, std::size_t size) { return XXH3
 }  // namespace
 
 std::vector<SectionLocation> list_sections(const std::vector<std::uint8_t>& file) {
-  using namespace format;
+  using namespace model::format;
   std::vector<SectionLocation> sections;
   const auto count = peek<std::uint32_t>(file, kOffSectionCount);
   for (std::uint32_t i = 0; i < count; ++i) {
@@ -42,7 +42,7 @@ SectionLocation find_section(const std::vector<std::uint8_t>& file, const std::s
 }
 
 void refresh_checksums(std::vector<std::uint8_t>& file) {
-  using namespace format;
+  using namespace model::format;
   if (file.size() < kHeaderBytes) return;
   const auto count = peek<std::uint32_t>(file, kOffSectionCount);
   const std::uint64_t entries = std::min<std::uint64_t>(count, (file.size() - kHeaderBytes) / kTableEntryBytes);

@@ -24,7 +24,7 @@ int main(int argc, char** argv) {
   app.add_option("--stations", stations, "Beam stations")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {
-    organsim::OrganModel model;
+    organsim::model::OrganModel model;
     if (shape == "cylinder") {
       cylinder.radius = radius_mm * 1e-3;
       cylinder.length = length_mm * 1e-3;
@@ -33,7 +33,7 @@ int main(int argc, char** argv) {
     } else {
       model = organsim::testing::make_sphere_model(sphere_vertices, stations);
     }
-    organsim::write_organ_model_file(model, output);
+    organsim::model::write_organ_model_file(model, output);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "organsim-test-model: error: %s\n", e.what());
     return 1;

@@ -12,18 +12,18 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-Point3 add(const Point3& a, const Point3& b, double s) { return {a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]}; }
+model::Point3 add(const model::Point3& a, const model::Point3& b, double s) { return {a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]}; }
 
 /// Section of the solid cylinder {0 ≤ x ≤ L, y² + z² ≤ r²} cut by the plane
 /// through `centre` (inside the solid) with normal frame.x. The section is
 /// convex, so its boundary is traced exactly along rays from `centre` (ray vs
 /// cylinder wall and caps, in closed form) and integrated as a polygon.
-BeamSection cylinder_section(const CylinderSpec& c, const Point3& centre, const BeamFrame& frame) {
+model::BeamSection cylinder_section(const CylinderSpec& c, const model::Point3& centre, const model::BeamFrame& frame) {
   const unsigned n = c.section_polygon_vertices;
   std::vector<std::array<double, 2>> polygon(n);
   for (unsigned i = 0; i < n; ++i) {
     const double phi = 2.0 * kPi * i / n;
-    const Point3 d = add({frame.y[0] * std::cos(phi), frame.y[1] * std::cos(phi), frame.y[2] * std::cos(phi)},
+    const model::Point3 d = add({frame.y[0] * std::cos(phi), frame.y[1] * std::cos(phi), frame.y[2] * std::cos(phi)},
                          frame.z, std::sin(phi));
     double reach = std::numeric_limits<double>::infinity();
     const double a = d[1] * d[1] + d[2] * d[2];
@@ -49,7 +49,7 @@ BeamSection cylinder_section(const CylinderSpec& c, const Point3& centre, const 
     second_zz += (z0 * z0 + z0 * z1 + z1 * z1) * cross / 12.0;  // ∫ z² dA
     second_yz += (y0 * z1 + 2 * y0 * z0 + 2 * y1 * z1 + y1 * z0) * cross / 24.0;
   }
-  BeamSection s;
+  model::BeamSection s;
   if (area <= 0) return s;
   s.area = area;
   s.centroid_y = first_y / area;
@@ -64,8 +64,8 @@ BeamSection cylinder_section(const CylinderSpec& c, const Point3& centre, const 
 
 }  // namespace
 
-OrganModel make_cylinder_model(const CylinderSpec& c) {
-  OrganModel m;
+model::OrganModel make_cylinder_model(const CylinderSpec& c) {
+  model::OrganModel m;
   m.provenance.program_version = "test";
   m.provenance.parameters["shape"] = "cylinder";
   const unsigned n = c.segments;
@@ -112,9 +112,9 @@ OrganModel make_cylinder_model(const CylinderSpec& c) {
       m.tetrahedra.push_back({b, cc, d, e});
       m.tetrahedra.push_back({cc, d, e, f});
     }
-  for (Tetrahedron& t : m.tetrahedra) {
+  for (model::Tetrahedron& t : m.tetrahedra) {
     const auto& p = m.volume_vertices;
-    const Point3 &a = p[t[0]], &b = p[t[1]], &cc = p[t[2]], &d = p[t[3]];
+    const model::Point3 &a = p[t[0]], &b = p[t[1]], &cc = p[t[2]], &d = p[t[3]];
     const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
     const double v[3] = {cc[0] - a[0], cc[1] - a[1], cc[2] - a[2]};
     const double w[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
@@ -124,15 +124,15 @@ OrganModel make_cylinder_model(const CylinderSpec& c) {
   }
 
   m.fixed_points.push_back({0.0, 0.0, 0.0});
-  m.material = liver_default_material();
+  m.material = model::liver_default_material();
   m.beams.stations_per_beam = c.stations;
   m.beams.sections.resize(m.surface_vertices.size() * c.stations);
   for (std::size_t v = 0; v < m.surface_vertices.size(); ++v) {
-    BeamFrame frame;
-    if (!make_beam_frame(m.fixed_points[0], m.surface_vertices[v], frame)) continue;  // the near cap centre
+    model::BeamFrame frame;
+    if (!model::make_beam_frame(m.fixed_points[0], m.surface_vertices[v], frame)) continue;  // the near cap centre
     for (std::uint32_t s = 0; s < c.stations; ++s) {
       const double t = (s + 0.5) / c.stations;
-      const Point3 centre = add(m.fixed_points[0], {m.surface_vertices[v][0], m.surface_vertices[v][1],
+      const model::Point3 centre = add(m.fixed_points[0], {m.surface_vertices[v][0], m.surface_vertices[v][1],
                                                     m.surface_vertices[v][2]}, t);
       m.beams.sections[v * c.stations + s] = cylinder_section(c, centre, frame);
     }
@@ -140,8 +140,8 @@ OrganModel make_cylinder_model(const CylinderSpec& c) {
   return m;
 }
 
-OrganModel make_sphere_model(std::size_t vertex_count, std::uint32_t stations) {
-  OrganModel m;
+model::OrganModel make_sphere_model(std::size_t vertex_count, std::uint32_t stations) {
+  model::OrganModel m;
   m.provenance.program_version = "test";
   const double radius = 0.08;
   // Latitude rings × longitude segments plus two poles ≈ vertex_count.
@@ -171,11 +171,11 @@ OrganModel make_sphere_model(std::size_t vertex_count, std::uint32_t stations) {
   m.volume_vertices = m.surface_vertices;
   m.volume_vertices.push_back({0.0, 0.0, 0.0});
   const auto centre = static_cast<std::uint32_t>(m.volume_vertices.size() - 1);
-  for (const Triangle& t : m.surface_triangles) m.tetrahedra.push_back({centre, t[0], t[1], t[2]});
+  for (const model::Triangle& t : m.surface_triangles) m.tetrahedra.push_back({centre, t[0], t[1], t[2]});
   m.fixed_points.push_back({0.0, 0.0, 0.0});
-  m.material = liver_default_material();
+  m.material = model::liver_default_material();
   m.beams.stations_per_beam = stations;
-  BeamSection section;
+  model::BeamSection section;
   section.area = kPi * 0.02 * 0.02;
   section.i_yy = section.i_zz = kPi * std::pow(0.02, 4) / 4.0;
   section.torsion_j = 2.0 * section.i_yy;

@@ -22,11 +22,11 @@ struct CylinderSpec {
   unsigned section_polygon_vertices = 720;  ///< boundary resolution of each integrated section
 };
 
-OrganModel make_cylinder_model(const CylinderSpec& spec);
+model::OrganModel make_cylinder_model(const CylinderSpec& spec);
 
 /// A model with a large closed surface (a UV sphere with about `vertex_count`
 /// vertices), tetrahedra from a fan to the centre, and constant beam tables —
 /// for load and throughput benchmarks where only the sizes matter.
-OrganModel make_sphere_model(std::size_t vertex_count, std::uint32_t stations);
+model::OrganModel make_sphere_model(std::size_t vertex_count, std::uint32_t stations);
 
 }  // namespace organsim::testing

@@ -9,7 +9,7 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
-#include "commands.h"
+#include "command_line.h"
 #include "organsim/model/model_file.h"
 #include "organsim/pipeline/bake.h"
 #include "organsim/version.h"
@@ -35,10 +35,10 @@ std::array<long, 3> to_voxel(const std::vector<double>& v, const char* option) {
 }
 
 /// Progress on stderr: a bar redrawn in place on a terminal, one line per
-/// finished stage otherwise (logs, CI).
+/// finished stage otherwise (logs, CI) or with --verbose.
 class ProgressPrinter {
  public:
-  ProgressPrinter() : terminal_(::isatty(STDERR_FILENO) == 1) {}
+  explicit ProgressPrinter(bool lines) : terminal_(!lines && ::isatty(STDERR_FILENO) == 1) {}
   void operator()(const std::string& stage, double fraction) {
     const auto now = std::chrono::steady_clock::now();
     if (fraction == 0.0) started_ = now;
@@ -61,7 +61,7 @@ class ProgressPrinter {
   std::chrono::steady_clock::time_point started_;
 };
 
-nlohmann::ordered_json report_json(const pipeline::BakeReport& r, const OrganModel& model, const std::string& output,
+nlohmann::ordered_json report_json(const pipeline::BakeReport& r, const model::OrganModel& model, const std::string& output,
                                    std::uintmax_t bytes) {
   nlohmann::ordered_json j;
   j["model"] = output;
@@ -96,7 +96,7 @@ nlohmann::ordered_json report_json(const pipeline::BakeReport& r, const OrganMod
 
 double percent_from(double value, double reference) { return 100.0 * (value / reference - 1.0); }
 
-void print_report(const pipeline::BakeReport& r, const OrganModel& model, const std::string& output,
+void print_report(const pipeline::BakeReport& r, const model::OrganModel& model, const std::string& output,
                   std::uintmax_t bytes) {
   const auto& q = r.tetrahedra;
   fmt::print("model           {} ({:.2f} MB)\n", output, static_cast<double>(bytes) / 1e6);
@@ -139,11 +139,12 @@ int run_bake(BakeCommandOptions& o) {
   b.hu_high = o.hu_window[1];
   if (o.closing_radius_mm >= 0.0) b.closing_radius_mm = o.closing_radius_mm;
   b.program_version = kProgramVersion;
+  b.output_path = o.output_path;
 
-  ProgressPrinter printer;
-  const pipeline::BakeResult result =
-      pipeline::bake(b, [&](const std::string& stage, double fraction) { printer(stage, fraction); });
-  write_organ_model_file(result.model, o.output_path);
+  ProgressPrinter printer(verbosity() == Verbosity::verbose);
+  pipeline::BakeProgress progress;
+  if (verbosity() != Verbosity::quiet) progress = [&](const std::string& stage, double fraction) { printer(stage, fraction); };
+  const pipeline::BakeResult result = pipeline::bake(b, progress);
   const std::uintmax_t bytes = std::filesystem::file_size(o.output_path);
   if (o.json)
     fmt::print("{}\n", report_json(result.report, result.model, o.output_path, bytes).dump());

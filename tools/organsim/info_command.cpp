@@ -7,7 +7,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "commands.h"
+#include "command_line.h"
 #include "organsim/geometry/model_measures.h"
 #include "organsim/model/beam_frame.h"
 #include "organsim/model/model_file.h"
@@ -21,24 +21,24 @@ struct InfoOptions {
   long long beam_vertex = -1;
 };
 
-nlohmann::json as_json(const Point3& p) { return {p[0], p[1], p[2]}; }
+nlohmann::json as_json(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 nlohmann::json as_json(const Eigen::Vector3d& p) { return {p[0], p[1], p[2]}; }
 
-nlohmann::json beam_json(const OrganModel& m, std::size_t v) {
+nlohmann::json beam_json(const model::OrganModel& m, std::size_t v) {
   nlohmann::json beam;
   beam["vertex"] = v;
   beam["position_m"] = as_json(m.surface_vertices[v]);
-  const Point3& root = m.fixed_points.front();
-  const Point3& tip = m.surface_vertices[v];
+  const model::Point3& root = m.fixed_points.front();
+  const model::Point3& tip = m.surface_vertices[v];
   beam["length_m"] = std::hypot(tip[0] - root[0], tip[1] - root[1], tip[2] - root[2]);
-  BeamFrame frame;
-  if (make_beam_frame(root, tip, frame))
+  model::BeamFrame frame;
+  if (model::make_beam_frame(root, tip, frame))
     beam["frame"] = {{"x", as_json(frame.x)}, {"y", as_json(frame.y)}, {"z", as_json(frame.z)}};
   else
     beam["frame"] = nullptr;  // the vertex coincides with the fixed point
   nlohmann::json stations = nlohmann::json::array();
   for (std::uint32_t s = 0; s < m.beams.stations_per_beam; ++s) {
-    const BeamSection& section = m.beams.at(v, s);
+    const model::BeamSection& section = m.beams.at(v, s);
     stations.push_back({{"t", (s + 0.5) / m.beams.stations_per_beam},
                         {"area_m2", section.area},
                         {"i_yy_m4", section.i_yy},
@@ -52,9 +52,9 @@ nlohmann::json beam_json(const OrganModel& m, std::size_t v) {
   return beam;
 }
 
-nlohmann::json summary_json(const InfoOptions& o, const ModelReadResult& read) {
-  const OrganModel& m = *read.model;
-  const ModelMeasures measures = measure_model(m);
+nlohmann::json summary_json(const InfoOptions& o, const model::ModelReadResult& read) {
+  const model::OrganModel& m = *read.model;
+  const geometry::ModelMeasures measures = geometry::measure_model(m);
   nlohmann::json j;
   j["file"] = o.model_path;
   j["format_version"] = fmt::format("{}.{}", read.file.version.major, read.file.version.minor);
@@ -79,14 +79,14 @@ nlohmann::json summary_json(const InfoOptions& o, const ModelReadResult& read) {
                                                          : nlohmann::json(measures.tetrahedra_volume)},
                     {"surface", measures.surface_enclosed_volume}};
   j["surface_area_m2"] = measures.surface_area;
-  const Material& mat = m.material;
+  const model::Material& mat = m.material;
   j["material"] = {{"young_modulus_pa", mat.young_modulus},
                    {"poisson_ratio", mat.poisson_ratio},
                    {"density_kg_m3", mat.density},
                    {"attenuation_alpha", mat.attenuation_alpha},
                    {"attenuation_beta_per_m", mat.attenuation_beta}};
   nlohmann::json fixed = nlohmann::json::array();
-  for (const Point3& p : m.fixed_points) fixed.push_back(as_json(p));
+  for (const model::Point3& p : m.fixed_points) fixed.push_back(as_json(p));
   j["fixed_points_m"] = fixed;
   j["provenance"] = {{"program_version", m.provenance.program_version},
                      {"input_sha256", m.provenance.input_sha256},
@@ -156,9 +156,9 @@ void print_text(const nlohmann::json& j) {
 }
 
 int run_info(const InfoOptions& o) {
-  const ModelReadResult read = read_organ_model_file(o.model_path);
+  const model::ModelReadResult read = model::read_organ_model_file(o.model_path);
   if (!read) throw std::runtime_error(read.error);
-  const OrganModel& m = *read.model;
+  const model::OrganModel& m = *read.model;
   if (o.beam_vertex >= 0) {
     if (m.beams.empty())
       throw std::runtime_error(o.model_path + ": the model has no beam tables; re-bake it with --stations N");

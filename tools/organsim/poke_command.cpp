@@ -10,11 +10,11 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "commands.h"
+#include "command_line.h"
 #include "organsim/geometry/model_measures.h"
+#include "organsim/mesh_io/mesh_io.h"
 #include "organsim/model/model_file.h"
 #include "organsim/multibeam/multibeam.h"
-#include "organsim/pipeline/mesh_io.h"
 
 namespace organsim::cli {
 namespace {
@@ -73,13 +73,14 @@ int run_poke(const PokeOptions& o) {
   if (!o.out_path.empty() && (o.out_path.size() < 4 || o.out_path.substr(o.out_path.size() - 4) != ".vtp"))
     throw std::runtime_error("--out " + o.out_path + ": the deformed surface is written as VTK PolyData; name it .vtp");
 
-  ModelReadResult read = read_organ_model_file(o.model_path);
+  model::ModelReadResult read = model::read_organ_model_file(o.model_path);
   if (!read) throw std::runtime_error(read.error);
+  detail_model("poke", o.model_path, *read.model);
   if (read.model->beams.empty())
     throw std::runtime_error(o.model_path + ": the model has no beam tables; re-bake it with --stations N");
-  const std::vector<Triangle> file_triangles = read.model->surface_triangles;
+  const std::vector<model::Triangle> file_triangles = read.model->surface_triangles;
   const BeamOrgan organ(std::move(*read.model));
-  const OrganModel& model = organ.model();
+  const model::OrganModel& model = organ.model();
 
   MultiBeamOptions options;
   options.max_tools = static_cast<std::uint32_t>(tools.size());
@@ -106,7 +107,7 @@ int run_poke(const PokeOptions& o) {
     for (std::uint32_t i = 0; i < tools.size(); ++i) beams.force(i, displacements[i], forces[i]);
   const double force_seconds = seconds_since(force_start) / (kForceRepeats * tools.size());
 
-  std::vector<Point3> positions(organ.vertex_count()), normals(organ.vertex_count());
+  std::vector<model::Point3> positions(organ.vertex_count()), normals(organ.vertex_count());
   const auto deform_start = std::chrono::steady_clock::now();
   const Status deformed = beams.deform(displacements.data(), positions.data(), normals.data(), positions.size());
   const double deform_seconds = seconds_since(deform_start);
@@ -115,22 +116,22 @@ int run_poke(const PokeOptions& o) {
   double max_displacement = 0.0;
   std::size_t max_vertex = 0;  // in the runtime's numbering; reported in the file's
   for (std::size_t v = 0; v < positions.size(); ++v) {
-    const Point3& r = model.surface_vertices[v];
+    const model::Point3& r = model.surface_vertices[v];
     const double d = std::hypot(positions[v][0] - r[0], positions[v][1] - r[1], positions[v][2] - r[2]);
     if (d > max_displacement) {
       max_displacement = d;
       max_vertex = v;
     }
   }
-  const double rest_volume = enclosed_volume(model.surface_vertices, model.surface_triangles);
-  const double deformed_volume = enclosed_volume(positions, model.surface_triangles);
+  const double rest_volume = geometry::enclosed_volume(model.surface_vertices, model.surface_triangles);
+  const double deformed_volume = geometry::enclosed_volume(positions, model.surface_triangles);
   const double volume_change = (deformed_volume - rest_volume) / rest_volume;
 
   if (!o.out_path.empty()) {
     // Back to the file's vertex numbering, so the output matches the model file.
-    std::vector<Point3> in_file_order(positions.size());
+    std::vector<model::Point3> in_file_order(positions.size());
     for (std::size_t v = 0; v < positions.size(); ++v) in_file_order[organ.file_vertex_index()[v]] = positions[v];
-    pipeline::write_surface_vtp({in_file_order, file_triangles}, o.out_path);
+    mesh_io::write_surface_vtp({in_file_order, file_triangles}, o.out_path);
   }
 
   if (o.json) {
@@ -145,7 +146,7 @@ int run_poke(const PokeOptions& o) {
                       {"action_point_mm", triple(b.action.position * 1e3)},
                       {"snap_distance_mm", b.action.distance * 1e3},
                       {"beam_length_mm", b.length * 1e3},
-                      {"normal", triple(triangle_normal(model, b.action.triangle))},
+                      {"normal", triple(geometry::triangle_normal(model, b.action.triangle))},
                       {"displacement_mm", triple(tools[i].displacement_mm)},
                       {"force_n", triple(forces[i])},
                       {"force_magnitude_n", forces[i].norm()}});

@@ -11,16 +11,18 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "commands.h"
+#include "command_line.h"
+#include "organsim/devices/scripted_device.h"
+#include "organsim/io/atomic_file.h"
+#include "organsim/mesh_io/mesh_io.h"
 #include "organsim/model/model_file.h"
-#include "organsim/pipeline/mesh_io.h"
 #include "organsim/realtime/loop_runner.h"
-#include "organsim/realtime/session.h"
 
 namespace organsim::cli {
 namespace {
 
 namespace fs = std::filesystem;
+using namespace organsim::devices;
 using namespace organsim::realtime;
 
 struct ReplayOptions {
@@ -39,7 +41,7 @@ struct ReplayOptions {
 // vertex order) and, at the end, a ParaView collection (.pvd) indexing them.
 class FrameWriter {
  public:
-  FrameWriter(const std::string& directory, const multibeam::BeamOrgan& organ, std::vector<Triangle> triangles)
+  FrameWriter(const std::string& directory, const multibeam::BeamOrgan& organ, std::vector<model::Triangle> triangles)
       : directory_(directory), organ_(organ), triangles_(std::move(triangles)) {
     if (directory_.empty()) return;
     fs::create_directories(directory_);
@@ -47,31 +49,24 @@ class FrameWriter {
   void take(TripleBuffer<SurfaceFrame>& frames) {
     if (directory_.empty() || !frames.update()) return;
     const SurfaceFrame& frame = frames.read();
-    std::vector<Point3> in_file_order(frame.positions.size());
+    std::vector<model::Point3> in_file_order(frame.positions.size());
     for (std::size_t v = 0; v < frame.positions.size(); ++v)
       in_file_order[organ_.file_vertex_index()[v]] = frame.positions[v];
     const std::string name = fmt::format("frame_{:05d}.vtp", frame.frame);
-    pipeline::write_surface_vtp({in_file_order, triangles_}, (fs::path(directory_) / name).string());
+    mesh_io::write_surface_vtp({in_file_order, triangles_}, (fs::path(directory_) / name).string());
     index_.emplace_back(frame.time, name);
   }
   void finish() const {
     if (directory_.empty()) return;
-    std::ostringstream pvd;
-    pvd << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n  <Collection>\n";
-    for (const auto& [time, name] : index_)
-      pvd << fmt::format("    <DataSet timestep=\"{:.6f}\" file=\"{}\"/>\n", time, name);
-    pvd << "  </Collection>\n</VTKFile>\n";
-    const std::string text = pvd.str();
-    write_file_atomically((fs::path(directory_) / "frames.pvd").string(), reinterpret_cast<const std::uint8_t*>(text.data()),
-                          text.size());
+    mesh_io::write_collection_pvd(index_, (fs::path(directory_) / "frames.pvd").string());
   }
   std::size_t count() const { return index_.size(); }
 
  private:
   std::string directory_;
   const multibeam::BeamOrgan& organ_;
-  std::vector<Triangle> triangles_;
-  std::vector<std::pair<double, std::string>> index_;
+  std::vector<model::Triangle> triangles_;
+  std::vector<mesh_io::TimeStep> index_;
 };
 
 nlohmann::json timing_json(const Percentiles& p) {
@@ -81,12 +76,13 @@ nlohmann::json timing_json(const Percentiles& p) {
 int run_replay(const ReplayOptions& o) {
   if (!o.frames_dir.empty() && fs::exists(o.frames_dir) && !fs::is_directory(o.frames_dir))
     throw std::runtime_error("--frames " + o.frames_dir + " is a file; give a directory");
-  ModelReadResult read = read_organ_model_file(o.model_path);
+  model::ModelReadResult read = model::read_organ_model_file(o.model_path);
   if (!read) throw std::runtime_error(read.error);
+  detail_model("replay", o.model_path, *read.model);
   if (read.model->beams.empty())
     throw std::runtime_error(o.model_path + ": the model has no beam tables; re-bake it with --stations N");
   const Session session = read_session(o.session_path);
-  const std::vector<Triangle> file_triangles = read.model->surface_triangles;
+  const std::vector<model::Triangle> file_triangles = read.model->surface_triangles;
   const multibeam::BeamOrgan organ(std::move(*read.model));
 
   SafetyLimits limits;
@@ -110,7 +106,7 @@ int run_replay(const ReplayOptions& o) {
                                         return true;
                                       });
   frames.finish();
-  if (!timings.priority_warning.empty() && !o.fast) std::fprintf(stderr, "organsim replay: warning: %s\n", timings.priority_warning.c_str());
+  if (!timings.priority_warning.empty() && !o.fast) warn("replay", timings.priority_warning);
 
   if (!o.forces_path.empty()) {
     std::ostringstream csv;
@@ -121,8 +117,7 @@ int run_replay(const ReplayOptions& o) {
         csv << fmt::format("{:.6f},{},{:.9g},{:.9g},{:.9g},{}\n", f.time, i + 1, f.force[0], f.force[1], f.force[2],
                            f.in_contact ? 1 : 0);
       }
-    const std::string text = csv.str();
-    write_file_atomically(o.forces_path, reinterpret_cast<const std::uint8_t*>(text.data()), text.size());
+    io::write_file_atomically(o.forces_path, csv.str());
   }
 
   const Percentiles period = percentiles(timings.force_periods), compute = percentiles(timings.force_computes);

@@ -10,8 +10,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "commands.h"
-#include "haptic_rig.h"
+#include "command_line.h"
+#include "haptic_rig_options.h"
 #include "organsim/model/model_file.h"
 
 namespace organsim::cli {
@@ -19,24 +19,25 @@ namespace {
 
 struct TouchOptions {
   std::string model_path;
-  HapticRigOptions rig;
+  devices::HapticRigOptions rig;
   double seconds = 60.0;
   bool json = false;
 };
 
 int run_touch(const TouchOptions& o) {
-  ModelReadResult read = read_organ_model_file(o.model_path);
+  model::ModelReadResult read = model::read_organ_model_file(o.model_path);
   if (!read) throw std::runtime_error(read.error);
+  detail_model("touch", o.model_path, *read.model);
   if (read.model->beams.empty())
     throw std::runtime_error(o.model_path + ": the model has no beam tables; re-bake it with --stations N");
   const multibeam::BeamOrgan organ(std::move(*read.model));
-  const HapticRig rig = open_haptic_rig(o.rig, organ);
+  const devices::HapticRig rig = devices::open_haptic_rig(o.rig, organ.model());
   const auto& owned = rig.devices;
-  const std::vector<realtime::HapticDevice*> tools = rig.tools();
+  const std::vector<devices::HapticDevice*> tools = rig.tools();
   realtime::Engine engine(organ, tools, {});
   devices::OpenHapticsServo servo(*rig.library, rig.servo_devices(), engine);
-  std::fprintf(stderr, "organsim touch: %zu device(s) on %s for %.0f s; the force loop runs in the HD servo scheduler\n",
-               owned.size(), o.model_path.c_str(), o.seconds);
+  note("touch", fmt::format("{} device(s) on {} for {:.0f} s; the force loop runs in the HD servo scheduler",
+                            owned.size(), o.model_path, o.seconds));
   const auto begin = std::chrono::steady_clock::now();
   servo.start();
   auto next = begin;
@@ -81,7 +82,7 @@ int run_touch(const TouchOptions& o) {
 Command add_touch_command(CLI::App& app) {
   auto o = std::make_shared<TouchOptions>();
   app.add_option("model", o->model_path, "Model file (.organ)")->required();
-  o->rig.add_to(app);
+  add_haptic_rig_options(app, o->rig);
   app.add_option("--seconds", o->seconds, "How long to run")->check(CLI::PositiveNumber)->capture_default_str();
   app.add_flag("--json", o->json, "Print the summary as one JSON object on stdout");
   return [o] { return run_touch(*o); };

@@ -1,6 +1,8 @@
-// `organsim view MODEL`: the trainee's view. A replayed session, or tools
-// moved with the mouse, deforming the organ in a laparoscopic-looking scene;
-// screenshots and recordings for engineers.
+// `organsim view MODEL`: the trainee's view. A replayed session, PHANToM /
+// Touch devices, or tools moved with the mouse, deforming the organ in a
+// laparoscopic-looking scene; screenshots and recordings for engineers. The
+// scene, the interaction and the recording live in tools/viewer/; this file
+// only picks the input mode and runs its loop.
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -11,32 +13,28 @@
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/videoio.hpp>
-#include <vtkCallbackCommand.h>
-#include <vtkCamera.h>
-#include <vtkCellPicker.h>
 #include <vtkInteractorStyleTrackballCamera.h>
-#include <vtkObjectFactory.h>
-#include <vtkRenderWindow.h>
+#include <vtkNew.h>
 #include <vtkRenderWindowInteractor.h>
-#include <vtkRenderer.h>
 
-#include "commands.h"
-#include "haptic_rig.h"
+#include "command_line.h"
+#include "haptic_rig_options.h"
+#include "organsim/devices/mouse_tool.h"
+#include "organsim/devices/scripted_device.h"
 #include "organsim/model/model_file.h"
 #include "organsim/realtime/loop_runner.h"
-#include "organsim/realtime/session.h"
-#include "viewer/mouse_tool.h"
+#include "viewer/recording.h"
 #include "viewer/scene.h"
+#include "viewer/tool_style.h"
 
 namespace organsim::cli {
 namespace {
 
 namespace fs = std::filesystem;
+using namespace organsim::devices;
 using namespace organsim::realtime;
-using viewer::MouseTool;
 using viewer::OrganScene;
+using viewer::Recorder;
 
 constexpr std::size_t kMouseTools = 4;
 
@@ -57,44 +55,23 @@ struct ViewOptions {
   std::vector<int> size{960, 720};
 };
 
-// Writes the recording to a temporary file and renames it into place at the end.
-class Recorder {
- public:
-  Recorder(const std::string& path, cv::Size size) : path_(path) {
-    if (path.empty()) return;
-    temporary_ = path + ".partial.avi";
-    writer_.open(temporary_, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 60.0, size);
-    if (!writer_.isOpened()) throw std::runtime_error("cannot write the recording " + path + "; check the directory");
-  }
-  ~Recorder() {
-    if (!path_.empty() && !finished_) fs::remove(temporary_);
-  }
-  void add(const cv::Mat& frame) {
-    if (writer_.isOpened()) {
-      writer_.write(frame);
-      ++count_;
-    }
-  }
-  void finish() {
-    if (path_.empty()) return;
-    writer_.release();
-    fs::rename(temporary_, path_);
-    finished_ = true;
-  }
-  long count() const { return count_; }
+/// What every input mode draws into and counts.
+struct ViewRun {
+  OrganScene& scene;
+  Recorder& recorder;
+  const ViewOptions& options;
+  long frames = 0;
+  nlohmann::json tools_json = nlohmann::json::array();  ///< the last drawn frame's tools, for scripts and tests
 
- private:
-  std::string path_, temporary_;
-  cv::VideoWriter writer_;
-  long count_ = 0;
-  bool finished_ = false;
+  bool frame_limit_reached() const { return options.frames > 0 && frames >= options.frames; }
+  /// Finishes a drawn frame: background, render, record.
+  void draw() {
+    scene.next_background_frame();
+    scene.render();
+    ++frames;
+    if (recorder.active()) recorder.add(scene.capture());
+  }
 };
-
-void write_png(const cv::Mat& image, const std::string& path) {
-  std::vector<std::uint8_t> bytes;
-  if (!cv::imencode(".png", image, bytes)) throw std::runtime_error("cannot encode the screenshot as PNG");
-  write_file_atomically(path, bytes.data(), bytes.size());
-}
 
 std::string overlay(const std::vector<Eigen::Vector3d>& forces, const std::vector<bool>& present, double force_hz,
                     double frame_hz, bool mouse) {
@@ -107,104 +84,152 @@ std::string overlay(const std::vector<Eigen::Vector3d>& forces, const std::vecto
   return text;
 }
 
-// Mouse and keyboard tools on top of the usual camera controls.
-class ToolStyle : public vtkInteractorStyleTrackballCamera {
- public:
-  static ToolStyle* New();
-  vtkTypeMacro(ToolStyle, vtkInteractorStyleTrackballCamera)
-
-  std::vector<MouseTool>* tools = nullptr;
-  std::vector<ToolPose> poses;
-  std::vector<bool> present;
-  std::size_t selected = 0;
-  OrganScene* scene = nullptr;
-
-  void OnKeyPress() override {
-    const std::string key = GetInteractor()->GetKeySym();
-    if (key == "n") add_tool();
-    if (key == "x" && present[selected]) {
-      present[selected] = false;
-      (*tools)[selected].remove();
+/// A recorded session with scripted tools, in the session's own time, stepped
+/// like `replay --fast`; drawn at every deformation frame, paced to the wall
+/// clock when a window is shown.
+void view_session(const multibeam::BeamOrgan& organ, const Session& session, ViewRun& run) {
+  const ViewOptions& o = run.options;
+  std::vector<std::unique_ptr<ScriptedDevice>> scripted;
+  std::vector<HapticDevice*> pointers;
+  for (const Trajectory& t : session.tools) {
+    scripted.push_back(std::make_unique<ScriptedDevice>(t, SafetyLimits{}, 16));
+    pointers.push_back(scripted.back().get());
+  }
+  Engine engine(organ, pointers, {});
+  const double frame_period = engine.options().deformation_period;
+  const auto wall_start = std::chrono::steady_clock::now();
+  std::vector<Eigen::Vector3d> forces(scripted.size());
+  const std::vector<bool> present(scripted.size(), true);
+  bool stop = false;
+  run_fast(engine, session.duration, [&] {
+    if (stop) return;
+    engine.surfaces().update();
+    const SurfaceFrame& surface = engine.surfaces().read();
+    const double time = surface.time;
+    run.scene.show_surface(surface);
+    run.tools_json = nlohmann::json::array();
+    for (std::size_t i = 0; i < scripted.size(); ++i) {
+      ToolPose pose;
+      scripted[i]->read_pose(time, pose);
+      forces[i] = engine.telemetry(i).last_force;
+      run.scene.show_tool(i, !o.hide_tools, pose, forces[i], engine.telemetry(i).in_contact);
+      const Eigen::Vector2d pixel = run.scene.project(pose.tip);
+      run.tools_json.push_back({{"tool", i + 1},
+                                {"contacts", engine.telemetry(i).contacts},
+                                {"tip_px", {pixel[0], pixel[1]}},
+                                {"force_n", forces[i].norm()}});
     }
-    if (key == "Tab") selected = (selected + 1) % poses.size();
-    if (key == "plus" || key == "equal") depth(0.001);
-    if (key == "minus") depth(-0.001);
-    vtkInteractorStyleTrackballCamera::OnKeyPress();
-  }
-  void OnLeftButtonDown() override {
-    dragging_ = GetInteractor()->GetShiftKey() && present[selected];
-    if (!dragging_) vtkInteractorStyleTrackballCamera::OnLeftButtonDown();
-  }
-  void OnLeftButtonUp() override {
-    dragging_ = false;
-    vtkInteractorStyleTrackballCamera::OnLeftButtonUp();
-  }
-  void OnMouseMove() override {
-    if (!dragging_) return vtkInteractorStyleTrackballCamera::OnMouseMove();
-    int* now = GetInteractor()->GetEventPosition();
-    int* before = GetInteractor()->GetLastEventPosition();
-    // Move in the view plane, one pixel = the world size of a pixel at the tip's depth.
-    vtkCamera* camera = scene->renderer()->GetActiveCamera();
-    double up[3], focal[3], eye[3];
-    camera->GetViewUp(up);
-    camera->GetFocalPoint(focal);
-    camera->GetPosition(eye);
-    const Eigen::Vector3d view = (Eigen::Vector3d(focal[0], focal[1], focal[2]) - Eigen::Vector3d(eye[0], eye[1], eye[2])).normalized();
-    const Eigen::Vector3d upward = Eigen::Vector3d(up[0], up[1], up[2]).normalized();
-    const Eigen::Vector3d right = view.cross(upward).normalized();
-    const double distance = (poses[selected].tip - Eigen::Vector3d(eye[0], eye[1], eye[2])).norm();
-    const double pixel = 2.0 * distance * std::tan(camera->GetViewAngle() * M_PI / 360.0) / scene->window()->GetSize()[1];
-    poses[selected].tip += pixel * ((now[0] - before[0]) * right + (now[1] - before[1]) * upward);
-    (*tools)[selected].place(poses[selected]);
-  }
-  void OnMouseWheelForward() override {
-    if (GetInteractor()->GetShiftKey()) return depth(0.001);
-    vtkInteractorStyleTrackballCamera::OnMouseWheelForward();
-  }
-  void OnMouseWheelBackward() override {
-    if (GetInteractor()->GetShiftKey()) return depth(-0.001);
-    vtkInteractorStyleTrackballCamera::OnMouseWheelBackward();
-  }
+    if (!o.hide_tools)
+      run.scene.show_text(overlay(forces, present, 1.0 / engine.options().force_period, 1.0 / frame_period, false));
+    run.draw();
+    if (!o.offscreen) std::this_thread::sleep_until(wall_start + std::chrono::duration<double>(time));
+    stop = run.frame_limit_reached();
+  });
+}
 
- private:
-  void depth(double metres) {
-    if (!present[selected]) return;
-    double focal[3], eye[3];
-    scene->renderer()->GetActiveCamera()->GetFocalPoint(focal);
-    scene->renderer()->GetActiveCamera()->GetPosition(eye);
-    const Eigen::Vector3d view = (Eigen::Vector3d(focal[0], focal[1], focal[2]) - Eigen::Vector3d(eye[0], eye[1], eye[2])).normalized();
-    poses[selected].tip += metres * view;
-    (*tools)[selected].place(poses[selected]);
+/// PHANToM / Touch devices: the HD servo runs the force loop; the deformation
+/// loop and the drawing run here at 60 Hz.
+void view_phantom(const multibeam::BeamOrgan& organ, const HapticRig& rig, ViewRun& run) {
+  const ViewOptions& o = run.options;
+  const std::vector<HapticDevice*> pointers = rig.tools();
+  Engine engine(organ, pointers, {});
+  OpenHapticsServo servo(*rig.library, rig.servo_devices(), engine);
+  vtkNew<vtkRenderWindowInteractor> interactor;
+  vtkNew<vtkInteractorStyleTrackballCamera> style;
+  interactor->SetInteractorStyle(style);
+  interactor->SetRenderWindow(run.scene.window());
+  interactor->Initialize();
+  const auto start = std::chrono::steady_clock::now();
+  auto next = start;
+  servo.start();
+  std::vector<Eigen::Vector3d> forces(pointers.size());
+  const std::vector<bool> present(pointers.size(), true);
+  while (!interactor->GetDone() && !run.frame_limit_reached() &&
+         std::chrono::steady_clock::now() - start < std::chrono::duration<double>(o.seconds)) {
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    engine.deformation_step(elapsed);
+    engine.surfaces().update();
+    run.scene.show_surface(engine.surfaces().read());
+    for (std::size_t i = 0; i < pointers.size(); ++i) {
+      ToolPose pose;
+      // Drawing only: the device reports the pose the servo last read.
+      const bool seen = rig.devices[i]->last_pose(pose);
+      forces[i] = rig.devices[i]->last_force();
+      run.scene.show_tool(i, seen && !o.hide_tools, pose, forces[i], forces[i].norm() > 0.0);
+    }
+    if (!o.hide_tools)
+      run.scene.show_text(overlay(forces, present, servo.ticks() / std::max(elapsed, 1e-3),
+                                  run.frames / std::max(elapsed, 1e-3), false));
+    run.draw();
+    interactor->ProcessEvents();
+    next += std::chrono::microseconds(16667);
+    std::this_thread::sleep_until(next);
   }
-  void add_tool() {
-    int* at = GetInteractor()->GetEventPosition();
-    vtkNew<vtkCellPicker> picker;
-    picker->SetTolerance(0.0005);
-    if (!picker->Pick(at[0], at[1], 0.0, scene->renderer())) return;
-    std::size_t slot = 0;
-    while (slot < poses.size() && present[slot]) ++slot;
-    if (slot == poses.size()) return;
-    double* normal = picker->GetPickNormal();
-    double* point = picker->GetPickPosition();
-    const Eigen::Vector3d n = Eigen::Vector3d(normal[0], normal[1], normal[2]).normalized();
-    poses[slot].tip = Eigen::Vector3d(point[0], point[1], point[2]) + 0.005 * n;  // 5 mm above the surface
-    poses[slot].shaft = n;
-    present[slot] = true;
-    selected = slot;
-    (*tools)[slot].place(poses[slot]);
+  servo.stop();
+}
+
+/// Mouse and keyboard tools, with the engine's loops on their threads in real time.
+void view_mouse(const multibeam::BeamOrgan& organ, ViewRun& run) {
+  const ViewOptions& o = run.options;
+  std::vector<MouseTool> tools(kMouseTools);
+  std::vector<HapticDevice*> pointers;
+  for (MouseTool& t : tools) pointers.push_back(&t);
+  Engine engine(organ, pointers, {});
+  vtkNew<vtkRenderWindowInteractor> interactor;
+  vtkNew<viewer::ToolStyle> style;
+  style->attach(tools, run.scene);
+  interactor->SetInteractorStyle(style);
+  interactor->SetRenderWindow(run.scene.window());
+  interactor->Initialize();
+  std::vector<Eigen::Vector3d> forces(kMouseTools);
+  const auto start = std::chrono::steady_clock::now();
+  run_realtime(engine, o.seconds, [&] {
+    interactor->ProcessEvents();
+    if (interactor->GetDone() || run.frame_limit_reached()) return false;
+    if (!engine.surfaces().update()) return true;
+    run.scene.show_surface(engine.surfaces().read());
+    for (std::size_t i = 0; i < kMouseTools; ++i) {
+      bool touching = false;
+      forces[i] = tools[i].last_force(touching);
+      run.scene.show_tool(i, style->present()[i] && !o.hide_tools, style->poses()[i], forces[i], touching);
+    }
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (!o.hide_tools)
+      run.scene.show_text(overlay(forces, style->present(), tools[0].ticks() / std::max(elapsed, 1e-3),
+                                  engine.surfaces().read().frame / std::max(elapsed, 1e-3), true));
+    run.draw();
+    return true;
+  });
+}
+
+void print_summary(const ViewRun& run, const std::vector<std::string>& warnings) {
+  const ViewOptions& o = run.options;
+  if (o.json) {
+    nlohmann::json j{{"model", o.model_path},
+                     {"frames", run.frames},
+                     {"tools", run.tools_json},
+                     {"warnings", warnings},
+                     {"size", {o.size[0], o.size[1]}}};
+    if (!o.screenshot_path.empty()) j["screenshot"] = o.screenshot_path;
+    if (!o.record_path.empty()) j["record"] = {{"path", o.record_path}, {"frames", run.recorder.count()}};
+    std::cout << j.dump() << '\n';
+  } else {
+    std::cout << fmt::format("{:<12}{} frames drawn{}{}\n", "view", run.frames,
+                             o.screenshot_path.empty() ? "" : ", screenshot " + o.screenshot_path,
+                             o.record_path.empty() ? ""
+                                                   : fmt::format(", recording {} ({} frames)", o.record_path,
+                                                                 run.recorder.count()));
   }
-  bool dragging_ = false;
-};
-vtkStandardNewMacro(ToolStyle);
+}
 
 int run_view(const ViewOptions& o) {
   if (o.size.size() != 2 || o.size[0] < 64 || o.size[1] < 64) throw std::runtime_error("--size takes WIDTH,HEIGHT of at least 64,64");
-  if (!o.record_path.empty() && fs::path(o.record_path).extension() != ".avi")
-    throw std::runtime_error("--record " + o.record_path + ": recordings are Motion-JPEG AVI files; name it .avi");
   if (!o.screenshot_path.empty() && fs::path(o.screenshot_path).extension() != ".png")
     throw std::runtime_error("--screenshot " + o.screenshot_path + ": screenshots are PNG files; name it .png");
-  ModelReadResult read = read_organ_model_file(o.model_path);
+  if (o.phantom && !o.session_path.empty()) throw std::runtime_error("--phantom and --session are exclusive; choose one");
+  model::ModelReadResult read = model::read_organ_model_file(o.model_path);
   if (!read) throw std::runtime_error(read.error);
+  detail_model("view", o.model_path, *read.model);
   if (read.model->beams.empty())
     throw std::runtime_error(o.model_path + ": the model has no beam tables; re-bake it with --stations N");
   const multibeam::BeamOrgan organ(std::move(*read.model));
@@ -220,169 +245,32 @@ int run_view(const ViewOptions& o) {
       scene_options.background = std::make_unique<viewer::Background>(o.background_path);
     } catch (const std::exception& e) {
       warnings.push_back(std::string(e.what()) + "; starting without a background");
-      std::fprintf(stderr, "organsim view: warning: %s\n", warnings.back().c_str());
+      warn("view", warnings.back());
     }
   }
 
-  if (o.phantom && !o.session_path.empty()) throw std::runtime_error("--phantom and --session are exclusive; choose one");
-  const bool scripted = !o.session_path.empty();
   Session session;
-  if (scripted) session = read_session(o.session_path);
+  if (!o.session_path.empty()) session = read_session(o.session_path);
   HapticRig rig;
-  if (o.phantom) rig = open_haptic_rig(o.rig, organ);
-  const std::size_t tool_count = scripted ? session.tools.size() : o.phantom ? rig.devices.size() : kMouseTools;
+  if (o.phantom) rig = open_haptic_rig(o.rig, organ.model());
+  const std::size_t tool_count =
+      !o.session_path.empty() ? session.tools.size() : o.phantom ? rig.devices.size() : kMouseTools;
   OrganScene scene(organ, tool_count, std::move(scene_options));
   Recorder recorder(o.record_path, cv::Size(o.size[0], o.size[1]));
-  long frames = 0;
-  nlohmann::json tools_json = nlohmann::json::array();
-
-  if (scripted) {
-    // The session's own time, stepped like `replay --fast`; drawn at every
-    // deformation frame, paced to the wall clock when a window is shown.
-    std::vector<std::unique_ptr<ScriptedDevice>> devices;
-    std::vector<HapticDevice*> pointers;
-    for (const Trajectory& t : session.tools) {
-      devices.push_back(std::make_unique<ScriptedDevice>(t, SafetyLimits{}, 16));
-      pointers.push_back(devices.back().get());
-    }
-    Engine engine(organ, pointers, {});
-    const double frame_period = engine.options().deformation_period;
-    const auto wall_start = std::chrono::steady_clock::now();
-    std::vector<Eigen::Vector3d> forces(devices.size());
-    std::vector<bool> present(devices.size(), !o.hide_tools);
-    double time = 0.0;
-    bool stop = false;
-    run_fast(engine, session.duration, [&] {
-      if (stop) return;
-      engine.surfaces().update();
-      const SurfaceFrame& surface = engine.surfaces().read();
-      time = surface.time;
-      scene.show_surface(surface);
-      for (std::size_t i = 0; i < devices.size(); ++i) {
-        ToolPose pose;
-        devices[i]->read_pose(time, pose);
-        forces[i] = engine.telemetry(i).last_force;
-        scene.show_tool(i, present[i], pose, forces[i], engine.telemetry(i).in_contact);
-      }
-      if (!o.hide_tools)
-        scene.show_text(overlay(forces, std::vector<bool>(devices.size(), true), 1.0 / engine.options().force_period,
-                                1.0 / frame_period, false));
-      scene.next_background_frame();
-      scene.render();
-      ++frames;
-      if (!o.record_path.empty()) recorder.add(scene.capture());
-      if (!o.offscreen) std::this_thread::sleep_until(wall_start + std::chrono::duration<double>(time));
-      // What the last drawn frame shows, for scripts and tests.
-      tools_json = nlohmann::json::array();
-      for (std::size_t i = 0; i < devices.size(); ++i) {
-        ToolPose pose;
-        devices[i]->read_pose(time, pose);
-        const Eigen::Vector2d pixel = scene.project(pose.tip);
-        tools_json.push_back({{"tool", i + 1},
-                              {"contacts", engine.telemetry(i).contacts},
-                              {"tip_px", {pixel[0], pixel[1]}},
-                              {"force_n", forces[i].norm()}});
-      }
-      if (o.frames > 0 && frames >= o.frames) stop = true;
-    });
-  } else if (o.phantom) {
-    // PHANToM / Touch devices: the HD servo runs the force loop; the
-    // deformation loop and the drawing run here at 60 Hz.
-    const std::vector<HapticDevice*> pointers = rig.tools();
-    Engine engine(organ, pointers, {});
-    devices::OpenHapticsServo servo(*rig.library, rig.servo_devices(), engine);
-    vtkNew<vtkRenderWindowInteractor> interactor;
-    vtkNew<vtkInteractorStyleTrackballCamera> style;
-    interactor->SetInteractorStyle(style);
-    interactor->SetRenderWindow(scene.window());
-    interactor->Initialize();
-    const auto start = std::chrono::steady_clock::now();
-    auto next = start;
-    servo.start();
-    std::vector<Eigen::Vector3d> forces(pointers.size());
-    while (!interactor->GetDone() && (o.frames == 0 || frames < o.frames) &&
-           std::chrono::steady_clock::now() - start < std::chrono::duration<double>(o.seconds)) {
-      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      engine.deformation_step(elapsed);
-      engine.surfaces().update();
-      scene.show_surface(engine.surfaces().read());
-      for (std::size_t i = 0; i < pointers.size(); ++i) {
-        ToolPose pose;
-        // Drawing only: the device reports the pose the servo last read.
-        const bool seen = rig.devices[i]->last_pose(pose);
-        forces[i] = rig.devices[i]->last_force();
-        scene.show_tool(i, seen && !o.hide_tools, pose, forces[i], forces[i].norm() > 0.0);
-      }
-      if (!o.hide_tools)
-        scene.show_text(overlay(forces, std::vector<bool>(pointers.size(), true), servo.ticks() / std::max(elapsed, 1e-3),
-                                frames / std::max(elapsed, 1e-3), false));
-      scene.next_background_frame();
-      scene.render();
-      interactor->ProcessEvents();
-      ++frames;
-      if (!o.record_path.empty()) recorder.add(scene.capture());
-      next += std::chrono::microseconds(16667);
-      std::this_thread::sleep_until(next);
-    }
-    servo.stop();
-  } else {
-    // Mouse and keyboard tools, with the loops on their threads in real time.
-    std::vector<MouseTool> tools(kMouseTools);
-    std::vector<HapticDevice*> pointers;
-    for (MouseTool& t : tools) pointers.push_back(&t);
-    Engine engine(organ, pointers, {});
-    vtkNew<vtkRenderWindowInteractor> interactor;
-    vtkNew<ToolStyle> style;
-    style->tools = &tools;
-    style->poses.assign(kMouseTools, ToolPose{});
-    style->present.assign(kMouseTools, false);
-    style->scene = &scene;
-    interactor->SetInteractorStyle(style);
-    interactor->SetRenderWindow(scene.window());
-    interactor->Initialize();
-    std::vector<Eigen::Vector3d> forces(kMouseTools);
-    const auto start = std::chrono::steady_clock::now();
-    run_realtime(engine, o.seconds, [&] {
-      interactor->ProcessEvents();
-      if (interactor->GetDone() || (o.frames > 0 && frames >= o.frames)) return false;
-      if (!engine.surfaces().update()) return true;
-      scene.show_surface(engine.surfaces().read());
-      for (std::size_t i = 0; i < kMouseTools; ++i) {
-        bool touching = false;
-        forces[i] = tools[i].last_force(touching);
-        scene.show_tool(i, style->present[i] && !o.hide_tools, style->poses[i], forces[i], touching);
-      }
-      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      if (!o.hide_tools)
-        scene.show_text(overlay(forces, style->present, tools[0].ticks() / std::max(elapsed, 1e-3),
-                                engine.surfaces().read().frame / std::max(elapsed, 1e-3), true));
-      scene.next_background_frame();
-      scene.render();
-      ++frames;
-      if (!o.record_path.empty()) recorder.add(scene.capture());
-      return true;
-    });
-  }
+  ViewRun run{scene, recorder, o};
+  if (!o.session_path.empty())
+    view_session(organ, session, run);
+  else if (o.phantom)
+    view_phantom(organ, rig, run);
+  else
+    view_mouse(organ, run);
 
   recorder.finish();
   if (!o.screenshot_path.empty()) {
     scene.render();
-    write_png(scene.capture(), o.screenshot_path);
+    viewer::write_png(scene.capture(), o.screenshot_path);
   }
-  if (o.json) {
-    nlohmann::json j{{"model", o.model_path},
-                     {"frames", frames},
-                     {"tools", tools_json},
-                     {"warnings", warnings},
-                     {"size", {o.size[0], o.size[1]}}};
-    if (!o.screenshot_path.empty()) j["screenshot"] = o.screenshot_path;
-    if (!o.record_path.empty()) j["record"] = {{"path", o.record_path}, {"frames", recorder.count()}};
-    std::cout << j.dump() << '\n';
-  } else {
-    std::cout << fmt::format("{:<12}{} frames drawn{}{}\n", "view", frames,
-                             o.screenshot_path.empty() ? "" : ", screenshot " + o.screenshot_path,
-                             o.record_path.empty() ? "" : fmt::format(", recording {} ({} frames)", o.record_path, recorder.count()));
-  }
+  print_summary(run, warnings);
   return 0;
 }
 
@@ -403,7 +291,7 @@ Command add_view_command(CLI::App& app) {
   app.add_flag("--hide-tools", o->hide_tools, "Draw the organ alone: no instruments, arrows or text");
   app.add_flag("--json", o->json, "Print a summary as one JSON object on stdout");
   app.add_flag("--phantom", o->phantom, "Tools are PHANToM / Touch devices (OpenHaptics, loaded at run time)");
-  o->rig.add_to(app);
+  add_haptic_rig_options(app, o->rig);
   return [o] { return run_view(*o); };
 }
 

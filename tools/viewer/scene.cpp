@@ -48,11 +48,11 @@ vtkSmartPointer<vtkImageData> to_vtk(const cv::Mat& bgr) {
 }
 
 // Spherical (u, v) about the centroid, for models without texture coordinates.
-std::vector<TexCoord> spherical(const std::vector<Point3>& vertices) {
+std::vector<model::TexCoord> spherical(const std::vector<model::Point3>& vertices) {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  for (const Point3& p : vertices) centre += Eigen::Vector3d(p[0], p[1], p[2]) / static_cast<double>(vertices.size());
-  std::vector<TexCoord> uv;
-  for (const Point3& p : vertices) {
+  for (const model::Point3& p : vertices) centre += Eigen::Vector3d(p[0], p[1], p[2]) / static_cast<double>(vertices.size());
+  std::vector<model::TexCoord> uv;
+  for (const model::Point3& p : vertices) {
     const Eigen::Vector3d d = Eigen::Vector3d(p[0], p[1], p[2]) - centre;
     const double r = d.norm();
     uv.push_back({0.5 + std::atan2(d[1], d[0]) / (2.0 * M_PI), r > 0 ? std::acos(std::clamp(d[2] / r, -1.0, 1.0)) / M_PI : 0.5});
@@ -88,7 +88,7 @@ OrganScene::OrganScene(const multibeam::BeamOrgan& organ, std::size_t tools, Sce
     : parts_(std::make_unique<Parts>()) {
   Parts& p = *parts_;
   p.options = std::move(options);
-  const OrganModel& model = organ.model();
+  const model::OrganModel& model = organ.model();
 
   // The organ: points, normals and texture coordinates per vertex.
   p.points->SetDataTypeToDouble();
@@ -97,16 +97,16 @@ OrganScene::OrganScene(const multibeam::BeamOrgan& organ, std::size_t tools, Sce
   p.normals->SetNumberOfTuples(static_cast<vtkIdType>(model.surface_vertices.size()));
   p.normals->SetName("Normals");
   vtkNew<vtkCellArray> triangles;
-  for (const Triangle& t : model.surface_triangles) {
+  for (const model::Triangle& t : model.surface_triangles) {
     const vtkIdType ids[3] = {t[0], t[1], t[2]};
     triangles->InsertNextCell(3, ids);
   }
   vtkNew<vtkFloatArray> uv;
   uv->SetNumberOfComponents(2);
   uv->SetName("TextureCoordinates");
-  const std::vector<TexCoord> coordinates =
+  const std::vector<model::TexCoord> coordinates =
       model.surface_texcoords.empty() ? spherical(model.surface_vertices) : model.surface_texcoords;
-  for (const TexCoord& c : coordinates) uv->InsertNextTuple2(c[0], c[1]);
+  for (const model::TexCoord& c : coordinates) uv->InsertNextTuple2(c[0], c[1]);
   p.surface->SetPoints(p.points);
   p.surface->SetPolys(triangles);
   p.surface->GetPointData()->SetNormals(p.normals);
@@ -202,7 +202,7 @@ void OrganScene::show_surface(const realtime::SurfaceFrame& frame) {
   p.surface->Modified();
 }
 
-void OrganScene::show_tool(std::size_t i, bool present, const realtime::ToolPose& pose, const Eigen::Vector3d& force,
+void OrganScene::show_tool(std::size_t i, bool present, const devices::ToolPose& pose, const Eigen::Vector3d& force,
                            bool in_contact) {
   Parts& p = *parts_;
   ToolActors& t = *p.tools[i];

@@ -38,7 +38,7 @@ class OrganScene {
   /// The deformed surface (BeamOrgan's vertex order).
   void show_surface(const realtime::SurfaceFrame& frame);
   /// Tool `i`: its pose, the force it feels (N) and whether it touches.
-  void show_tool(std::size_t i, bool present, const realtime::ToolPose& pose, const Eigen::Vector3d& force,
+  void show_tool(std::size_t i, bool present, const devices::ToolPose& pose, const Eigen::Vector3d& force,
                  bool in_contact);
   void show_text(const std::string& text);
   /// Advances a video background by one frame.

@@ -5,10 +5,10 @@
 #include <limits>
 #include <numeric>
 
-namespace organsim {
+namespace organsim::geometry {
 namespace {
 
-Eigen::Vector3d point(const Point3& p) { return {p[0], p[1], p[2]}; }
+Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 
 constexpr std::uint32_t kLeafSize = 4;
 constexpr int kMaxDepth = 64;  // median splits: depth ≤ log2(triangles) + 1
@@ -47,7 +47,7 @@ Eigen::Vector3d closest_point_barycentric(const Eigen::Vector3d& p, const Eigen:
   return {1.0 - v - w, v, w};
 }
 
-SurfaceBvh::SurfaceBvh(const std::vector<Point3>& vertices, const std::vector<Triangle>& triangles)
+SurfaceBvh::SurfaceBvh(const std::vector<model::Point3>& vertices, const std::vector<model::Triangle>& triangles)
     : vertices_(vertices.data()), triangles_(triangles), order_(triangles.size()) {
   std::iota(order_.begin(), order_.end(), 0u);
   std::vector<Eigen::Vector3d> centroids(triangles.size());
@@ -90,7 +90,7 @@ std::uint32_t SurfaceBvh::build(std::uint32_t first, std::uint32_t count, std::v
   return index;
 }
 
-void SurfaceBvh::refit(const Point3* positions) noexcept {
+void SurfaceBvh::refit(const model::Point3* positions) noexcept {
   vertices_ = positions;
   // Children are created after their parent, so a reverse sweep sees both
   // children of a node before the node.
@@ -127,7 +127,7 @@ bool SurfaceBvh::first_crossing(const Eigen::Vector3d& from, const Eigen::Vector
     }
     for (std::uint32_t i = node.first; i < node.first + node.count; ++i) {
       // Möller–Trumbore, on the closed triangle (edges count: no gaps between triangles).
-      const Triangle& t = triangles_[order_[i]];
+      const model::Triangle& t = triangles_[order_[i]];
       const Eigen::Vector3d a = point(vertices_[t[0]]), b = point(vertices_[t[1]]), c = point(vertices_[t[2]]);
       const Eigen::Vector3d ab = b - a, ac = c - a;
       const Eigen::Vector3d p = direction.cross(ac);
@@ -168,7 +168,7 @@ SurfacePoint SurfaceBvh::closest_point(const Eigen::Vector3d& query) const noexc
     if (node.box.squaredExteriorDistance(query) >= best_squared) continue;
     if (node.count > 0) {
       for (std::uint32_t i = node.first; i < node.first + node.count; ++i) {
-        const Triangle& t = triangles_[order_[i]];
+        const model::Triangle& t = triangles_[order_[i]];
         const Eigen::Vector3d a = point(vertices_[t[0]]), b = point(vertices_[t[1]]), c = point(vertices_[t[2]]);
         const Eigen::Vector3d weights = closest_point_barycentric(query, a, b, c);
         const Eigen::Vector3d candidate = weights[0] * a + weights[1] * b + weights[2] * c;
@@ -193,4 +193,4 @@ SurfacePoint SurfaceBvh::closest_point(const Eigen::Vector3d& query) const noexc
   return best;
 }
 
-}  // namespace organsim
+}  // namespace organsim::geometry

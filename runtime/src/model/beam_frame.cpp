@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-namespace organsim {
+namespace organsim::model {
 
 bool make_beam_frame(const std::array<double, 3>& from, const std::array<double, 3>& to,
                      BeamFrame& frame) noexcept {
@@ -28,4 +28,4 @@ bool make_beam_frame(const std::array<double, 3>& from, const std::array<double,
   return true;
 }
 
-}  // namespace organsim
+}  // namespace organsim::model

@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <string>
 
-namespace organsim::format {
+namespace organsim::model::format {
 
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
               "the .organ reader and writer assume a little-endian host");
@@ -83,4 +83,4 @@ inline std::string section_label(Section id) {
   return std::string("section '") + d.tag + "' (" + d.what + ")";
 }
 
-}  // namespace organsim::format
+}  // namespace organsim::model::format

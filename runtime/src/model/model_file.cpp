@@ -17,8 +17,9 @@
 
 #include "format_layout.h"
 #include "model_validation.h"
+#include "organsim/io/atomic_file.h"
 
-namespace organsim {
+namespace organsim::model {
 namespace {
 
 using format::Section;
@@ -548,45 +549,7 @@ std::vector<std::uint8_t> serialize_organ_model(const OrganModel& model) {
 
 void write_organ_model_file(const OrganModel& model, const std::string& path) {
   const std::vector<std::uint8_t> bytes = serialize_organ_model(model);
-  write_file_atomically(path, bytes.data(), bytes.size());
+  io::write_file_atomically(path, bytes.data(), bytes.size());
 }
 
-void write_file_atomically(const std::string& path, const std::uint8_t* bytes, std::size_t size) {
-  const std::size_t slash = path.find_last_of('/');
-  const std::string directory = slash == std::string::npos ? "." : path.substr(0, slash + 1);
-  const std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
-  std::string temp = (slash == std::string::npos ? std::string() : directory) + "." + name + ".tmp-XXXXXX";
-  auto failure = [&](const std::string& what) {
-    return std::runtime_error("cannot write '" + path + "': " + what + " (" + std::strerror(errno) +
-                              "); check that the directory exists and is writable");
-  };
-  const int fd = ::mkstemp(temp.data());
-  if (fd < 0) throw failure("cannot create a temporary file");
-  std::size_t written = 0;
-  while (written < size) {
-    const ssize_t n = ::write(fd, bytes + written, size - written);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      const auto error = failure("write failed");
-      ::close(fd);
-      ::unlink(temp.c_str());
-      throw error;
-    }
-    written += static_cast<std::size_t>(n);
-  }
-  // Model files are small; fsync makes the rename publish complete contents even after a crash.
-  if (::fchmod(fd, 0644) != 0 || ::fsync(fd) != 0) {
-    const auto error = failure("flush failed");
-    ::close(fd);
-    ::unlink(temp.c_str());
-    throw error;
-  }
-  ::close(fd);
-  if (::rename(temp.c_str(), path.c_str()) != 0) {
-    const auto error = failure("rename failed");
-    ::unlink(temp.c_str());
-    throw error;
-  }
-}
-
-}  // namespace organsim
+}  // namespace organsim::model

@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-namespace organsim {
+namespace organsim::model {
 
 namespace {
 
@@ -130,4 +130,4 @@ std::optional<ModelIssue> find_model_issue(const OrganModel& m) {
   return std::nullopt;
 }
 
-}  // namespace organsim
+}  // namespace organsim::model

@@ -8,7 +8,7 @@
 #include "format_layout.h"
 #include "organsim/model/organ_model.h"
 
-namespace organsim {
+namespace organsim::model {
 
 struct ModelIssue {
   format::Section section;
@@ -18,4 +18,4 @@ struct ModelIssue {
 /// The first violated invariant of `model`, or nothing when it is valid.
 std::optional<ModelIssue> find_model_issue(const OrganModel& model);
 
-}  // namespace organsim
+}  // namespace organsim::model

@@ -6,7 +6,7 @@
 
 #include <string>
 
-namespace organsim {
+namespace organsim::model {
 
 Material liver_default_material() {
   Material m;
@@ -50,4 +50,4 @@ std::string validate_organ_model(const OrganModel& model) {
   return issue ? issue->message : std::string();
 }
 
-}  // namespace organsim
+}  // namespace organsim::model

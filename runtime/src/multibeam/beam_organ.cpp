@@ -15,10 +15,10 @@ namespace {
 
 // The model with its surface vertices renumbered along a Morton curve (21 bits
 // per axis over the bounding box, interleaved); file_index[new] = old.
-OrganModel surface_in_morton_order(OrganModel model, std::vector<std::uint32_t>& file_index) {
+model::OrganModel surface_in_morton_order(model::OrganModel model, std::vector<std::uint32_t>& file_index) {
   const std::size_t n = model.surface_vertices.size();
   Eigen::AlignedBox3d box;
-  for (const Point3& p : model.surface_vertices) box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
+  for (const model::Point3& p : model.surface_vertices) box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
   const Eigen::Vector3d extent = n > 0 ? Eigen::Vector3d(box.sizes().cwiseMax(1e-12)) : Eigen::Vector3d::Ones();
   std::vector<std::pair<std::uint64_t, std::uint32_t>> keys(n);
   for (std::size_t v = 0; v < n; ++v) {
@@ -46,14 +46,14 @@ OrganModel surface_in_morton_order(OrganModel model, std::vector<std::uint32_t>&
   permute(model.surface_vertices, 1);
   permute(model.surface_texcoords, 1);
   permute(model.beams.sections, model.beams.stations_per_beam);
-  for (Triangle& t : model.surface_triangles)
+  for (model::Triangle& t : model.surface_triangles)
     for (std::uint32_t& v : t) v = new_index[v];
   return model;
 }
 
 }  // namespace
 
-BeamOrgan::BeamOrgan(OrganModel model)
+BeamOrgan::BeamOrgan(model::OrganModel model)
     : model_(surface_in_morton_order(std::move(model), file_index_)),
       fixed_point_(model_.fixed_points.empty() ? Eigen::Vector3d::Zero()
                                                : Eigen::Vector3d(model_.fixed_points[0][0], model_.fixed_points[0][1],
@@ -70,12 +70,12 @@ BeamOrgan::BeamOrgan(OrganModel model)
   // Each triangle (v, a, b), rotated to start at v, contributes the edge a → b
   // of v's ring; a closed manifold ring chains these edges into one cycle.
   std::vector<std::uint32_t> edge_offsets(n + 1, 0);
-  for (const Triangle& t : model_.surface_triangles)
+  for (const model::Triangle& t : model_.surface_triangles)
     for (std::uint32_t v : t) ++edge_offsets[v + 1];
   for (std::size_t v = 0; v < n; ++v) edge_offsets[v + 1] += edge_offsets[v];
   std::vector<std::array<std::uint32_t, 2>> edges(edge_offsets[n]);
   std::vector<std::uint32_t> fill(edge_offsets.begin(), edge_offsets.end() - 1);
-  for (const Triangle& t : model_.surface_triangles)
+  for (const model::Triangle& t : model_.surface_triangles)
     for (int k = 0; k < 3; ++k) edges[fill[t[k]]++] = {t[(k + 1) % 3], t[(k + 2) % 3]};
 
   ring_offsets_.assign(n + 1, 0);
@@ -119,7 +119,7 @@ BeamOrgan::BeamOrgan(OrganModel model)
   }
 }
 
-void compute_vertex_normals(const BeamOrgan& organ, const Point3* positions, Point3* normals, std::size_t first,
+void compute_vertex_normals(const BeamOrgan& organ, const model::Point3* positions, model::Point3* normals, std::size_t first,
                             std::size_t last) noexcept {
   const std::uint32_t* offsets = organ.ring_offsets().data();
   const std::uint32_t* ring = organ.ring().data();

@@ -35,7 +35,7 @@ int bending_dof(int hermite_index, int component, double& sign) {
 
 }  // namespace
 
-Matrix12d element_stiffness(const BeamSection& section, double h, const BeamElasticity& elasticity,
+Matrix12d element_stiffness(const model::BeamSection& section, double h, const BeamElasticity& elasticity,
                             const BeamBuildOptions& options) noexcept {
   Matrix12d k = Matrix12d::Zero();
   const double e_modulus = elasticity.young_modulus;
@@ -101,7 +101,7 @@ ClampedBeam::ClampedBeam(std::uint32_t max_elements)
       carry_(max_elements + 1),
       response_(max_elements + 1) {}
 
-Status ClampedBeam::build(const BeamSection* sections, std::uint32_t element_count, double length,
+Status ClampedBeam::build(const model::BeamSection* sections, std::uint32_t element_count, double length,
                           const BeamElasticity& elasticity, const BeamBuildOptions& options) noexcept {
   built_ = false;
   if (element_count == 0 || element_count > capacity_) return Status::singular_beam;
@@ -111,7 +111,7 @@ Status ClampedBeam::build(const BeamSection* sections, std::uint32_t element_cou
 
   double max_area = 0.0, max_inertia = 0.0, max_torsion = 0.0;
   for (std::uint32_t e = 0; e < element_count; ++e) {
-    const BeamSection& s = sections[e];
+    const model::BeamSection& s = sections[e];
     for (double v : {s.area, s.i_yy, s.i_zz, s.i_yz, s.torsion_j, s.centroid_y, s.centroid_z})
       if (!std::isfinite(v)) return Status::not_finite;
     max_area = std::max(max_area, s.area);
@@ -125,7 +125,7 @@ Status ClampedBeam::build(const BeamSection* sections, std::uint32_t element_cou
   const double h = length / element_count;
   for (std::uint32_t n = 1; n <= element_count; ++n) diagonal_[n].setZero();
   for (std::uint32_t e = 0; e < element_count; ++e) {
-    BeamSection s = sections[e];
+    model::BeamSection s = sections[e];
     s.area = std::max(s.area, kFloor * max_area);
     s.i_yy = std::max(s.i_yy, kFloor * max_inertia);
     s.i_zz = std::max(s.i_zz, kFloor * max_inertia);

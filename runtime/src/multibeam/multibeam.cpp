@@ -40,14 +40,14 @@ Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point) noexc
   if (beam.attached) ++contact_generation_;
   beam.attached = false;
   if (!point.allFinite()) return Status::not_finite;
-  const SurfacePoint action = organ_.surface_tree().closest_point(point);
+  const geometry::SurfacePoint action = organ_.surface_tree().closest_point(point);
   if (action.distance > options_.snap_distance) return Status::far_from_organ;
 
   const Eigen::Vector3d& fixed = organ_.fixed_point();
   const double length = (action.position - fixed).norm();
-  BeamFrame frame;
+  model::BeamFrame frame;
   if (!(length >= options_.min_beam_length) ||
-      !make_beam_frame({fixed[0], fixed[1], fixed[2]},
+      !model::make_beam_frame({fixed[0], fixed[1], fixed[2]},
                        {action.position[0], action.position[1], action.position[2]}, frame))
     return Status::at_fixed_point;
   const Eigen::Vector3d x = vec(frame.x), y = vec(frame.y), z = vec(frame.z);
@@ -56,13 +56,13 @@ Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point) noexc
   // baked in its own beam frame, so the second moments are carried as world
   // tensors (frame-independent) and the centroid offsets as world vectors, then
   // read back in this beam's frame.
-  const OrganModel& model = organ_.model();
-  const Triangle& triangle = model.surface_triangles[action.triangle];
+  const model::OrganModel& model = organ_.model();
+  const model::Triangle& triangle = model.surface_triangles[action.triangle];
   Eigen::Vector3d corner_y[3], corner_z[3];
   double weight[3];
   for (int k = 0; k < 3; ++k) {
-    BeamFrame f{};
-    weight[k] = make_beam_frame({fixed[0], fixed[1], fixed[2]}, model.surface_vertices[triangle[k]], f)
+    model::BeamFrame f{};
+    weight[k] = model::make_beam_frame({fixed[0], fixed[1], fixed[2]}, model.surface_vertices[triangle[k]], f)
                     ? action.barycentric[k]
                     : 0.0;  // a corner at the fixed point has no section
     corner_y[k] = vec(f.y);
@@ -78,7 +78,7 @@ Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point) noexc
     double area = 0.0, torsion = 0.0;
     for (int k = 0; k < 3; ++k) {
       if (weight[k] == 0.0) continue;
-      const BeamSection& c = model.beams.at(triangle[k], s);
+      const model::BeamSection& c = model.beams.at(triangle[k], s);
       const double w = weight[k] / total;
       const Eigen::Vector3d& cy = corner_y[k];
       const Eigen::Vector3d& cz = corner_z[k];
@@ -88,7 +88,7 @@ Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point) noexc
       area += w * c.area;
       torsion += w * c.torsion_j;
     }
-    BeamSection& section = sections_[s];
+    model::BeamSection& section = sections_[s];
     section.area = area;
     section.torsion_j = torsion;
     section.i_zz = y.dot(tensor * y);
@@ -260,7 +260,7 @@ void MultiBeam::build_vertex_weights(std::size_t first, std::size_t last) noexce
   }
 }
 
-void MultiBeam::distort(std::size_t first, std::size_t last, Point3* positions) noexcept {
+void MultiBeam::distort(std::size_t first, std::size_t last, model::Point3* positions) noexcept {
   if (vertex_weights_stale_) build_vertex_weights(first, last);
   distorted_.store(true, std::memory_order_relaxed);
   const std::int32_t last_element = static_cast<std::int32_t>(organ_.stations()) - 1;
@@ -347,11 +347,11 @@ void MultiBeam::distort(std::size_t first, std::size_t last, Point3* positions) 
   }
 }
 
-void MultiBeam::normals(std::size_t first, std::size_t last, const Point3* positions, Point3* normals) const noexcept {
+void MultiBeam::normals(std::size_t first, std::size_t last, const model::Point3* positions, model::Point3* normals) const noexcept {
   compute_vertex_normals(organ_, positions, normals, first, last);
 }
 
-Status MultiBeam::deform(const Eigen::Vector3d* tip_displacements, Point3* positions, Point3* normals_out,
+Status MultiBeam::deform(const Eigen::Vector3d* tip_displacements, model::Point3* positions, model::Point3* normals_out,
                          std::size_t capacity) noexcept {
   const std::size_t n = organ_.vertex_count();
   if (capacity < n) return Status::buffer_too_small;

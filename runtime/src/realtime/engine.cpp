@@ -24,7 +24,7 @@ SurfaceFrame rest_frame(const multibeam::BeamOrgan& organ) {
   return frame;
 }
 
-Eigen::Vector3d vec(const Point3& p) { return {p[0], p[1], p[2]}; }
+Eigen::Vector3d vec(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 
 // m: a contact ends when its point is this far outside the tangent plane, so
 // that a contact beginning exactly on the surface (a shaft's) is not ended by
@@ -36,7 +36,7 @@ constexpr double kRetryDistance = 1e-3;
 
 }  // namespace
 
-Engine::Engine(const multibeam::BeamOrgan& organ, const std::vector<HapticDevice*>& devices,
+Engine::Engine(const multibeam::BeamOrgan& organ, const std::vector<devices::HapticDevice*>& devices,
                const EngineOptions& options)
     : organ_(organ),
       devices_(devices),
@@ -45,7 +45,7 @@ Engine::Engine(const multibeam::BeamOrgan& organ, const std::vector<HapticDevice
       deformed_tree_(organ.model().surface_vertices, organ.model().surface_triangles),
       surfaces_(rest_frame(organ)) {
   if (devices.empty() || devices.size() > kMaxTools) throw std::invalid_argument("an engine drives 1 to 16 tools");
-  for (HapticDevice* d : devices)
+  for (devices::HapticDevice* d : devices)
     if (d == nullptr) throw std::invalid_argument("a haptic device is missing");
   for (std::size_t i = 0; i < devices.size(); ++i) safety_[i] = ForceSafety(devices[i]->limits());
   for (auto& d : displacement_) d.setZero();
@@ -63,7 +63,7 @@ void Engine::force_tick(double now) noexcept {
   ToolFrame& out = tool_frames_.write_slot();
   out.time = now;
   for (std::size_t i = 0; i < devices_.size(); ++i) {
-    ToolPose pose;
+    devices::ToolPose pose;
     const bool valid = devices_[i]->read_pose(now, pose) && pose.tip.allFinite() && pose.shaft.allFinite();
     out.tips[i] = valid ? pose.tip : Eigen::Vector3d::Zero();
     out.shafts[i] = valid ? pose.shaft : Eigen::Vector3d::Zero();
@@ -112,7 +112,7 @@ void Engine::deformation_step(double now) noexcept {
       contact.active = false;
     }
     const bool valid = tools.time >= 0.0 && tools.tip_valid[i];
-    SegmentHit hit;
+    geometry::SegmentHit hit;
     double shaft_offset = 0.0;
     bool crossed = false;
     const bool retry = !refused_valid_[i] || (tools.tips[i] - refused_at_[i]).norm() > kRetryDistance;
@@ -134,12 +134,12 @@ void Engine::deformation_step(double now) noexcept {
       }
     }
     if (crossed) {
-      const Triangle& t = triangles[hit.triangle];
+      const model::Triangle& t = triangles[hit.triangle];
       const Eigen::Vector3d rest_point = hit.barycentric[0] * vec(rest[t[0]]) + hit.barycentric[1] * vec(rest[t[1]]) +
                                          hit.barycentric[2] * vec(rest[t[2]]);
       if (beams_.attach(tool, rest_point) == multibeam::Status::ok) {
         const multibeam::ToolBeam& beam = beams_.beam(tool);
-        contact.normal = triangle_normal(organ_.model(), beam.action.triangle);
+        contact.normal = geometry::triangle_normal(organ_.model(), beam.action.triangle);
         contact.action_point = beam.action.position;
         // A contact stiffer than the device can render is softened to its limit.
         contact.stiffness = beam.stiffness;

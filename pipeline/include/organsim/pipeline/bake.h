@@ -43,10 +43,12 @@ struct BakeOptions {
   SurfaceOptions surface;
   TetrahedraOptions tetrahedra;
   BeamBakingOptions beams;
-  Material material = liver_default_material();
+  model::Material material = model::liver_default_material();
 
   std::string program_version;     ///< written into the model's provenance
-  std::string intermediates_dir;  ///< when set: mask.nii.gz, surface.vtp, surface.stl, tetrahedra.vtu
+  std::string output_path;        ///< when set: the model file is written there (atomically)
+  std::string intermediates_dir;  ///< when set: mask.nii.gz, surface.vtp, surface.stl, tetrahedra.vtu, published
+                                  ///< only when the whole bake (and the model file) succeeded
 };
 
 /// What the pipeline made, for the user to check before simulating.
@@ -72,7 +74,7 @@ struct BakeReport {
 };
 
 struct BakeResult {
-  OrganModel model;
+  model::OrganModel model;
   BakeReport report;
 };
 
@@ -87,12 +89,8 @@ BakeResult bake(const BakeOptions& options, const BakeProgress& progress = {});
 /// little-endian u64/f64) followed by its voxels (little-endian int16).
 std::string image_sha256(const CtImage& ct);
 
-/// The deepest interior voxel of a mask (largest distance to the boundary;
-/// the first in memory order on ties) as a physical point (mm), with its depth (mm).
-std::pair<std::array<double, 3>, double> deepest_interior_point(const MaskImage& mask);
-
 /// Spherical texture coordinates about the vertices' centroid: u from the
 /// azimuth, v from the polar angle, both in [0, 1].
-std::vector<TexCoord> spherical_texture_coordinates(const std::vector<Point3>& vertices);
+std::vector<model::TexCoord> spherical_texture_coordinates(const std::vector<model::Point3>& vertices);
 
 }  // namespace organsim::pipeline

@@ -30,15 +30,15 @@ class MaskSampler {
 
   explicit MaskSampler(const MaskImage& mask);
   /// Interpolated mask value in [0, 1]; 0 outside the volume.
-  double value(const Point3& point_m) const;
+  double value(const model::Point3& point_m) const;
   /// The continuous voxel index of a point (m); affine in the point.
-  Index index_of(const Point3& point_m) const;
+  Index index_of(const model::Point3& point_m) const;
   /// Whether the interpolated value at a continuous index is at least 1/2.
   /// Fast: blocks of 4³ voxels that are uniformly in or out answer without
   /// interpolating, and most samples of an organ section fall in such blocks.
   bool inside(const Index& index) const;
   /// Centre and radius (m) of a sphere containing every voxel of the organ.
-  const Point3& organ_centre() const { return centre_; }
+  const model::Point3& organ_centre() const { return centre_; }
   double organ_radius() const { return radius_; }
 
  private:
@@ -50,19 +50,19 @@ class MaskSampler {
   long size_[3];
   long blocks_[3];                   // number of 4³ blocks per axis
   std::vector<std::uint8_t> block_;  // kEmpty, kFull or kMixed for the 5³ voxels a block's samples touch
-  Point3 centre_{};
+  model::Point3 centre_{};
   double radius_ = 0.0;
 };
 
 /// The organ section through `axis_point` (m) perpendicular to frame.x.
-BeamSection organ_section(const MaskSampler& sampler, const Point3& axis_point, const BeamFrame& frame,
+model::BeamSection organ_section(const MaskSampler& sampler, const model::Point3& axis_point, const model::BeamFrame& frame,
                           unsigned samples_per_side);
 
 /// Beam tables for every surface vertex (m), multithreaded; deterministic
 /// regardless of the thread count. `progress`, when given, is called on the
 /// calling thread with the fraction of beams done.
-BeamTables bake_beam_tables(const MaskImage& mask, const std::vector<Point3>& surface_vertices,
-                            const Point3& fixed_point, const BeamBakingOptions& options,
+model::BeamTables bake_beam_tables(const MaskImage& mask, const std::vector<model::Point3>& surface_vertices,
+                            const model::Point3& fixed_point, const BeamBakingOptions& options,
                             const std::function<void(double)>& progress = {});
 
 }  // namespace organsim::pipeline

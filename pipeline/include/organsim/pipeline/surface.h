@@ -6,7 +6,7 @@
 #include <cstddef>
 #include <vector>
 
-#include "organsim/model/organ_model.h"
+#include "organsim/geometry/meshes.h"
 #include "organsim/pipeline/ct_image.h"
 
 namespace organsim::pipeline {
@@ -17,17 +17,9 @@ struct SurfaceOptions {
   double smoothing_passband = 0.05;    ///< windowed sinc pass band (smaller: smoother)
 };
 
-struct SurfaceMesh {
-  std::vector<Point3> vertices;     ///< m, patient frame
-  std::vector<Triangle> triangles;  ///< counter-clockwise seen from outside
-};
-
 /// Throws std::runtime_error with one line when the mask is empty or the
 /// result is not a closed manifold (each edge shared by exactly two triangles).
-SurfaceMesh extract_surface(const MaskImage& mask, const SurfaceOptions& options);
-
-/// Signed enclosed volume (m³; > 0 for outward triangles) and area (m²).
-double enclosed_volume(const SurfaceMesh& mesh);
-double surface_area(const SurfaceMesh& mesh);
+/// Area and volume: organsim/geometry/model_measures.h.
+geometry::SurfaceMesh extract_surface(const MaskImage& mask, const SurfaceOptions& options);
 
 }  // namespace organsim::pipeline

@@ -6,8 +6,7 @@
 #include <cstddef>
 #include <vector>
 
-#include "organsim/model/organ_model.h"
-#include "organsim/pipeline/surface.h"
+#include "organsim/geometry/meshes.h"
 
 namespace organsim::pipeline {
 
@@ -17,11 +16,6 @@ struct TetrahedraOptions {
   double facet_angle_deg = 25.0;         ///< smallest boundary-facet angle (Mesh_3's facet_angle)
   double radius_edge_ratio = 3.0;        ///< largest circumradius / shortest edge of a tetrahedron
   bool optimize = true;                  ///< Lloyd smoothing and sliver exudation after refinement
-};
-
-struct TetrahedralMesh {
-  std::vector<Point3> vertices;          ///< m, patient frame
-  std::vector<Tetrahedron> tetrahedra;   ///< positively oriented
 };
 
 struct TetrahedralQuality {
@@ -38,9 +32,9 @@ struct TetrahedralQuality {
 /// Deterministic: the same surface and options give the same mesh. Throws
 /// std::runtime_error with one line when the options are unusable or the
 /// mesher produces no tetrahedra ("meshing failure").
-TetrahedralMesh make_tetrahedra(const SurfaceMesh& surface, const TetrahedraOptions& options);
+geometry::TetrahedralMesh make_tetrahedra(const geometry::SurfaceMesh& surface, const TetrahedraOptions& options);
 
 /// Quality figures of a tetrahedral mesh (empty meshes give all zeros).
-TetrahedralQuality measure_quality(const TetrahedralMesh& mesh);
+TetrahedralQuality measure_quality(const geometry::TetrahedralMesh& mesh);
 
 }  // namespace organsim::pipeline

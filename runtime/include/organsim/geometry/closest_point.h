@@ -9,7 +9,7 @@
 
 #include "organsim/model/organ_model.h"
 
-namespace organsim {
+namespace organsim::geometry {
 
 /// The point of triangle (a, b, c) closest to p, as barycentric weights
 /// (w_a, w_b, w_c), each in [0, 1], summing to 1 (Ericson, Real-Time Collision
@@ -40,11 +40,11 @@ struct SegmentHit {
 /// changing the tree (no allocation). Queries allocate nothing.
 class SurfaceBvh {
  public:
-  SurfaceBvh(const std::vector<Point3>& vertices, const std::vector<Triangle>& triangles);
+  SurfaceBvh(const std::vector<model::Point3>& vertices, const std::vector<model::Triangle>& triangles);
 
   /// Makes the tree describe the same triangles at `positions` (one per vertex,
   /// kept by pointer until the next refit): boxes recomputed bottom-up.
-  void refit(const Point3* positions) noexcept;
+  void refit(const model::Point3* positions) noexcept;
 
   /// The surface point closest to `query` (finite). Exact: every triangle whose
   /// box could hold a closer point is tested.
@@ -65,10 +65,10 @@ class SurfaceBvh {
   };
   std::uint32_t build(std::uint32_t first, std::uint32_t count, std::vector<Eigen::Vector3d>& centroids);
 
-  const Point3* vertices_;
-  const std::vector<Triangle>& triangles_;
+  const model::Point3* vertices_;
+  const std::vector<model::Triangle>& triangles_;
   std::vector<std::uint32_t> order_;
   std::vector<Node> nodes_;
 };
 
-}  // namespace organsim
+}  // namespace organsim::geometry

@@ -1,5 +1,6 @@
-// Whole-model geometric measures, used by `organsim info` and by the pipeline's
-// quality report. SI units: metres, square metres, cubic metres.
+// Geometric measures of surfaces, tetrahedra and whole models: the one place
+// where area and volume are computed (`organsim info`, `poke`, the pipeline's
+// quality report). SI units: metres, square metres, cubic metres.
 #pragma once
 
 #include <Eigen/Core>
@@ -7,7 +8,7 @@
 
 #include "organsim/model/organ_model.h"
 
-namespace organsim {
+namespace organsim::geometry {
 
 struct ModelMeasures {
   Eigen::Vector3d bounds_min = Eigen::Vector3d::Zero();  ///< of the surface vertices, m
@@ -18,14 +19,21 @@ struct ModelMeasures {
   double min_tetrahedron_volume = 0.0;   ///< smallest signed tetrahedron volume, m³ (< 0 means inverted)
 };
 
+/// Area of a triangle surface, m².
+double surface_area(const std::vector<model::Point3>& vertices, const std::vector<model::Triangle>& triangles);
+
+/// Signed volume of the tetrahedron (a, b, c, d): > 0 when (b−a)·((c−a)×(d−a)) > 0, m³.
+double signed_tetrahedron_volume(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                                 const Eigen::Vector3d& d);
+
 /// Signed volume enclosed by a closed triangle surface (divergence theorem;
 /// > 0 for outward triangles), m³.
-double enclosed_volume(const std::vector<Point3>& vertices, const std::vector<Triangle>& triangles);
+double enclosed_volume(const std::vector<model::Point3>& vertices, const std::vector<model::Triangle>& triangles);
 
 /// Unit outward normal of a surface triangle of the model (rest state).
-Eigen::Vector3d triangle_normal(const OrganModel& model, std::uint32_t triangle);
+Eigen::Vector3d triangle_normal(const model::OrganModel& model, std::uint32_t triangle);
 
 /// Measures a model; the model must be valid (see validate_organ_model).
-ModelMeasures measure_model(const OrganModel& model);
+ModelMeasures measure_model(const model::OrganModel& model);
 
-}  // namespace organsim
+}  // namespace organsim::geometry

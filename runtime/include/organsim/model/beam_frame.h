@@ -4,7 +4,7 @@
 
 #include <array>
 
-namespace organsim {
+namespace organsim::model {
 
 /// Right-handed orthonormal frame of a beam from point `from` to point `to`.
 struct BeamFrame {
@@ -20,4 +20,4 @@ struct BeamFrame {
 bool make_beam_frame(const std::array<double, 3>& from, const std::array<double, 3>& to,
                      BeamFrame& frame) noexcept;
 
-}  // namespace organsim
+}  // namespace organsim::model

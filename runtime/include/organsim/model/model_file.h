@@ -11,7 +11,7 @@
 
 #include "organsim/model/organ_model.h"
 
-namespace organsim {
+namespace organsim::model {
 
 struct FormatVersion {
   std::uint16_t major = 0;
@@ -59,13 +59,9 @@ ModelReadResult parse_organ_model(const std::uint8_t* data, std::size_t size,
 /// (with the validation message) when the model is not valid.
 std::vector<std::uint8_t> serialize_organ_model(const OrganModel& model);
 
-/// Writes a model file atomically: a temporary file in the target directory,
-/// flushed, then renamed over `path`. On any error no file is left behind and
-/// std::runtime_error (or std::invalid_argument for an invalid model) is thrown.
+/// Writes a model file atomically (organsim/io/atomic_file.h): a temporary file
+/// in the target directory, flushed, then renamed over `path`. On any error no
+/// file is left behind and std::runtime_error (or std::invalid_argument for an invalid model) is thrown.
 void write_organ_model_file(const OrganModel& model, const std::string& path);
 
-/// Writes `bytes` to `path` atomically (temporary file + rename); used for every
-/// output file the tools produce. Throws std::runtime_error naming the path.
-void write_file_atomically(const std::string& path, const std::uint8_t* bytes, std::size_t size);
-
-}  // namespace organsim
+}  // namespace organsim::model

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-namespace organsim {
+namespace organsim::model {
 
 using Point3 = std::array<double, 3>;           ///< x, y, z in metres
 using TexCoord = std::array<double, 2>;         ///< u, v in [0, 1]
@@ -97,4 +97,4 @@ struct OrganModel {
 /// the problem.
 std::string validate_organ_model(const OrganModel& model);
 
-}  // namespace organsim
+}  // namespace organsim::model

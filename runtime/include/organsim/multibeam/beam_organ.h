@@ -23,18 +23,18 @@ class BeamOrgan {
   /// neighbours in space (vector loops then mostly share one beam element, and
   /// threads write disjoint memory); model() is the renumbered model and
   /// file_vertex_index() maps back to the file's numbering.
-  explicit BeamOrgan(OrganModel model);
+  explicit BeamOrgan(model::OrganModel model);
   BeamOrgan(const BeamOrgan&) = delete;  // the tree refers into the model's arrays
   BeamOrgan& operator=(const BeamOrgan&) = delete;
 
-  const OrganModel& model() const noexcept { return model_; }
+  const model::OrganModel& model() const noexcept { return model_; }
   std::size_t vertex_count() const noexcept { return model_.surface_vertices.size(); }
   std::uint32_t stations() const noexcept { return model_.beams.stations_per_beam; }
   const Eigen::Vector3d& fixed_point() const noexcept { return fixed_point_; }
   const BeamElasticity& elasticity() const noexcept { return elasticity_; }
   /// κ of the attenuation exp(−κ d) = α^(−β d): κ = β ln α, 1/m.
   double attenuation_rate() const noexcept { return attenuation_rate_; }
-  const SurfaceBvh& surface_tree() const noexcept { return tree_; }
+  const geometry::SurfaceBvh& surface_tree() const noexcept { return tree_; }
 
   /// The one-ring of vertex v: ring()[ring_offsets()[v] .. ring_offsets()[v + 1]).
   /// When ring_closed()[v], the neighbours in counter-clockwise order (seen from
@@ -60,11 +60,11 @@ class BeamOrgan {
 
  private:
   std::vector<std::uint32_t> file_index_;  // declared before model_: filled while model_ is built
-  OrganModel model_;
+  model::OrganModel model_;
   Eigen::Vector3d fixed_point_;
   BeamElasticity elasticity_;
   double attenuation_rate_;
-  SurfaceBvh tree_;
+  geometry::SurfaceBvh tree_;
   std::vector<std::uint32_t> ring_offsets_;
   std::vector<std::uint32_t> ring_;
   std::vector<std::uint8_t> ring_closed_;
@@ -78,7 +78,7 @@ class BeamOrgan {
 /// closed ring n_0..n_k−1 is Σ n_j × n_j+1 (the centre cancels), so each
 /// neighbour is read once.
 /// Allocates nothing; ranges may run on different threads.
-void compute_vertex_normals(const BeamOrgan& organ, const Point3* positions, Point3* normals, std::size_t first,
+void compute_vertex_normals(const BeamOrgan& organ, const model::Point3* positions, model::Point3* normals, std::size_t first,
                             std::size_t last) noexcept;
 
 }  // namespace organsim::multibeam

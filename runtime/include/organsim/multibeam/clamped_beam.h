@@ -1,5 +1,6 @@
 // A straight 3-D frame beam clamped at one end: the structural core of the
-// multi-beam model (Nakaguchi et al.; Ushiki et al., paper 000, eqs. 1–3).
+// multi-beam model (Nakaguchi et al., SPIE Medical Imaging 2006; Ushiki et al.,
+// multi-beam paper, eqs. 1–3; docs/multibeam.md#references).
 //
 // The beam lies along its local x axis from the clamp (node 0, x = 0) to the tip
 // (node N, x = L), cut into N equal elements; element e has the constant section
@@ -63,7 +64,7 @@ class ClampedBeam {
   /// beam's largest are raised to that floor (a section plane that barely grazes
   /// the organ must not make the beam singular). Returns not_finite for a bad
   /// length or section, singular_beam when the factorization fails.
-  Status build(const BeamSection* sections, std::uint32_t element_count, double length,
+  Status build(const model::BeamSection* sections, std::uint32_t element_count, double length,
                const BeamElasticity& elasticity, const BeamBuildOptions& options) noexcept;
 
   bool built() const noexcept { return built_; }
@@ -95,7 +96,7 @@ class ClampedBeam {
 
 /// The 12×12 stiffness of one element of length h (local frame, DOFs
 /// [u v w θx θy θz] of its first then its second node). Exposed for tests.
-Eigen::Matrix<double, 12, 12> element_stiffness(const BeamSection& section, double h, const BeamElasticity& elasticity,
+Eigen::Matrix<double, 12, 12> element_stiffness(const model::BeamSection& section, double h, const BeamElasticity& elasticity,
                                                 const BeamBuildOptions& options) noexcept;
 
 }  // namespace organsim::multibeam

@@ -1,4 +1,5 @@
-// How the displacement fields of several beams are merged (paper 000, eqs. 5–8).
+// How the displacement fields of several beams are merged (Ushiki et al.,
+// multi-beam paper, eqs. 5–8; docs/multibeam.md#references).
 #pragma once
 
 #include <cstdint>

@@ -1,7 +1,8 @@
-// The multi-beam deformation model (paper 000): one clamped beam per tool from
-// the organ's fixed point to the tool's action point on the surface; the force
-// on each tool from its beam; the whole organ moved by the space distortion of
-// all beams, merged by the influence function or by superposition.
+// The multi-beam deformation model (Ushiki et al., multi-beam paper, eqs. 4–8;
+// docs/multibeam.md#references): one clamped beam per tool from the organ's
+// fixed point to the tool's action point on the surface; the force on each tool
+// from its beam; the whole organ moved by the space distortion of all beams,
+// merged by the influence function or by superposition.
 //
 // Shaped for real time: construct once (allocates everything for max_tools
 // tools); attach() builds a beam when a contact begins (tables interpolated,
@@ -57,7 +58,7 @@ struct MultiBeamOptions {
 /// One tool's beam, fixed from attach() to detach().
 struct ToolBeam {
   bool attached = false;
-  SurfacePoint action;                                    ///< action point on the rest surface
+  geometry::SurfacePoint action;                                    ///< action point on the rest surface
   double length = 0.0;                                    ///< beam length, m
   Eigen::Matrix3d frame = Eigen::Matrix3d::Identity();    ///< columns: beam x, y, z (world)
   Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();    ///< condensed tip stiffness K (world), N/m
@@ -85,7 +86,7 @@ class MultiBeam {
   /// the attached tools (`tip_displacements[tool]`, m, world; entries of detached
   /// tools are ignored). Both buffers hold vertex_count() points. Equivalent to
   /// prepare() + distort(0, n) + normals(0, n).
-  Status deform(const Eigen::Vector3d* tip_displacements, Point3* positions, Point3* normals,
+  Status deform(const Eigen::Vector3d* tip_displacements, model::Point3* positions, model::Point3* normals,
                 std::size_t capacity) noexcept;
 
   /// The steps of deform(), for callers that split the vertices over threads:
@@ -101,8 +102,8 @@ class MultiBeam {
   /// one. The distortion runs in single precision: displacements within about
   /// 10⁻⁷ of themselves plus a few nanometres (docs/multibeam.md).
   Status prepare(const Eigen::Vector3d* tip_displacements) noexcept;
-  void distort(std::size_t first, std::size_t last, Point3* positions) noexcept;
-  void normals(std::size_t first, std::size_t last, const Point3* positions, Point3* normals) const noexcept;
+  void distort(std::size_t first, std::size_t last, model::Point3* positions) noexcept;
+  void normals(std::size_t first, std::size_t last, const model::Point3* positions, model::Point3* normals) const noexcept;
 
  private:
   // Per active tool, per element: cubic coefficients of the displacement
@@ -126,7 +127,7 @@ class MultiBeam {
   MultiBeamOptions options_;
   std::vector<ToolBeam> tools_;
   std::vector<ClampedBeam> solvers_;   // per tool
-  std::vector<BeamSection> sections_;  // scratch for attach(): stations entries
+  std::vector<model::BeamSection> sections_;  // scratch for attach(): stations entries
 
   // Filled by prepare(): the active tools in slot order and their merge data.
   std::uint32_t active_count_ = 0;

@@ -1,5 +1,6 @@
 // The real-time engine: a force loop (≥ 1 kHz) and a deformation loop (≥ 60 Hz)
-// around one multi-beam state (paper 000, §3), with haptic devices, contact
+// around one multi-beam state (Ushiki et al., multi-beam paper, §3;
+// docs/multibeam.md#references), with haptic devices, contact
 // detection and force safety. docs/realtime.md states the rules.
 //
 // Threads: force_tick() belongs to the force loop (a 1 kHz thread, or a device's
@@ -27,10 +28,10 @@
 
 #include <Eigen/Core>
 
+#include "organsim/devices/haptic_device.h"
 #include "organsim/geometry/closest_point.h"
 #include "organsim/multibeam/multibeam.h"
 #include "organsim/realtime/force_safety.h"
-#include "organsim/realtime/haptic_device.h"
 #include "organsim/realtime/triple_buffer.h"
 
 namespace organsim::realtime {
@@ -70,8 +71,8 @@ struct ToolFrame {
 
 /// The deformed organ for viewers (model's vertex order of BeamOrgan).
 struct SurfaceFrame {
-  std::vector<Point3> positions;  ///< m
-  std::vector<Point3> normals;    ///< unit
+  std::vector<model::Point3> positions;  ///< m
+  std::vector<model::Point3> normals;    ///< unit
   std::uint64_t frame = 0;
   double time = 0.0;
 };
@@ -87,7 +88,7 @@ struct ToolTelemetry {
 class Engine {
  public:
   /// Devices are not owned and must outlive the engine; at most kMaxTools.
-  Engine(const multibeam::BeamOrgan& organ, const std::vector<HapticDevice*>& devices, const EngineOptions& options);
+  Engine(const multibeam::BeamOrgan& organ, const std::vector<devices::HapticDevice*>& devices, const EngineOptions& options);
 
   /// One force-loop iteration at time `now` (s).
   void force_tick(double now) noexcept;
@@ -107,7 +108,7 @@ class Engine {
 
  private:
   const multibeam::BeamOrgan& organ_;
-  std::vector<HapticDevice*> devices_;
+  std::vector<devices::HapticDevice*> devices_;
   EngineOptions options_;
 
   // Force loop only.
@@ -119,8 +120,8 @@ class Engine {
 
   // Deformation loop only.
   multibeam::MultiBeam beams_;
-  SurfaceBvh deformed_tree_;
-  const Point3* tree_positions_ = nullptr;  // the last published surface
+  geometry::SurfaceBvh deformed_tree_;
+  const model::Point3* tree_positions_ = nullptr;  // the last published surface
   bool tree_stale_ = false;                 // the tree does not describe it yet
   ContactFrame contacts_;
   std::array<Eigen::Vector3d, kMaxTools> previous_tip_{};

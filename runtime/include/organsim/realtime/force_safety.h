@@ -6,16 +6,11 @@
 
 #include <Eigen/Core>
 
+#include "organsim/devices/haptic_device.h"
+
 namespace organsim::realtime {
 
-/// A device's limits and the safety rules' time constants (SI).
-struct SafetyLimits {
-  double max_force = 3.3;         ///< N: larger forces are scaled down to this magnitude (PHANToM Omni/Touch peak)
-  double max_stiffness = 1000.0;  ///< N/m: stiffer contacts are softened to this (Omni/Touch ≈ 0.8–1.3 N/mm)
-  double onset_rate = 40.0;       ///< N/s: how fast the force magnitude may grow (no kick at contact)
-  double stall_timeout = 0.1;     ///< s without a fresh simulation frame before the force ramps down
-  double ramp_down_time = 0.2;    ///< s from full force to zero once stalled
-};
+using devices::SafetyLimits;
 
 /// Per tool: clamp, NaN/Inf guard, watchdog ramp-down and onset rate limit.
 class ForceSafety {

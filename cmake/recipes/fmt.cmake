@@ -1,0 +1,2 @@
+# {fmt} (Debian libfmt-dev): formatting of messages and reports.
+find_package(fmt REQUIRED)

@@ -1,0 +1,3 @@
+# GoogleTest (Debian libgtest-dev). GoogleMock is not used.
+find_package(GTest REQUIRED)
+include(GoogleTest)

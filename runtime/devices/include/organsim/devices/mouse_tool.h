@@ -1,0 +1,59 @@
+// A tool moved with the mouse and keyboard (the viewer): a HapticDevice whose
+// pose the user interface thread sets and the force loop reads, both wait-free.
+#pragma once
+
+#include <atomic>
+
+#include "organsim/devices/haptic_device.h"
+#include "organsim/realtime/triple_buffer.h"
+
+namespace organsim::devices {
+
+class MouseTool final : public HapticDevice {
+ public:
+  // --- user interface thread ---
+  void place(const ToolPose& pose) {
+    poses_.write_slot() = {true, pose};
+    poses_.publish();
+  }
+  void remove() {
+    poses_.write_slot() = {false, {}};
+    poses_.publish();
+  }
+  /// The last force the force loop sent (N), and whether the tool touched.
+  Eigen::Vector3d last_force(bool& in_contact) {
+    forces_.update();
+    in_contact = forces_.read().in_contact;
+    return forces_.read().force;
+  }
+  std::uint64_t ticks() const { return ticks_.load(std::memory_order_relaxed); }
+
+  // --- force loop ---
+  const SafetyLimits& limits() const noexcept override { return limits_; }
+  bool read_pose(double, ToolPose& pose) noexcept override {
+    poses_.update();
+    pose = poses_.read().pose;
+    return poses_.read().present;
+  }
+  void write_force(double, const Eigen::Vector3d& force, bool in_contact) noexcept override {
+    forces_.write_slot() = {force, in_contact};
+    forces_.publish();
+    ticks_.fetch_add(1, std::memory_order_relaxed);
+  }
+
+ private:
+  struct Placed {
+    bool present = false;
+    ToolPose pose;
+  };
+  struct Felt {
+    Eigen::Vector3d force = Eigen::Vector3d::Zero();
+    bool in_contact = false;
+  };
+  SafetyLimits limits_;
+  realtime::TripleBuffer<Placed> poses_;
+  realtime::TripleBuffer<Felt> forces_;
+  std::atomic<std::uint64_t> ticks_{0};
+};
+
+}  // namespace organsim::devices

@@ -1,0 +1,40 @@
+#include "organsim/devices/scripted_device.h"
+
+#include <cmath>
+
+namespace organsim::devices {
+
+ScriptedDevice::ScriptedDevice(Trajectory trajectory, const SafetyLimits& limits, std::size_t max_records)
+    : trajectory_(std::move(trajectory)), limits_(limits), records_(max_records) {}
+
+bool ScriptedDevice::read_pose(double time, ToolPose& pose) noexcept {
+  const auto& times = trajectory_.times;
+  if (times.empty() || !std::isfinite(time)) return false;
+  if (cursor_ > 0 && times[cursor_ - 1] > time) cursor_ = 0;  // time went back
+  while (cursor_ < times.size() && times[cursor_] <= time) ++cursor_;
+  const bool has_shaft = !trajectory_.shafts.empty();
+  pose.shaft.setZero();
+  if (cursor_ == 0 || cursor_ == times.size()) {
+    const std::size_t i = cursor_ == 0 ? 0 : times.size() - 1;
+    pose.tip = trajectory_.positions[i];
+    if (has_shaft) pose.shaft = trajectory_.shafts[i];
+  } else {
+    const double s = (time - times[cursor_ - 1]) / (times[cursor_] - times[cursor_ - 1]);
+    pose.tip = (1.0 - s) * trajectory_.positions[cursor_ - 1] + s * trajectory_.positions[cursor_];
+    if (has_shaft) {
+      const Eigen::Vector3d shaft = (1.0 - s) * trajectory_.shafts[cursor_ - 1] + s * trajectory_.shafts[cursor_];
+      if (shaft.norm() > 0.0) pose.shaft = shaft.normalized();
+    }
+  }
+  return true;
+}
+
+void ScriptedDevice::write_force(double time, const Eigen::Vector3d& force, bool in_contact) noexcept {
+  if (count_ == records_.size()) {
+    ++dropped_;
+    return;
+  }
+  records_[count_++] = {time, force, in_contact};
+}
+
+}  // namespace organsim::devices

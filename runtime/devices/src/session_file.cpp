@@ -1,0 +1,99 @@
+#include "organsim/devices/session_file.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "organsim/io/atomic_file.h"
+
+namespace organsim::devices {
+namespace {
+
+[[noreturn]] void fail(const std::string& path, std::size_t line, const std::string& what) {
+  throw std::runtime_error(path + ":" + std::to_string(line) + ": " + what);
+}
+
+}  // namespace
+
+Session read_session(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open the session file; check the path");
+  Session session;
+  std::string text;
+  std::size_t line_number = 0;
+  bool header_seen = false;
+  while (std::getline(in, text)) {
+    ++line_number;
+    if (!text.empty() && text.back() == '\r') text.pop_back();
+    if (text.empty()) continue;
+    if (text[0] == '#') {
+      if (line_number == 1 && text.rfind("# organsim session 1", 0) != 0)
+        fail(path, 1, "not an organsim session (the first line must be '# organsim session 1')");
+      header_seen = header_seen || line_number == 1;
+      continue;
+    }
+    if (!header_seen) fail(path, line_number, "not an organsim session (the first line must be '# organsim session 1')");
+    const auto fields = static_cast<int>(std::count(text.begin(), text.end(), ',')) + 1;
+    if (fields != 5 && fields != 8)
+      fail(path, line_number, "expected 5 or 8 comma-separated fields: time_s,tool,x_mm,y_mm,z_mm[,shaft_x,shaft_y,shaft_z]");
+    double values[8];
+    std::size_t start = 0;
+    for (int k = 0; k < fields; ++k) {
+      const std::size_t end = k + 1 < fields ? text.find(',', start) : text.size();
+      const std::string field = text.substr(start, end - start);
+      char* stop = nullptr;
+      values[k] = std::strtod(field.c_str(), &stop);
+      if (field.empty() || stop != field.c_str() + field.size() || !std::isfinite(values[k]))
+        fail(path, line_number, "'" + field + "' is not a finite number");
+      start = end + 1;
+    }
+    const double tool_value = values[1];
+    if (tool_value < 1 || tool_value > 16 || tool_value != std::floor(tool_value))
+      fail(path, line_number, "tool numbers are 1 to 16");
+    const auto tool = static_cast<std::size_t>(tool_value) - 1;
+    if (tool >= session.tools.size()) session.tools.resize(tool + 1);
+    Trajectory& t = session.tools[tool];
+    if (values[0] < 0.0) fail(path, line_number, "times start at 0 s");
+    if (!t.times.empty() && values[0] <= t.times.back())
+      fail(path, line_number, "times of a tool must increase");
+    if (!t.times.empty() && t.shafts.empty() != (fields == 5))
+      fail(path, line_number, "a tool's samples must all have a shaft direction or all have none");
+    t.times.push_back(values[0]);
+    t.positions.emplace_back(values[2] * 1e-3, values[3] * 1e-3, values[4] * 1e-3);
+    if (fields == 8) {
+      const Eigen::Vector3d shaft(values[5], values[6], values[7]);
+      if (!(shaft.norm() > 0.0)) fail(path, line_number, "the shaft direction is zero");
+      t.shafts.push_back(shaft.normalized());
+    }
+    session.duration = std::max(session.duration, values[0]);
+  }
+  if (session.tools.empty()) fail(path, line_number, "the session has no samples");
+  for (std::size_t k = 0; k < session.tools.size(); ++k)
+    if (session.tools[k].times.empty())
+      throw std::runtime_error(path + ": tool " + std::to_string(k + 1) + " has no samples; number tools 1..N");
+  return session;
+}
+
+void write_session(const Session& session, const std::string& path) {
+  std::ostringstream out;
+  out << "# organsim session 1\n# time_s,tool,x_mm,y_mm,z_mm[,shaft_x,shaft_y,shaft_z] (model frame)\n";
+  char line[200];
+  for (std::size_t k = 0; k < session.tools.size(); ++k)
+    for (std::size_t i = 0; i < session.tools[k].times.size(); ++i) {
+      const Eigen::Vector3d p = session.tools[k].positions[i] * 1e3;
+      std::snprintf(line, sizeof line, "%.4f,%zu,%.3f,%.3f,%.3f", session.tools[k].times[i], k + 1, p[0], p[1], p[2]);
+      out << line;
+      if (!session.tools[k].shafts.empty()) {
+        const Eigen::Vector3d& a = session.tools[k].shafts[i];
+        std::snprintf(line, sizeof line, ",%.6f,%.6f,%.6f", a[0], a[1], a[2]);
+        out << line;
+      }
+      out << '\n';
+    }
+  io::write_file_atomically(path, out.str());
+}
+
+}  // namespace organsim::devices

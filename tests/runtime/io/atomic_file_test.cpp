@@ -1,0 +1,107 @@
+// Atomic output: a file or directory appears complete or not at all, and an
+// existing target survives a failed write.
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "organsim/io/atomic_file.h"
+
+namespace organsim::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+class AtomicOutput : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("organsim_atomic_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
+                                        "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  static std::string read(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream text;
+    text << in.rdbuf();
+    return text.str();
+  }
+  std::size_t entries() const { return static_cast<std::size_t>(std::distance(fs::directory_iterator(dir_), {})); }
+  fs::path dir_;
+};
+
+TEST_F(AtomicOutput, BytesReplaceTheTargetAndLeaveNoTemporaryFile) {
+  const fs::path target = dir_ / "forces.csv";
+  write_file_atomically(target.string(), "first");
+  write_file_atomically(target.string(), std::string("second\0x", 8));
+  EXPECT_EQ(read(target), std::string("second\0x", 8));
+  EXPECT_EQ(entries(), 1u);
+  EXPECT_EQ(fs::status(target).permissions() & fs::perms::others_read, fs::perms::others_read);
+}
+
+TEST_F(AtomicOutput, AMissingDirectoryIsAOneLineErrorNamingThePath) {
+  const std::string target = (dir_ / "missing" / "model.organ").string();
+  try {
+    write_file_atomically(target, "x");
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find(target), std::string::npos) << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  }
+}
+
+TEST_F(AtomicOutput, AnUncommittedFileLeavesNothingAndKeepsTheOldTarget) {
+  const fs::path target = dir_ / "surface.vtp";
+  write_file_atomically(target.string(), "old");
+  {
+    AtomicFile output(target.string(), ".vtp");
+    EXPECT_EQ(fs::path(output.temp_path()).parent_path(), dir_);
+    EXPECT_EQ(fs::path(output.temp_path()).extension(), ".vtp");  // writers pick the format by extension
+    std::ofstream(output.temp_path()) << "new but abandoned";
+  }
+  EXPECT_EQ(read(target), "old");
+  EXPECT_EQ(entries(), 1u);
+}
+
+TEST_F(AtomicOutput, ACommittedFileReplacesTheTarget) {
+  const fs::path target = dir_ / "mask.nii.gz";
+  AtomicFile output(target.string(), ".nii.gz");
+  std::ofstream(output.temp_path()) << "voxels";
+  output.commit();
+  EXPECT_EQ(read(target), "voxels");
+  EXPECT_EQ(entries(), 1u);
+}
+
+TEST_F(AtomicOutput, ADirectoryAppearsWholeOrNotAtAll) {
+  const fs::path target = dir_ / "series";
+  {
+    AtomicDirectory abandoned(target.string());
+    std::ofstream(fs::path(abandoned.temp_path()) / "slice0001.dcm") << "a";
+  }
+  EXPECT_FALSE(fs::exists(target));
+  EXPECT_EQ(entries(), 0u);
+  AtomicDirectory output(target.string());
+  std::ofstream(fs::path(output.temp_path()) / "slice0001.dcm") << "a";
+  std::ofstream(fs::path(output.temp_path()) / "slice0002.dcm") << "b";
+  output.commit();
+  EXPECT_EQ(read(target / "slice0002.dcm"), "b");
+  EXPECT_EQ(entries(), 1u);
+}
+
+TEST_F(AtomicOutput, ADirectoryReplacesOnlyAnEmptyOne) {
+  const fs::path target = dir_ / "series";
+  fs::create_directories(target);
+  AtomicDirectory output(target.string());  // an empty directory may be replaced
+  std::ofstream(fs::path(output.temp_path()) / "slice.dcm") << "a";
+  output.commit();
+  EXPECT_TRUE(fs::exists(target / "slice.dcm"));
+  EXPECT_THROW(AtomicDirectory again(target.string()), std::runtime_error);  // not empty any more
+}
+
+}  // namespace
+}  // namespace organsim::io

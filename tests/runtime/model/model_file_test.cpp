@@ -1,0 +1,367 @@
+// The .organ reader and writer: round trips, and one distinct error for every
+// kind of damage.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <set>
+
+#include "format_patching.h"
+#include "organsim/model/model_file.h"
+#include "test_models.h"
+
+namespace organsim {
+namespace {
+
+using testing::find_section;
+using testing::list_sections;
+using testing::poke;
+using testing::refresh_checksums;
+
+model::OrganModel small_model() {
+  testing::CylinderSpec spec;
+  spec.segments = 8;
+  spec.rings = 3;
+  spec.stations = 4;
+  spec.section_polygon_vertices = 32;
+  model::OrganModel m = testing::make_cylinder_model(spec);
+  m.provenance.input_sha256 = std::string(64, 'a');
+  m.provenance.parameters["tet_size_mm"] = "4";
+  m.provenance.parameters["label"] = "liver, värde 1";
+  return m;
+}
+
+std::vector<std::uint8_t> encoded() { return model::serialize_organ_model(small_model()); }
+
+std::string error_of(const std::vector<std::uint8_t>& bytes) {
+  const model::ModelReadResult r = model::parse_organ_model(bytes.data(), bytes.size(), "liver.organ");
+  EXPECT_FALSE(r) << "damaged file was accepted";
+  EXPECT_EQ(r.error.find('\n'), std::string::npos) << "error must be one line: " << r.error;
+  EXPECT_EQ(r.error.rfind("liver.organ: ", 0), 0u) << "error must name the file: " << r.error;
+  return r.error;
+}
+
+#define EXPECT_ERROR(bytes, text)                              \
+  do {                                                         \
+    const std::string error_ = error_of(bytes);                \
+    EXPECT_NE(error_.find(text), std::string::npos) << error_; \
+  } while (0)
+
+TEST(ModelFile, RoundTripOfEverySection) {
+  const model::OrganModel model = small_model();
+  ASSERT_EQ(model::validate_organ_model(model), "");
+  const auto bytes = model::serialize_organ_model(model);
+  const model::ModelReadResult r = model::parse_organ_model(bytes.data(), bytes.size(), "x");
+  ASSERT_TRUE(r) << r.error;
+  EXPECT_TRUE(*r.model == model);
+  std::set<std::string> tags;
+  for (const auto& s : r.file.sections) tags.insert(s.tag);
+  EXPECT_EQ(tags, (std::set<std::string>{"META", "SVRT", "STRI", "SUVC", "TVRT", "TETS", "FIXP", "MATL", "BEAM"}));
+  EXPECT_EQ(r.file.version.major, 1);
+  EXPECT_EQ(r.file.file_bytes, bytes.size());
+}
+
+TEST(ModelFile, RoundTripWithoutOptionalSections) {
+  model::OrganModel model = small_model();
+  model.surface_texcoords.clear();
+  model.volume_vertices.clear();
+  model.tetrahedra.clear();
+  model.beams = {};
+  model.provenance.parameters.clear();
+  model.provenance.input_sha256.clear();
+  const auto bytes = model::serialize_organ_model(model);
+  const model::ModelReadResult r = model::parse_organ_model(bytes.data(), bytes.size(), "x");
+  ASSERT_TRUE(r) << r.error;
+  EXPECT_TRUE(*r.model == model);
+  EXPECT_EQ(r.file.sections.size(), 5u);
+}
+
+TEST(ModelFile, EncodingIsDeterministic) { EXPECT_EQ(encoded(), encoded()); }
+
+TEST(ModelFile, FileRoundTripIsAtomicAndLeavesNothingElse) {
+  const auto dir = std::filesystem::temp_directory_path() / "organsim_model_file_test";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "m.organ").string();
+  model::write_organ_model_file(small_model(), path);
+  model::write_organ_model_file(small_model(), path);  // overwrite in place
+  const model::ModelReadResult r = model::read_organ_model_file(path);
+  ASSERT_TRUE(r) << r.error;
+  EXPECT_TRUE(*r.model == small_model());
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), {}), 1);
+
+  model::OrganModel bad = small_model();
+  bad.material.young_modulus = -1;
+  EXPECT_THROW(model::write_organ_model_file(bad, (dir / "bad.organ").string()), std::invalid_argument);
+  EXPECT_THROW(model::write_organ_model_file(small_model(), (dir / "missing" / "m.organ").string()), std::runtime_error);
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), {}), 1);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ModelFile, MissingFileAndDirectoryAreReported) {
+  const model::ModelReadResult missing = model::read_organ_model_file("/nonexistent/liver.organ");
+  EXPECT_NE(missing.error.find("cannot open"), std::string::npos) << missing.error;
+  const model::ModelReadResult directory = model::read_organ_model_file("/tmp");
+  EXPECT_NE(directory.error.find("not a regular file"), std::string::npos) << directory.error;
+}
+
+TEST(ModelFile, EmptyGarbageAndBadMagic) {
+  EXPECT_ERROR(std::vector<std::uint8_t>{}, "the file is empty");
+  EXPECT_ERROR(std::vector<std::uint8_t>({'h', 'e', 'l', 'l', 'o'}), "wrong magic bytes");
+  auto bytes = encoded();
+  bytes[1] = 'X';
+  EXPECT_ERROR(bytes, "wrong magic bytes");
+}
+
+TEST(ModelFile, TruncationInsideHeaderAndTable) {
+  const auto bytes = encoded();
+  EXPECT_ERROR(std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + 20), "truncated inside the header");
+  EXPECT_ERROR(std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + 80), "truncated inside the section table");
+}
+
+TEST(ModelFile, TruncationAtAndInsideEverySection) {
+  const auto bytes = encoded();
+  const auto sections = list_sections(bytes);
+  ASSERT_EQ(sections.size(), 9u);
+  for (const auto& s : sections) {
+    EXPECT_ERROR(std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + s.offset),
+                 "truncated at the start of section '" + s.tag + "'");
+    EXPECT_ERROR(std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + s.offset + s.size / 2),
+                 "truncated inside section '" + s.tag + "'");
+  }
+}
+
+TEST(ModelFile, TrailingBytes) {
+  auto bytes = encoded();
+  bytes.push_back(0);
+  EXPECT_ERROR(bytes, "1 unexpected bytes after the declared end");
+}
+
+TEST(ModelFile, FlippedBytesInHeaderTableAndEveryPayload) {
+  auto header = encoded();
+  header[26] ^= 0x40;  // inside the file-size field
+  EXPECT_ERROR(header, "header checksum mismatch");
+  auto table = encoded();
+  table[64 + 17] ^= 0x01;  // the offset in the first table entry
+  EXPECT_ERROR(table, "section table checksum mismatch");
+  const auto original = encoded();
+  for (const auto& s : list_sections(original)) {
+    auto bytes = original;
+    bytes[s.offset + s.size - 1] ^= 0x10;
+    EXPECT_ERROR(bytes, "section '" + s.tag + "'");
+    EXPECT_ERROR(bytes, "checksum mismatch");
+  }
+  // A byte in the alignment padding between sections belongs to no section.
+  auto padding = encoded();
+  bool flipped = false;
+  const auto sections = list_sections(padding);
+  for (std::size_t i = 0; i + 1 < sections.size() && !flipped; ++i)
+    if (sections[i].offset + sections[i].size < sections[i + 1].offset) {
+      padding[sections[i].offset + sections[i].size] ^= 0xff;
+      flipped = true;
+    }
+  ASSERT_TRUE(flipped);
+  EXPECT_ERROR(padding, "whole-file checksum mismatch");
+}
+
+TEST(ModelFile, FutureMajorVersionIsRefusedWithBothVersions) {
+  auto bytes = encoded();
+  poke<std::uint16_t>(bytes, 8, 2);
+  poke<std::uint16_t>(bytes, 10, 3);
+  refresh_checksums(bytes);
+  EXPECT_ERROR(bytes, "format version 2.3 but this organsim reads format 1.0");
+}
+
+TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
+  auto bytes = encoded();
+  const auto suvc = find_section(bytes, "SUVC");
+  std::memcpy(bytes.data() + suvc.table_entry, "XTRA", 4);
+  refresh_checksums(bytes);
+  EXPECT_ERROR(bytes, "section 'XTRA' is unknown in a format 1.0 file");
+
+  poke<std::uint16_t>(bytes, 10, 1);
+  refresh_checksums(bytes);
+  const model::ModelReadResult r = model::parse_organ_model(bytes.data(), bytes.size(), "x");
+  ASSERT_TRUE(r) << r.error;
+  EXPECT_TRUE(r.model->surface_texcoords.empty());
+  bool skipped = false;
+  for (const auto& s : r.file.sections) skipped |= (s.tag == "XTRA" && !s.understood);
+  EXPECT_TRUE(skipped);
+}
+
+TEST(ModelFile, ByteOrderAndScalarSizes) {
+  auto swapped = encoded();
+  poke<std::uint32_t>(swapped, 12, 0x0D0C0B0Au);
+  EXPECT_ERROR(swapped, "big-endian");
+  auto bom = encoded();
+  poke<std::uint32_t>(bom, 12, 0x12345678u);
+  EXPECT_ERROR(bom, "byte-order mark");
+  auto scalar = encoded();
+  scalar[16] = 4;
+  refresh_checksums(scalar);
+  EXPECT_ERROR(scalar, "scalar sizes 4/4");
+}
+
+TEST(ModelFile, OutOfRangeIndices) {
+  auto triangles = encoded();
+  poke<std::uint32_t>(triangles, find_section(triangles, "STRI").offset + 8 + 4, 999999u);
+  refresh_checksums(triangles);
+  EXPECT_ERROR(triangles, "section 'STRI' (surface triangles): surface triangle 0 refers to vertex 999999");
+  auto tets = encoded();
+  poke<std::uint32_t>(tets, find_section(tets, "TETS").offset + 8 + 4 * 5, 777777u);
+  refresh_checksums(tets);
+  EXPECT_ERROR(tets, "section 'TETS' (tetrahedra): tetrahedron 1 refers to vertex 777777");
+}
+
+TEST(ModelFile, NonFiniteValues) {
+  auto vertices = encoded();
+  poke<double>(vertices, find_section(vertices, "SVRT").offset + 8 + 8 * 4, std::nan(""));
+  refresh_checksums(vertices);
+  EXPECT_ERROR(vertices, "section 'SVRT' (surface vertices): surface vertex 1 has a non-finite coordinate");
+  auto material = encoded();
+  poke<double>(material, find_section(material, "MATL").offset + 8, std::numeric_limits<double>::infinity());
+  refresh_checksums(material);
+  EXPECT_ERROR(material, "section 'MATL' (material): Young's modulus");
+  auto beams = encoded();
+  poke<double>(beams, find_section(beams, "BEAM").offset + 16 + 8 * 9, -std::numeric_limits<double>::infinity());
+  refresh_checksums(beams);
+  EXPECT_ERROR(beams, "section 'BEAM' (beam tables): beam section of vertex 0, station 1 has a non-finite value");
+  auto fixed = encoded();
+  poke<double>(fixed, find_section(fixed, "FIXP").offset + 8, std::nan(""));
+  refresh_checksums(fixed);
+  EXPECT_ERROR(fixed, "section 'FIXP' (fixed points): fixed point 0 has a non-finite coordinate");
+}
+
+TEST(ModelFile, AbsurdCountsNeverAllocate) {
+  auto vertices = encoded();
+  poke<std::uint64_t>(vertices, find_section(vertices, "SVRT").offset, std::uint64_t{1} << 60);
+  refresh_checksums(vertices);
+  EXPECT_ERROR(vertices, "item count 1152921504606846976 does not match");
+  auto beams = encoded();
+  poke<std::uint64_t>(beams, find_section(beams, "BEAM").offset + 8, ~std::uint64_t{0});
+  refresh_checksums(beams);
+  EXPECT_ERROR(beams, "vertex count 18446744073709551615");
+  auto stations = encoded();
+  poke<std::uint32_t>(stations, find_section(stations, "BEAM").offset, 1u << 30);
+  refresh_checksums(stations);
+  EXPECT_ERROR(stations, "stations per beam 1073741824 is outside");
+  auto metadata = encoded();
+  poke<std::uint32_t>(metadata, find_section(metadata, "META").offset, 0xffffffffu);
+  refresh_checksums(metadata);
+  EXPECT_ERROR(metadata, "entry count 4294967295 exceeds the limit");
+  auto key = encoded();
+  poke<std::uint32_t>(key, find_section(key, "META").offset + 4, 0x7fffffffu);
+  refresh_checksums(key);
+  EXPECT_ERROR(key, "entry 0 runs past the payload");
+  auto sections = encoded();
+  poke<std::uint32_t>(sections, 20, 100000u);
+  refresh_checksums(sections);
+  EXPECT_ERROR(sections, "section count 100000 exceeds the limit");
+}
+
+TEST(ModelFile, StructuralDamageToTheTable) {
+  auto outside = encoded();
+  poke<std::uint64_t>(outside, find_section(outside, "TETS").table_entry + 24, std::uint64_t{1} << 40);
+  refresh_checksums(outside);
+  EXPECT_ERROR(outside, "section 'TETS' (tetrahedra): offset");
+  EXPECT_ERROR(outside, "lie outside the payload area");
+
+  auto twice = encoded();
+  std::memcpy(twice.data() + find_section(twice, "SUVC").table_entry, "SVRT", 4);
+  refresh_checksums(twice);
+  EXPECT_ERROR(twice, "section 'SVRT' (surface vertices) appears twice");
+
+  auto overlap = encoded();
+  const auto tvrt = find_section(overlap, "TVRT");
+  poke<std::uint64_t>(overlap, tvrt.table_entry + 16, find_section(overlap, "SUVC").offset);
+  refresh_checksums(overlap);
+  EXPECT_ERROR(overlap, "two sections overlap");
+
+  auto missing = encoded();
+  poke<std::uint16_t>(missing, 10, 1);
+  std::memcpy(missing.data() + find_section(missing, "FIXP").table_entry, "FIXQ", 4);
+  refresh_checksums(missing);
+  EXPECT_ERROR(missing, "section 'FIXP' (fixed points) is missing but required");
+
+  auto orphan_tets = encoded();
+  poke<std::uint16_t>(orphan_tets, 10, 1);
+  std::memcpy(orphan_tets.data() + find_section(orphan_tets, "TVRT").table_entry, "TVRX", 4);
+  refresh_checksums(orphan_tets);
+  EXPECT_ERROR(orphan_tets, "section 'TETS' (tetrahedra): present without section 'TVRT'");
+}
+
+TEST(ModelFile, MetadataMustBeSortedAndSI) {
+  auto units = encoded();
+  const auto meta = find_section(units, "META");
+  const auto begin = units.begin() + meta.offset, end = begin + meta.size;
+  const std::string si = "SI";
+  auto at = std::search(begin, end, si.begin(), si.end());
+  ASSERT_NE(at, end);
+  *at = 'X';
+  refresh_checksums(units);
+  EXPECT_ERROR(units, "units are 'XI' but only SI is supported");
+
+  auto order = encoded();
+  const std::string key = "coordinate_frame";
+  auto k = std::search(order.begin() + meta.offset, order.begin() + meta.offset + meta.size, key.begin(), key.end());
+  *k = 'z';
+  refresh_checksums(order);
+  EXPECT_ERROR(order, "keys are not strictly sorted");
+}
+
+TEST(ModelFile, EveryDamageKindHasItsOwnMessage) {
+  // Different kinds of damage must be distinguishable from the message alone.
+  std::set<std::string> messages;
+  auto add = [&](std::vector<std::uint8_t> bytes) {
+    std::string e = error_of(bytes);
+    messages.insert(e.substr(0, e.find(';')));
+  };
+  add({});
+  add({'x'});
+  auto b = encoded();
+  add(std::vector<std::uint8_t>(b.begin(), b.begin() + 20));
+  add(std::vector<std::uint8_t>(b.begin(), b.begin() + 80));
+  add(std::vector<std::uint8_t>(b.begin(), b.end() - 8));
+  auto c = b;
+  c.push_back(1);
+  add(c);
+  c = b;
+  c[30] ^= 1;
+  add(c);
+  c = b;
+  c[70] ^= 1;
+  add(c);
+  c = b;
+  c.back() ^= 1;
+  add(c);
+  EXPECT_EQ(messages.size(), 9u);
+}
+
+TEST(ModelValidation, CatchesInvalidModels) {
+  model::OrganModel m = small_model();
+  EXPECT_EQ(model::validate_organ_model(m), "");
+  m.surface_triangles[3] = {1, 1, 2};
+  EXPECT_NE(model::validate_organ_model(m).find("repeats a vertex"), std::string::npos);
+  m = small_model();
+  m.fixed_points.clear();
+  EXPECT_NE(model::validate_organ_model(m).find("no fixed point"), std::string::npos);
+  m = small_model();
+  m.material.poisson_ratio = 0.5;
+  EXPECT_NE(model::validate_organ_model(m).find("Poisson"), std::string::npos);
+  m = small_model();
+  m.beams.sections.pop_back();
+  EXPECT_NE(model::validate_organ_model(m).find("beam tables hold"), std::string::npos);
+  m = small_model();
+  m.surface_texcoords.pop_back();
+  EXPECT_NE(model::validate_organ_model(m).find("texture coordinates for"), std::string::npos);
+  m = small_model();
+  m.provenance.coordinate_frame = "XYZ";
+  EXPECT_NE(model::validate_organ_model(m).find("neither LPS nor RAS"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace organsim

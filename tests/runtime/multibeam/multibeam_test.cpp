@@ -1,0 +1,288 @@
+// The multi-beam model on organs with known geometry: analytic beam forces,
+// the space distortion, merging of several tools, and bad input.
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "organsim/multibeam/multibeam.h"
+#include "test_models.h"
+
+namespace organsim::multibeam {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+// The distortion runs in single precision (docs/multibeam.md): displacements
+// come out within 10⁻⁶ of themselves plus 10 nm.
+constexpr double kDistortionRelative = 1e-6;
+constexpr double kDistortionAbsolute = 1e-8;  // m
+double distortion_tolerance(double displacement) { return kDistortionRelative * displacement + kDistortionAbsolute; }
+
+Eigen::Vector3d vec(const model::Point3& p) { return {p[0], p[1], p[2]}; }
+
+std::uint32_t nearest_vertex(const model::OrganModel& model, const Eigen::Vector3d& p) {
+  std::uint32_t best = 0;
+  for (std::uint32_t v = 0; v < model.surface_vertices.size(); ++v)
+    if ((vec(model.surface_vertices[v]) - p).norm() < (vec(model.surface_vertices[best]) - p).norm()) best = v;
+  return best;
+}
+
+struct CylinderOrgan : ::testing::Test {
+  testing::CylinderSpec spec;
+  BeamOrgan organ{testing::make_cylinder_model(spec)};
+  std::vector<model::Point3> positions = std::vector<model::Point3>(organ.vertex_count());
+  std::vector<model::Point3> normals = std::vector<model::Point3>(organ.vertex_count());
+  Eigen::Vector3d far_cap_centre{spec.length, 0.0, 0.0};
+};
+
+TEST_F(CylinderOrgan, PressAtTheFarCapGivesTheCantileverForces) {
+  MultiBeam beams(organ, {});
+  ASSERT_EQ(beams.attach(0, far_cap_centre + Eigen::Vector3d(0.002, 0.0, 0.0)), Status::ok);  // snapped onto the cap
+  EXPECT_NEAR(beams.beam(0).length, spec.length, 1e-12);
+  const model::Material& m = organ.model().material;
+  const double area = kPi * spec.radius * spec.radius, inertia = kPi * std::pow(spec.radius, 4) / 4.0;
+  const double delta = 0.005;
+
+  Eigen::Vector3d force;
+  ASSERT_EQ(beams.force(0, {0.0, delta, 0.0}, force), Status::ok);
+  const double transverse = 3.0 * m.young_modulus * inertia * delta / std::pow(spec.length, 3);
+  EXPECT_NEAR(force[1], -transverse, 1e-3 * transverse);  // the organ pushes back
+  EXPECT_NEAR(force[0], 0.0, 1e-6 * transverse);
+  EXPECT_NEAR(force[2], 0.0, 1e-6 * transverse);
+
+  ASSERT_EQ(beams.force(0, {-delta, 0.0, 0.0}, force), Status::ok);
+  const double axial = m.young_modulus * area * delta / spec.length;
+  EXPECT_NEAR(force[0], axial, 1e-3 * axial);
+
+  // Timoshenko: softer by the shear compliance L/(κGA).
+  MultiBeamOptions timoshenko;
+  timoshenko.beam.theory = BeamTheory::timoshenko;
+  MultiBeam shear(organ, timoshenko);
+  ASSERT_EQ(shear.attach(0, far_cap_centre), Status::ok);
+  ASSERT_EQ(shear.force(0, {0.0, delta, 0.0}, force), Status::ok);
+  const BeamElasticity el = BeamElasticity::from(m.young_modulus, m.poisson_ratio);
+  const double compliance = std::pow(spec.length, 3) / (3.0 * m.young_modulus * inertia) +
+                            spec.length / (el.shear_coefficient * el.shear_modulus * area);
+  EXPECT_NEAR(-force[1], delta / compliance, 1e-3 * delta / compliance);
+}
+
+TEST_F(CylinderOrgan, ActionPointMovesExactlyByTheToolDisplacementAndTheClampStays) {
+  MultiBeam beams(organ, {});
+  ASSERT_EQ(beams.attach(0, far_cap_centre), Status::ok);
+  const Eigen::Vector3d tip[1] = {{0.001, 0.004, -0.003}};
+  ASSERT_EQ(beams.deform(tip, positions.data(), normals.data(), positions.size()), Status::ok);
+  const std::uint32_t action = nearest_vertex(organ.model(), far_cap_centre);
+  const std::uint32_t clamp = nearest_vertex(organ.model(), Eigen::Vector3d::Zero());
+  EXPECT_LT((vec(positions[action]) - far_cap_centre - tip[0]).norm(), distortion_tolerance(tip[0].norm()));
+  EXPECT_LT((vec(positions[clamp]) - vec(organ.model().surface_vertices[clamp])).norm(), 1e-15);
+  // Every vertex moved less than the tip, and in the direction of the press.
+  for (std::size_t v = 0; v < positions.size(); ++v) {
+    const Eigen::Vector3d moved = vec(positions[v]) - vec(organ.model().surface_vertices[v]);
+    EXPECT_LE(moved.norm(), tip[0].norm() + distortion_tolerance(tip[0].norm())) << v;
+    EXPECT_GE(moved.dot(tip[0]), -distortion_tolerance(tip[0].norm()) * tip[0].norm()) << v;
+    EXPECT_NEAR(vec(normals[v]).norm(), 1.0, 1e-12) << v;
+  }
+}
+
+TEST_F(CylinderOrgan, ZeroDisplacementGivesZeroDeformationAndZeroForce) {
+  MultiBeam beams(organ, {});
+  ASSERT_EQ(beams.attach(0, far_cap_centre), Status::ok);
+  ASSERT_EQ(beams.attach(1, {0.08, spec.radius, 0.0}), Status::ok);
+  const Eigen::Vector3d tips[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  ASSERT_EQ(beams.deform(tips, positions.data(), normals.data(), positions.size()), Status::ok);
+  for (std::size_t v = 0; v < positions.size(); ++v)
+    EXPECT_EQ(vec(positions[v]), vec(organ.model().surface_vertices[v])) << v;
+  Eigen::Vector3d force;
+  ASSERT_EQ(beams.force(1, Eigen::Vector3d::Zero(), force), Status::ok);
+  EXPECT_EQ(force, Eigen::Vector3d::Zero());
+}
+
+TEST_F(CylinderOrgan, AttenuationScalesEachDisplacementByAlphaToTheMinusBetaD) {
+  model::OrganModel unattenuated_model = testing::make_cylinder_model(spec);
+  unattenuated_model.material.attenuation_beta = 0.0;
+  const BeamOrgan unattenuated(std::move(unattenuated_model));
+  MultiBeam with(organ, {}), without(unattenuated, {});
+  ASSERT_EQ(with.attach(0, far_cap_centre), Status::ok);
+  ASSERT_EQ(without.attach(0, far_cap_centre), Status::ok);
+  const Eigen::Vector3d tip[1] = {{0.0, 0.005, 0.0}};
+  std::vector<model::Point3> plain(positions.size());
+  ASSERT_EQ(with.deform(tip, positions.data(), normals.data(), positions.size()), Status::ok);
+  ASSERT_EQ(without.deform(tip, plain.data(), normals.data(), plain.size()), Status::ok);
+  const model::Material& m = organ.model().material;
+  std::vector<std::pair<double, double>> by_distance;  // (d, attenuation)
+  for (std::size_t v = 0; v < positions.size(); ++v) {
+    const Eigen::Vector3d rest = vec(organ.model().surface_vertices[v]);
+    const Eigen::Vector3d attenuated = vec(positions[v]) - rest, full = vec(plain[v]) - rest;
+    const double d = (rest - far_cap_centre).norm();
+    const double expected = std::pow(m.attenuation_alpha, -m.attenuation_beta * d);
+    EXPECT_LT((attenuated - expected * full).norm(), 2.0 * distortion_tolerance(full.norm())) << v;
+    by_distance.emplace_back(d, expected);
+  }
+  std::sort(by_distance.begin(), by_distance.end());
+  for (std::size_t i = 1; i < by_distance.size(); ++i) EXPECT_LE(by_distance[i].second, by_distance[i - 1].second);
+}
+
+TEST_F(CylinderOrgan, TwoToolsPullingApartDragEachOtherOnlyUnderSuperposition) {
+  // The paper's Fig. 5: with u = Σ u_i each action point also follows the other
+  // beam; with the influence function it moves exactly with its own tool.
+  const std::uint32_t a = nearest_vertex(organ.model(), {0.0875, spec.radius, 0.0});
+  const std::uint32_t b = nearest_vertex(organ.model(), {0.1375, spec.radius, 0.0});
+  const Eigen::Vector3d pa = vec(organ.model().surface_vertices[a]), pb = vec(organ.model().surface_vertices[b]);
+  const Eigen::Vector3d tips[2] = {{-0.004, 0.003, 0.0}, {0.004, 0.003, 0.0}};
+  for (MergeRule rule : {MergeRule::sum, MergeRule::influence}) {
+    MultiBeamOptions options;
+    options.merge = rule;
+    MultiBeam beams(organ, options);
+    ASSERT_EQ(beams.attach(0, pa), Status::ok);
+    ASSERT_EQ(beams.attach(1, pb), Status::ok);
+    ASSERT_EQ(beams.deform(tips, positions.data(), normals.data(), positions.size()), Status::ok);
+    const double error_a = (vec(positions[a]) - pa - tips[0]).norm();
+    const double error_b = (vec(positions[b]) - pb - tips[1]).norm();
+    if (rule == MergeRule::sum) {
+      EXPECT_GT(error_a, 0.2 * tips[0].norm());
+      EXPECT_GT(error_b, 0.2 * tips[1].norm());
+    } else {
+      EXPECT_LT(error_a, distortion_tolerance(tips[0].norm()));
+      EXPECT_LT(error_b, distortion_tolerance(tips[1].norm()));
+    }
+  }
+}
+
+TEST_F(CylinderOrgan, CoincidingToolsAreMergedWithoutNaN) {
+  MultiBeam beams(organ, {});
+  ASSERT_EQ(beams.attach(0, far_cap_centre), Status::ok);
+  ASSERT_EQ(beams.attach(1, far_cap_centre + Eigen::Vector3d(0.0, 1e-4, 0.0)), Status::ok);
+  const Eigen::Vector3d tips[2] = {{0.0, 0.004, 0.0}, {0.0, 0.002, 0.0}};
+  ASSERT_EQ(beams.deform(tips, positions.data(), normals.data(), positions.size()), Status::ok);
+  for (const model::Point3& p : positions) ASSERT_TRUE(vec(p).allFinite());
+  // The shared point moves by the mean of the two tools' fields there.
+  const std::uint32_t action = nearest_vertex(organ.model(), far_cap_centre);
+  const Eigen::Vector3d moved = vec(positions[action]) - far_cap_centre;
+  EXPECT_NEAR(moved[1], 0.003, 2e-5);
+}
+
+TEST_F(CylinderOrgan, BadToolInputGivesAClearStatusAndNeverNaN) {
+  MultiBeam beams(organ, {});
+  const double nan = std::nan(""), inf = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(beams.attach(0, {nan, 0.0, 0.0}), Status::not_finite);
+  EXPECT_EQ(beams.attach(0, {inf, 0.0, 0.0}), Status::not_finite);
+  EXPECT_EQ(beams.attach(0, {0.5, 0.5, 0.5}), Status::far_from_organ);
+  EXPECT_EQ(beams.attach(0, {0.0, 0.0, 0.0}), Status::at_fixed_point);  // the clamp is on the near cap
+  EXPECT_EQ(beams.attach(7, far_cap_centre), Status::too_many_tools);
+  EXPECT_FALSE(beams.beam(0).attached);
+  Eigen::Vector3d force;
+  EXPECT_EQ(beams.force(0, {0.0, 0.001, 0.0}, force), Status::no_contact);
+  EXPECT_EQ(force, Eigen::Vector3d::Zero());
+
+  ASSERT_EQ(beams.attach(0, far_cap_centre), Status::ok);
+  EXPECT_EQ(beams.force(0, {nan, 0.0, 0.0}, force), Status::not_finite);
+  EXPECT_EQ(force, Eigen::Vector3d::Zero());
+  const Eigen::Vector3d bad[1] = {{0.0, inf, 0.0}};
+  for (model::Point3& p : positions) p = {1.0, 2.0, 3.0};
+  EXPECT_EQ(beams.deform(bad, positions.data(), normals.data(), positions.size()), Status::not_finite);
+  for (const model::Point3& p : positions) ASSERT_EQ(vec(p), Eigen::Vector3d(1.0, 2.0, 3.0));  // untouched
+  const Eigen::Vector3d good[1] = {{0.0, 0.001, 0.0}};
+  EXPECT_EQ(beams.deform(good, positions.data(), normals.data(), positions.size() - 1), Status::buffer_too_small);
+}
+
+// Area-weighted vertex normals the plain way: each triangle's cross product
+// added to its three corners.
+std::vector<Eigen::Vector3d> reference_normals(const BeamOrgan& organ, const std::vector<model::Point3>& positions) {
+  std::vector<Eigen::Vector3d> sum(positions.size(), Eigen::Vector3d::Zero());
+  for (const model::Triangle& t : organ.model().surface_triangles) {
+    const Eigen::Vector3d a = vec(positions[t[0]]), b = vec(positions[t[1]]), c = vec(positions[t[2]]);
+    const Eigen::Vector3d n = (b - a).cross(c - a);
+    for (std::uint32_t v : t) sum[v] += n;
+  }
+  for (Eigen::Vector3d& n : sum) n.normalize();
+  return sum;
+}
+
+TEST(BeamOrgan, VertexNormalsAreTheAreaWeightedTriangleNormals) {
+  const BeamOrgan sphere(testing::make_sphere_model(2400, 20));
+  const std::size_t n = sphere.vertex_count();
+  std::vector<model::Point3> positions = sphere.model().surface_vertices, normals(n);
+  compute_vertex_normals(sphere, positions.data(), normals.data(), 0, n);
+  std::vector<Eigen::Vector3d> expected = reference_normals(sphere, positions);
+  for (std::size_t v = 0; v < n; ++v) {
+    EXPECT_LT((vec(normals[v]) - expected[v]).norm(), 1e-12) << v;
+    EXPECT_GT(vec(normals[v]).dot(vec(positions[v]).normalized()), 0.999) << v;  // outward, nearly radial
+  }
+  // Deformed by two tools, and computed in two ranges as two threads would.
+  MultiBeam beams(sphere, {});
+  ASSERT_EQ(beams.attach(0, {0.08, 0.0, 0.0}), Status::ok);
+  ASSERT_EQ(beams.attach(1, {0.0, 0.0, 0.08}), Status::ok);
+  const Eigen::Vector3d tips[2] = {{-0.01, 0.002, 0.0}, {0.0, 0.004, -0.008}};
+  ASSERT_EQ(beams.prepare(tips), Status::ok);
+  const std::size_t half = n / 2 / BeamOrgan::kPadding * BeamOrgan::kPadding;
+  beams.distort(0, half, positions.data());
+  beams.distort(half, n, positions.data());
+  beams.normals(half, n, positions.data(), normals.data());
+  beams.normals(0, half, positions.data(), normals.data());
+  expected = reference_normals(sphere, positions);
+  for (std::size_t v = 0; v < n; ++v) EXPECT_LT((vec(normals[v]) - expected[v]).norm(), 1e-12) << v;
+}
+
+TEST(BeamOrgan, RefusesAModelWithoutBeamTables) {
+  model::OrganModel model = testing::make_cylinder_model({});
+  model.beams = model::BeamTables{};
+  EXPECT_THROW(BeamOrgan{std::move(model)}, std::invalid_argument);
+}
+
+TEST(InfluenceFunction, WeightsAreUnitVectorsAtTheActionPoints) {
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> coordinate(-0.1, 0.1);
+  for (std::uint32_t n = 1; n <= 8; ++n) {
+    Eigen::Vector3d points[kMaxTools];
+    for (std::uint32_t i = 0; i < n; ++i) points[i] = {coordinate(random), coordinate(random), coordinate(random)};
+    InfluenceFunction f;
+    ASSERT_TRUE(f.set_points(points, n));
+    double w[kMaxTools];
+    for (std::uint32_t i = 0; i < n; ++i) {
+      f.weights(points[i], w);
+      for (std::uint32_t j = 0; j < n; ++j) EXPECT_NEAR(w[j], i == j ? 1.0 : 0.0, 1e-9) << n << " " << i << " " << j;
+    }
+  }
+}
+
+TEST(InfluenceFunction, TwoToolsReduceToEquationEight) {
+  const Eigen::Vector3d points[2] = {{0.0, 0.0, 0.0}, {0.05, 0.02, -0.01}};
+  InfluenceFunction f;
+  ASSERT_TRUE(f.set_points(points, 2));
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(0.01, 0.03, 0.0), Eigen::Vector3d(-0.2, 0.1, 0.3)}) {
+    const double l1 = (p - points[0]).norm(), l2 = (p - points[1]).norm();
+    double w[2];
+    f.weights(p, w);
+    EXPECT_NEAR(w[0], l2 / (l1 + l2), 1e-12);
+    EXPECT_NEAR(w[1], l1 / (l1 + l2), 1e-12);
+  }
+}
+
+TEST(InfluenceFunction, WeightsAreContinuous) {
+  const Eigen::Vector3d points[4] = {{0.0, 0.0, 0.0}, {0.05, 0.0, 0.0}, {0.0, 0.04, 0.01}, {0.03, 0.03, 0.05}};
+  InfluenceFunction f;
+  ASSERT_TRUE(f.set_points(points, 4));
+  std::mt19937 random(3);
+  std::uniform_real_distribution<double> coordinate(-0.05, 0.1);
+  for (int trial = 0; trial < 200; ++trial) {
+    const Eigen::Vector3d p(coordinate(random), coordinate(random), coordinate(random));
+    const Eigen::Vector3d q = p + Eigen::Vector3d(1e-7, -1e-7, 1e-7);
+    double wp[4], wq[4];
+    f.weights(p, wp);
+    f.weights(q, wq);
+    for (int i = 0; i < 4; ++i) EXPECT_NEAR(wp[i], wq[i], 1e-4) << trial;
+  }
+}
+
+TEST(InfluenceFunction, RefusesCoincidingAndNonFinitePoints) {
+  const Eigen::Vector3d same[2] = {{0.01, 0.0, 0.0}, {0.01, 0.0, 0.0}};
+  InfluenceFunction f;
+  EXPECT_FALSE(f.set_points(same, 2));
+  const Eigen::Vector3d bad[2] = {{0.01, 0.0, 0.0}, {std::nan(""), 0.0, 0.0}};
+  EXPECT_FALSE(f.set_points(bad, 2));
+  EXPECT_FALSE(f.set_points(same, 0));
+}
+
+}  // namespace
+}  // namespace organsim::multibeam

@@ -1,0 +1,286 @@
+// The real-time pieces: wait-free hand-off, force safety, contact detection on
+// the deformed surface, and the engine's loops stepped deterministically.
+#include <atomic>
+#include <cstring>
+#include <cmath>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "organsim/realtime/engine.h"
+#include "organsim/realtime/loop_runner.h"
+#include "organsim/devices/scripted_device.h"
+#include "organsim/realtime/triple_buffer.h"
+#include "test_models.h"
+
+namespace organsim::realtime {
+namespace {
+
+using namespace organsim::devices;
+
+struct Payload {
+  std::uint64_t sequence = 0;
+  std::uint64_t check[15] = {};  // each sequence × (k + 1): a torn read would mix two sequences
+};
+
+TEST(TripleBuffer, ReaderSeesOnlyWholeValuesInOrderUnderConcurrentLoad) {
+  TripleBuffer<Payload> buffer;
+  constexpr std::uint64_t kReads = 20000;
+  std::atomic<std::uint64_t> reads{0};
+  std::atomic<bool> done{false};
+  std::uint64_t written = 0;
+  // The writer publishes until the reader has taken kReads values (however the
+  // two threads get scheduled), then stops.
+  std::thread writer([&] {
+    for (std::uint64_t s = 1; reads.load(std::memory_order_relaxed) < kReads && s < 500'000'000; ++s) {
+      Payload& p = buffer.write_slot();
+      p.sequence = s;
+      for (int k = 0; k < 15; ++k) p.check[k] = s * (k + 1);
+      buffer.publish();
+      written = s;
+    }
+    done.store(true, std::memory_order_release);
+  });
+  std::uint64_t last = 0, torn = 0, backwards = 0;
+  while (true) {
+    const bool finished = done.load(std::memory_order_acquire);
+    if (buffer.update()) {
+      const Payload& p = buffer.read();
+      for (int k = 0; k < 15; ++k) torn += p.check[k] != p.sequence * (k + 1);
+      backwards += p.sequence <= last;
+      last = p.sequence;
+      reads.fetch_add(1, std::memory_order_relaxed);
+    } else if (finished) {
+      break;
+    }
+  }
+  writer.join();
+  EXPECT_EQ(torn, 0u);
+  EXPECT_EQ(backwards, 0u);  // each update brings a newer value
+  EXPECT_GE(reads.load(), kReads);
+  EXPECT_EQ(last, written);  // the last value always arrives
+}
+
+TEST(ForceSafety, ClampsToTheDeviceLimitAndNeverPassesNaN) {
+  SafetyLimits limits;
+  limits.max_force = 2.0;
+  limits.onset_rate = 1e9;  // no onset limit here
+  ForceSafety safety(limits);
+  const Eigen::Vector3d big(3.0, 4.0, 0.0);  // 5 N
+  const Eigen::Vector3d out = safety.filter(big, 1.0, 1.0, 1e-3);
+  EXPECT_NEAR(out.norm(), 2.0, 1e-12);
+  EXPECT_NEAR(out.normalized().dot(big.normalized()), 1.0, 1e-12);  // direction kept
+  EXPECT_EQ(safety.clamp_count(), 1u);
+  for (const double bad : {std::nan(""), std::numeric_limits<double>::infinity()}) {
+    const Eigen::Vector3d f = safety.filter({bad, 0.0, 1.0}, 1.001, 1.0, 1e-3);
+    EXPECT_EQ(f, Eigen::Vector3d::Zero());
+  }
+  EXPECT_EQ(safety.non_finite_count(), 2u);
+}
+
+TEST(ForceSafety, OnsetIsRateLimitedSoContactNeverKicks) {
+  SafetyLimits limits;
+  limits.onset_rate = 40.0;  // N/s
+  ForceSafety safety(limits);
+  const Eigen::Vector3d step(0.0, 0.0, 2.0);  // a sudden 2 N request
+  double previous = 0.0;
+  for (int tick = 1; tick <= 100; ++tick) {
+    const double magnitude = safety.filter(step, tick * 1e-3, tick * 1e-3, 1e-3).norm();
+    EXPECT_LE(magnitude - previous, 40.0 * 1e-3 + 1e-12) << tick;
+    previous = magnitude;
+  }
+  EXPECT_NEAR(previous, 2.0, 1e-12);  // reached after 50 ms
+  EXPECT_EQ(safety.filter(Eigen::Vector3d::Zero(), 0.101, 0.101, 1e-3).norm(), 0.0);  // release is immediate
+}
+
+TEST(ForceSafety, WatchdogRampsTheForceDownWhenTheSimulationStalls) {
+  SafetyLimits limits;
+  limits.onset_rate = 1e9;
+  limits.stall_timeout = 0.1;
+  limits.ramp_down_time = 0.2;
+  ForceSafety safety(limits);
+  const Eigen::Vector3d f(1.0, 0.0, 0.0);
+  const double last_frame = 1.0;
+  EXPECT_NEAR(safety.filter(f, 1.05, last_frame, 1e-3).norm(), 1.0, 1e-12);  // fresh enough
+  EXPECT_NEAR(safety.filter(f, 1.2, last_frame, 1e-3).norm(), 0.5, 1e-12);   // halfway down the ramp
+  EXPECT_NEAR(safety.filter(f, 1.3, last_frame, 1e-3).norm(), 0.0, 1e-12);   // gone
+  EXPECT_NEAR(safety.filter(f, 2.0, last_frame, 1e-3).norm(), 0.0, 1e-12);
+  EXPECT_GT(safety.stalled_count(), 0u);
+}
+
+TEST(SurfaceBvh, RefitFollowsTheDeformedSurfaceAndFindsEnteringCrossings) {
+  const model::OrganModel model = testing::make_sphere_model(2000, 4);  // radius 0.08 m, centred
+  geometry::SurfaceBvh tree(model.surface_vertices, model.surface_triangles);
+  geometry::SegmentHit hit;
+  ASSERT_TRUE(tree.first_crossing({0.2, 0.001, 0.002}, {0.0, 0.001, 0.002}, true, hit));
+  EXPECT_TRUE(hit.entering);
+  EXPECT_NEAR(hit.position[0], 0.08, 1e-3);
+  // Leaving the sphere is not an entering crossing; the whole diameter enters once.
+  EXPECT_FALSE(tree.first_crossing({0.0, 0.001, 0.002}, {0.2, 0.001, 0.002}, true, hit));
+  ASSERT_TRUE(tree.first_crossing({0.0, 0.001, 0.002}, {0.2, 0.001, 0.002}, false, hit));
+  EXPECT_FALSE(hit.entering);
+  // Shifted by 5 cm along x, refit: the crossing moves with it.
+  std::vector<model::Point3> moved = model.surface_vertices;
+  for (model::Point3& p : moved) p[0] += 0.05;
+  tree.refit(moved.data());
+  ASSERT_TRUE(tree.first_crossing({0.3, 0.001, 0.002}, {0.0, 0.001, 0.002}, true, hit));
+  EXPECT_NEAR(hit.position[0], 0.13, 1e-3);
+  EXPECT_NEAR(tree.closest_point({0.0, 0.0, 0.0}).distance, 0.03, 1e-3);
+}
+
+// The helper cylinder (radius 30 mm, x from 0 to 150 mm, clamped at x = 0).
+struct CylinderEngine : ::testing::Test {
+  testing::CylinderSpec spec;
+  multibeam::BeamOrgan organ{testing::make_cylinder_model(spec)};
+
+  static Trajectory path(std::initializer_list<std::pair<double, Eigen::Vector3d>> samples) {
+    Trajectory t;
+    for (const auto& [time, position] : samples) {
+      t.times.push_back(time);
+      t.positions.push_back(position);
+    }
+    return t;
+  }
+};
+
+TEST_F(CylinderEngine, PressAndReleaseAtTheFarCap) {
+  // Approach the far cap along −x, press 5 mm, hold, retreat.
+  SafetyLimits limits;
+  limits.max_force = 10.0;
+  ScriptedDevice device(path({{0.0, {0.16, 0.0, 0.0}}, {0.3, {0.145, 0.0, 0.0}}, {0.8, {0.145, 0.0, 0.0}},
+                              {1.0, {0.16, 0.0, 0.0}}, {1.2, {0.16, 0.0, 0.0}}}),
+                        limits, 2000);
+  Engine engine(organ, {&device}, {});
+  run_fast(engine, 1.2);
+  EXPECT_EQ(engine.telemetry(0).contacts, 1u);
+  const double expected = organ.model().material.young_modulus * M_PI * spec.radius * spec.radius * 0.005 / spec.length;
+  bool touched = false, released_after = false;
+  for (std::size_t r = 0; r < device.record_count(); ++r) {
+    const ForceRecord& f = device.record(r);
+    if (f.time > 0.5 && f.time < 0.8) {
+      EXPECT_TRUE(f.in_contact);
+      EXPECT_NEAR(f.force[0], expected, 1e-4 * expected) << f.time;  // EAδ/L, pushing the tool back (+x)
+      touched = true;
+    }
+    if (f.time > 0.95) {
+      EXPECT_FALSE(f.in_contact) << f.time;
+      EXPECT_EQ(f.force, Eigen::Vector3d::Zero()) << f.time;
+      released_after = true;
+    }
+  }
+  EXPECT_TRUE(touched);
+  EXPECT_TRUE(released_after);
+}
+
+TEST_F(CylinderEngine, AFastToolCannotPassThroughTheOrgan) {
+  // Across the whole 60 mm diameter within one force tick: the swept test still
+  // finds where it entered, and the force pushes it back out (clamped).
+  SafetyLimits limits;
+  limits.max_force = 0.3;
+  ScriptedDevice device(path({{0.0, {0.1, 0.05, 0.0}}, {0.1, {0.1, 0.05, 0.0}}, {0.101, {0.1, -0.05, 0.0}},
+                              {0.5, {0.1, -0.05, 0.0}}}),
+                        limits, 1000);
+  Engine engine(organ, {&device}, {});
+  run_fast(engine, 0.5);
+  EXPECT_EQ(engine.telemetry(0).contacts, 1u);
+  const ForceRecord& last = device.record(device.record_count() - 1);
+  EXPECT_TRUE(last.in_contact);
+  EXPECT_NEAR(last.force.norm(), 0.3, 1e-9);  // clamped to the device limit
+  EXPECT_GT(last.force[1], 0.0);              // back towards +y, where it came from
+  EXPECT_GT(engine.safety(0).clamp_count(), 0u);
+}
+
+TEST_F(CylinderEngine, AShaftPressingSidewaysMakesContactAlongTheShaft) {
+  // The tip stays below the organ (never inside it); the vertical shaft sweeps
+  // into its side (y from +40 mm to +25 mm at x = 100 mm). The contact is where
+  // the shaft entered, and the organ pushes the shaft back towards +y (and,
+  // through the beam's much stiffer axial direction, along x as well).
+  Trajectory t = path({{0.0, {0.1, 0.04, -0.06}}, {0.3, {0.1, 0.025, -0.06}}, {0.6, {0.1, 0.025, -0.06}}});
+  t.shafts.assign(3, Eigen::Vector3d(0.0, 0.0, 1.0));
+  SafetyLimits limits;
+  limits.max_force = 10.0;
+  ScriptedDevice device(t, limits, 1000);
+  Engine engine(organ, {&device}, {});
+  run_fast(engine, 0.6);
+  EXPECT_EQ(engine.telemetry(0).contacts, 1u);
+  const ForceRecord& last = device.record(device.record_count() - 1);
+  EXPECT_TRUE(last.in_contact);
+  EXPECT_GT(last.force[1], 0.01);
+  EXPECT_LT(std::abs(last.force[2]), 0.2 * last.force.norm());
+}
+
+TEST_F(CylinderEngine, FastModeIsBitIdenticalAcrossRuns) {
+  auto run = [&] {
+    ScriptedDevice a(path({{0.0, {0.16, 0.0, 0.0}}, {0.4, {0.144, 0.003, 0.0}}, {0.6, {0.16, 0.0, 0.0}}}), {}, 1000);
+    ScriptedDevice b(path({{0.0, {0.08, 0.04, 0.0}}, {0.3, {0.08, 0.026, 0.001}}, {0.6, {0.08, 0.04, 0.0}}}), {}, 1000);
+    Engine engine(organ, {&a, &b}, {});
+    run_fast(engine, 0.6);
+    std::vector<double> forces;
+    for (const ScriptedDevice* d : {&a, &b})
+      for (std::size_t r = 0; r < d->record_count(); ++r)
+        for (int k = 0; k < 3; ++k) forces.push_back(d->record(r).force[k]);
+    return forces;
+  };
+  const std::vector<double> first = run(), second = run();
+  ASSERT_EQ(first.size(), second.size());
+  EXPECT_EQ(std::memcmp(first.data(), second.data(), first.size() * sizeof(double)), 0);
+  double peak = 0.0;
+  for (double f : first) peak = std::max(peak, std::abs(f));
+  EXPECT_GT(peak, 0.01);
+}
+
+TEST_F(CylinderEngine, AStalledDeformationLoopFadesTheForceOut) {
+  ScriptedDevice device(path({{0.0, {0.16, 0.0, 0.0}}, {0.2, {0.146, 0.0, 0.0}}, {2.0, {0.146, 0.0, 0.0}}}), {}, 3000);
+  Engine engine(organ, {&device}, {});
+  run_fast(engine, 0.5);  // in contact, steady force
+  const double steady = device.record(device.record_count() - 1).force.norm();
+  ASSERT_GT(steady, 0.05);
+  // Only the force loop runs from now on (the simulation has stalled).
+  for (int tick = 501; tick <= 1000; ++tick) engine.force_tick(tick * 1e-3);
+  double at_250ms = 0.0;
+  for (std::size_t r = 0; r < device.record_count(); ++r)
+    if (std::abs(device.record(r).time - 0.75) < 1e-9) at_250ms = device.record(r).force.norm();
+  EXPECT_LT(at_250ms, 0.5 * steady);  // ramping down (stalled for 0.25 s: timeout 0.1 s, ramp 0.2 s)
+  EXPECT_EQ(device.record(device.record_count() - 1).force.norm(), 0.0);
+}
+
+TEST(Session, ReadsTheDocumentedFormatAndRejectsBadFiles) {
+  const std::string path = ::testing::TempDir() + "organsim_session_test.session";
+  auto write = [&](const std::string& text) {
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    std::fputs(text.c_str(), f);
+    std::fclose(f);
+  };
+  write("# organsim session 1\n# time_s,tool,x_mm,y_mm,z_mm\n0,1,1,2,3\n1,1,4,5,6\n0.5,2,0,0,0\n");
+  const Session s = read_session(path);
+  ASSERT_EQ(s.tools.size(), 2u);
+  EXPECT_DOUBLE_EQ(s.duration, 1.0);
+  EXPECT_DOUBLE_EQ(s.tools[0].positions[1][2], 0.006);  // mm → m
+  ScriptedDevice device(s.tools[0], {}, 4);
+  ToolPose pose;
+  ASSERT_TRUE(device.read_pose(0.5, pose));
+  EXPECT_TRUE(pose.tip.isApprox(Eigen::Vector3d(0.0025, 0.0035, 0.0045)));
+  EXPECT_EQ(pose.shaft, Eigen::Vector3d::Zero());  // no shaft columns
+  const std::pair<const char*, const char*> bad[] = {
+      {"0,1,1,2,3\n", "first line"},
+      {"# organsim session 1\n0,1,1,2\n", "5 or 8 comma-separated"},
+      {"# organsim session 1\n0,1,nan,2,3\n", "not a finite number"},
+      {"# organsim session 1\n1,1,0,0,0\n0.5,1,0,0,0\n", "must increase"},
+      {"# organsim session 1\n0,17,0,0,0\n", "1 to 16"},
+      {"# organsim session 1\n0,2,0,0,0\n", "tool 1 has no samples"},
+      {"# organsim session 1\n", "no samples"},
+  };
+  for (const auto& [text, message] : bad) {
+    write(text);
+    try {
+      read_session(path);
+      ADD_FAILURE() << text;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+    }
+  }
+  std::remove(path.c_str());
+}
+
+}  // namespace
+}  // namespace organsim::realtime

@@ -1,0 +1,91 @@
+// The real-time calls allocate nothing: every operator new in this program is
+// counted, and the count must not change across attach, force and deform.
+#include <atomic>
+#include <cstdlib>
+#include <new>
+
+#include <gtest/gtest.h>
+
+#include "organsim/multibeam/multibeam.h"
+#include "organsim/realtime/engine.h"
+#include "organsim/devices/scripted_device.h"
+#include "test_models.h"
+
+namespace {
+std::atomic<long> allocations{0};
+}
+
+void* operator new(std::size_t size) {
+  allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void* operator new(std::size_t size, std::align_val_t alignment) {
+  allocations.fetch_add(1, std::memory_order_relaxed);
+  const std::size_t a = static_cast<std::size_t>(alignment);
+  if (void* p = std::aligned_alloc(a, (size + a - 1) / a * a)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+
+namespace organsim::multibeam {
+namespace {
+
+TEST(RealTime, AttachForceAndDeformAllocateNothing) {
+  const testing::CylinderSpec spec;
+  const BeamOrgan organ(testing::make_cylinder_model(spec));
+  for (MergeRule rule : {MergeRule::influence, MergeRule::sum}) {
+    MultiBeamOptions options;
+    options.max_tools = 4;
+    options.merge = rule;
+    MultiBeam beams(organ, options);
+    std::vector<model::Point3> positions(organ.vertex_count()), normals(organ.vertex_count());
+    const Eigen::Vector3d tips[4] = {{0.0, 0.004, 0.0}, {0.002, 0.0, 0.001}, {0.0, 0.0, -0.003}, {0.0, 0.001, 0.0}};
+    Eigen::Vector3d force, total = Eigen::Vector3d::Zero();
+
+    const long before = allocations.load();
+    ASSERT_EQ(beams.attach(0, {spec.length, 0.0, 0.0}), Status::ok);
+    ASSERT_EQ(beams.attach(1, {0.08, spec.radius, 0.0}), Status::ok);
+    ASSERT_EQ(beams.attach(2, {0.12, 0.0, -spec.radius}), Status::ok);
+    ASSERT_EQ(beams.attach(3, {0.12, 0.0, -spec.radius}), Status::ok);  // coincides with tool 2: merged
+    for (int tick = 0; tick < 1000; ++tick)
+      for (std::uint32_t tool = 0; tool < 4; ++tool) {
+        ASSERT_EQ(beams.force(tool, tips[tool], force), Status::ok);
+        total += force;
+      }
+    ASSERT_EQ(beams.deform(tips, positions.data(), normals.data(), positions.size()), Status::ok);
+    beams.detach(1);
+    ASSERT_EQ(beams.deform(tips, positions.data(), normals.data(), positions.size()), Status::ok);
+    EXPECT_EQ(beams.attach(0, {std::nan(""), 0.0, 0.0}), Status::not_finite);
+    const long after = allocations.load();
+    EXPECT_EQ(after - before, 0) << "allocations in the real-time calls";
+    EXPECT_TRUE(total.allFinite());
+  }
+}
+
+TEST(RealTime, EngineLoopsAllocateNothing) {
+  const testing::CylinderSpec spec;
+  const BeamOrgan organ(testing::make_cylinder_model(spec));
+  devices::Trajectory press, side;
+  press.times = {0.0, 0.3, 0.6};
+  press.positions = {{0.16, 0.0, 0.0}, {0.144, 0.002, 0.0}, {0.16, 0.0, 0.0}};
+  side.times = {0.0, 0.2, 0.6};
+  side.positions = {{0.08, 0.04, 0.0}, {0.08, 0.026, 0.0}, {0.08, 0.04, 0.0}};
+  devices::ScriptedDevice a(press, {}, 1000), b(side, {}, 1000);
+  realtime::Engine engine(organ, {&a, &b}, {});
+  const long before = allocations.load();
+  for (int tick = 0; tick <= 600; ++tick) {
+    if (tick % 17 == 0) engine.deformation_step(tick * 1e-3);  // contacts begin, deform, end
+    engine.force_tick(tick * 1e-3);
+  }
+  const long after = allocations.load();
+  EXPECT_EQ(after - before, 0) << "allocations in the engine's loops";
+  EXPECT_EQ(engine.telemetry(0).contacts, 1u);
+  EXPECT_EQ(engine.telemetry(1).contacts, 1u);
+}
+
+}  // namespace
+}  // namespace organsim::multibeam

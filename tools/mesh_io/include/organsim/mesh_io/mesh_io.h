@@ -1,0 +1,37 @@
+// Mesh files for inspection in 3D Slicer and ParaView: surfaces as VTK XML
+// PolyData (.vtp) or binary STL, tetrahedra as VTK XML UnstructuredGrid (.vtu),
+// and ParaView collections (.pvd) that index time series of such files.
+//
+// Coordinates are written in millimetres in the LPS patient frame, like the CT,
+// so that meshes overlay it. Every VTK file says so: field data `SPACE` = "LPS"
+// (the array 3D Slicer reads to pick the frame) and `UNITS` = "mm"; STL files
+// carry "SPACE=LPS UNITS=mm" in their header. Every file is written atomically
+// (organsim/io/atomic_file.h).
+//
+// Its own target (VTK's IO modules only), so that the commands that write
+// meshes (`poke`, `replay`, the pipeline's intermediates) share one writer
+// without linking the offline pipeline.
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "organsim/geometry/meshes.h"
+
+namespace organsim::mesh_io {
+
+/// VTK XML PolyData (.vtp). Throws std::runtime_error naming the path on failure.
+void write_surface_vtp(const geometry::SurfaceMesh& surface, const std::string& path);
+/// Binary STL (.stl).
+void write_surface_stl(const geometry::SurfaceMesh& surface, const std::string& path);
+/// VTK XML UnstructuredGrid (.vtu) of VTK_TETRA cells.
+void write_tetrahedra_vtu(const geometry::TetrahedralMesh& mesh, const std::string& path);
+
+/// One entry of a time series: the time (s) and the file's name, relative to
+/// the collection file.
+using TimeStep = std::pair<double, std::string>;
+/// A ParaView collection (.pvd) that plays `steps` as a time series.
+void write_collection_pvd(const std::vector<TimeStep>& steps, const std::string& path);
+
+}  // namespace organsim::mesh_io

@@ -1,0 +1,11 @@
+#include "command_line.h"
+
+namespace organsim::cli {
+
+void add_baking_commands(CLI::App& app, CommandTable& table) {
+  add_command(app, table, "bake", "Bake a model file from a CT: segmentation, surface, tetrahedra, beam tables",
+              add_bake_command);
+  add_command(app, table, "phantom", "Make a synthetic abdominal CT with a liver-like organ", add_phantom_command);
+}
+
+}  // namespace organsim::cli

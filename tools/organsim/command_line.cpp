@@ -1,0 +1,104 @@
+#include "command_line.h"
+
+#include <cstdio>
+#include <exception>
+#include <string>
+
+#include "organsim/version.h"
+
+namespace organsim::cli {
+namespace {
+
+constexpr int kInputError = 1;
+constexpr int kUsageError = 2;
+
+Verbosity g_verbosity = Verbosity::normal;
+
+std::string one_line(std::string text) {
+  while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
+  for (std::size_t at = text.find('\n'); at != std::string::npos; at = text.find('\n', at)) text.replace(at, 1, "; ");
+  return text;
+}
+
+/// The subcommand named on the command line, for the error prefix; "" if none.
+std::string named_subcommand(const CLI::App& app, int argc, char** argv) {
+  for (int i = 1; i < argc; ++i)
+    for (const CLI::App* sub : app.get_subcommands({}))
+      if (sub->get_name() == argv[i]) return sub->get_name();
+  return "";
+}
+
+}  // namespace
+
+void add_command(CLI::App& app, CommandTable& table, const char* name, const char* description,
+                 Command (*add_subcommand)(CLI::App&)) {
+  CLI::App* sub = app.add_subcommand(name, description);
+  sub->set_version_flag("--version", std::string("organsim ") + kProgramVersion);
+  auto* quiet = sub->add_flag_callback("--quiet", [] { g_verbosity = Verbosity::quiet; },
+                                       "No progress or notes on stderr (warnings and errors are still shown)");
+  auto* verbose = sub->add_flag_callback("--verbose", [] { g_verbosity = Verbosity::verbose; },
+                                         "More detail on stderr (what was loaded, each stage)");
+  quiet->excludes(verbose);
+  table[sub] = add_subcommand(*sub);
+}
+
+void add_simulation_commands(CLI::App& app, CommandTable& table) {
+  add_command(app, table, "info", "Summarize a model file (counts, size, volume, material, provenance)", add_info_command);
+  add_command(app, table, "poke",
+      "Press the organ with tools: the force each tool feels and the deformed organ (multi-beam model)",
+      add_poke_command);
+  add_command(app, table, "replay",
+      "Replay a recorded multi-tool session through the real-time engine: forces, contacts, loop timings",
+      add_replay_command);
+  add_command(app, table, "touch", "Feel the organ with PHANToM / Touch devices (OpenHaptics, loaded at run time)",
+      add_touch_command);
+  add_command(app, table, "view",
+      "The trainee's view: the organ deforming under replayed or mouse-driven tools (VTK + OpenCV)",
+      add_view_command);
+}
+
+int run_program(CLI::App& app, const CommandTable& table, int argc, char** argv) {
+  app.set_version_flag("--version", std::string("organsim ") + kProgramVersion);
+  app.require_subcommand(1);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help and --version end the parse with exit code 0: CLI11 prints them.
+    if (e.get_exit_code() == 0) return app.exit(e);
+    const std::string command = named_subcommand(app, argc, argv);
+    std::fprintf(stderr, "organsim%s%s: error: %s (see organsim%s%s --help)\n", command.empty() ? "" : " ",
+                 command.c_str(), one_line(e.what()).c_str(), command.empty() ? "" : " ", command.c_str());
+    return kUsageError;
+  }
+  const CLI::App* chosen = app.get_subcommands().front();
+  try {
+    return table.at(chosen)();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "organsim %s: error: %s\n", chosen->get_name().c_str(), one_line(e.what()).c_str());
+    return kInputError;
+  }
+}
+
+Verbosity verbosity() { return g_verbosity; }
+
+void note(const std::string& command, const std::string& message) {
+  if (g_verbosity != Verbosity::quiet) std::fprintf(stderr, "organsim %s: %s\n", command.c_str(), message.c_str());
+}
+
+void detail(const std::string& command, const std::string& message) {
+  if (g_verbosity == Verbosity::verbose) std::fprintf(stderr, "organsim %s: %s\n", command.c_str(), message.c_str());
+}
+
+void detail_model(const std::string& command, const std::string& path, const model::OrganModel& model) {
+  detail(command, path + ": " + std::to_string(model.surface_vertices.size()) + " surface vertices, " +
+                      std::to_string(model.surface_triangles.size()) + " triangles, " +
+                      std::to_string(model.tetrahedra.size()) + " tetrahedra, " +
+                      std::to_string(model.beams.stations_per_beam) + " beam stations, E = " +
+                      std::to_string(model.material.young_modulus) + " Pa");
+}
+
+void warn(const std::string& command, const std::string& message) {
+  std::fprintf(stderr, "organsim %s: warning: %s\n", command.c_str(), message.c_str());
+}
+
+}  // namespace organsim::cli

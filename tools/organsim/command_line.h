@@ -1,0 +1,52 @@
+// The conventions every `organsim` subcommand shares (docs/cli.md):
+//   - exit 0 on success, 1 when the input is wrong (a file, a value in it),
+//     2 when the command line is wrong; each error is one line on stderr,
+//     `organsim CMD: error: WHAT`;
+//   - `--help` and `--version` on the program and on every subcommand;
+//   - `--quiet` (no progress or notes on stderr; warnings and errors still
+//     shown) and `--verbose` (extra detail on stderr) on every subcommand.
+#pragma once
+
+#include <map>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "commands.h"
+#include "organsim/model/organ_model.h"
+
+namespace organsim::cli {
+
+/// The subcommands registered on an app and the function that runs each.
+using CommandTable = std::map<const CLI::App*, Command>;
+
+/// Registers subcommand `name` with the shared options (--version, --quiet,
+/// --verbose) and the options `add_subcommand` adds.
+void add_command(CLI::App& app, CommandTable& table, const char* name, const char* description,
+                 Command (*add_subcommand)(CLI::App&));
+
+/// info, poke, replay, touch, view: the commands that load a model and
+/// simulate it. They link the runtime, never the offline pipeline.
+void add_simulation_commands(CLI::App& app, CommandTable& table);
+/// bake, phantom: the commands that run the offline pipeline
+/// (baking_commands.cpp, in the target that links the pipeline).
+void add_baking_commands(CLI::App& app, CommandTable& table);
+
+/// Parses the command line, runs the chosen command and applies the
+/// conventions above. Returns the process exit code.
+int run_program(CLI::App& app, const CommandTable& table, int argc, char** argv);
+
+enum class Verbosity { quiet, normal, verbose };
+/// What the user asked for with --quiet or --verbose.
+Verbosity verbosity();
+
+/// "organsim COMMAND: MESSAGE" on stderr, unless --quiet: progress and notes.
+void note(const std::string& command, const std::string& message);
+/// The same, only with --verbose: detail a user asks for when checking a run.
+void detail(const std::string& command, const std::string& message);
+/// With --verbose: what the model loaded from `path` holds.
+void detail_model(const std::string& command, const std::string& path, const model::OrganModel& model);
+/// "organsim COMMAND: warning: MESSAGE" on stderr, always.
+void warn(const std::string& command, const std::string& message);
+
+}  // namespace organsim::cli
