@@ -14,6 +14,7 @@
 #include "organsim/pipeline/phantom.h"
 #include "organsim/pipeline/segmentation.h"
 #include "synthetic_volumes.h"
+#include "temp_directory.h"
 
 namespace organsim::pipeline {
 namespace {
@@ -22,15 +23,8 @@ namespace fs = std::filesystem;
 
 const fs::path kSamples = ORGANSIM_DATA_SAMPLES;
 
-class Bake : public ::testing::Test {
+class Bake : public organsim::testing::TempDirectoryTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("organsim_bake_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
 
   /// Options for the shipped phantom, segmented by region growing in the right lobe.
   static BakeOptions phantom_options() {
@@ -44,7 +38,6 @@ class Bake : public ::testing::Test {
     o.program_version = "test";
     return o;
   }
-  fs::path dir_;
 };
 
 double relative_difference(double value, double reference) { return std::abs(value / reference - 1.0); }
@@ -135,7 +128,7 @@ TEST_F(Bake, AFailedBakeLeavesNoIntermediatesAndNoModel) {
   std::ofstream(dir_ / "intermediates" / "notes.txt") << "mine";
   EXPECT_THROW(bake(o), std::runtime_error);
   ASSERT_TRUE(fs::exists(dir_ / "intermediates"));
-  EXPECT_EQ(std::distance(fs::directory_iterator(dir_ / "intermediates"), {}), 1);
+  EXPECT_EQ(entries(dir_ / "intermediates"), 1);
 }
 
 TEST_F(Bake, TheModelAndTheIntermediatesAppearTogether) {

@@ -10,27 +10,23 @@
 #include "organsim/pipeline/ct_input.h"
 #include "organsim/pipeline/image_io.h"
 #include "organsim/pipeline/phantom.h"
+#include "temp_directory.h"
 
 namespace organsim::pipeline {
 namespace {
 
 namespace fs = std::filesystem;
 
-class CtInput : public ::testing::Test {
+class CtInput : public organsim::testing::TempDirectoryTest {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("organsim_ct_input_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    TempDirectoryTest::SetUp();
     PhantomOptions o;
     o.size = {40, 36, 20};
     o.spacing_mm = {9.0, 9.0, 9.5};
     phantom_ = make_phantom(o);
   }
-  void TearDown() override { fs::remove_all(dir_); }
   std::string path(const std::string& name) const { return (dir_ / name).string(); }
-  fs::path dir_;
   Phantom phantom_;
 };
 

@@ -11,27 +11,22 @@
 #include "organsim/pipeline/image_io.h"
 #include "organsim/pipeline/phantom.h"
 #include "organsim/pipeline/segmentation.h"
+#include "temp_directory.h"
 
 namespace organsim::pipeline {
 namespace {
 
 namespace fs = std::filesystem;
 
-class ImageIo : public ::testing::Test {
+class ImageIo : public organsim::testing::TempDirectoryTest {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("organsim_image_io_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    TempDirectoryTest::SetUp();
     PhantomOptions o;
     o.size = {32, 28, 20};
     o.spacing_mm = {6.0, 6.0, 6.0};
     phantom_ = make_phantom(o);
   }
-  void TearDown() override { fs::remove_all(dir_); }
-  long entries(const fs::path& directory) const { return std::distance(fs::directory_iterator(directory), {}); }
-  fs::path dir_;
   Phantom phantom_;
 };
 

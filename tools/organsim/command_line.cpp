@@ -2,8 +2,10 @@
 
 #include <cstdio>
 #include <exception>
+#include <stdexcept>
 #include <string>
 
+#include "organsim/model/model_file.h"
 #include "organsim/version.h"
 
 namespace organsim::cli {
@@ -89,12 +91,18 @@ void detail(const std::string& command, const std::string& message) {
   if (g_verbosity == Verbosity::verbose) std::fprintf(stderr, "organsim %s: %s\n", command.c_str(), message.c_str());
 }
 
-void detail_model(const std::string& command, const std::string& path, const model::OrganModel& model) {
+model::OrganModel load_simulation_model(const std::string& command, const std::string& path) {
+  model::ModelReadResult read = model::read_organ_model_file(path);
+  if (!read) throw std::runtime_error(read.error);
+  const model::OrganModel& model = *read.model;
   detail(command, path + ": " + std::to_string(model.surface_vertices.size()) + " surface vertices, " +
                       std::to_string(model.surface_triangles.size()) + " triangles, " +
                       std::to_string(model.tetrahedra.size()) + " tetrahedra, " +
                       std::to_string(model.beams.stations_per_beam) + " beam stations, E = " +
                       std::to_string(model.material.young_modulus) + " Pa");
+  if (model.beams.empty())
+    throw std::runtime_error(path + ": the model has no beam tables; re-bake it with --stations N");
+  return std::move(*read.model);
 }
 
 void warn(const std::string& command, const std::string& message) {

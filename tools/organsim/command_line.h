@@ -44,8 +44,10 @@ Verbosity verbosity();
 void note(const std::string& command, const std::string& message);
 /// The same, only with --verbose: detail a user asks for when checking a run.
 void detail(const std::string& command, const std::string& message);
-/// With --verbose: what the model loaded from `path` holds.
-void detail_model(const std::string& command, const std::string& path, const model::OrganModel& model);
+/// Loads the model file at `path` for a command that simulates it with the
+/// multi-beam model: throws std::runtime_error (an input error) when the file
+/// is unreadable or invalid or has no beam tables; with --verbose, says what it holds.
+model::OrganModel load_simulation_model(const std::string& command, const std::string& path);
 /// "organsim COMMAND: warning: MESSAGE" on stderr, always.
 void warn(const std::string& command, const std::string& message);
 

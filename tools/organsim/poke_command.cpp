@@ -73,13 +73,9 @@ int run_poke(const PokeOptions& o) {
   if (!o.out_path.empty() && (o.out_path.size() < 4 || o.out_path.substr(o.out_path.size() - 4) != ".vtp"))
     throw std::runtime_error("--out " + o.out_path + ": the deformed surface is written as VTK PolyData; name it .vtp");
 
-  model::ModelReadResult read = model::read_organ_model_file(o.model_path);
-  if (!read) throw std::runtime_error(read.error);
-  detail_model("poke", o.model_path, *read.model);
-  if (read.model->beams.empty())
-    throw std::runtime_error(o.model_path + ": the model has no beam tables; re-bake it with --stations N");
-  const std::vector<model::Triangle> file_triangles = read.model->surface_triangles;
-  const BeamOrgan organ(std::move(*read.model));
+  model::OrganModel loaded = load_simulation_model("poke", o.model_path);
+  const std::vector<model::Triangle> file_triangles = loaded.surface_triangles;
+  const BeamOrgan organ(std::move(loaded));
   const model::OrganModel& model = organ.model();
 
   MultiBeamOptions options;

@@ -76,14 +76,10 @@ nlohmann::json timing_json(const Percentiles& p) {
 int run_replay(const ReplayOptions& o) {
   if (!o.frames_dir.empty() && fs::exists(o.frames_dir) && !fs::is_directory(o.frames_dir))
     throw std::runtime_error("--frames " + o.frames_dir + " is a file; give a directory");
-  model::ModelReadResult read = model::read_organ_model_file(o.model_path);
-  if (!read) throw std::runtime_error(read.error);
-  detail_model("replay", o.model_path, *read.model);
-  if (read.model->beams.empty())
-    throw std::runtime_error(o.model_path + ": the model has no beam tables; re-bake it with --stations N");
+  model::OrganModel loaded = load_simulation_model("replay", o.model_path);
   const Session session = read_session(o.session_path);
-  const std::vector<model::Triangle> file_triangles = read.model->surface_triangles;
-  const multibeam::BeamOrgan organ(std::move(*read.model));
+  const std::vector<model::Triangle> file_triangles = loaded.surface_triangles;
+  const multibeam::BeamOrgan organ(std::move(loaded));
 
   SafetyLimits limits;
   limits.max_force = o.max_force;

@@ -25,12 +25,8 @@ struct TouchOptions {
 };
 
 int run_touch(const TouchOptions& o) {
-  model::ModelReadResult read = model::read_organ_model_file(o.model_path);
-  if (!read) throw std::runtime_error(read.error);
-  detail_model("touch", o.model_path, *read.model);
-  if (read.model->beams.empty())
-    throw std::runtime_error(o.model_path + ": the model has no beam tables; re-bake it with --stations N");
-  const multibeam::BeamOrgan organ(std::move(*read.model));
+  model::OrganModel loaded = load_simulation_model("touch", o.model_path);
+  const multibeam::BeamOrgan organ(std::move(loaded));
   const devices::HapticRig rig = devices::open_haptic_rig(o.rig, organ.model());
   const auto& owned = rig.devices;
   const std::vector<devices::HapticDevice*> tools = rig.tools();

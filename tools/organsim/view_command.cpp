@@ -227,12 +227,8 @@ int run_view(const ViewOptions& o) {
   if (!o.screenshot_path.empty() && fs::path(o.screenshot_path).extension() != ".png")
     throw std::runtime_error("--screenshot " + o.screenshot_path + ": screenshots are PNG files; name it .png");
   if (o.phantom && !o.session_path.empty()) throw std::runtime_error("--phantom and --session are exclusive; choose one");
-  model::ModelReadResult read = model::read_organ_model_file(o.model_path);
-  if (!read) throw std::runtime_error(read.error);
-  detail_model("view", o.model_path, *read.model);
-  if (read.model->beams.empty())
-    throw std::runtime_error(o.model_path + ": the model has no beam tables; re-bake it with --stations N");
-  const multibeam::BeamOrgan organ(std::move(*read.model));
+  model::OrganModel loaded = load_simulation_model("view", o.model_path);
+  const multibeam::BeamOrgan organ(std::move(loaded));
 
   std::vector<std::string> warnings;
   viewer::SceneOptions scene_options;

@@ -444,5 +444,43 @@ TEST_F(SessionFile, ASessionReadFromFilePlaysInMetres) {
   EXPECT_NEAR((pose.shaft - Eigen::Vector3d(0.0, 1.0, 1.0) / std::sqrt(2.0)).norm(), 0.0, 1e-15);
 }
 
+TEST(Session, ReadsTheDocumentedFormatAndRejectsBadFiles) {
+  const std::string path = ::testing::TempDir() + "organsim_session_test.session";
+  auto write = [&](const std::string& text) {
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    std::fputs(text.c_str(), f);
+    std::fclose(f);
+  };
+  write("# organsim session 1\n# time_s,tool,x_mm,y_mm,z_mm\n0,1,1,2,3\n1,1,4,5,6\n0.5,2,0,0,0\n");
+  const Session s = read_session(path);
+  ASSERT_EQ(s.tools.size(), 2u);
+  EXPECT_DOUBLE_EQ(s.duration, 1.0);
+  EXPECT_DOUBLE_EQ(s.tools[0].positions[1][2], 0.006);  // mm → m
+  ScriptedDevice device(s.tools[0], {}, 4);
+  ToolPose pose;
+  ASSERT_TRUE(device.read_pose(0.5, pose));
+  EXPECT_TRUE(pose.tip.isApprox(Eigen::Vector3d(0.0025, 0.0035, 0.0045)));
+  EXPECT_EQ(pose.shaft, Eigen::Vector3d::Zero());  // no shaft columns
+  const std::pair<const char*, const char*> bad[] = {
+      {"0,1,1,2,3\n", "first line"},
+      {"# organsim session 1\n0,1,1,2\n", "5 or 8 comma-separated"},
+      {"# organsim session 1\n0,1,nan,2,3\n", "not a finite number"},
+      {"# organsim session 1\n1,1,0,0,0\n0.5,1,0,0,0\n", "must increase"},
+      {"# organsim session 1\n0,17,0,0,0\n", "1 to 16"},
+      {"# organsim session 1\n0,2,0,0,0\n", "tool 1 has no samples"},
+      {"# organsim session 1\n", "no samples"},
+  };
+  for (const auto& [text, message] : bad) {
+    write(text);
+    try {
+      read_session(path);
+      ADD_FAILURE() << text;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+    }
+  }
+  std::remove(path.c_str());
+}
+
 }  // namespace
 }  // namespace organsim::devices

@@ -9,29 +9,21 @@
 #include <gtest/gtest.h>
 
 #include "organsim/io/atomic_file.h"
+#include "temp_directory.h"
 
 namespace organsim::io {
 namespace {
 
 namespace fs = std::filesystem;
 
-class AtomicOutput : public ::testing::Test {
+class AtomicOutput : public organsim::testing::TempDirectoryTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("organsim_atomic_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
-                                        "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
   static std::string read(const fs::path& path) {
     std::ifstream in(path, std::ios::binary);
     std::ostringstream text;
     text << in.rdbuf();
     return text.str();
   }
-  std::size_t entries() const { return static_cast<std::size_t>(std::distance(fs::directory_iterator(dir_), {})); }
-  fs::path dir_;
 };
 
 TEST_F(AtomicOutput, BytesReplaceTheTargetAndLeaveNoTemporaryFile) {
@@ -39,7 +31,7 @@ TEST_F(AtomicOutput, BytesReplaceTheTargetAndLeaveNoTemporaryFile) {
   write_file_atomically(target.string(), "first");
   write_file_atomically(target.string(), std::string("second\0x", 8));
   EXPECT_EQ(read(target), std::string("second\0x", 8));
-  EXPECT_EQ(entries(), 1u);
+  EXPECT_EQ(entries(), 1);
   EXPECT_EQ(fs::status(target).permissions() & fs::perms::others_read, fs::perms::others_read);
 }
 
@@ -65,7 +57,7 @@ TEST_F(AtomicOutput, AnUncommittedFileLeavesNothingAndKeepsTheOldTarget) {
     std::ofstream(output.temp_path()) << "new but abandoned";
   }
   EXPECT_EQ(read(target), "old");
-  EXPECT_EQ(entries(), 1u);
+  EXPECT_EQ(entries(), 1);
 }
 
 TEST_F(AtomicOutput, ACommittedFileReplacesTheTarget) {
@@ -74,7 +66,7 @@ TEST_F(AtomicOutput, ACommittedFileReplacesTheTarget) {
   std::ofstream(output.temp_path()) << "voxels";
   output.commit();
   EXPECT_EQ(read(target), "voxels");
-  EXPECT_EQ(entries(), 1u);
+  EXPECT_EQ(entries(), 1);
 }
 
 TEST_F(AtomicOutput, ADirectoryAppearsWholeOrNotAtAll) {
@@ -84,13 +76,13 @@ TEST_F(AtomicOutput, ADirectoryAppearsWholeOrNotAtAll) {
     std::ofstream(fs::path(abandoned.temp_path()) / "slice0001.dcm") << "a";
   }
   EXPECT_FALSE(fs::exists(target));
-  EXPECT_EQ(entries(), 0u);
+  EXPECT_EQ(entries(), 0);
   AtomicDirectory output(target.string());
   std::ofstream(fs::path(output.temp_path()) / "slice0001.dcm") << "a";
   std::ofstream(fs::path(output.temp_path()) / "slice0002.dcm") << "b";
   output.commit();
   EXPECT_EQ(read(target / "slice0002.dcm"), "b");
-  EXPECT_EQ(entries(), 1u);
+  EXPECT_EQ(entries(), 1);
 }
 
 TEST_F(AtomicOutput, ADirectoryReplacesOnlyAnEmptyOne) {

@@ -230,59 +230,5 @@ TEST(BeamOrgan, RefusesAModelWithoutBeamTables) {
   EXPECT_THROW(BeamOrgan{std::move(model)}, std::invalid_argument);
 }
 
-TEST(InfluenceFunction, WeightsAreUnitVectorsAtTheActionPoints) {
-  std::mt19937 random(7);
-  std::uniform_real_distribution<double> coordinate(-0.1, 0.1);
-  for (std::uint32_t n = 1; n <= 8; ++n) {
-    Eigen::Vector3d points[kMaxTools];
-    for (std::uint32_t i = 0; i < n; ++i) points[i] = {coordinate(random), coordinate(random), coordinate(random)};
-    InfluenceFunction f;
-    ASSERT_TRUE(f.set_points(points, n));
-    double w[kMaxTools];
-    for (std::uint32_t i = 0; i < n; ++i) {
-      f.weights(points[i], w);
-      for (std::uint32_t j = 0; j < n; ++j) EXPECT_NEAR(w[j], i == j ? 1.0 : 0.0, 1e-9) << n << " " << i << " " << j;
-    }
-  }
-}
-
-TEST(InfluenceFunction, TwoToolsReduceToEquationEight) {
-  const Eigen::Vector3d points[2] = {{0.0, 0.0, 0.0}, {0.05, 0.02, -0.01}};
-  InfluenceFunction f;
-  ASSERT_TRUE(f.set_points(points, 2));
-  for (const Eigen::Vector3d& p : {Eigen::Vector3d(0.01, 0.03, 0.0), Eigen::Vector3d(-0.2, 0.1, 0.3)}) {
-    const double l1 = (p - points[0]).norm(), l2 = (p - points[1]).norm();
-    double w[2];
-    f.weights(p, w);
-    EXPECT_NEAR(w[0], l2 / (l1 + l2), 1e-12);
-    EXPECT_NEAR(w[1], l1 / (l1 + l2), 1e-12);
-  }
-}
-
-TEST(InfluenceFunction, WeightsAreContinuous) {
-  const Eigen::Vector3d points[4] = {{0.0, 0.0, 0.0}, {0.05, 0.0, 0.0}, {0.0, 0.04, 0.01}, {0.03, 0.03, 0.05}};
-  InfluenceFunction f;
-  ASSERT_TRUE(f.set_points(points, 4));
-  std::mt19937 random(3);
-  std::uniform_real_distribution<double> coordinate(-0.05, 0.1);
-  for (int trial = 0; trial < 200; ++trial) {
-    const Eigen::Vector3d p(coordinate(random), coordinate(random), coordinate(random));
-    const Eigen::Vector3d q = p + Eigen::Vector3d(1e-7, -1e-7, 1e-7);
-    double wp[4], wq[4];
-    f.weights(p, wp);
-    f.weights(q, wq);
-    for (int i = 0; i < 4; ++i) EXPECT_NEAR(wp[i], wq[i], 1e-4) << trial;
-  }
-}
-
-TEST(InfluenceFunction, RefusesCoincidingAndNonFinitePoints) {
-  const Eigen::Vector3d same[2] = {{0.01, 0.0, 0.0}, {0.01, 0.0, 0.0}};
-  InfluenceFunction f;
-  EXPECT_FALSE(f.set_points(same, 2));
-  const Eigen::Vector3d bad[2] = {{0.01, 0.0, 0.0}, {std::nan(""), 0.0, 0.0}};
-  EXPECT_FALSE(f.set_points(bad, 2));
-  EXPECT_FALSE(f.set_points(same, 0));
-}
-
 }  // namespace
 }  // namespace organsim::multibeam

@@ -284,5 +284,52 @@ TEST(ForceSafetyFilter, OutputIsAlwaysFiniteWithinMaxForceAndRateLimited) {
   EXPECT_GT(safety.stalled_count(), 0u);
 }
 
+TEST(ForceSafety, ClampsToTheDeviceLimitAndNeverPassesNaN) {
+  SafetyLimits limits;
+  limits.max_force = 2.0;
+  limits.onset_rate = 1e9;  // no onset limit here
+  ForceSafety safety(limits);
+  const Eigen::Vector3d big(3.0, 4.0, 0.0);  // 5 N
+  const Eigen::Vector3d out = safety.filter(big, 1.0, 1.0, 1e-3);
+  EXPECT_NEAR(out.norm(), 2.0, 1e-12);
+  EXPECT_NEAR(out.normalized().dot(big.normalized()), 1.0, 1e-12);  // direction kept
+  EXPECT_EQ(safety.clamp_count(), 1u);
+  for (const double bad : {std::nan(""), std::numeric_limits<double>::infinity()}) {
+    const Eigen::Vector3d f = safety.filter({bad, 0.0, 1.0}, 1.001, 1.0, 1e-3);
+    EXPECT_EQ(f, Eigen::Vector3d::Zero());
+  }
+  EXPECT_EQ(safety.non_finite_count(), 2u);
+}
+
+TEST(ForceSafety, OnsetIsRateLimitedSoContactNeverKicks) {
+  SafetyLimits limits;
+  limits.onset_rate = 40.0;  // N/s
+  ForceSafety safety(limits);
+  const Eigen::Vector3d step(0.0, 0.0, 2.0);  // a sudden 2 N request
+  double previous = 0.0;
+  for (int tick = 1; tick <= 100; ++tick) {
+    const double magnitude = safety.filter(step, tick * 1e-3, tick * 1e-3, 1e-3).norm();
+    EXPECT_LE(magnitude - previous, 40.0 * 1e-3 + 1e-12) << tick;
+    previous = magnitude;
+  }
+  EXPECT_NEAR(previous, 2.0, 1e-12);  // reached after 50 ms
+  EXPECT_EQ(safety.filter(Eigen::Vector3d::Zero(), 0.101, 0.101, 1e-3).norm(), 0.0);  // release is immediate
+}
+
+TEST(ForceSafety, WatchdogRampsTheForceDownWhenTheSimulationStalls) {
+  SafetyLimits limits;
+  limits.onset_rate = 1e9;
+  limits.stall_timeout = 0.1;
+  limits.ramp_down_time = 0.2;
+  ForceSafety safety(limits);
+  const Eigen::Vector3d f(1.0, 0.0, 0.0);
+  const double last_frame = 1.0;
+  EXPECT_NEAR(safety.filter(f, 1.05, last_frame, 1e-3).norm(), 1.0, 1e-12);  // fresh enough
+  EXPECT_NEAR(safety.filter(f, 1.2, last_frame, 1e-3).norm(), 0.5, 1e-12);   // halfway down the ramp
+  EXPECT_NEAR(safety.filter(f, 1.3, last_frame, 1e-3).norm(), 0.0, 1e-12);   // gone
+  EXPECT_NEAR(safety.filter(f, 2.0, last_frame, 1e-3).norm(), 0.0, 1e-12);
+  EXPECT_GT(safety.stalled_count(), 0u);
+}
+
 }  // namespace
 }  // namespace organsim::realtime

@@ -16,6 +16,7 @@
 #include <vtkXMLUnstructuredGridReader.h>
 
 #include "organsim/mesh_io/mesh_io.h"
+#include "temp_directory.h"
 
 namespace organsim::mesh_io {
 namespace {
@@ -35,16 +36,8 @@ std::string field(vtkDataObject& data, const char* name) {
   return array && array->GetNumberOfValues() == 1 ? array->GetValue(0) : std::string("(missing)");
 }
 
-class MeshFiles : public ::testing::Test {
+class MeshFiles : public organsim::testing::TempDirectoryTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("organsim_mesh_io_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  fs::path dir_;
 };
 
 TEST_F(MeshFiles, SurfaceVtpIsInMillimetresAndSaysLpsAndMm) {
@@ -59,7 +52,7 @@ TEST_F(MeshFiles, SurfaceVtpIsInMillimetresAndSaysLpsAndMm) {
   EXPECT_DOUBLE_EQ(read->GetPoint(3)[2], 30.0);  // 0.03 m
   EXPECT_EQ(field(*read, "SPACE"), "LPS");
   EXPECT_EQ(field(*read, "UNITS"), "mm");
-  EXPECT_EQ(std::distance(fs::directory_iterator(dir_), {}), 1);  // no temporary left
+  EXPECT_EQ(entries(), 1);  // no temporary left
 }
 
 TEST_F(MeshFiles, TetrahedraVtuSaysLpsAndMm) {

@@ -10,23 +10,15 @@
 
 #include "viewer/imagery.h"
 #include "viewer/recording.h"
+#include "temp_directory.h"
 
 namespace organsim::viewer {
 namespace {
 
 namespace fs = std::filesystem;
 
-class ViewerOutput : public ::testing::Test {
+class ViewerOutput : public organsim::testing::TempDirectoryTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("organsim_viewer_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  long entries() const { return std::distance(fs::directory_iterator(dir_), {}); }
-  fs::path dir_;
 };
 
 TEST_F(ViewerOutput, ARecordingAppearsWithEveryFrameOnlyWhenFinished) {
