@@ -1,7 +1,5 @@
 #include "organsim/pipeline/bake.h"
 
-#include <openssl/evp.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -20,12 +18,12 @@
 #include "organsim/pipeline/ct_input.h"
 #include "organsim/pipeline/fixed_point.h"
 #include "organsim/pipeline/image_io.h"
+#include "organsim/pipeline/image_hash.h"
 #include "organsim/pipeline/segmentation.h"
 
 namespace organsim::pipeline {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kMetresPerMillimetre = 1e-3;
 constexpr double kMillilitresPerCubicMetre = 1e6;
 
@@ -181,66 +179,6 @@ std::map<std::string, std::string> provenance_parameters(const BakeOptions& o, c
 }
 
 }  // namespace
-
-std::string image_sha256(const CtImage& ct) {
-  std::unique_ptr<EVP_MD_CTX, decltype(&EVP_MD_CTX_free)> context(EVP_MD_CTX_new(), &EVP_MD_CTX_free);
-  if (!context || EVP_DigestInit_ex(context.get(), EVP_sha256(), nullptr) != 1)
-    throw std::runtime_error("cannot compute SHA-256: OpenSSL failed to initialise");
-  std::vector<unsigned char> bytes;
-  auto put_u64 = [&](std::uint64_t v) {
-    for (int b = 0; b < 8; ++b) bytes.push_back(static_cast<unsigned char>(v >> (8 * b)));
-  };
-  auto put_f64 = [&](double v) {
-    std::uint64_t u;
-    std::memcpy(&u, &v, sizeof u);
-    put_u64(u);
-  };
-  const auto size = ct.GetLargestPossibleRegion().GetSize();
-  for (unsigned k = 0; k < 3; ++k) put_u64(size[k]);
-  for (unsigned k = 0; k < 3; ++k) put_f64(ct.GetSpacing()[k]);
-  for (unsigned k = 0; k < 3; ++k) put_f64(ct.GetOrigin()[k]);
-  for (unsigned r = 0; r < 3; ++r)
-    for (unsigned c = 0; c < 3; ++c) put_f64(ct.GetDirection()[r][c]);
-  EVP_DigestUpdate(context.get(), bytes.data(), bytes.size());
-  // Voxels in chunks, little-endian whatever the host.
-  const std::int16_t* voxels = ct.GetBufferPointer();
-  const std::size_t count = size[0] * size[1] * size[2];
-  std::vector<unsigned char> chunk;
-  for (std::size_t start = 0; start < count; start += 1 << 16) {
-    const std::size_t end = std::min(count, start + (std::size_t{1} << 16));
-    chunk.resize(2 * (end - start));
-    for (std::size_t i = start; i < end; ++i) {
-      const auto u = static_cast<std::uint16_t>(voxels[i]);
-      chunk[2 * (i - start)] = static_cast<unsigned char>(u & 0xff);
-      chunk[2 * (i - start) + 1] = static_cast<unsigned char>(u >> 8);
-    }
-    EVP_DigestUpdate(context.get(), chunk.data(), chunk.size());
-  }
-  unsigned char digest[EVP_MAX_MD_SIZE];
-  unsigned length = 0;
-  EVP_DigestFinal_ex(context.get(), digest, &length);
-  std::string hex;
-  for (unsigned i = 0; i < length; ++i) hex += fmt::format("{:02x}", digest[i]);
-  return hex;
-}
-
-std::vector<model::TexCoord> spherical_texture_coordinates(const std::vector<model::Point3>& vertices) {
-  model::Point3 centre{0.0, 0.0, 0.0};
-  for (const model::Point3& v : vertices)
-    for (int k = 0; k < 3; ++k) centre[k] += v[k] / static_cast<double>(vertices.size());
-  std::vector<model::TexCoord> coordinates;
-  coordinates.reserve(vertices.size());
-  for (const model::Point3& v : vertices) {
-    const double x = v[0] - centre[0], y = v[1] - centre[1], z = v[2] - centre[2];
-    const double r = std::sqrt(x * x + y * y + z * z);
-    if (r == 0.0) {
-      coordinates.push_back({0.5, 0.5});
-      continue;
-    }
-    coordinates.push_back({0.5 + std::atan2(y, x) / (2.0 * kPi), std::acos(std::clamp(z / r, -1.0, 1.0)) / kPi});
-  }
-  return coordinates;
-}
 
 BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
   check_options(o);

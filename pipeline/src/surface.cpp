@@ -1,7 +1,5 @@
 #include "organsim/pipeline/surface.h"
 
-#include "organsim/geometry/model_measures.h"
-
 #include <vtkCellArray.h>
 #include <vtkCleanPolyData.h>
 #include <vtkFlyingEdges3D.h>
@@ -23,6 +21,7 @@
 
 #include <fmt/format.h>
 
+#include "organsim/geometry/model_measures.h"
 #include "organsim/pipeline/segmentation.h"
 
 namespace organsim::pipeline {
@@ -170,6 +169,25 @@ geometry::SurfaceMesh extract_surface(const MaskImage& mask, const SurfaceOption
     for (model::Triangle& t : mesh.triangles) std::swap(t[1], t[2]);
   check_closed_manifold(mesh);
   return mesh;
+}
+
+std::vector<model::TexCoord> spherical_texture_coordinates(const std::vector<model::Point3>& vertices) {
+  constexpr double kPi = 3.14159265358979323846;
+  model::Point3 centre{0.0, 0.0, 0.0};
+  for (const model::Point3& v : vertices)
+    for (int k = 0; k < 3; ++k) centre[k] += v[k] / static_cast<double>(vertices.size());
+  std::vector<model::TexCoord> coordinates;
+  coordinates.reserve(vertices.size());
+  for (const model::Point3& v : vertices) {
+    const double x = v[0] - centre[0], y = v[1] - centre[1], z = v[2] - centre[2];
+    const double r = std::sqrt(x * x + y * y + z * z);
+    if (r == 0.0) {
+      coordinates.push_back({0.5, 0.5});
+      continue;
+    }
+    coordinates.push_back({0.5 + std::atan2(y, x) / (2.0 * kPi), std::acos(std::clamp(z / r, -1.0, 1.0)) / kPi});
+  }
+  return coordinates;
 }
 
 }  // namespace organsim::pipeline

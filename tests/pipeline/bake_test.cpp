@@ -10,6 +10,7 @@
 #include "organsim/model/model_file.h"
 #include "organsim/pipeline/bake.h"
 #include "organsim/pipeline/ct_input.h"
+#include "organsim/pipeline/image_hash.h"
 #include "organsim/pipeline/image_io.h"
 #include "organsim/pipeline/phantom.h"
 #include "organsim/pipeline/segmentation.h"

@@ -9,8 +9,6 @@
 
 namespace organsim::cli::testing {
 
-namespace fs = std::filesystem;
-
 CommandRun run_organsim_with_prefix(const std::string& prefix, const std::string& arguments, const fs::path& dir) {
   const fs::path err_file = dir / "stderr.txt";
   const std::string command = prefix + std::string(ORGANSIM_EXECUTABLE) + " " + arguments + " 2>" + err_file.string();

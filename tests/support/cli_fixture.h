@@ -11,6 +11,8 @@
 
 namespace organsim::cli::testing {
 
+namespace fs = std::filesystem;
+
 /// What one run of the program gave.
 struct CommandRun {
   int exit_code = -1;

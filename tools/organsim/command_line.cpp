@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <fmt/format.h>
+
 #include "organsim/model/model_file.h"
 #include "organsim/version.h"
 
@@ -95,11 +97,9 @@ model::OrganModel load_simulation_model(const std::string& command, const std::s
   model::ModelReadResult read = model::read_organ_model_file(path);
   if (!read) throw std::runtime_error(read.error);
   const model::OrganModel& model = *read.model;
-  detail(command, path + ": " + std::to_string(model.surface_vertices.size()) + " surface vertices, " +
-                      std::to_string(model.surface_triangles.size()) + " triangles, " +
-                      std::to_string(model.tetrahedra.size()) + " tetrahedra, " +
-                      std::to_string(model.beams.stations_per_beam) + " beam stations, E = " +
-                      std::to_string(model.material.young_modulus) + " Pa");
+  detail(command, fmt::format("{}: {} surface vertices, {} triangles, {} tetrahedra, {} beam stations, E = {:g} Pa",
+                              path, model.surface_vertices.size(), model.surface_triangles.size(),
+                              model.tetrahedra.size(), model.beams.stations_per_beam, model.material.young_modulus));
   if (model.beams.empty())
     throw std::runtime_error(path + ": the model has no beam tables; re-bake it with --stations N");
   return std::move(*read.model);

@@ -32,7 +32,7 @@ int run_touch(const TouchOptions& o) {
   const std::vector<devices::HapticDevice*> tools = rig.tools();
   realtime::Engine engine(organ, tools, {});
   devices::OpenHapticsServo servo(*rig.library, rig.servo_devices(), engine);
-  note("touch", fmt::format("{} device(s) on {} for {:.0f} s; the force loop runs in the HD servo scheduler",
+  note("touch", fmt::format("{} device(s) on {} for {:g} s; the force loop runs in the HD servo scheduler",
                             owned.size(), o.model_path, o.seconds));
   const auto begin = std::chrono::steady_clock::now();
   servo.start();

@@ -85,12 +85,4 @@ using BakeProgress = std::function<void(const std::string& stage, double fractio
 /// give the same model (the report's timings aside).
 BakeResult bake(const BakeOptions& options, const BakeProgress& progress = {});
 
-/// SHA-256 (lowercase hex) of a CT's grid (size, spacing, origin, direction as
-/// little-endian u64/f64) followed by its voxels (little-endian int16).
-std::string image_sha256(const CtImage& ct);
-
-/// Spherical texture coordinates about the vertices' centroid: u from the
-/// azimuth, v from the polar angle, both in [0, 1].
-std::vector<model::TexCoord> spherical_texture_coordinates(const std::vector<model::Point3>& vertices);
-
 }  // namespace organsim::pipeline

@@ -22,4 +22,8 @@ struct SurfaceOptions {
 /// Area and volume: organsim/geometry/model_measures.h.
 geometry::SurfaceMesh extract_surface(const MaskImage& mask, const SurfaceOptions& options);
 
+/// Spherical texture coordinates about the vertices' centroid: u from the
+/// azimuth, v from the polar angle, both in [0, 1].
+std::vector<model::TexCoord> spherical_texture_coordinates(const std::vector<model::Point3>& vertices);
+
 }  // namespace organsim::pipeline

@@ -1,0 +1,130 @@
+// `organsim bake`: the JSON report, byte-identical models, no patient tag in
+// any output, and bad inputs that leave no model behind.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cstdint>
+#include <fstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "cli_fixture.h"
+#include "organsim/pipeline/image_io.h"
+#include "organsim/pipeline/phantom.h"
+
+namespace organsim {
+namespace {
+
+using namespace cli::testing;
+
+TEST_F(Cli, BakeJsonReportHasTheDocumentedKeysAndTheModelLoads) {
+  const fs::path model = dir_ / "liver.organ";
+  const CommandRun run = run_organsim("bake " + quick_phantom_bake(model) + " --json", dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json j = nlohmann::json::parse(run.out);  // one object, nothing else on stdout
+  EXPECT_EQ(j["model"], model.string());
+  EXPECT_EQ(j["model_bytes"].get<std::uintmax_t>(), fs::file_size(model));
+  EXPECT_EQ(j["input_sha256"].get<std::string>().size(), 64u);
+  EXPECT_EQ(j["image"]["size"], nlohmann::json::array({128, 104, 64}));
+  EXPECT_GT(j["segmentation"]["voxels"].get<int>(), 50000);
+  EXPECT_EQ(j["fixed_point"]["source"], "deepest interior point");
+  EXPECT_GT(j["fixed_point"]["depth_mm"].get<double>(), 10.0);
+  EXPECT_NEAR(j["surface"]["vertices"].get<double>(), 800.0, 80.0);
+  EXPECT_NEAR(j["tetrahedra"]["volume_ml"].get<double>(), j["segmentation"]["volume_ml"].get<double>(),
+              0.03 * j["segmentation"]["volume_ml"].get<double>());
+  for (const char* key : {"count", "vertices", "min_dihedral_deg", "max_dihedral_deg", "max_radius_edge_ratio",
+                          "mean_radius_edge_ratio", "min_volume_mm3"})
+    EXPECT_TRUE(j["tetrahedra"].contains(key)) << key;
+  EXPECT_EQ(j["beams"]["stations"], 8);
+  for (const char* stage : {"read CT", "segment", "fixed point", "surface", "tetrahedra", "beam tables", "assemble"})
+    EXPECT_TRUE(j["seconds"]["stages"].contains(stage)) << stage;
+  // Progress went to stderr, one line per stage start and end (not a terminal here).
+  EXPECT_NE(run.err.find("organsim bake: tetrahedra done in"), std::string::npos) << run.err;
+  const CommandRun info = run_organsim("info " + model.string() + " --json", dir_);
+  ASSERT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_EQ(nlohmann::json::parse(info.out)["counts"]["beam_stations"], 8);
+}
+
+TEST_F(Cli, BakeIsByteIdenticalAcrossRuns) {
+  ASSERT_EQ(run_organsim("bake " + quick_phantom_bake(dir_ / "a.organ"), dir_).exit_code, 0);
+  ASSERT_EQ(run_organsim("bake " + quick_phantom_bake(dir_ / "b.organ") + " --threads 1", dir_).exit_code, 0);
+  EXPECT_TRUE(read_bytes(dir_ / "a.organ") == read_bytes(dir_ / "b.organ"));
+}
+
+TEST_F(Cli, NoPatientTagReachesTheModelTheReportOrTheLog) {
+  // A DICOM series with a known patient name, ID and birth date.
+  const pipeline::Phantom phantom = pipeline::make_phantom(pipeline::PhantomOptions{});
+  pipeline::DicomSeriesInfo info;
+  info.patient_name = "DOE^JANE^QUINCY";
+  info.patient_id = "MRN-4711-0815";
+  pipeline::write_dicom_series(*phantom.ct, (dir_ / "dicom").string(), info);
+  ASSERT_NE(read_bytes(fs::directory_iterator(dir_ / "dicom")->path()).find("DOE^JANE"), std::string::npos);
+
+  const fs::path model = dir_ / "liver.organ";
+  const std::string bake = "bake " + (dir_ / "dicom").string() +
+                           " --seed -65,5,0 --surface-vertices 800 --tet-size 12 --stations 8 --section-samples 32 -o " +
+                           model.string() + " --intermediates " + (dir_ / "inspect").string();
+  for (const std::string& extra : {std::string(), std::string(" --json")}) {
+    const CommandRun run = run_organsim(bake + extra, dir_);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    for (const std::string& text : {run.out, run.err, read_bytes(model)}) {
+      EXPECT_EQ(text.find("DOE"), std::string::npos);
+      EXPECT_EQ(text.find("JANE"), std::string::npos);
+      EXPECT_EQ(text.find("4711"), std::string::npos);
+    }
+  }
+  for (const auto& entry : fs::directory_iterator(dir_ / "inspect")) {
+    const std::string bytes = read_bytes(entry.path());
+    EXPECT_EQ(bytes.find("DOE"), std::string::npos) << entry.path();
+    EXPECT_EQ(bytes.find("4711"), std::string::npos) << entry.path();
+  }
+}
+
+TEST_F(Cli, BakeBadInputsFailWithOneLineAndLeaveNoModel) {
+  const fs::path model = dir_ / "out" / "liver.organ";
+  fs::create_directories(model.parent_path());
+  const std::string ct = (kSamples / "phantom_ct.nii.gz").string();
+  const std::string quick = " --surface-vertices 800 --tet-size 12 --stations 8 --section-samples 32 -o " + model.string();
+  const pipeline::Phantom phantom = pipeline::make_phantom(pipeline::PhantomOptions{});
+  pipeline::DicomSeriesInfo first, second;
+  first.uid_seed = 1, second.uid_seed = 2;
+  second.series_description = "second series";
+  pipeline::write_dicom_series(*phantom.ct, (dir_ / "two_series").string(), first);
+  pipeline::write_dicom_series(*phantom.ct, (dir_ / "second").string(), second);
+  for (const auto& entry : fs::directory_iterator(dir_ / "second"))
+    fs::rename(entry.path(), dir_ / "two_series" / ("second_" + entry.path().filename().string()));
+  {
+    std::ofstream text(dir_ / "notes.nii.gz");
+    text << "not an image";
+  }
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {dir_.string() + "/missing.nii.gz --seed 0,0,0", "missing.nii.gz"},
+      {(dir_ / "notes.nii.gz").string() + " --seed 0,0,0", "notes.nii.gz"},
+      {(dir_ / "two_series").string() + " --seed -65,5,0", "second series"},
+      {ct + " --seed 900,0,0", "outside the volume"},
+      {ct + " --seed-voxel 500,3,3", "outside the volume"},
+      {ct + " --seed 0,-100,0", "outside the window"},
+      {ct, "no segmentation"},
+      {ct + " --label " + (kSamples / "phantom_liver_mask.nii.gz").string() + " --label-value 3", "label value 3"},
+      {ct + " --label " + (kSamples / "real_ct_totalseg" / "liver_mask_ct.nii.gz").string(), "does not match"},
+      {ct + " --seed -65,5,0 --fixed-point 150,150,90", "outside the organ"},
+      {ct + " --seed -65,5,0 --poisson-ratio 0.5", "--poisson-ratio"},
+      {ct + " --seed -65,5,0 --facet-distance 0", "--facet-distance"},
+  };
+  for (const auto& [arguments, fragment] : cases) {
+    const CommandRun run = run_organsim("bake " + arguments + quick, dir_);
+    EXPECT_EQ(run.exit_code, 1) << arguments;
+    const std::string last_line = run.err.substr(run.err.rfind("organsim bake: error: ") == std::string::npos
+                                                     ? 0
+                                                     : run.err.rfind("organsim bake: error: "));
+    EXPECT_NE(last_line.find(fragment), std::string::npos) << arguments << "\n" << run.err;
+    EXPECT_EQ(std::count(last_line.begin(), last_line.end(), '\n'), 1) << run.err;
+    EXPECT_FALSE(fs::exists(model)) << arguments;
+    EXPECT_TRUE(fs::is_empty(model.parent_path())) << arguments;  // no temporary file either
+  }
+}
+
+}  // namespace
+}  // namespace organsim

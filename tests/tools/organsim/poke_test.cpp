@@ -1,0 +1,142 @@
+// `organsim poke`: the forces of a baked cylinder against beam theory, the JSON
+// keys, and bad tool arguments.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "cli_fixture.h"
+#include "organsim/model/model_file.h"
+#include "organsim/pipeline/image_io.h"
+#include "test_models.h"
+
+namespace organsim {
+namespace {
+
+using namespace cli::testing;
+
+// A solid cylinder CT: radius 25 mm, along x from x = 0 to x = 150 mm, 1 mm
+// voxels, tissue 60 HU in −100 HU fat; and its label map.
+void write_cylinder_ct(const fs::path& ct_path, const fs::path& label_path) {
+  constexpr double kRadius = 25.0, kLength = 150.0;
+  pipeline::CtImage::Pointer ct = pipeline::CtImage::New();
+  pipeline::MaskImage::Pointer label = pipeline::MaskImage::New();
+  pipeline::CtImage::RegionType region;
+  region.SetSize({170, 70, 70});
+  ct->SetRegions(region);
+  label->SetRegions(region);
+  const double origin[3] = {-10.0, -34.5, -34.5};
+  ct->SetOrigin(origin);
+  label->SetOrigin(origin);
+  ct->Allocate();
+  label->Allocate();
+  for (itk::IndexValueType k = 0; k < 70; ++k)
+    for (itk::IndexValueType j = 0; j < 70; ++j)
+      for (itk::IndexValueType i = 0; i < 170; ++i) {
+        const double x = origin[0] + i, y = origin[1] + j, z = origin[2] + k;
+        const bool inside = x >= 0.0 && x <= kLength && y * y + z * z <= kRadius * kRadius;
+        ct->SetPixel({i, j, k}, static_cast<std::int16_t>(inside ? 60 : -100));
+        label->SetPixel({i, j, k}, inside ? 1 : 0);
+      }
+  pipeline::write_ct_image(*ct, ct_path.string());
+  pipeline::write_mask_image(*label, label_path.string());
+}
+
+TEST_F(Cli, PokeABakedCylinderGivesTheCantileverForces) {
+  // CT → bake (clamped at the centre of the x = 0 cap) → poke the far cap:
+  // transverse 3EIδ/L³ and axial EAδ/L of a circular beam, within a few percent
+  // (the voxelized, smoothed surface is the only approximation).
+  const fs::path ct = dir_ / "cylinder_ct.nii.gz", label = dir_ / "cylinder_label.nii.gz";
+  write_cylinder_ct(ct, label);
+  const std::string model = (dir_ / "cylinder.organ").string();
+  const CommandRun bake = run_organsim("bake " + ct.string() + " --label " + label.string() +
+                                           " --fixed-point 0,0,0 --surface-vertices 4000 -o " + model,
+                                       dir_);
+  ASSERT_EQ(bake.exit_code, 0) << bake.err;
+
+  const double e = 5000.0, radius = 0.025, delta = 0.005;
+  const double area = M_PI * radius * radius, inertia = M_PI * std::pow(radius, 4) / 4.0;
+  const CommandRun transverse = run_organsim("poke " + model + " --tool 151,0,0/0,5,0 --json", dir_);
+  ASSERT_EQ(transverse.exit_code, 0) << transverse.err;
+  const nlohmann::json t = nlohmann::json::parse(transverse.out);
+  const double length = t["tools"][0]["beam_length_mm"].get<double>() * 1e-3;
+  EXPECT_NEAR(length, 0.150, 0.002);
+  const double expected_transverse = 3.0 * e * inertia * delta / std::pow(length, 3);
+  EXPECT_NEAR(-t["tools"][0]["force_n"][1].get<double>(), expected_transverse, 0.04 * expected_transverse);
+  // The action point lies inside a triangle, so no vertex moves the full 5 mm.
+  EXPECT_LE(t["organ"]["max_displacement_mm"].get<double>(), 5.0 + 1e-9);
+  EXPECT_GT(t["organ"]["max_displacement_mm"].get<double>(), 3.0);
+
+  const CommandRun axial = run_organsim("poke " + model + " --tool 151,0,0/-5,0,0 --json", dir_);
+  ASSERT_EQ(axial.exit_code, 0) << axial.err;
+  const nlohmann::json a = nlohmann::json::parse(axial.out);
+  const double expected_axial = e * area * delta / length;
+  EXPECT_NEAR(a["tools"][0]["force_n"][0].get<double>(), expected_axial, 0.04 * expected_axial);
+  EXPECT_LT(std::abs(a["tools"][0]["force_n"][1].get<double>()), 0.05 * expected_axial);
+  std::printf("baked cylinder: transverse force %+.2f %%, axial force %+.2f %% from the analytic values\n",
+              100.0 * (-t["tools"][0]["force_n"][1].get<double>() / expected_transverse - 1.0),
+              100.0 * (a["tools"][0]["force_n"][0].get<double>() / expected_axial - 1.0));
+}
+
+TEST_F(Cli, PokeJsonHasTheDocumentedKeysAndWritesTheDeformedSurface) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const std::string out = (dir_ / "deformed.vtp").string();
+  const CommandRun run =
+      run_organsim("poke " + model + " --tool 150,0,0/0,5,0 --tool 80,31,0/0,-3,0 --merge sum --json --out " + out, dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json j = nlohmann::json::parse(run.out);
+  EXPECT_EQ(j["merge"], "sum");
+  EXPECT_EQ(j["theory"], "euler-bernoulli");
+  ASSERT_EQ(j["tools"].size(), 2u);
+  for (const char* key : {"point_mm", "action_point_mm", "snap_distance_mm", "beam_length_mm", "displacement_mm",
+                          "force_n", "force_magnitude_n"})
+    EXPECT_TRUE(j["tools"][1].contains(key)) << key;
+  EXPECT_NEAR(j["tools"][1]["snap_distance_mm"].get<double>(), 1.0, 0.1);  // 31 mm → the 30 mm wall
+  for (const char* key : {"vertices", "max_displacement_mm", "max_displacement_vertex", "rest_volume_ml",
+                          "deformed_volume_ml", "volume_change_percent"})
+    EXPECT_TRUE(j["organ"].contains(key)) << key;
+  for (const char* key : {"beam_per_tool", "force_per_tool", "deformation"}) EXPECT_TRUE(j["seconds"].contains(key)) << key;
+  EXPECT_TRUE(fs::exists(out));
+  const CommandRun text = run_organsim("poke " + model + " --tool 150,0,0/0,5,0", dir_);
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_NE(text.out.find("force on the tool"), std::string::npos);
+  EXPECT_NE(text.out.find("|F| 0.0141 N"), std::string::npos) << text.out;  // 3EIδ/L³ of the helper cylinder
+}
+
+TEST_F(Cli, PokeBadInputsFailWithOneLine) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"--tool nan,0,0/0,5,0", "NaN"},
+      {"--tool 150,0,0/inf,5,0", "NaN or infinite"},
+      {"--tool 500,500,500/0,5,0", "farther from the organ surface"},
+      {"--tool 0,0,0/0,5,0", "fixed point"},
+      {"--tool 150,0,0", "X,Y,Z/DX,DY,DZ"},
+      {"--tool 150,0/0,5,0", "X,Y,Z/DX,DY,DZ"},
+      {"--tool 150,a,0/0,5,0", "not a number"},
+      {"--tool 150,0,0/0,5,0 --out deformed.stl", ".vtp"},
+  };
+  for (const auto& [arguments, message] : cases) {
+    const CommandRun run = run_organsim("poke " + model + " " + arguments, dir_);
+    EXPECT_EQ(run.exit_code, 1) << arguments;
+    EXPECT_NE(run.err.find(message), std::string::npos) << arguments << ": " << run.err;
+    EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+  }
+  const CommandRun missing = run_organsim("poke " + (dir_ / "absent.organ").string() + " --tool 1,2,3/0,0,1", dir_);
+  EXPECT_EQ(missing.exit_code, 1);
+  // Two tools at the same point are merged, not an error.
+  const CommandRun same = run_organsim("poke " + model + " --tool 150,0,0/0,5,0 --tool 150,0,0/0,5,0 --json", dir_);
+  ASSERT_EQ(same.exit_code, 0) << same.err;
+  // Within the single-precision distortion's 10 nm (docs/multibeam.md).
+  EXPECT_NEAR(nlohmann::json::parse(same.out)["organ"]["max_displacement_mm"].get<double>(), 5.0, 1e-5);
+}
+
+}  // namespace
+}  // namespace organsim

@@ -1,0 +1,158 @@
+// `organsim replay`: recorded sessions through the real-time engine, checked
+// against `poke`, bit-identical with --fast, and bad session files.
+#include <gtest/gtest.h>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "cli_fixture.h"
+#include "organsim/model/model_file.h"
+#include "test_models.h"
+
+namespace organsim {
+namespace {
+
+using namespace cli::testing;
+
+std::vector<double> numbers(const nlohmann::json& array) {
+  std::vector<double> v;
+  for (const auto& x : array) v.push_back(x.get<double>());
+  return v;
+}
+
+TEST_F(Cli, ReplayForcesEqualPokeForcesOnTheBakedPhantom) {
+  // CT → bake → a two-tool session through the real engine (deterministic
+  // stepping) → the held forces equal `organsim poke` for the same presses.
+  const std::string model = (dir_ / "phantom.organ").string();
+  const CommandRun bake = run_organsim("bake " + std::string(ORGANSIM_DATA_SAMPLES) +
+                                           "/phantom_ct.nii.gz --seed -65,5,0 --fixed-point -29.76,16.10,-70.96 -o " + model,
+                                       dir_);
+  ASSERT_EQ(bake.exit_code, 0) << bake.err;
+  std::array<std::vector<double>, 2> point, normal;
+  for (int k = 0; k < 2; ++k) {
+    const CommandRun info = run_organsim("info " + model + " --json --beam " + (k == 0 ? "2000" : "2400"), dir_);
+    ASSERT_EQ(info.exit_code, 0) << info.err;
+    std::vector<double> p = numbers(nlohmann::json::parse(info.out)["beam"]["position_m"]);
+    const std::string at = fmt::format("{},{},{}/0,0,0", p[0] * 1e3, p[1] * 1e3, p[2] * 1e3);
+    const CommandRun probe = run_organsim("poke " + model + " --tool " + at + " --json", dir_);
+    ASSERT_EQ(probe.exit_code, 0) << probe.err;
+    const nlohmann::json t = nlohmann::json::parse(probe.out)["tools"][0];
+    point[k] = numbers(t["action_point_mm"]);
+    normal[k] = numbers(t["normal"]);
+  }
+  // Vertices 2000 and 2400 have beams of about 14 cm (forces well below the
+  // onset limit). Both tools start 10 mm outside and press 5 mm in along the inward normal,
+  // crossing the surface at the same instant, then hold.
+  const fs::path session = dir_ / "two_tools.session";
+  {
+    std::ofstream out(session);
+    out << "# organsim session 1\n";
+    for (int k = 0; k < 2; ++k)
+      for (const auto& [time, depth] : {std::pair{0.0, 10.0}, {1.0, -5.0}, {1.5, -5.0}})
+        out << fmt::format("{},{},{:.9f},{:.9f},{:.9f}\n", time, k + 1, point[k][0] + depth * normal[k][0],
+                           point[k][1] + depth * normal[k][1], point[k][2] + depth * normal[k][2]);
+  }
+  const fs::path forces = dir_ / "forces.csv";
+  const CommandRun replay = run_organsim("replay " + model + " " + session.string() + " --fast --json --forces " +
+                                             forces.string() + " --max-force 100 --max-stiffness 1e6",
+                                         dir_);
+  ASSERT_EQ(replay.exit_code, 0) << replay.err;
+  const nlohmann::json summary = nlohmann::json::parse(replay.out);
+  EXPECT_EQ(summary["tools"][0]["contacts"], 1);
+  EXPECT_EQ(summary["tools"][1]["contacts"], 1);
+
+  std::string press;
+  for (int k = 0; k < 2; ++k)
+    press += fmt::format(" --tool {:.9f},{:.9f},{:.9f}/{:.9f},{:.9f},{:.9f}", point[k][0], point[k][1], point[k][2],
+                         -5.0 * normal[k][0], -5.0 * normal[k][1], -5.0 * normal[k][2]);
+  const CommandRun poke = run_organsim("poke " + model + press + " --json", dir_);
+  ASSERT_EQ(poke.exit_code, 0) << poke.err;
+  const nlohmann::json expected = nlohmann::json::parse(poke.out)["tools"];
+
+  std::ifstream csv(forces);
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line, "t_s,tool,fx_n,fy_n,fz_n,in_contact");
+  int checked = 0;
+  while (std::getline(csv, line)) {
+    double t, tool, f[3], contact;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf", &t, &tool, &f[0], &f[1], &f[2], &contact), 6);
+    if (std::abs(t - 1.4) > 1e-9) continue;
+    const std::vector<double> want = numbers(expected[static_cast<int>(tool) - 1]["force_n"]);
+    const double scale = std::hypot(want[0], want[1], want[2]);
+    ASSERT_GT(scale, 1e-3);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(f[c], want[c], 1e-6 * scale) << "tool " << tool;
+    EXPECT_EQ(contact, 1.0);
+    ++checked;
+  }
+  EXPECT_EQ(checked, 2);
+}
+
+TEST_F(Cli, ReplayFastIsBitIdenticalAndReportsTheDocumentedKeys) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const fs::path session = dir_ / "press.session";
+  {
+    std::ofstream out(session);
+    out << "# organsim session 1\n0,1,160,0,0\n0.3,1,145,2,0\n0.6,1,160,0,0\n0,2,80,40,0\n0.3,2,80,26,1\n0.6,2,80,40,0\n";
+  }
+  std::array<std::string, 2> csv;
+  for (int run = 0; run < 2; ++run) {
+    const fs::path forces = dir_ / fmt::format("forces_{}.csv", run);
+    const fs::path frames = dir_ / fmt::format("frames_{}", run);
+    const CommandRun replay = run_organsim("replay " + model + " " + session.string() + " --fast --json --forces " +
+                                               forces.string() + " --frames " + frames.string(),
+                                           dir_);
+    ASSERT_EQ(replay.exit_code, 0) << replay.err;
+    const nlohmann::json j = nlohmann::json::parse(replay.out);
+    for (const char* key : {"model", "session", "mode", "merge", "duration_s", "wall_s", "tools", "force_loop",
+                            "deformation_loop", "refused_contacts", "forces_csv", "frames"})
+      EXPECT_TRUE(j.contains(key)) << key;
+    for (const char* key : {"tool", "contacts", "peak_force_n", "clamped_ticks", "watchdog_ticks", "non_finite_forces"})
+      EXPECT_TRUE(j["tools"][1].contains(key)) << key;
+    for (const char* key : {"ticks", "period", "compute", "deadline_misses", "realtime_priority"})
+      EXPECT_TRUE(j["force_loop"].contains(key)) << key;
+    EXPECT_EQ(j["force_loop"]["ticks"], 601);
+    EXPECT_EQ(j["deformation_loop"]["frames"], 37);
+    EXPECT_EQ(j["frames"]["count"], 37);
+    EXPECT_TRUE(fs::exists(frames / "frames.pvd"));
+    EXPECT_TRUE(fs::exists(frames / "frame_00037.vtp"));
+    std::ifstream in(forces);
+    csv[run].assign(std::istreambuf_iterator<char>(in), {});
+    EXPECT_EQ(j["tools"][0]["contacts"], 1);
+    EXPECT_GT(j["tools"][0]["peak_force_n"].get<double>(), 0.01);
+  }
+  EXPECT_EQ(csv[0], csv[1]);
+  EXPECT_GT(csv[0].size(), 1000u);
+}
+
+TEST_F(Cli, ReplayBadInputsFailWithOneLine) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const fs::path bad = dir_ / "bad.session";
+  {
+    std::ofstream out(bad);
+    out << "# organsim session 1\n0,1,160,0\n";
+  }
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {(dir_ / "absent.session").string(), "cannot open the session file"},
+      {bad.string(), "bad.session:2: expected 5 or 8 comma-separated fields"},
+  };
+  for (const auto& [arguments, message] : cases) {
+    const CommandRun run = run_organsim("replay " + model + " " + arguments + " --fast", dir_);
+    EXPECT_EQ(run.exit_code, 1) << arguments;
+    EXPECT_NE(run.err.find(message), std::string::npos) << run.err;
+    EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+  }
+}
+
+}  // namespace
+}  // namespace organsim

@@ -1,0 +1,148 @@
+// `organsim view`: screenshots, recordings, backgrounds, mouse tools and
+// PHANToM devices, under a virtual X server.
+#include <gtest/gtest.h>
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include <array>
+#include <fstream>
+#include <string>
+
+#include "cli_fixture.h"
+#include "organsim/model/model_file.h"
+#include "test_models.h"
+
+namespace organsim {
+namespace {
+
+using namespace cli::testing;
+
+// Runs organsim under a virtual X server (the viewer renders with OpenGL).
+CommandRun run_viewer(const std::string& arguments, const fs::path& dir) {
+  return run_organsim_with_prefix("xvfb-run -a -s '-screen 0 1280x1024x24' ", arguments, dir);
+}
+
+// A cylinder (helper model, axis x, radius 30 mm, clamped at x = 0) pressed by
+// two tools 10 mm down into its top (+z, the top of the viewer's default
+// picture) at x = 60 and 130 mm, and held.
+fs::path write_press_session(const fs::path& dir) {
+  const fs::path session = dir / "press.session";
+  std::ofstream out(session);
+  out << "# organsim session 1\n0,1,60,0,50\n0.4,1,60,0,20\n1.0,1,60,0,20\n"
+         "0,2,130,0,50\n0.4,2,130,0,20\n1.0,2,130,0,20\n";
+  return session;
+}
+
+TEST_F(Cli, ViewScreenshotShowsTheOrganMovedWhereTheToolsPushed) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const std::string session = write_press_session(dir_).string();
+  const fs::path rest = dir_ / "rest.png", pushed = dir_ / "pushed.png";
+  const CommandRun first = run_viewer("view " + model + " --session " + session +
+                                          " --offscreen --hide-tools --frames 1 --screenshot " + rest.string(),
+                                      dir_);
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  const CommandRun last = run_viewer(
+      "view " + model + " --session " + session + " --offscreen --hide-tools --json --screenshot " + pushed.string(), dir_);
+  ASSERT_EQ(last.exit_code, 0) << last.err;
+  const nlohmann::json j = nlohmann::json::parse(last.out);
+  EXPECT_EQ(j["frames"], 61);
+  std::array<Eigen::Vector2d, 2> tip;
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_EQ(j["tools"][k]["contacts"], 1);
+    tip[k] = {j["tools"][k]["tip_px"][0].get<double>(), j["tools"][k]["tip_px"][1].get<double>()};
+  }
+  // A control spot on the organ near the clamped end (x ≈ 5 mm), where
+  // neither tool's press reaches much: pixels per metre from the two tips.
+  const double pixels_per_metre = (tip[1][0] - tip[0][0]) / 0.07;
+  const Eigen::Vector2d clamp(tip[0][0] - 0.055 * pixels_per_metre, tip[0][1]);
+
+  const cv::Mat a = cv::imread(rest.string()), b = cv::imread(pushed.string());
+  ASSERT_FALSE(a.empty());
+  ASSERT_EQ(a.size(), b.size());
+  cv::Mat difference;
+  cv::absdiff(a, b, difference);
+  cv::cvtColor(difference, difference, cv::COLOR_BGR2GRAY);
+  long changed = 0, near_clamp = 0;
+  std::array<long, 2> near_tool{};
+  for (int r = 0; r < difference.rows; ++r)
+    for (int c = 0; c < difference.cols; ++c)
+      if (difference.at<unsigned char>(r, c) > 20) {
+        ++changed;
+        const Eigen::Vector2d pixel(c, r);
+        for (int k = 0; k < 2; ++k) near_tool[k] += (pixel - tip[k]).norm() < 80.0;
+        near_clamp += (pixel - clamp).norm() < 80.0;
+      }
+  ASSERT_GT(changed, 300) << "the organ did not move on screen";
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_GT(near_tool[k], 1000) << "around tool " << k + 1 << " the picture changed little";
+    EXPECT_GT(near_tool[k], 3 * near_clamp) << near_tool[k] << " changed pixels near tool " << k + 1 << ", "
+                                             << near_clamp << " near the clamp";
+  }
+}
+
+TEST_F(Cli, ViewRecordsEveryFrameAndStartsWithoutABrokenBackground) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const std::string session = write_press_session(dir_).string();
+  const fs::path video = dir_ / "session.avi", shot = dir_ / "shot.png";
+  const CommandRun run = run_viewer("view " + model + " --session " + session + " --offscreen --frames 30 --record " +
+                                        video.string() + " --background " + (dir_ / "missing.png").string() +
+                                        " --screenshot " + shot.string(),
+                                    dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("warning"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("missing.png does not exist"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("starting without a background"), std::string::npos) << run.err;
+  EXPECT_TRUE(fs::exists(shot));
+  // An unreadable background (not an image, not a video) is the same: a warning.
+  const fs::path garbage = dir_ / "garbage.png";
+  std::ofstream(garbage) << "not an image";
+  const CommandRun unreadable = run_viewer("view " + model + " --session " + session + " --offscreen --frames 2 " +
+                                               "--background " + garbage.string(),
+                                           dir_);
+  ASSERT_EQ(unreadable.exit_code, 0) << unreadable.err;
+  EXPECT_NE(unreadable.err.find("neither an image nor a video"), std::string::npos) << unreadable.err;
+  cv::VideoCapture capture(video.string());
+  ASSERT_TRUE(capture.isOpened());
+  int frames = 0;
+  cv::Mat frame;
+  while (capture.read(frame)) ++frames;
+  EXPECT_EQ(frames, 30);
+  EXPECT_EQ(frame.empty() ? 0 : frame.cols, 0);  // read past the end
+  // A background that is an image is drawn behind the organ.
+  const fs::path backdrop = dir_ / "backdrop.png";
+  cv::imwrite(backdrop.string(), cv::Mat(120, 160, CV_8UC3, cv::Scalar(0, 200, 0)));
+  const fs::path green = dir_ / "green.png";
+  const CommandRun with = run_viewer("view " + model + " --session " + session + " --offscreen --frames 1 --background " +
+                                         backdrop.string() + " --screenshot " + green.string(),
+                                     dir_);
+  ASSERT_EQ(with.exit_code, 0) << with.err;
+  const cv::Mat picture = cv::imread(green.string());
+  const cv::Vec3b corner = picture.at<cv::Vec3b>(5, 5);
+  EXPECT_GT(corner[1], 150);  // green backdrop in the corner
+  EXPECT_LT(corner[2], 60);
+}
+
+TEST_F(Cli, ViewRunsMouseToolsAndPhantomDevicesInRealTime) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  // Mouse tools: a window (under Xvfb) with the loops on their threads.
+  const CommandRun mouse = run_viewer("view " + model + " --frames 20 --json", dir_);
+  ASSERT_EQ(mouse.exit_code, 0) << mouse.err;
+  EXPECT_EQ(nlohmann::json::parse(mouse.out)["frames"], 20);
+  // PHANToM devices from the HD library (here the stand-in): the servo drives the force loop.
+  const CommandRun phantom = run_viewer(
+      "view " + model + " --phantom --hd-library " + std::string(FAKE_HD_LIBRARY) + " --frames 20 --json", dir_);
+  ASSERT_EQ(phantom.exit_code, 0) << phantom.err;
+  EXPECT_EQ(nlohmann::json::parse(phantom.out)["frames"], 20);
+  const CommandRun missing = run_viewer("view " + model + " --phantom --hd-library /nonexistent/libHD.so --frames 2", dir_);
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_NE(missing.err.find("cannot load the OpenHaptics HD library"), std::string::npos) << missing.err;
+}
+
+}  // namespace
+}  // namespace organsim
