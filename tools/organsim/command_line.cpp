@@ -54,6 +54,9 @@ void add_simulation_commands(CLI::App& app, CommandTable& table) {
   add_command(app, table, "replay",
       "Replay a recorded multi-tool session through the real-time engine: forces, contacts, loop timings",
       add_replay_command);
+  add_command(app, table, "springs",
+              "The mass-spring model's experiment: a grid or an organ, an integrator, a force; positions and energy",
+              add_springs_command);
   add_command(app, table, "touch", "Feel the organ with PHANToM / Touch devices (OpenHaptics, loaded at run time)",
       add_touch_command);
   add_command(app, table, "view",
@@ -77,10 +80,21 @@ int run_program(CLI::App& app, const CommandTable& table, int argc, char** argv)
   const CLI::App* chosen = app.get_subcommands().front();
   try {
     return table.at(chosen)();
+  } catch (const CLI::ParseError& e) {
+    // A command's own check of how its options fit together (CLI11's error type).
+    std::fprintf(stderr, "organsim %s: error: %s (see organsim %s --help)\n", chosen->get_name().c_str(),
+                 one_line(e.what()).c_str(), chosen->get_name().c_str());
+    return kUsageError;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "organsim %s: error: %s\n", chosen->get_name().c_str(), one_line(e.what()).c_str());
     return kInputError;
   }
+}
+
+void add_deformation_model_option(CLI::App& app, std::string& kind) {
+  app.add_option("--model", kind, "Deformation model: beam (multi-beam) or springs (mass-spring); docs/architecture.md")
+      ->check(CLI::IsMember({"beam", "springs"}))
+      ->capture_default_str();
 }
 
 Verbosity verbosity() { return g_verbosity; }

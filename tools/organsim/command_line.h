@@ -25,7 +25,7 @@ using CommandTable = std::map<const CLI::App*, Command>;
 void add_command(CLI::App& app, CommandTable& table, const char* name, const char* description,
                  Command (*add_subcommand)(CLI::App&));
 
-/// info, poke, replay, touch, view: the commands that load a model and
+/// info, poke, replay, springs, touch, view: the commands that load a model and
 /// simulate it. They link the runtime, never the offline pipeline.
 void add_simulation_commands(CLI::App& app, CommandTable& table);
 /// bake, phantom: the commands that run the offline pipeline
@@ -44,6 +44,10 @@ Verbosity verbosity();
 void note(const std::string& command, const std::string& message);
 /// The same, only with --verbose: detail a user asks for when checking a run.
 void detail(const std::string& command, const std::string& message);
+/// --model beam|springs: which deformation model the engine runs (default
+/// beam). `kind` receives the name; realtime::parse_model_kind reads it.
+void add_deformation_model_option(CLI::App& app, std::string& kind);
+
 /// Loads the model file at `path` for a command that simulates it with the
 /// multi-beam model: throws std::runtime_error (an input error) when the file
 /// is unreadable or invalid or has no beam tables; with --verbose, says what it holds.

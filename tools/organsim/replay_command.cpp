@@ -29,6 +29,7 @@ struct ReplayOptions {
   std::string model_path;
   std::string session_path;
   std::string merge = "influence";
+  std::string deformation = "beam";
   std::string forces_path;
   std::string frames_dir;
   bool fast = false;
@@ -85,6 +86,7 @@ int run_replay(const ReplayOptions& o) {
   limits.max_force = o.max_force;
   limits.max_stiffness = o.max_stiffness;
   EngineOptions options;
+  parse_model_kind(o.deformation, options.model);
   options.beams.merge = o.merge == "sum" ? multibeam::MergeRule::sum : multibeam::MergeRule::influence;
   const auto records = static_cast<std::size_t>(session.duration / options.force_period) + 16;
   std::vector<std::unique_ptr<ScriptedDevice>> devices;
@@ -142,13 +144,19 @@ int run_replay(const ReplayOptions& o) {
                        {"realtime_priority", timings.realtime_priority}};
     j["deformation_loop"] = {{"frames", timings.deformation_computes.size()}, {"compute", timing_json(deform)}};
     j["refused_contacts"] = engine.refused_contacts();
+    j["deformation_model"] = o.deformation;
+    j["instabilities"] = engine.model().instabilities();
     if (!o.forces_path.empty()) j["forces_csv"] = o.forces_path;
     if (!o.frames_dir.empty()) j["frames"] = {{"directory", o.frames_dir}, {"count", frames.count()}};
     std::cout << j.dump() << '\n';
     return 0;
   }
-  std::cout << fmt::format("{:<16}{} with {} ({} tools, {:.2f} s, {} mode, {} merge)\n", "replay", o.session_path,
-                           o.model_path, devices.size(), session.duration, o.fast ? "fast" : "real-time", o.merge);
+  std::cout << fmt::format("{:<16}{} with {} ({} model, {} tools, {:.2f} s, {} mode{})\n", "replay", o.session_path,
+                           o.model_path, o.deformation, devices.size(), session.duration, o.fast ? "fast" : "real-time",
+                           options.model == ModelKind::beam ? ", " + o.merge + " merge" : std::string());
+  if (engine.model().instabilities() > 0)
+    warn("replay", fmt::format("the {} model diverged {} time(s) and was reset to rest; use a smaller time step",
+                               o.deformation, engine.model().instabilities()));
   for (std::size_t i = 0; i < devices.size(); ++i)
     std::cout << fmt::format("{:<16}{} contact(s), peak force {:.3f} N{}\n", fmt::format("tool {}", i + 1),
                              engine.telemetry(i).contacts, engine.telemetry(i).peak_force,
@@ -180,6 +188,7 @@ Command add_replay_command(CLI::App& app) {
   app.add_option("model", o->model_path, "Model file (.organ)")->required();
   app.add_option("session", o->session_path, "Session file: recorded tool trajectories (docs/session-format.md)")
       ->required();
+  add_deformation_model_option(app, o->deformation);
   app.add_option("--merge", o->merge, "How beams combine: influence (eq. 7) or sum (eq. 5)")
       ->check(CLI::IsMember({"influence", "sum"}))
       ->capture_default_str();

@@ -21,6 +21,7 @@ struct TouchOptions {
   std::string model_path;
   devices::HapticRigOptions rig;
   double seconds = 60.0;
+  std::string deformation = "beam";
   bool json = false;
 };
 
@@ -30,7 +31,9 @@ int run_touch(const TouchOptions& o) {
   const devices::HapticRig rig = devices::open_haptic_rig(o.rig, organ.model());
   const auto& owned = rig.devices;
   const std::vector<devices::HapticDevice*> tools = rig.tools();
-  realtime::Engine engine(organ, tools, {});
+  realtime::EngineOptions options;
+  realtime::parse_model_kind(o.deformation, options.model);
+  realtime::Engine engine(organ, tools, options);
   devices::OpenHapticsServo servo(*rig.library, rig.servo_devices(), engine);
   note("touch", fmt::format("{} device(s) on {} for {:g} s; the force loop runs in the HD servo scheduler",
                             owned.size(), o.model_path, o.seconds));
@@ -78,6 +81,7 @@ int run_touch(const TouchOptions& o) {
 Command add_touch_command(CLI::App& app) {
   auto o = std::make_shared<TouchOptions>();
   app.add_option("model", o->model_path, "Model file (.organ)")->required();
+  add_deformation_model_option(app, o->deformation);
   add_haptic_rig_options(app, o->rig);
   app.add_option("--seconds", o->seconds, "How long to run")->check(CLI::PositiveNumber)->capture_default_str();
   app.add_flag("--json", o->json, "Print the summary as one JSON object on stdout");

@@ -51,6 +51,7 @@ struct ViewOptions {
   long frames = 0;  // 0: the whole session, or until the window closes
   double seconds = 600.0;
   bool phantom = false;
+  std::string deformation = "beam";
   HapticRigOptions rig;
   std::vector<int> size{960, 720};
 };
@@ -84,6 +85,12 @@ std::string overlay(const std::vector<Eigen::Vector3d>& forces, const std::vecto
   return text;
 }
 
+EngineOptions engine_options(const ViewOptions& o) {
+  EngineOptions options;
+  parse_model_kind(o.deformation, options.model);
+  return options;
+}
+
 /// A recorded session with scripted tools, in the session's own time, stepped
 /// like `replay --fast`; drawn at every deformation frame, paced to the wall
 /// clock when a window is shown.
@@ -95,7 +102,7 @@ void view_session(const multibeam::BeamOrgan& organ, const Session& session, Vie
     scripted.push_back(std::make_unique<ScriptedDevice>(t, SafetyLimits{}, 16));
     pointers.push_back(scripted.back().get());
   }
-  Engine engine(organ, pointers, {});
+  Engine engine(organ, pointers, engine_options(o));
   const double frame_period = engine.options().deformation_period;
   const auto wall_start = std::chrono::steady_clock::now();
   std::vector<Eigen::Vector3d> forces(scripted.size());
@@ -132,7 +139,7 @@ void view_session(const multibeam::BeamOrgan& organ, const Session& session, Vie
 void view_phantom(const multibeam::BeamOrgan& organ, const HapticRig& rig, ViewRun& run) {
   const ViewOptions& o = run.options;
   const std::vector<HapticDevice*> pointers = rig.tools();
-  Engine engine(organ, pointers, {});
+  Engine engine(organ, pointers, engine_options(o));
   OpenHapticsServo servo(*rig.library, rig.servo_devices(), engine);
   vtkNew<vtkRenderWindowInteractor> interactor;
   vtkNew<vtkInteractorStyleTrackballCamera> style;
@@ -174,7 +181,7 @@ void view_mouse(const multibeam::BeamOrgan& organ, ViewRun& run) {
   std::vector<MouseTool> tools(kMouseTools);
   std::vector<HapticDevice*> pointers;
   for (MouseTool& t : tools) pointers.push_back(&t);
-  Engine engine(organ, pointers, {});
+  Engine engine(organ, pointers, engine_options(o));
   vtkNew<vtkRenderWindowInteractor> interactor;
   vtkNew<viewer::ToolStyle> style;
   style->attach(tools, run.scene);
@@ -287,6 +294,7 @@ Command add_view_command(CLI::App& app) {
   app.add_flag("--hide-tools", o->hide_tools, "Draw the organ alone: no instruments, arrows or text");
   app.add_flag("--json", o->json, "Print a summary as one JSON object on stdout");
   app.add_flag("--phantom", o->phantom, "Tools are PHANToM / Touch devices (OpenHaptics, loaded at run time)");
+  add_deformation_model_option(app, o->deformation);
   add_haptic_rig_options(app, o->rig);
   return [o] { return run_view(*o); };
 }

@@ -41,7 +41,9 @@ Engine::Engine(const multibeam::BeamOrgan& organ, const std::vector<devices::Hap
     : organ_(organ),
       devices_(devices),
       options_(options),
-      beams_(organ, with_tools(options.beams, std::max<std::size_t>(devices.size(), 1))),
+      model_(make_deformation_model(options.model, organ,
+                                    with_tools(options.beams, std::max<std::size_t>(devices.size(), 1)),
+                                    options.springs, std::max<std::size_t>(devices.size(), 1))),
       deformed_tree_(organ.model().surface_vertices, organ.model().surface_triangles),
       surfaces_(rest_frame(organ)) {
   if (devices.empty() || devices.size() > kMaxTools) throw std::invalid_argument("an engine drives 1 to 16 tools");
@@ -49,6 +51,21 @@ Engine::Engine(const multibeam::BeamOrgan& organ, const std::vector<devices::Hap
     if (d == nullptr) throw std::invalid_argument("a haptic device is missing");
   for (std::size_t i = 0; i < devices.size(); ++i) safety_[i] = ForceSafety(devices[i]->limits());
   for (auto& d : displacement_) d.setZero();
+}
+
+void Engine::publish_linearization(std::size_t tool) noexcept {
+  const ContactLinearization& model = linearizations_[tool];
+  ToolContact& contact = contacts_.tools[tool];
+  // A contact stiffer than the device can render is softened to its limit.
+  contact.stiffness = model.stiffness;
+  const double stiffest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(
+                              0.5 * (model.stiffness + model.stiffness.transpose()), Eigen::EigenvaluesOnly)
+                              .eigenvalues()
+                              .maxCoeff();
+  const double limit = devices_[tool]->limits().max_stiffness;
+  if (stiffest > limit) contact.stiffness *= limit / stiffest;
+  contact.reference = model.displacement;
+  contact.force = model.force;
 }
 
 void Engine::force_tick(double now) noexcept {
@@ -83,7 +100,7 @@ void Engine::force_tick(double now) noexcept {
         if (displacement.dot(contact.normal) > kReleaseMargin) {
           released_[i] = contact.generation;  // back outside: the contact ends now
         } else {
-          force.noalias() = -contact.stiffness * displacement;
+          force.noalias() = contact.force - contact.stiffness * (displacement - contact.reference);
           touching = true;
         }
       }
@@ -108,7 +125,7 @@ void Engine::deformation_step(double now) noexcept {
     ToolContact& contact = contacts_.tools[i];
     const auto tool = static_cast<std::uint32_t>(i);
     if (contact.active && tools.released[i] == contact.generation) {
-      beams_.detach(tool);
+      model_->detach(tool);
       contact.active = false;
     }
     const bool valid = tools.time >= 0.0 && tools.tip_valid[i];
@@ -137,18 +154,10 @@ void Engine::deformation_step(double now) noexcept {
       const model::Triangle& t = triangles[hit.triangle];
       const Eigen::Vector3d rest_point = hit.barycentric[0] * vec(rest[t[0]]) + hit.barycentric[1] * vec(rest[t[1]]) +
                                          hit.barycentric[2] * vec(rest[t[2]]);
-      if (beams_.attach(tool, rest_point) == multibeam::Status::ok) {
-        const multibeam::ToolBeam& beam = beams_.beam(tool);
-        contact.normal = geometry::triangle_normal(organ_.model(), beam.action.triangle);
-        contact.action_point = beam.action.position;
-        // A contact stiffer than the device can render is softened to its limit.
-        contact.stiffness = beam.stiffness;
-        const double stiffest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(
-                                    0.5 * (beam.stiffness + beam.stiffness.transpose()), Eigen::EigenvaluesOnly)
-                                    .eigenvalues()
-                                    .maxCoeff();
-        const double limit = devices_[i]->limits().max_stiffness;
-        if (stiffest > limit) contact.stiffness *= limit / stiffest;
+      if (model_->attach(tool, rest_point, linearizations_[i])) {
+        contact.normal = linearizations_[i].normal;
+        contact.action_point = linearizations_[i].action_point;
+        publish_linearization(i);
         contact.shaft_offset = shaft_offset;
         contact.active = true;
         ++contact.generation;
@@ -169,14 +178,17 @@ void Engine::deformation_step(double now) noexcept {
     else if (located)
       displacement_[i] = tools.tips[i] + contact.shaft_offset * tools.shafts[i] - contact.action_point;
   }
+  const double dt = previous_step_ < 0.0 ? options_.deformation_period : now - previous_step_;
+  previous_step_ = now;
+  SurfaceFrame& frame = surfaces_.write_slot();
+  const bool moved = model_->step(dt, displacement_.data(), frame.positions.data(), frame.normals.data(),
+                                  linearizations_.data());
+  for (std::size_t i = 0; i < devices_.size(); ++i)
+    if (contacts_.tools[i].active) publish_linearization(i);
   contacts_.time = now;
   contact_frames_.write_slot() = contacts_;
   contact_frames_.publish();
-
-  SurfaceFrame& frame = surfaces_.write_slot();
-  if (beams_.deform(displacement_.data(), frame.positions.data(), frame.normals.data(), frame.positions.size()) !=
-      multibeam::Status::ok)
-    return;  // cannot happen with finite tips; keep showing the previous frame
+  if (!moved) return;  // cannot happen with finite tips; keep showing the previous frame
   tree_positions_ = frame.positions.data();
   tree_stale_ = true;
   frame.frame = ++frame_;

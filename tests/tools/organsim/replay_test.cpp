@@ -96,14 +96,18 @@ TEST_F(Cli, ReplayForcesEqualPokeForcesOnTheBakedPhantom) {
   EXPECT_EQ(checked, 2);
 }
 
-TEST_F(Cli, ReplayFastIsBitIdenticalAndReportsTheDocumentedKeys) {
-  const std::string model = (dir_ / "cylinder.organ").string();
+/// A cylinder model and a session in which two tools press it and retreat.
+std::pair<std::string, fs::path> write_cylinder_and_two_tool_press(const fs::path& dir) {
+  const std::string model = (dir / "cylinder.organ").string();
   model::write_organ_model_file(testing::make_cylinder_model({}), model);
-  const fs::path session = dir_ / "press.session";
-  {
-    std::ofstream out(session);
-    out << "# organsim session 1\n0,1,160,0,0\n0.3,1,145,2,0\n0.6,1,160,0,0\n0,2,80,40,0\n0.3,2,80,26,1\n0.6,2,80,40,0\n";
-  }
+  const fs::path session = dir / "press.session";
+  std::ofstream out(session);
+  out << "# organsim session 1\n0,1,160,0,0\n0.3,1,145,2,0\n0.6,1,160,0,0\n0,2,80,40,0\n0.3,2,80,26,1\n0.6,2,80,40,0\n";
+  return {model, session};
+}
+
+TEST_F(Cli, ReplayFastIsBitIdenticalAndReportsTheDocumentedKeys) {
+  const auto [model, session] = write_cylinder_and_two_tool_press(dir_);
   std::array<std::string, 2> csv;
   for (int run = 0; run < 2; ++run) {
     const fs::path forces = dir_ / fmt::format("forces_{}.csv", run);
@@ -129,6 +133,33 @@ TEST_F(Cli, ReplayFastIsBitIdenticalAndReportsTheDocumentedKeys) {
     csv[run].assign(std::istreambuf_iterator<char>(in), {});
     EXPECT_EQ(j["tools"][0]["contacts"], 1);
     EXPECT_GT(j["tools"][0]["peak_force_n"].get<double>(), 0.01);
+  }
+  EXPECT_EQ(csv[0], csv[1]);
+  EXPECT_GT(csv[0].size(), 1000u);
+}
+
+TEST_F(Cli, ReplayWithTheSpringModelIsBitIdenticalAndPushesBack) {
+  // The same two-tool session through the mass-spring model: the engine, the
+  // contacts and the scripted devices are the beam's; only the model differs.
+  const auto [model, session] = write_cylinder_and_two_tool_press(dir_);
+  std::array<std::string, 2> csv;
+  for (int run = 0; run < 2; ++run) {
+    const fs::path forces = dir_ / fmt::format("springs_{}.csv", run);
+    const CommandRun replay =
+        run_organsim("replay " + model + " " + session.string() + " --model springs --fast --json --forces " +
+                         forces.string(),
+                     dir_);
+    ASSERT_EQ(replay.exit_code, 0) << replay.err;
+    const nlohmann::json j = nlohmann::json::parse(replay.out);
+    EXPECT_EQ(j["deformation_model"], "springs");
+    EXPECT_EQ(j["instabilities"], 0);
+    for (int tool = 0; tool < 2; ++tool) {
+      EXPECT_EQ(j["tools"][tool]["contacts"], 1) << tool;
+      EXPECT_GT(j["tools"][tool]["peak_force_n"].get<double>(), 0.001) << tool;
+      EXPECT_EQ(j["tools"][tool]["non_finite_forces"], 0) << tool;
+    }
+    std::ifstream in(forces);
+    csv[run].assign(std::istreambuf_iterator<char>(in), {});
   }
   EXPECT_EQ(csv[0], csv[1]);
   EXPECT_GT(csv[0].size(), 1000u);

@@ -1,5 +1,5 @@
 // The real-time engine: a force loop (≥ 1 kHz) and a deformation loop (≥ 60 Hz)
-// around one multi-beam state (Ushiki et al., multi-beam paper, §3;
+// around one deformation model (multi-beam or mass-spring; deformation_model.h) (Ushiki et al., multi-beam paper, §3;
 // docs/multibeam.md#references), with haptic devices, contact
 // detection and force safety. docs/realtime.md states the rules.
 //
@@ -17,12 +17,15 @@
 // tip) crosses the surface inwards. The crossing point, mapped to the rest
 // surface, is the action point and a beam is built to it; the tool's contact
 // point is the tip, or the shaft point at the crossing's distance from the tip.
-// The force loop renders F = −K (contact point − action point) and ends the
+// The force loop renders the contact's linearization, F = F₀ − K (d − d₀) with
+// d = contact point − action point (for the multi-beam model F₀ = 0, d₀ = 0:
+// F = −K d), and ends the
 // contact as soon as the contact point is back outside the tangent plane of the
 // rest surface at the action point, (contact point − action point) · n ≥ 0.
 #pragma once
 
 #include <array>
+#include <memory>
 #include <cstdint>
 #include <vector>
 
@@ -31,6 +34,7 @@
 #include "organsim/devices/haptic_device.h"
 #include "organsim/geometry/closest_point.h"
 #include "organsim/multibeam/multibeam.h"
+#include "organsim/realtime/deformation_model.h"
 #include "organsim/realtime/force_safety.h"
 #include "organsim/realtime/triple_buffer.h"
 
@@ -39,7 +43,9 @@ namespace organsim::realtime {
 using multibeam::kMaxTools;
 
 struct EngineOptions {
+  ModelKind model = ModelKind::beam;  ///< which deformation model runs
   multibeam::MultiBeamOptions beams;  ///< merge rule, beam theory, distances (max_tools is set from the devices)
+  SpringModelOptions springs;         ///< the mass-spring model's network and integration
   double force_period = 1e-3;         ///< s
   double deformation_period = 1.0 / 60.0;  ///< s
   double shaft_length = 0.30;              ///< m, tip to handle (laparoscopic instruments: 30–36 cm)
@@ -51,7 +57,9 @@ struct ToolContact {
   std::uint32_t generation = 0;                           ///< counts this tool's contacts
   Eigen::Vector3d action_point = Eigen::Vector3d::Zero();  ///< rest surface, m
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();        ///< outward, rest surface
-  Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();     ///< condensed tip stiffness, N/m, device-limited
+  Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();     ///< K, N/m, device-limited
+  Eigen::Vector3d reference = Eigen::Vector3d::Zero();     ///< d₀, m: the displacement where `force` holds
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();         ///< F₀, N on the tool at d₀
   double shaft_offset = 0.0;  ///< m from the tip along the shaft to the tool's contact point (0: the tip)
 };
 
@@ -103,10 +111,14 @@ class Engine {
   /// Force-loop telemetry; read when the force loop is not running.
   const ToolTelemetry& telemetry(std::size_t tool) const noexcept { return telemetry_[tool]; }
   const ForceSafety& safety(std::size_t tool) const noexcept { return safety_[tool]; }
-  /// Beam builds refused by the deformation loop (far from organ, at the clamp…).
+  /// Contacts the model refused (far from organ, at the clamp…).
   std::uint64_t refused_contacts() const noexcept { return refused_; }
+  /// The deformation model (read its counters when the loops are not running).
+  const DeformationModel& model() const noexcept { return *model_; }
 
  private:
+  void publish_linearization(std::size_t tool) noexcept;
+
   const multibeam::BeamOrgan& organ_;
   std::vector<devices::HapticDevice*> devices_;
   EngineOptions options_;
@@ -119,7 +131,9 @@ class Engine {
   double previous_tick_ = -1.0;
 
   // Deformation loop only.
-  multibeam::MultiBeam beams_;
+  std::unique_ptr<DeformationModel> model_;
+  std::array<ContactLinearization, kMaxTools> linearizations_{};
+  double previous_step_ = -1.0;
   geometry::SurfaceBvh deformed_tree_;
   const model::Point3* tree_positions_ = nullptr;  // the last published surface
   bool tree_stale_ = false;                 // the tree does not describe it yet

@@ -1,0 +1,101 @@
+// The seam between the real-time engine and a deformation model. The engine
+// finds contacts, runs the force loop and publishes frames; a model only
+// answers three questions, all on the deformation loop's thread:
+//   attach  — a tool touches the rest surface here: can you take it, and how
+//             stiff is the contact?
+//   step    — the attached tools' contact points are displaced so: move the
+//             surface (and say, per contact, the force and stiffness now);
+//   detach  — the tool left.
+//
+// The 1 kHz force loop never calls a model. It renders, per contact, the local
+// linearization the last step published:
+//     F(d) = force − stiffness · (d − displacement),
+// d being the contact point's displacement from its action point. For the
+// multi-beam model this is exact (force = −K·displacement, so F = −K d); for
+// a dynamic model (mass-spring) it is the first-order model of the reaction
+// around the last simulated state, refreshed at the deformation rate. It is
+// stable on the device when the stiffness is within the device's renderable
+// stiffness (the engine scales it down to that limit, as for the beam) and the
+// linearization changes little between two deformation frames (docs/realtime.md).
+//
+// Every call is noexcept and allocates nothing, takes no lock and does no I/O;
+// models allocate everything in their constructor.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "organsim/model/organ_model.h"
+#include "organsim/multibeam/beam_organ.h"
+#include "organsim/multibeam/multibeam.h"
+#include "organsim/springs/mass_spring.h"
+
+namespace organsim::realtime {
+
+/// The deformation models the engine can run.
+enum class ModelKind : std::uint8_t { beam, springs };
+/// "beam" or "springs".
+const char* model_name(ModelKind kind) noexcept;
+/// Parses a model name; false for an unknown one.
+bool parse_model_kind(const std::string& name, ModelKind& kind) noexcept;
+
+/// One contact as the force loop renders it (see the file comment).
+struct ContactLinearization {
+  Eigen::Vector3d action_point = Eigen::Vector3d::Zero();  ///< on the rest surface, m
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();        ///< outward, rest surface, unit
+  Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();     ///< N/m
+  Eigen::Vector3d displacement = Eigen::Vector3d::Zero();  ///< m: where `force` holds
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();         ///< N on the tool at `displacement`
+};
+
+class DeformationModel {
+ public:
+  virtual ~DeformationModel() = default;
+  virtual ModelKind kind() const noexcept = 0;
+  /// Contact begins: `tool` touches the rest surface at `rest_point` (m). Fills
+  /// the linearization at zero displacement; false (nothing changed) when the
+  /// model cannot take the contact (too near the clamp, …).
+  virtual bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, ContactLinearization& contact) noexcept = 0;
+  virtual void detach(std::uint32_t tool) noexcept = 0;
+  /// Advances the model by `dt` s with the attached tools' contact-point
+  /// displacements (`displacements[tool]`, m; detached tools' entries are
+  /// ignored); writes the surface vertex positions and unit normals (the
+  /// BeamOrgan's vertex order) and refreshes `contacts[tool]` of every attached
+  /// tool. False when the positions could not be computed (the buffers then
+  /// keep the previous frame).
+  virtual bool step(double dt, const Eigen::Vector3d* displacements, model::Point3* positions, model::Point3* normals,
+                    ContactLinearization* contacts) noexcept = 0;
+  /// Steps that diverged and were undone (dynamic models); 0 for static ones.
+  virtual std::uint64_t instabilities() const noexcept { return 0; }
+};
+
+/// How the mass-spring model runs inside the engine (docs/springs.md).
+struct SpringModelOptions {
+  springs::OrganNetworkOptions network;
+  springs::SimulationOptions simulation = default_simulation();
+  /// At most this many simulation steps per deformation frame (the model falls
+  /// behind real time beyond it rather than overrun the frame).
+  std::uint32_t max_steps_per_frame = 40;
+
+  /// Symplectic Euler at 1 ms, and no gravity: the CT shows the organ under
+  /// its own weight, so its shape is the rest state (as for the multi-beam
+  /// model); gravity from that shape would make the organ sag a second time.
+  static springs::SimulationOptions default_simulation() {
+    springs::SimulationOptions s;
+    s.integrator = springs::Integrator::symplectic_euler;
+    s.dt = 1e-3;
+    s.gravity.setZero();
+    return s;
+  }
+};
+
+/// The model `kind` on `organ`, sized for `tools` tools. Throws
+/// std::invalid_argument when the organ or the options do not suit it.
+std::unique_ptr<DeformationModel> make_deformation_model(ModelKind kind, const multibeam::BeamOrgan& organ,
+                                                         const multibeam::MultiBeamOptions& beam_options,
+                                                         const SpringModelOptions& spring_options, std::size_t tools);
+
+}  // namespace organsim::realtime

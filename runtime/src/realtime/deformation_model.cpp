@@ -1,0 +1,167 @@
+#include "organsim/realtime/deformation_model.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <vector>
+
+#include "organsim/geometry/model_measures.h"
+
+namespace organsim::realtime {
+namespace {
+
+Eigen::Vector3d vec(const model::Point3& p) { return {p[0], p[1], p[2]}; }
+
+/// The multi-beam model: its contact force is linear in the displacement, so
+/// the linearization at zero displacement (force 0, stiffness K) is exact and
+/// never changes during a contact.
+class BeamModel final : public DeformationModel {
+ public:
+  BeamModel(const multibeam::BeamOrgan& organ, const multibeam::MultiBeamOptions& options)
+      : organ_(organ), beams_(organ, options) {}
+
+  ModelKind kind() const noexcept override { return ModelKind::beam; }
+
+  bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, ContactLinearization& contact) noexcept override {
+    if (beams_.attach(tool, rest_point) != multibeam::Status::ok) return false;
+    const multibeam::ToolBeam& beam = beams_.beam(tool);
+    contact.action_point = beam.action.position;
+    contact.normal = geometry::triangle_normal(organ_.model(), beam.action.triangle);
+    contact.stiffness = beam.stiffness;
+    contact.displacement.setZero();
+    contact.force.setZero();
+    return true;
+  }
+
+  void detach(std::uint32_t tool) noexcept override { beams_.detach(tool); }
+
+  bool step(double, const Eigen::Vector3d* displacements, model::Point3* positions, model::Point3* normals,
+            ContactLinearization*) noexcept override {
+    return beams_.deform(displacements, positions, normals, organ_.vertex_count()) == multibeam::Status::ok;
+  }
+
+ private:
+  const multibeam::BeamOrgan& organ_;
+  multibeam::MultiBeam beams_;
+};
+
+/// The mass-spring model on the organ's surface (docs/springs.md): a tool holds
+/// the surface node nearest its action point at the action point's displaced
+/// position; the node's spring forces are the contact force, their Jacobian
+/// the contact stiffness.
+class SpringModel final : public DeformationModel {
+ public:
+  SpringModel(const multibeam::BeamOrgan& organ, const SpringModelOptions& options, std::size_t tools)
+      : organ_(organ),
+        options_(options),
+        simulation_(springs::make_organ_network(organ.model(), options.network), options.simulation),
+        held_(tools, kNone) {}
+
+  ModelKind kind() const noexcept override { return ModelKind::springs; }
+
+  bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, ContactLinearization& contact) noexcept override {
+    if (tool >= held_.size() || !rest_point.allFinite()) return false;
+    const geometry::SurfacePoint at = organ_.surface_tree().closest_point(rest_point);
+    const model::Triangle& triangle = organ_.model().surface_triangles[at.triangle];
+    Eigen::Index corner = 0;
+    at.barycentric.maxCoeff(&corner);
+    const std::uint32_t node = triangle[static_cast<std::size_t>(corner)];
+    if (simulation_.network().fixed[node]) return false;  // a clamped node cannot be moved
+    for (std::uint32_t other : held_)
+      if (other == node) return false;  // one tool per node
+    held_[tool] = node;
+    contact.action_point = vec(organ_.model().surface_vertices[node]);
+    contact.normal = geometry::triangle_normal(organ_.model(), at.triangle);
+    linearize(node, contact);
+    return true;
+  }
+
+  void detach(std::uint32_t tool) noexcept override {
+    if (tool >= held_.size() || held_[tool] == kNone) return;
+    simulation_.release(held_[tool]);
+    held_[tool] = kNone;
+  }
+
+  bool step(double dt, const Eigen::Vector3d* displacements, model::Point3* positions, model::Point3* normals,
+            ContactLinearization* contacts) noexcept override {
+    if (!(dt > 0.0) || !std::isfinite(dt)) return false;
+    for (std::size_t tool = 0; tool < held_.size(); ++tool) {
+      if (held_[tool] == kNone) continue;
+      if (!displacements[tool].allFinite()) return false;
+      simulation_.hold(held_[tool], simulation_.network().rest[held_[tool]] + displacements[tool]);
+    }
+    const double steps = std::clamp(std::round(dt / options_.simulation.dt), 1.0,
+                                    static_cast<double>(options_.max_steps_per_frame));
+    for (int s = 0; s < static_cast<int>(steps); ++s)
+      if (simulation_.step() == springs::StepStatus::blew_up) {
+        // Back to rest and on: the state before the failed step was itself
+        // about to diverge. The force safety's onset limit keeps the device
+        // from a kick when the contact force comes back.
+        ++instabilities_;
+        simulation_.reset();
+        break;
+      }
+    const std::size_t n = organ_.vertex_count();
+    for (std::size_t v = 0; v < n; ++v) {
+      const Eigen::Vector3d& x = simulation_.position(static_cast<std::uint32_t>(v));
+      positions[v] = {x[0], x[1], x[2]};
+    }
+    multibeam::compute_vertex_normals(organ_, positions, normals, 0, n);
+    for (std::size_t tool = 0; tool < held_.size(); ++tool)
+      if (held_[tool] != kNone) linearize(held_[tool], contacts[tool]);
+    return true;
+  }
+
+  std::uint64_t instabilities() const noexcept override { return instabilities_; }
+
+ private:
+  static constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+
+  void linearize(std::uint32_t node, ContactLinearization& contact) const noexcept {
+    contact.displacement = simulation_.position(node) - simulation_.network().rest[node];
+    contact.force = simulation_.reaction_force(node);
+    contact.stiffness = simulation_.contact_stiffness(node);
+  }
+
+  const multibeam::BeamOrgan& organ_;
+  SpringModelOptions options_;
+  springs::MassSpring simulation_;
+  std::vector<std::uint32_t> held_;  // per tool: the node it holds, or kNone
+  std::uint64_t instabilities_ = 0;
+};
+
+}  // namespace
+
+const char* model_name(ModelKind kind) noexcept {
+  switch (kind) {
+    case ModelKind::beam:
+      return "beam";
+    case ModelKind::springs:
+      return "springs";
+  }
+  return "unknown";
+}
+
+bool parse_model_kind(const std::string& name, ModelKind& kind) noexcept {
+  for (ModelKind k : {ModelKind::beam, ModelKind::springs})
+    if (name == model_name(k)) {
+      kind = k;
+      return true;
+    }
+  return false;
+}
+
+std::unique_ptr<DeformationModel> make_deformation_model(ModelKind kind, const multibeam::BeamOrgan& organ,
+                                                         const multibeam::MultiBeamOptions& beam_options,
+                                                         const SpringModelOptions& spring_options, std::size_t tools) {
+  switch (kind) {
+    case ModelKind::beam:
+      return std::make_unique<BeamModel>(organ, beam_options);
+    case ModelKind::springs:
+      return std::make_unique<SpringModel>(organ, spring_options, tools);
+  }
+  throw std::invalid_argument("unknown deformation model");
+}
+
+}  // namespace organsim::realtime

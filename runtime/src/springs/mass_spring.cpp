@@ -1,0 +1,538 @@
+// The mass-spring simulation (mass_spring.h): forces, the five integrators, the
+// dynamic region and blow-up detection. Everything step() touches is sized in
+// the constructor.
+#include "organsim/springs/mass_spring.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include <Eigen/LU>
+
+namespace organsim::springs {
+namespace {
+
+bool non_negative(double value) { return std::isfinite(value) && value >= 0.0; }
+
+constexpr double kCgTolerance = 1e-10;  // preconditioned residual norm, relative to the first
+
+}  // namespace
+
+MassSpring::MassSpring(SpringNetwork network, const SimulationOptions& options)
+    : network_(std::move(network)), options_(options) {
+  auto require = [](bool ok, const std::string& problem) {
+    if (!ok) throw std::invalid_argument("MassSpring: " + problem);
+  };
+  const std::size_t n = network_.rest.size();
+  const Springs& s = network_.springs;
+  require(n > 0, "the network has no nodes");
+  require(n < std::numeric_limits<std::uint32_t>::max(), "the network has too many nodes");
+  require(network_.mass.size() == n && network_.fixed.size() == n, "rest, mass and fixed differ in size");
+  require(network_.surface_nodes <= n, "surface_nodes exceeds the node count");
+  require(s.b.size() == s.size() && s.rest_length.size() == s.size() && s.stiffness.size() == s.size() &&
+              s.damping.size() == s.size() && s.kind.size() == s.size(),
+          "the spring arrays differ in size");
+  require(s.size() < std::numeric_limits<std::uint32_t>::max() / 2, "the network has too many springs");
+  for (std::size_t i = 0; i < n; ++i) {
+    require(network_.rest[i].allFinite(), "rest position of node " + std::to_string(i) + " is not finite");
+    require(std::isfinite(network_.mass[i]) && network_.mass[i] > 0.0,
+            "mass of node " + std::to_string(i) + " must be positive and finite");
+  }
+  for (std::size_t k = 0; k < s.size(); ++k) {
+    require(s.a[k] < n && s.b[k] < n && s.a[k] != s.b[k], "spring " + std::to_string(k) + " has bad node indices");
+    require(non_negative(s.rest_length[k]) && non_negative(s.stiffness[k]) && non_negative(s.damping[k]),
+            "spring " + std::to_string(k) + " has a negative or non-finite rest length, stiffness or damping");
+  }
+  for (const model::Triangle& t : network_.triangles)
+    require(t[0] < n && t[1] < n && t[2] < n, "a triangle's node index is out of range");
+  require(std::isfinite(options_.dt) && options_.dt > 0.0, "dt must be positive and finite");
+  require(options_.gravity.allFinite(), "gravity must be finite");
+  require(non_negative(options_.point_damping), "point_damping must be non-negative and finite");
+  require(non_negative(options_.threshold), "threshold must be non-negative and finite");
+  require(options_.settle_steps >= 1, "settle_steps must be at least 1");
+  require(std::isfinite(options_.energy_growth_limit) && options_.energy_growth_limit > 0.0,
+          "energy_growth_limit must be positive and finite");
+  require(options_.implicit_cg_iterations >= 1, "implicit_cg_iterations must be at least 1");
+  require(options_.integrator <= Integrator::implicit_euler, "unknown integrator");
+  require(options_.region <= Region::dynamic, "unknown region");
+
+  x_ = network_.rest;
+  v_.assign(n, Eigen::Vector3d::Zero());
+  saved_x_ = x_;
+  saved_v_ = v_;
+  external_.assign(n, Eigen::Vector3d::Zero());
+  target_ = network_.rest;
+  held_.assign(n, 0);
+  inverse_mass_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) inverse_mass_[i] = 1.0 / network_.mass[i];
+
+  incidence_offset_.assign(n + 1, 0);
+  for (std::size_t k = 0; k < s.size(); ++k) {
+    ++incidence_offset_[s.a[k] + 1];
+    ++incidence_offset_[s.b[k] + 1];
+  }
+  for (std::size_t i = 0; i < n; ++i) incidence_offset_[i + 1] += incidence_offset_[i];
+  incidence_spring_.resize(2 * s.size());
+  incidence_other_.resize(2 * s.size());
+  {
+    std::vector<std::uint32_t> fill(incidence_offset_.begin(), incidence_offset_.end() - 1);
+    for (std::size_t k = 0; k < s.size(); ++k) {
+      incidence_spring_[fill[s.a[k]]] = static_cast<std::uint32_t>(k);
+      incidence_other_[fill[s.a[k]]++] = s.b[k];
+      incidence_spring_[fill[s.b[k]]] = static_cast<std::uint32_t>(k);
+      incidence_other_[fill[s.b[k]]++] = s.a[k];
+    }
+  }
+
+  integrated_.assign(n, 0);
+  active_.assign(n, 0);
+  quiet_steps_.assign(n, 0);
+  integrated_nodes_.assign(n, 0);
+  force_springs_.assign(s.size(), 0);
+  forced_nodes_.assign(n, 0);
+  held_nodes_.assign(n, 0);
+
+  if (options_.integrator == Integrator::midpoint || options_.integrator == Integrator::rk4) {
+    stage_x_ = x_;
+    stage_v_ = v_;
+  }
+  if (options_.integrator == Integrator::rk4) {
+    sum_x_.assign(n, Eigen::Vector3d::Zero());
+    sum_v_.assign(n, Eigen::Vector3d::Zero());
+  }
+  accel_.assign(n, Eigen::Vector3d::Zero());
+  if (options_.integrator == Integrator::implicit_euler) {
+    spring_block_.assign(s.size(), Eigen::Matrix3d::Zero());
+    diagonal_inverse_.assign(n, Eigen::Matrix3d::Zero());
+    for (Points* p : {&rhs_, &delta_v_, &residual_, &preconditioned_, &direction_, &product_})
+      p->assign(n, Eigen::Vector3d::Zero());
+  }
+
+  // Energy floor: the springs' energy at rest plus every spring stretched by a tenth of its rest length.
+  double floor = 1e-12;
+  for (std::size_t k = 0; k < s.size(); ++k) {
+    const double stretch = (network_.rest[s.a[k]] - network_.rest[s.b[k]]).norm() - s.rest_length[k];
+    floor += 0.5 * s.stiffness[k] * (stretch * stretch + 0.01 * s.rest_length[k] * s.rest_length[k]);
+  }
+  energy_floor_ = floor;
+}
+
+void MassSpring::set_external_force(std::uint32_t node, const Eigen::Vector3d& force) noexcept {
+  if (node >= node_count() || !force.allFinite()) return;
+  if ((external_[node].isZero(0.0)) != (force.isZero(0.0))) seeds_dirty_ = true;
+  external_[node] = force;
+}
+
+void MassSpring::clear_external_forces() noexcept {
+  std::fill(external_.begin(), external_.end(), Eigen::Vector3d::Zero());
+  seeds_dirty_ = true;
+}
+
+void MassSpring::hold(std::uint32_t node, const Eigen::Vector3d& position) noexcept {
+  if (node >= node_count() || network_.fixed[node] || !position.allFinite()) return;
+  if (!held_[node]) {
+    held_[node] = 1;
+    lists_dirty_ = seeds_dirty_ = true;
+  }
+  target_[node] = position;
+}
+
+void MassSpring::release(std::uint32_t node) noexcept {
+  if (node >= node_count() || !held_[node]) return;
+  held_[node] = 0;
+  v_[node].setZero();
+  if (options_.region == Region::dynamic) activate(node);
+  lists_dirty_ = seeds_dirty_ = true;
+}
+
+Eigen::Vector3d MassSpring::reaction_force(std::uint32_t node) const noexcept {
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();
+  if (node >= node_count()) return force;
+  const Springs& s = network_.springs;
+  for (std::uint32_t e = incidence_offset_[node]; e < incidence_offset_[node + 1]; ++e) {
+    const std::uint32_t k = incidence_spring_[e], other = incidence_other_[e];
+    const Eigen::Vector3d d = x_[node] - x_[other];
+    const double l = d.norm();
+    if (!(l > 0.0)) continue;
+    const Eigen::Vector3d u = d / l;
+    force -= (s.stiffness[k] * (l - s.rest_length[k]) + s.damping[k] * u.dot(v_[node] - v_[other])) * u;
+  }
+  return force;
+}
+
+Eigen::Matrix3d MassSpring::contact_stiffness(std::uint32_t node) const noexcept {
+  Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();
+  if (node >= node_count()) return stiffness;
+  const Springs& s = network_.springs;
+  for (std::uint32_t e = incidence_offset_[node]; e < incidence_offset_[node + 1]; ++e) {
+    const std::uint32_t k = incidence_spring_[e];
+    const Eigen::Vector3d d = x_[node] - x_[incidence_other_[e]];
+    const double l = d.norm();
+    if (l > 0.0) {
+      const Eigen::Matrix3d p = (d / l) * (d / l).transpose();
+      stiffness += s.stiffness[k] * (p + (1.0 - s.rest_length[k] / l) * (Eigen::Matrix3d::Identity() - p));
+    } else if (s.rest_length[k] == 0.0) {
+      stiffness += s.stiffness[k] * Eigen::Matrix3d::Identity();  // a zero-length spring at zero length
+    }
+  }
+  return stiffness;
+}
+
+Energy MassSpring::energy() const noexcept {
+  Energy e;
+  const Springs& s = network_.springs;
+  for (std::size_t i = 0; i < x_.size(); ++i) {
+    e.kinetic += 0.5 * network_.mass[i] * v_[i].squaredNorm();
+    e.gravity -= network_.mass[i] * options_.gravity.dot(x_[i] - network_.rest[i]);
+  }
+  for (std::size_t k = 0; k < s.size(); ++k) {
+    const double stretch = (x_[s.a[k]] - x_[s.b[k]]).norm() - s.rest_length[k];
+    e.spring += 0.5 * s.stiffness[k] * stretch * stretch;
+  }
+  return e;
+}
+
+void MassSpring::reset() noexcept {
+  std::copy(network_.rest.begin(), network_.rest.end(), x_.begin());
+  std::fill(v_.begin(), v_.end(), Eigen::Vector3d::Zero());
+  std::fill(active_.begin(), active_.end(), std::uint8_t{0});
+  std::fill(quiet_steps_.begin(), quiet_steps_.end(), 0u);
+  lists_dirty_ = seeds_dirty_ = true;
+  supplied_ = work_ = 0.0;
+  stable_ = true;
+  active_count_ = 0;
+  steps_ = 0;
+}
+
+void MassSpring::activate(std::uint32_t node) noexcept {
+  if (!active_[node]) {
+    active_[node] = 1;
+    lists_dirty_ = true;
+  }
+  quiet_steps_[node] = 0;
+}
+
+void MassSpring::rebuild_seeds() noexcept {
+  forced_count_ = held_count_ = 0;
+  for (std::uint32_t i = 0; i < node_count(); ++i) {
+    if (held_[i]) held_nodes_[held_count_++] = i;
+    else if (!network_.fixed[i] && !external_[i].isZero(0.0)) forced_nodes_[forced_count_++] = i;
+  }
+  seeds_dirty_ = false;
+}
+
+void MassSpring::rebuild_lists() noexcept {
+  const bool all = options_.region == Region::all;
+  integrated_count_ = 0;
+  for (std::uint32_t i = 0; i < node_count(); ++i) {
+    const bool integrate = freely_movable(i) && (all || active_[i]);
+    integrated_[i] = integrate;
+    if (integrate) integrated_nodes_[integrated_count_++] = i;
+  }
+  const Springs& s = network_.springs;
+  force_spring_count_ = 0;
+  for (std::uint32_t k = 0; k < s.size(); ++k)
+    if (integrated_[s.a[k]] || integrated_[s.b[k]]) force_springs_[force_spring_count_++] = k;
+  lists_dirty_ = false;
+}
+
+void MassSpring::mark_seeds() noexcept {
+  if (seeds_dirty_) rebuild_seeds();
+  auto activate_neighbours = [this](std::uint32_t node) {
+    for (std::uint32_t e = incidence_offset_[node]; e < incidence_offset_[node + 1]; ++e)
+      if (freely_movable(incidence_other_[e])) activate(incidence_other_[e]);
+  };
+  for (std::size_t k = 0; k < forced_count_; ++k) {
+    activate(forced_nodes_[k]);
+    activate_neighbours(forced_nodes_[k]);
+  }
+  for (std::size_t k = 0; k < held_count_; ++k) activate_neighbours(held_nodes_[k]);
+}
+
+void MassSpring::begin_region() noexcept {
+  if (options_.region == Region::dynamic) mark_seeds();
+  if (lists_dirty_) rebuild_lists();
+  active_count_ = integrated_count_;
+}
+
+void MassSpring::end_region() noexcept {
+  if (options_.region != Region::dynamic) return;
+  // Over the nodes integrated in this step (the list is not rebuilt here).
+  const double threshold2 = options_.threshold * options_.threshold;
+  for (std::size_t k = 0; k < integrated_count_; ++k) {
+    const std::uint32_t i = integrated_nodes_[k];
+    const bool quiet = (x_[i] - network_.rest[i]).squaredNorm() < threshold2 && v_[i].squaredNorm() < threshold2;
+    quiet_steps_[i] = quiet ? std::min(quiet_steps_[i] + 1, options_.settle_steps) : 0;
+  }
+  // Seeds stay active; the neighbours of a node displaced beyond the threshold become (or stay) active.
+  mark_seeds();
+  for (std::size_t k = 0; k < integrated_count_; ++k) {
+    const std::uint32_t i = integrated_nodes_[k];
+    if ((x_[i] - network_.rest[i]).squaredNorm() > threshold2)
+      for (std::uint32_t e = incidence_offset_[i]; e < incidence_offset_[i + 1]; ++e)
+        if (freely_movable(incidence_other_[e])) activate(incidence_other_[e]);
+  }
+  for (std::size_t k = 0; k < integrated_count_; ++k) {
+    const std::uint32_t i = integrated_nodes_[k];
+    if (active_[i] && quiet_steps_[i] >= options_.settle_steps) {
+      active_[i] = 0;
+      quiet_steps_[i] = 0;
+      v_[i].setZero();
+      lists_dirty_ = true;
+    }
+  }
+}
+
+void MassSpring::accelerations(const Points& x, const Points& v, Points& a) noexcept {
+  const Springs& s = network_.springs;
+  for (std::size_t k = 0; k < integrated_count_; ++k) a[integrated_nodes_[k]].setZero();
+  for (std::size_t j = 0; j < force_spring_count_; ++j) {
+    const std::uint32_t k = force_springs_[j], ia = s.a[k], ib = s.b[k];
+    const Eigen::Vector3d d = x[ia] - x[ib];
+    const double l = d.norm();
+    if (!(l > 0.0)) continue;
+    const Eigen::Vector3d u = d / l;
+    const Eigen::Vector3d f = (s.stiffness[k] * (l - s.rest_length[k]) + s.damping[k] * u.dot(v[ia] - v[ib])) * u;
+    if (integrated_[ia]) a[ia] -= f;
+    if (integrated_[ib]) a[ib] += f;
+  }
+  const double c = options_.point_damping;
+  for (std::size_t k = 0; k < integrated_count_; ++k) {
+    const std::uint32_t i = integrated_nodes_[k];
+    a[i] = (a[i] + external_[i] - c * v[i]) * inverse_mass_[i] + options_.gravity;
+  }
+}
+
+void MassSpring::apply_implicit_matrix(const Points& p, Points& q) noexcept {
+  const Springs& s = network_.springs;
+  const double diagonal_damping = options_.dt * options_.point_damping;
+  for (std::size_t k = 0; k < integrated_count_; ++k) {
+    const std::uint32_t i = integrated_nodes_[k];
+    q[i] = (network_.mass[i] + diagonal_damping) * p[i];
+  }
+  for (std::size_t j = 0; j < force_spring_count_; ++j) {
+    const std::uint32_t k = force_springs_[j], ia = s.a[k], ib = s.b[k];
+    const bool in_a = integrated_[ia], in_b = integrated_[ib];
+    Eigen::Vector3d difference = Eigen::Vector3d::Zero();
+    if (in_a) difference += p[ia];
+    if (in_b) difference -= p[ib];
+    const Eigen::Vector3d w = spring_block_[k] * difference;
+    if (in_a) q[ia] += w;
+    if (in_b) q[ib] -= w;
+  }
+}
+
+void MassSpring::step_implicit_euler() noexcept {
+  const double h = options_.dt, h2 = h * h;
+  const Springs& s = network_.springs;
+  accelerations(x_, v_, accel_);
+  const double diagonal_damping = h * options_.point_damping;
+  Eigen::Matrix3d* diagonal = diagonal_inverse_.data();  // holds the blocks first, inverted below
+  for (std::size_t k = 0; k < integrated_count_; ++k) {
+    const std::uint32_t i = integrated_nodes_[k];
+    rhs_[i] = h * network_.mass[i] * accel_[i];
+    diagonal[i] = (network_.mass[i] + diagonal_damping) * Eigen::Matrix3d::Identity();
+  }
+  for (std::size_t j = 0; j < force_spring_count_; ++j) {
+    const std::uint32_t k = force_springs_[j], ia = s.a[k], ib = s.b[k];
+    const Eigen::Vector3d d = x_[ia] - x_[ib];
+    const double l = d.norm();
+    Eigen::Matrix3d stiffness;
+    Eigen::Matrix3d& block = spring_block_[k];
+    if (l > 0.0) {
+      const Eigen::Vector3d u = d / l;
+      const Eigen::Matrix3d p = u * u.transpose();
+      const double geometric = std::max(0.0, 1.0 - s.rest_length[k] / l);
+      stiffness = s.stiffness[k] * (p + geometric * (Eigen::Matrix3d::Identity() - p));
+      block = h * s.damping[k] * p + h2 * stiffness;
+    } else {
+      stiffness = s.rest_length[k] == 0.0 ? Eigen::Matrix3d(s.stiffness[k] * Eigen::Matrix3d::Identity())
+                                          : Eigen::Matrix3d::Zero();
+      block = h2 * stiffness;
+    }
+    // rhs = h f − h² K v (∂f/∂x = −K).
+    const Eigen::Vector3d w = h2 * (stiffness * (v_[ia] - v_[ib]));
+    if (integrated_[ia]) {
+      rhs_[ia] -= w;
+      diagonal[ia] += block;
+    }
+    if (integrated_[ib]) {
+      rhs_[ib] += w;
+      diagonal[ib] += block;
+    }
+  }
+  for (std::size_t k = 0; k < integrated_count_; ++k) {
+    const std::uint32_t i = integrated_nodes_[k];
+    diagonal[i] = diagonal[i].inverse().eval();
+  }
+
+  // Preconditioned conjugate gradients from Δv = 0.
+  double rz = 0.0;
+  for (std::size_t k = 0; k < integrated_count_; ++k) {
+    const std::uint32_t i = integrated_nodes_[k];
+    delta_v_[i].setZero();
+    residual_[i] = rhs_[i];
+    preconditioned_[i] = diagonal[i] * residual_[i];
+    direction_[i] = preconditioned_[i];
+    rz += residual_[i].dot(preconditioned_[i]);
+  }
+  const double stop = kCgTolerance * kCgTolerance * rz;
+  for (std::uint32_t iteration = 0; iteration < options_.implicit_cg_iterations && rz > stop; ++iteration) {
+    apply_implicit_matrix(direction_, product_);
+    double pq = 0.0;
+    for (std::size_t k = 0; k < integrated_count_; ++k) {
+      const std::uint32_t i = integrated_nodes_[k];
+      pq += direction_[i].dot(product_[i]);
+    }
+    if (!(pq > 0.0)) break;
+    const double alpha = rz / pq;
+    double rz_next = 0.0;
+    for (std::size_t k = 0; k < integrated_count_; ++k) {
+      const std::uint32_t i = integrated_nodes_[k];
+      delta_v_[i] += alpha * direction_[i];
+      residual_[i] -= alpha * product_[i];
+      preconditioned_[i] = diagonal[i] * residual_[i];
+      rz_next += residual_[i].dot(preconditioned_[i]);
+    }
+    const double beta = rz_next / rz;
+    rz = rz_next;
+    for (std::size_t k = 0; k < integrated_count_; ++k) {
+      const std::uint32_t i = integrated_nodes_[k];
+      direction_[i] = preconditioned_[i] + beta * direction_[i];
+    }
+  }
+  for (std::size_t k = 0; k < integrated_count_; ++k) {
+    const std::uint32_t i = integrated_nodes_[k];
+    v_[i] += delta_v_[i];
+    x_[i] += h * v_[i];
+  }
+}
+
+StepStatus MassSpring::step() noexcept {
+  if (!stable_) return StepStatus::blew_up;
+  std::copy(x_.begin(), x_.end(), saved_x_.begin());
+  std::copy(v_.begin(), v_.end(), saved_v_.begin());
+  if (seeds_dirty_) rebuild_seeds();
+
+  // Held nodes jump to their targets: the tool does the work −½(r₀ + r₁)·Δx
+  // (r the reaction before and after the jump).
+  double work = 0.0;
+  for (std::size_t k = 0; k < held_count_; ++k) {
+    const std::uint32_t i = held_nodes_[k];
+    const Eigen::Vector3d jump = target_[i] - x_[i];
+    if (jump.isZero(0.0)) {
+      v_[i].setZero();
+      continue;
+    }
+    const Eigen::Vector3d before = reaction_force(i);
+    x_[i] = target_[i];
+    v_[i].setZero();
+    work -= 0.5 * (before + reaction_force(i)).dot(jump);
+  }
+  begin_region();
+
+  const double h = options_.dt;
+  const std::uint32_t* nodes = integrated_nodes_.data();
+  const std::size_t count = integrated_count_;
+  switch (options_.integrator) {
+    case Integrator::explicit_euler:
+      accelerations(x_, v_, accel_);
+      for (std::size_t k = 0; k < count; ++k) {
+        const std::uint32_t i = nodes[k];
+        x_[i] += h * v_[i];
+        v_[i] += h * accel_[i];
+      }
+      break;
+    case Integrator::symplectic_euler:
+      accelerations(x_, v_, accel_);
+      for (std::size_t k = 0; k < count; ++k) {
+        const std::uint32_t i = nodes[k];
+        v_[i] += h * accel_[i];
+        x_[i] += h * v_[i];
+      }
+      break;
+    case Integrator::midpoint:
+      std::copy(x_.begin(), x_.end(), stage_x_.begin());
+      std::copy(v_.begin(), v_.end(), stage_v_.begin());
+      accelerations(x_, v_, accel_);
+      for (std::size_t k = 0; k < count; ++k) {
+        const std::uint32_t i = nodes[k];
+        stage_x_[i] = x_[i] + 0.5 * h * v_[i];
+        stage_v_[i] = v_[i] + 0.5 * h * accel_[i];
+      }
+      accelerations(stage_x_, stage_v_, accel_);
+      for (std::size_t k = 0; k < count; ++k) {
+        const std::uint32_t i = nodes[k];
+        x_[i] += h * stage_v_[i];
+        v_[i] += h * accel_[i];
+      }
+      break;
+    case Integrator::rk4:
+      std::copy(x_.begin(), x_.end(), stage_x_.begin());
+      std::copy(v_.begin(), v_.end(), stage_v_.begin());
+      accelerations(x_, v_, accel_);  // k1 = (v, a1)
+      for (std::size_t k = 0; k < count; ++k) {
+        const std::uint32_t i = nodes[k];
+        sum_x_[i] = v_[i];
+        sum_v_[i] = accel_[i];
+        stage_x_[i] = x_[i] + 0.5 * h * v_[i];
+        stage_v_[i] = v_[i] + 0.5 * h * accel_[i];
+      }
+      for (int stage = 2; stage <= 3; ++stage) {  // k2, k3
+        accelerations(stage_x_, stage_v_, accel_);
+        const double reach = stage == 2 ? 0.5 * h : h;
+        for (std::size_t k = 0; k < count; ++k) {
+          const std::uint32_t i = nodes[k];
+          const Eigen::Vector3d stage_velocity = stage_v_[i];
+          sum_x_[i] += 2.0 * stage_velocity;
+          sum_v_[i] += 2.0 * accel_[i];
+          stage_x_[i] = x_[i] + reach * stage_velocity;
+          stage_v_[i] = v_[i] + reach * accel_[i];
+        }
+      }
+      accelerations(stage_x_, stage_v_, accel_);  // k4
+      for (std::size_t k = 0; k < count; ++k) {
+        const std::uint32_t i = nodes[k];
+        x_[i] += (h / 6.0) * (sum_x_[i] + stage_v_[i]);
+        v_[i] += (h / 6.0) * (sum_v_[i] + accel_[i]);
+      }
+      break;
+    case Integrator::implicit_euler:
+      step_implicit_euler();
+      break;
+  }
+
+  // Blow-up: a non-finite state or the integrated part's energy beyond the limit.
+  const Springs& s = network_.springs;
+  double energy = 0.0;
+  bool finite = true;
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::uint32_t i = nodes[k];
+    finite = finite && x_[i].allFinite() && v_[i].allFinite();
+    work += 0.5 * h * external_[i].dot(saved_v_[i] + v_[i]);  // trapezoidal ∫ F·v dt
+    energy += 0.5 * network_.mass[i] * v_[i].squaredNorm() -
+              network_.mass[i] * options_.gravity.dot(x_[i] - network_.rest[i]);
+  }
+  for (std::size_t j = 0; j < force_spring_count_; ++j) {
+    const std::uint32_t k = force_springs_[j];
+    const double stretch = (x_[s.a[k]] - x_[s.b[k]]).norm() - s.rest_length[k];
+    energy += 0.5 * s.stiffness[k] * stretch * stretch;
+  }
+  const double supplied = std::max(supplied_, work_ + work);
+  if (!finite || !(energy <= options_.energy_growth_limit * (supplied + energy_floor_))) {
+    std::copy(saved_x_.begin(), saved_x_.end(), x_.begin());
+    std::copy(saved_v_.begin(), saved_v_.end(), v_.begin());
+    stable_ = false;
+    return StepStatus::blew_up;
+  }
+  work_ += work;
+  supplied_ = supplied;
+  end_region();
+  ++steps_;
+  return StepStatus::ok;
+}
+
+}  // namespace organsim::springs

@@ -1,0 +1,262 @@
+// The spring networks: the paper's flat grid and a baked organ's surface
+// (construction rules in mass_spring.h).
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "organsim/geometry/model_measures.h"
+#include "organsim/springs/mass_spring.h"
+
+namespace organsim::springs {
+namespace {
+
+Eigen::Vector3d vec(const model::Point3& p) { return {p[0], p[1], p[2]}; }
+
+void add_spring(SpringNetwork& net, std::uint32_t a, std::uint32_t b, double stiffness, double damping,
+                SpringKind kind) {
+  if (a > b) std::swap(a, b);
+  net.springs.a.push_back(a);
+  net.springs.b.push_back(b);
+  net.springs.rest_length.push_back((net.rest[a] - net.rest[b]).norm());
+  net.springs.stiffness.push_back(stiffness);
+  net.springs.damping.push_back(damping);
+  net.springs.kind.push_back(kind);
+}
+
+void reserve_springs(Springs& s, std::size_t count) {
+  s.a.reserve(count);
+  s.b.reserve(count);
+  s.rest_length.reserve(count);
+  s.stiffness.reserve(count);
+  s.damping.reserve(count);
+  s.kind.reserve(count);
+}
+
+bool non_negative(double value) { return std::isfinite(value) && value >= 0.0; }
+bool positive(double value) { return std::isfinite(value) && value > 0.0; }
+
+}  // namespace
+
+SpringNetwork make_grid_network(const GridOptions& o) {
+  auto require = [](bool ok, const char* problem) {
+    if (!ok) throw std::invalid_argument(std::string("make_grid_network: ") + problem);
+  };
+  require(o.columns >= 3, "columns must be at least 3");
+  require(o.rows >= 3, "rows must be at least 3");
+  require(static_cast<std::uint64_t>(o.columns) * o.rows <= (std::uint64_t{1} << 30), "the grid is too large");
+  require(positive(o.spacing), "spacing must be positive and finite (m)");
+  require(positive(o.mass), "mass must be positive and finite (kg)");
+  require(non_negative(o.structural_stiffness) && non_negative(o.shear_stiffness) && non_negative(o.bending_stiffness),
+          "stiffnesses must be non-negative and finite (N/m)");
+  require(non_negative(o.structural_damping) && non_negative(o.shear_damping) && non_negative(o.bending_damping),
+          "dampings must be non-negative and finite (N·s/m)");
+  require(non_negative(o.body_factor), "body_factor must be non-negative and finite");
+
+  const std::uint32_t n = o.columns, m = o.rows, count = n * m;
+  const bool body = o.body_factor > 0.0;
+  auto index = [n](std::uint32_t i, std::uint32_t j) { return i + n * j; };
+  SpringNetwork net;
+  net.surface_nodes = count;
+  const std::size_t nodes = body ? 2 * std::size_t{count} : count;
+  net.rest.reserve(nodes);
+  for (std::uint32_t j = 0; j < m; ++j)
+    for (std::uint32_t i = 0; i < n; ++i) net.rest.emplace_back(i * o.spacing, j * o.spacing, 0.0);
+  if (body)
+    for (std::uint32_t v = 0; v < count; ++v) net.rest.push_back(net.rest[v] - Eigen::Vector3d(0.0, 0.0, o.spacing));
+  net.mass.assign(nodes, o.mass);
+  net.fixed.assign(nodes, 0);
+  for (std::uint32_t j = 0; j < m; ++j)
+    for (std::uint32_t i = 0; i < n; ++i)
+      if (o.fix_border && (i == 0 || i == n - 1 || j == 0 || j == m - 1)) net.fixed[index(i, j)] = 1;
+  for (std::size_t v = count; v < nodes; ++v) net.fixed[v] = 1;
+
+  net.triangles.reserve(2 * std::size_t{n - 1} * (m - 1));
+  for (std::uint32_t j = 0; j + 1 < m; ++j)
+    for (std::uint32_t i = 0; i + 1 < n; ++i) {
+      net.triangles.push_back({index(i, j), index(i + 1, j), index(i + 1, j + 1)});
+      net.triangles.push_back({index(i, j), index(i + 1, j + 1), index(i, j + 1)});
+    }
+
+  const std::size_t structural = 2 * std::size_t{count} - n - m, shear = 2 * std::size_t{n - 1} * (m - 1),
+                    bending = std::size_t{n} * (m - 2) + std::size_t{m} * (n - 2);
+  reserve_springs(net.springs, structural + shear + bending + (body ? count : 0));
+  for (std::uint32_t j = 0; j < m; ++j)
+    for (std::uint32_t i = 0; i < n; ++i) {
+      if (i + 1 < n)
+        add_spring(net, index(i, j), index(i + 1, j), o.structural_stiffness, o.structural_damping,
+                   SpringKind::structural);
+      if (j + 1 < m)
+        add_spring(net, index(i, j), index(i, j + 1), o.structural_stiffness, o.structural_damping,
+                   SpringKind::structural);
+    }
+  for (std::uint32_t j = 0; j + 1 < m; ++j)
+    for (std::uint32_t i = 0; i + 1 < n; ++i) {
+      add_spring(net, index(i, j), index(i + 1, j + 1), o.shear_stiffness, o.shear_damping, SpringKind::shear);
+      add_spring(net, index(i + 1, j), index(i, j + 1), o.shear_stiffness, o.shear_damping, SpringKind::shear);
+    }
+  for (std::uint32_t j = 0; j < m; ++j)
+    for (std::uint32_t i = 0; i < n; ++i) {
+      if (i + 2 < n)
+        add_spring(net, index(i, j), index(i + 2, j), o.bending_stiffness, o.bending_damping, SpringKind::bending);
+      if (j + 2 < m)
+        add_spring(net, index(i, j), index(i, j + 2), o.bending_stiffness, o.bending_damping, SpringKind::bending);
+    }
+  if (body)
+    for (std::uint32_t v = 0; v < count; ++v)
+      add_spring(net, v, count + v, o.body_factor * o.structural_stiffness, o.body_factor * o.structural_damping,
+                 SpringKind::body);
+  return net;
+}
+
+SpringNetwork make_organ_network(const model::OrganModel& model, const OrganNetworkOptions& o) {
+  auto require = [](bool ok, const std::string& problem) {
+    if (!ok) throw std::invalid_argument("make_organ_network: " + problem);
+  };
+  require(!model.surface_triangles.empty(), "the model has no surface triangles");
+  require(non_negative(o.stiffness), "stiffness must be non-negative and finite (N/m)");
+  require(non_negative(o.bending_factor), "bending_factor must be non-negative and finite");
+  require(non_negative(o.damping), "damping must be non-negative and finite (N s/m)");
+  require(non_negative(o.critical_fraction), "critical_fraction must be non-negative and finite");
+  require(non_negative(o.body_factor), "body_factor must be non-negative and finite");
+  require(non_negative(o.anchor_depth), "anchor_depth must be non-negative and finite (m)");
+  require(non_negative(o.uniform_mass), "uniform_mass must be non-negative and finite (kg)");
+  require(non_negative(o.clamp_radius), "clamp_radius must be non-negative and finite (m)");
+  if (o.volume_springs) throw std::invalid_argument("volume springs are not available yet");
+  const std::size_t vertex_count = model.surface_vertices.size();
+  require(vertex_count <= (std::size_t{1} << 30), "the surface is too large");
+  for (const model::Point3& p : model.surface_vertices)
+    require(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]), "a surface vertex is not finite");
+  for (const model::Triangle& t : model.surface_triangles) {
+    require(t[0] < vertex_count && t[1] < vertex_count && t[2] < vertex_count,
+            "a surface triangle's vertex index is out of range");
+    require(t[0] != t[1] && t[1] != t[2] && t[0] != t[2], "a surface triangle repeats a vertex");
+  }
+
+  // Edges: (low, high, opposite vertex) per triangle side, sorted so that the
+  // sides of one edge are adjacent.
+  struct Side {
+    std::uint32_t a, b, opposite;
+  };
+  std::vector<Side> sides;
+  sides.reserve(3 * model.surface_triangles.size());
+  for (const model::Triangle& t : model.surface_triangles)
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+      sides.push_back({std::min(a, b), std::max(a, b), t[(k + 2) % 3]});
+    }
+  std::sort(sides.begin(), sides.end(), [](const Side& l, const Side& r) {
+    return l.a != r.a ? l.a < r.a : l.b != r.b ? l.b < r.b : l.opposite < r.opposite;
+  });
+  double length_sum = 0.0;
+  std::size_t edge_count = 0;
+  for (std::size_t s = 0; s < sides.size(); ++s)
+    if (s == 0 || sides[s].a != sides[s - 1].a || sides[s].b != sides[s - 1].b) {
+      length_sum += (vec(model.surface_vertices[sides[s].a]) - vec(model.surface_vertices[sides[s].b])).norm();
+      ++edge_count;
+    }
+  const double mean_edge = length_sum / static_cast<double>(edge_count);
+  require(mean_edge > 0.0, "the surface edges have zero length");
+
+  const double k = o.stiffness > 0.0 ? o.stiffness : model.material.young_modulus * mean_edge;
+  require(std::isfinite(k) && k > 0.0, "the structural spring constant is zero: set stiffness or the model's E");
+  const double depth = o.anchor_depth > 0.0 ? o.anchor_depth : mean_edge;
+
+  // Vertex areas (a third of each adjacent triangle) and area-weighted normals.
+  std::vector<double> area(vertex_count, 0.0);
+  std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>> normal(vertex_count,
+                                                                                  Eigen::Vector3d::Zero());
+  double total_area = 0.0;
+  for (const model::Triangle& t : model.surface_triangles) {
+    const Eigen::Vector3d a = vec(model.surface_vertices[t[0]]), b = vec(model.surface_vertices[t[1]]),
+                          c = vec(model.surface_vertices[t[2]]);
+    const Eigen::Vector3d cross = (b - a).cross(c - a);
+    const double third = cross.norm() / 6.0;
+    for (int j = 0; j < 3; ++j) {
+      area[t[j]] += third;
+      normal[t[j]] += cross;
+    }
+    total_area += 3.0 * third;
+  }
+  for (std::size_t v = 0; v < vertex_count; ++v)
+    require(area[v] > 0.0, "surface vertex " + std::to_string(v) + " lies on no (non-degenerate) triangle");
+
+  std::vector<double> mass(vertex_count, o.uniform_mass);
+  if (o.uniform_mass == 0.0) {
+    const double density = model.material.density;
+    require(std::isfinite(density) && density > 0.0, "the model's density must be positive to lump masses");
+    double volume = 0.0;
+    if (!model.tetrahedra.empty()) {
+      for (const model::Tetrahedron& t : model.tetrahedra) {
+        require(t[0] < model.volume_vertices.size() && t[1] < model.volume_vertices.size() &&
+                    t[2] < model.volume_vertices.size() && t[3] < model.volume_vertices.size(),
+                "a tetrahedron's vertex index is out of range");
+        volume += geometry::signed_tetrahedron_volume(vec(model.volume_vertices[t[0]]), vec(model.volume_vertices[t[1]]),
+                                                      vec(model.volume_vertices[t[2]]), vec(model.volume_vertices[t[3]]));
+      }
+    } else {
+      volume = geometry::enclosed_volume(model.surface_vertices, model.surface_triangles);
+    }
+    require(std::isfinite(volume) && volume > 0.0, "the organ's volume must be positive to lump masses");
+    for (std::size_t v = 0; v < vertex_count; ++v)
+      mass[v] = density * volume * (o.area_weighted_mass ? area[v] / total_area : 1.0 / static_cast<double>(vertex_count));
+  }
+
+  double mean_mass = 0.0;
+  for (double m : mass) mean_mass += m / static_cast<double>(vertex_count);
+  const double d = o.damping > 0.0 ? o.damping : o.critical_fraction * 2.0 * std::sqrt(k * mean_mass);
+
+  const bool body = o.body_factor > 0.0;
+  SpringNetwork net;
+  const auto ns = static_cast<std::uint32_t>(vertex_count);
+  net.surface_nodes = vertex_count;
+  const std::size_t nodes = body ? 2 * vertex_count : vertex_count;
+  net.rest.reserve(nodes);
+  for (const model::Point3& p : model.surface_vertices) net.rest.push_back(vec(p));
+  if (body)
+    for (std::size_t v = 0; v < vertex_count; ++v) {
+      const double length = normal[v].norm();
+      require(length > 0.0, "surface vertex " + std::to_string(v) + " has no normal (its triangles cancel)");
+      net.rest.push_back(net.rest[v] - depth * normal[v] / length);
+    }
+  net.mass = mass;
+  if (body) net.mass.insert(net.mass.end(), mass.begin(), mass.end());
+  net.fixed.assign(nodes, 0);
+  for (std::size_t v = vertex_count; v < nodes; ++v) net.fixed[v] = 1;
+  if (o.clamp_radius > 0.0) {
+    require(!model.fixed_points.empty(), "clamp_radius needs a fixed point");
+    const Eigen::Vector3d centre = vec(model.fixed_points[0]);
+    for (std::size_t v = 0; v < vertex_count; ++v)
+      if ((net.rest[v] - centre).norm() <= o.clamp_radius) net.fixed[v] = 1;
+  }
+  net.triangles = model.surface_triangles;
+
+  // Springs: structural edges, bending across interior edges, body.
+  std::size_t interior = 0;
+  for (std::size_t s = 0; s < sides.size();) {
+    std::size_t e = s + 1;
+    while (e < sides.size() && sides[e].a == sides[s].a && sides[e].b == sides[s].b) ++e;
+    if (e - s == 2 && sides[s].opposite != sides[s + 1].opposite) ++interior;
+    s = e;
+  }
+  reserve_springs(net.springs, edge_count + interior + (body ? vertex_count : 0));
+  for (std::size_t s = 0; s < sides.size(); ++s)
+    if (s == 0 || sides[s].a != sides[s - 1].a || sides[s].b != sides[s - 1].b)
+      add_spring(net, sides[s].a, sides[s].b, k, d, SpringKind::structural);
+  const double kb = o.bending_factor * k;
+  for (std::size_t s = 0; s < sides.size();) {
+    std::size_t e = s + 1;
+    while (e < sides.size() && sides[e].a == sides[s].a && sides[e].b == sides[s].b) ++e;
+    if (e - s == 2 && sides[s].opposite != sides[s + 1].opposite)
+      add_spring(net, sides[s].opposite, sides[s + 1].opposite, kb, o.bending_factor * d, SpringKind::bending);
+    s = e;
+  }
+  if (body)
+    for (std::uint32_t v = 0; v < ns; ++v)
+      add_spring(net, v, ns + v, o.body_factor * k, o.body_factor * d, SpringKind::body);
+  return net;
+}
+
+}  // namespace organsim::springs
