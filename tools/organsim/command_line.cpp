@@ -1,6 +1,8 @@
 #include "command_line.h"
 
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <stdexcept>
 #include <string>
@@ -90,6 +92,25 @@ int run_program(CLI::App& app, const CommandTable& table, int argc, char** argv)
     return kInputError;
   }
 }
+
+namespace {
+
+CLI::Validator number_check(const char* description, bool (*accept)(double)) {
+  return CLI::Validator(
+      [description, accept](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double value = std::strtod(text.c_str(), &end);
+        if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(value) || !accept(value))
+          return "'" + text + "' is not " + description;
+        return {};
+      },
+      description);
+}
+
+}  // namespace
+
+const CLI::Validator kPositive = number_check("a positive number", [](double v) { return v > 0.0; });
+const CLI::Validator kNonNegative = number_check("a number >= 0", [](double v) { return v >= 0.0; });
 
 void add_deformation_model_option(CLI::App& app, std::string& kind) {
   app.add_option("--model", kind, "Deformation model: beam (multi-beam) or springs (mass-spring); docs/architecture.md")

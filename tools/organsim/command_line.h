@@ -44,6 +44,11 @@ Verbosity verbosity();
 void note(const std::string& command, const std::string& message);
 /// The same, only with --verbose: detail a user asks for when checking a run.
 void detail(const std::string& command, const std::string& message);
+/// Option checks whose messages say what is wrong in plain words (CLI11's own
+/// print the whole double range).
+extern const CLI::Validator kPositive;     ///< a finite number > 0
+extern const CLI::Validator kNonNegative;  ///< a finite number ≥ 0
+
 /// --model beam|springs: which deformation model the engine runs (default
 /// beam). `kind` receives the name; realtime::parse_model_kind reads it.
 void add_deformation_model_option(CLI::App& app, std::string& kind);

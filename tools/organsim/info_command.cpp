@@ -181,7 +181,7 @@ Command add_info_command(CLI::App& app) {
   app.add_option("MODEL", options->model_path, "Model file (.organ)")->required();
   app.add_flag("--json", options->json, "Print one JSON object (keys: docs/cli.md) instead of text");
   app.add_option("--beam", options->beam_vertex, "Also print the beam table of this surface vertex")
-      ->check(CLI::NonNegativeNumber);
+      ->check(kNonNegative);
   return [options] { return run_info(*options); };
 }
 

@@ -199,7 +199,7 @@ Command add_poke_command(CLI::App& app) {
       ->check(CLI::IsMember({"euler-bernoulli", "timoshenko"}))
       ->capture_default_str();
   app.add_option("--snap-distance", o->snap_distance_mm, "Farthest a tool point may be from the surface, mm")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   app.add_option("--out", o->out_path, "Write the deformed surface (.vtp, LPS, mm)");
   app.add_flag("--json", o->json, "Print the result as one JSON object on stdout");

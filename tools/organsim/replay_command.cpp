@@ -196,9 +196,9 @@ Command add_replay_command(CLI::App& app) {
   app.add_option("--frames", o->frames_dir, "Write the deformed surface of every frame (VTP + frames.pvd) into this directory");
   app.add_flag("--fast", o->fast, "Step the loops deterministically as fast as possible (bit-identical forces)");
   app.add_flag("--json", o->json, "Print the summary as one JSON object on stdout");
-  app.add_option("--max-force", o->max_force, "Device force limit, N")->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--max-force", o->max_force, "Device force limit, N")->check(kPositive)->capture_default_str();
   app.add_option("--max-stiffness", o->max_stiffness, "Device stiffness limit, N/m")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str();
   return [o] { return run_replay(*o); };
 }

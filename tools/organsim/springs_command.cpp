@@ -223,35 +223,35 @@ Command add_springs_command(CLI::App& app) {
   auto o = std::make_shared<SpringsOptions>();
   app.add_option("MODEL", o->model_path, "Model file (.organ); or --grid for the paper's flat grid");
   app.add_option("--grid", o->grid, "Flat grid of N columns (x) by M rows (y), vertex (i, j) at index i + N·j");
-  app.add_option("--spacing", o->spacing_mm, "Grid spacing, mm")->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--spacing", o->spacing_mm, "Grid spacing, mm")->check(kPositive)->capture_default_str();
   app.add_option("--integrator", o->integrator, "euler, midpoint, rk4, symplectic or implicit")
       ->check(CLI::IsMember({"euler", "midpoint", "rk4", "symplectic", "implicit"}))
       ->capture_default_str();
-  app.add_option("--dt", o->dt, "Time step, s")->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--dt", o->dt, "Time step, s")->check(kPositive)->capture_default_str();
   app.add_option("--steps", o->steps, "Number of steps")->check(CLI::Range(1L, 100000000L))->capture_default_str();
   app.add_option_function<double>(
          "--mass", [o](double m) { o->mass = m, o->mass_given = true; },
          "Mass per vertex, kg (default: 0.01 on a grid; density x volume on a model)")
-      ->check(CLI::PositiveNumber);
+      ->check(kPositive);
   app.add_option("--gravity", o->gravity, "Gravity along -z, m/s^2")->capture_default_str();
   app.add_option("--stiffness", o->stiffness, "Spring constants KS,KSH,KB (structural, shear, bending), N/m")
       ->delimiter(',')
       ->expected(3)
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str();
   app.add_option("--damping", o->damping, "Spring damping CS,CSH,CB, N s/m (a model: default 0.1 x critical)")
       ->delimiter(',')
       ->expected(3)
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   app.add_option("--point-damping", o->point_damping, "Damping of every point's velocity, N s/m")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   app.add_option("--body-factor", o->body_factor, "Body springs: this x the surface springs (0: none)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   app.add_option("--force", o->force, "External force FX,FY,FZ, N (default 0,0,-5)")->delimiter(',')->expected(3);
-  app.add_option("--at", o->at, "Vertex the force acts on (default: the centre vertex)")->check(CLI::NonNegativeNumber);
+  app.add_option("--at", o->at, "Vertex the force acts on (default: the centre vertex)")->check(kNonNegative);
   app.add_option("--fixed", o->fixed, "border: fix the grid's border (a model: the surface near its fixed point); none")
       ->check(CLI::IsMember({"border", "none"}))
       ->capture_default_str();
@@ -259,7 +259,7 @@ Command add_springs_command(CLI::App& app) {
       ->check(CLI::IsMember({"all", "dynamic"}))
       ->capture_default_str();
   app.add_option("--threshold", o->threshold, "Dynamic region: displacement (m) that activates the neighbours")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str();
   app.add_flag("--json", o->json, "Print one JSON object (positions, steps, time_per_step_us, active_vertices, energy, stable)");
   app.add_option("--out", o->out_path, "Write the final surface as VTK PolyData (.vtp)");

@@ -288,8 +288,8 @@ Command add_view_command(CLI::App& app) {
   app.add_option("--screenshot", o->screenshot_path, "Write a PNG of the last frame");
   app.add_option("--record", o->record_path, "Record every frame into a Motion-JPEG AVI");
   app.add_flag("--offscreen", o->offscreen, "Render without a window (works under Xvfb)");
-  app.add_option("--frames", o->frames, "Stop after this many frames")->check(CLI::NonNegativeNumber);
-  app.add_option("--seconds", o->seconds, "With mouse tools: stop after this long")->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--frames", o->frames, "Stop after this many frames")->check(kNonNegative);
+  app.add_option("--seconds", o->seconds, "With mouse tools: stop after this long")->check(kPositive)->capture_default_str();
   app.add_option("--size", o->size, "Window size WIDTH,HEIGHT in pixels")->delimiter(',')->expected(2)->capture_default_str();
   app.add_flag("--hide-tools", o->hide_tools, "Draw the organ alone: no instruments, arrows or text");
   app.add_flag("--json", o->json, "Print a summary as one JSON object on stdout");
