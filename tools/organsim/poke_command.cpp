@@ -15,6 +15,7 @@
 #include "organsim/mesh_io/mesh_io.h"
 #include "organsim/model/model_file.h"
 #include "organsim/multibeam/multibeam.h"
+#include "organsim/realtime/deformation_model.h"
 
 namespace organsim::cli {
 namespace {
@@ -33,6 +34,8 @@ struct PokeOptions {
   double snap_distance_mm = 10.0;
   bool json = false;
   std::string out_path;
+  std::string deformation = "beam";
+  double settle_seconds = 2.0;  ///< mass-spring model: how long the press is held before the force is read
 };
 
 Eigen::Vector3d parse_triple(const std::string& text, const std::string& whole) {
@@ -65,19 +68,27 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-int run_poke(const PokeOptions& o) {
+/// What one press gave, whatever the model.
+struct ToolResult {
+  Eigen::Vector3d action_point = Eigen::Vector3d::Zero();  ///< m, rest surface
+  double snap_distance = 0.0;                              ///< m, from the tool point to the action point
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  double beam_length = 0.0;                                ///< m (multi-beam model only)
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();         ///< N on the tool
+};
+
+struct PokeResult {
+  std::vector<ToolResult> tools;
+  std::vector<model::Point3> positions, normals;
+  double attach_seconds = 0.0;  ///< per tool
+  double force_seconds = 0.0;   ///< per tool and force evaluation
+  double deform_seconds = 0.0;  ///< per deformation frame
+  int frames = 1;               ///< deformation frames to equilibrium
+};
+
+/// The multi-beam model: static, so one deformation gives the pressed organ.
+PokeResult press_beams(const multibeam::BeamOrgan& organ, const std::vector<ToolSpec>& tools, const PokeOptions& o) {
   using namespace organsim::multibeam;
-  std::vector<ToolSpec> tools;
-  for (const std::string& t : o.tools) tools.push_back(parse_tool(t));
-  if (tools.size() > kMaxTools) throw std::runtime_error(fmt::format("at most {} tools", kMaxTools));
-  if (!o.out_path.empty() && (o.out_path.size() < 4 || o.out_path.substr(o.out_path.size() - 4) != ".vtp"))
-    throw std::runtime_error("--out " + o.out_path + ": the deformed surface is written as VTK PolyData; name it .vtp");
-
-  model::OrganModel loaded = load_simulation_model("poke", o.model_path);
-  const std::vector<model::Triangle> file_triangles = loaded.surface_triangles;
-  const BeamOrgan organ(std::move(loaded));
-  const model::OrganModel& model = organ.model();
-
   MultiBeamOptions options;
   options.max_tools = static_cast<std::uint32_t>(tools.size());
   options.merge = o.merge == "sum" ? MergeRule::sum : MergeRule::influence;
@@ -85,6 +96,8 @@ int run_poke(const PokeOptions& o) {
   options.snap_distance = o.snap_distance_mm * 1e-3;
   MultiBeam beams(organ, options);
 
+  PokeResult r;
+  r.tools.resize(tools.size());
   std::vector<Eigen::Vector3d> displacements(tools.size());
   const auto attach_start = std::chrono::steady_clock::now();
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
@@ -94,26 +107,100 @@ int run_poke(const PokeOptions& o) {
     if (!displacements[i].allFinite())
       throw std::runtime_error(fmt::format("tool {} ({}): {}", i + 1, tools[i].text, describe(Status::not_finite)));
   }
-  const double attach_seconds = seconds_since(attach_start) / tools.size();
+  r.attach_seconds = seconds_since(attach_start) / tools.size();
 
-  std::vector<Eigen::Vector3d> forces(tools.size());
   constexpr int kForceRepeats = 1000;  // one call is too short to time alone
   const auto force_start = std::chrono::steady_clock::now();
-  for (int r = 0; r < kForceRepeats; ++r)
-    for (std::uint32_t i = 0; i < tools.size(); ++i) beams.force(i, displacements[i], forces[i]);
-  const double force_seconds = seconds_since(force_start) / (kForceRepeats * tools.size());
+  for (int repeat = 0; repeat < kForceRepeats; ++repeat)
+    for (std::uint32_t i = 0; i < tools.size(); ++i) beams.force(i, displacements[i], r.tools[i].force);
+  r.force_seconds = seconds_since(force_start) / (kForceRepeats * tools.size());
 
-  std::vector<model::Point3> positions(organ.vertex_count()), normals(organ.vertex_count());
+  r.positions.resize(organ.vertex_count());
+  r.normals.resize(organ.vertex_count());
   const auto deform_start = std::chrono::steady_clock::now();
-  const Status deformed = beams.deform(displacements.data(), positions.data(), normals.data(), positions.size());
-  const double deform_seconds = seconds_since(deform_start);
+  const Status deformed = beams.deform(displacements.data(), r.positions.data(), r.normals.data(), r.positions.size());
+  r.deform_seconds = seconds_since(deform_start);
   if (deformed != Status::ok) throw std::runtime_error(describe(deformed));
+  for (std::uint32_t i = 0; i < tools.size(); ++i) {
+    const ToolBeam& b = beams.beam(i);
+    r.tools[i].action_point = b.action.position;
+    r.tools[i].snap_distance = b.action.distance;
+    r.tools[i].normal = geometry::triangle_normal(organ.model(), b.action.triangle);
+    r.tools[i].beam_length = b.length;
+  }
+  return r;
+}
+
+/// The mass-spring model: dynamic, so the press is held while the organ
+/// settles (deformation frames of 1/60 s, as in the engine) and the force is
+/// read from the settled state.
+PokeResult press_springs(const multibeam::BeamOrgan& organ, const std::vector<ToolSpec>& tools, const PokeOptions& o) {
+  using namespace organsim::realtime;
+  const std::unique_ptr<DeformationModel> springs =
+      make_deformation_model(ModelKind::springs, organ, {}, SpringModelOptions{}, tools.size());
+  PokeResult r;
+  r.tools.resize(tools.size());
+  std::vector<ContactLinearization> contacts(tools.size());
+  std::vector<Eigen::Vector3d> displacements(tools.size());
+  const auto attach_start = std::chrono::steady_clock::now();
+  for (std::uint32_t i = 0; i < tools.size(); ++i) {
+    displacements[i] = tools[i].displacement_mm * 1e-3;
+    const Eigen::Vector3d point = tools[i].point_mm * 1e-3;
+    if (!point.allFinite() || !displacements[i].allFinite())
+      throw std::runtime_error(fmt::format("tool {} ({}): a coordinate is not a finite number", i + 1, tools[i].text));
+    const geometry::SurfacePoint nearest = organ.surface_tree().closest_point(point);
+    if ((nearest.position - point).norm() > o.snap_distance_mm * 1e-3)
+      throw std::runtime_error(fmt::format("tool {} ({}): the point is farther than {} mm from the organ's surface",
+                                           i + 1, tools[i].text, o.snap_distance_mm));
+    if (!springs->attach(i, nearest.position, contacts[i]))
+      throw std::runtime_error(fmt::format("tool {} ({}): the nearest node is clamped or held by another tool", i + 1,
+                                           tools[i].text));
+  }
+  r.attach_seconds = seconds_since(attach_start) / tools.size();
+  r.positions.resize(organ.vertex_count());
+  r.normals.resize(organ.vertex_count());
+  const auto deform_start = std::chrono::steady_clock::now();
+  r.frames = 0;
+  for (int frame = 0; frame < static_cast<int>(o.settle_seconds * 60.0 + 0.5); ++frame, ++r.frames)
+    if (!springs->step(1.0 / 60.0, displacements.data(), r.positions.data(), r.normals.data(), contacts.data()))
+      throw std::runtime_error("the mass-spring model could not move the organ (a displacement is not finite)");
+  r.deform_seconds = seconds_since(deform_start) / std::max(r.frames, 1);
+  if (springs->instabilities() > 0)
+    warn("poke", fmt::format("the mass-spring model diverged {} time(s) and was reset to rest", springs->instabilities()));
+  constexpr int kForceRepeats = 1000;
+  const auto force_start = std::chrono::steady_clock::now();
+  for (int repeat = 0; repeat < kForceRepeats; ++repeat)
+    for (std::uint32_t i = 0; i < tools.size(); ++i)
+      r.tools[i].force = contacts[i].force - contacts[i].stiffness * (displacements[i] - contacts[i].displacement);
+  r.force_seconds = seconds_since(force_start) / (kForceRepeats * tools.size());
+  for (std::uint32_t i = 0; i < tools.size(); ++i) {
+    r.tools[i].action_point = contacts[i].action_point;
+    r.tools[i].snap_distance = (contacts[i].action_point - tools[i].point_mm * 1e-3).norm();
+    r.tools[i].normal = contacts[i].normal;
+  }
+  return r;
+}
+
+int run_poke(const PokeOptions& o) {
+  std::vector<ToolSpec> tools;
+  for (const std::string& t : o.tools) tools.push_back(parse_tool(t));
+  if (tools.size() > multibeam::kMaxTools) throw std::runtime_error(fmt::format("at most {} tools", multibeam::kMaxTools));
+  if (!o.out_path.empty() && (o.out_path.size() < 4 || o.out_path.substr(o.out_path.size() - 4) != ".vtp"))
+    throw std::runtime_error("--out " + o.out_path + ": the deformed surface is written as VTK PolyData; name it .vtp");
+
+  model::OrganModel loaded = load_simulation_model("poke", o.model_path);
+  const std::vector<model::Triangle> file_triangles = loaded.surface_triangles;
+  const multibeam::BeamOrgan organ(std::move(loaded));
+  const model::OrganModel& model = organ.model();
+  const bool beam = o.deformation == "beam";
+  const PokeResult r = beam ? press_beams(organ, tools, o) : press_springs(organ, tools, o);
+  const std::vector<model::Point3>& positions = r.positions;
 
   double max_displacement = 0.0;
   std::size_t max_vertex = 0;  // in the runtime's numbering; reported in the file's
   for (std::size_t v = 0; v < positions.size(); ++v) {
-    const model::Point3& r = model.surface_vertices[v];
-    const double d = std::hypot(positions[v][0] - r[0], positions[v][1] - r[1], positions[v][2] - r[2]);
+    const model::Point3& rest = model.surface_vertices[v];
+    const double d = std::hypot(positions[v][0] - rest[0], positions[v][1] - rest[1], positions[v][2] - rest[2]);
     if (d > max_displacement) {
       max_displacement = d;
       max_vertex = v;
@@ -133,19 +220,20 @@ int run_poke(const PokeOptions& o) {
   if (o.json) {
     nlohmann::json j;
     j["model"] = o.model_path;
+    j["deformation_model"] = o.deformation;
     j["merge"] = o.merge;
     j["theory"] = o.theory;
     nlohmann::json list = nlohmann::json::array();
     for (std::uint32_t i = 0; i < tools.size(); ++i) {
-      const ToolBeam& b = beams.beam(i);
+      const ToolResult& t = r.tools[i];
       list.push_back({{"point_mm", triple(tools[i].point_mm)},
-                      {"action_point_mm", triple(b.action.position * 1e3)},
-                      {"snap_distance_mm", b.action.distance * 1e3},
-                      {"beam_length_mm", b.length * 1e3},
-                      {"normal", triple(geometry::triangle_normal(model, b.action.triangle))},
+                      {"action_point_mm", triple(t.action_point * 1e3)},
+                      {"snap_distance_mm", t.snap_distance * 1e3},
+                      {"beam_length_mm", beam ? nlohmann::json(t.beam_length * 1e3) : nlohmann::json(nullptr)},
+                      {"normal", triple(t.normal)},
                       {"displacement_mm", triple(tools[i].displacement_mm)},
-                      {"force_n", triple(forces[i])},
-                      {"force_magnitude_n", forces[i].norm()}});
+                      {"force_n", triple(t.force)},
+                      {"force_magnitude_n", t.force.norm()}});
     }
     j["tools"] = list;
     j["organ"] = {{"vertices", positions.size()},
@@ -154,30 +242,42 @@ int run_poke(const PokeOptions& o) {
                   {"rest_volume_ml", rest_volume * 1e6},
                   {"deformed_volume_ml", deformed_volume * 1e6},
                   {"volume_change_percent", volume_change * 100.0}};
-    j["seconds"] = {{"beam_per_tool", attach_seconds}, {"force_per_tool", force_seconds}, {"deformation", deform_seconds}};
+    j["seconds"] = {{"beam_per_tool", beam ? nlohmann::json(r.attach_seconds) : nlohmann::json(nullptr)},
+                    {"attach_per_tool", r.attach_seconds},
+                    {"force_per_tool", r.force_seconds},
+                    {"deformation", r.deform_seconds},
+                    {"frames", r.frames}};
     if (!o.out_path.empty()) j["deformed_surface"] = o.out_path;
     std::cout << j.dump() << '\n';
     return 0;
   }
   auto mm = [](const Eigen::Vector3d& v) { return fmt::format("({:.2f}, {:.2f}, {:.2f}) mm", v[0], v[1], v[2]); };
-  std::cout << fmt::format("{:<14}{} ({} vertices, {} stations per beam; E {:g} Pa, nu {:g}; {}, {} merge)\n", "model",
-                           o.model_path, positions.size(), organ.stations(), model.material.young_modulus,
-                           model.material.poisson_ratio, o.theory, o.merge);
+  if (beam)
+    std::cout << fmt::format("{:<14}{} ({} vertices, {} stations per beam; E {:g} Pa, nu {:g}; {}, {} merge)\n", "model",
+                             o.model_path, positions.size(), organ.stations(), model.material.young_modulus,
+                             model.material.poisson_ratio, o.theory, o.merge);
+  else
+    std::cout << fmt::format("{:<14}{} ({} vertices; E {:g} Pa; mass-spring, settled over {} frames of 1/60 s)\n",
+                             "model", o.model_path, positions.size(), model.material.young_modulus, r.frames);
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
-    const ToolBeam& b = beams.beam(i);
-    std::cout << fmt::format("{:<14}at {} -> action point {} (snapped {:.2f} mm), beam {:.1f} mm\n",
-                             fmt::format("tool {}", i + 1), mm(tools[i].point_mm), mm(b.action.position * 1e3),
-                             b.action.distance * 1e3, b.length * 1e3);
+    const ToolResult& t = r.tools[i];
+    std::cout << fmt::format("{:<14}at {} -> action point {} (snapped {:.2f} mm){}\n", fmt::format("tool {}", i + 1),
+                             mm(tools[i].point_mm), mm(t.action_point * 1e3), t.snap_distance * 1e3,
+                             beam ? fmt::format(", beam {:.1f} mm", t.beam_length * 1e3) : std::string(", held node"));
     std::cout << fmt::format("{:<14}press {} -> force on the tool ({:.4f}, {:.4f}, {:.4f}) N, |F| {:.4f} N\n", "",
-                             mm(tools[i].displacement_mm), forces[i][0], forces[i][1], forces[i][2], forces[i].norm());
+                             mm(tools[i].displacement_mm), t.force[0], t.force[1], t.force[2], t.force.norm());
   }
   std::cout << fmt::format("{:<14}max vertex displacement {:.2f} mm (vertex {}); volume {:.1f} -> {:.1f} mL ({:+.2f} %)\n",
                            "organ", max_displacement * 1e3, organ.file_vertex_index()[max_vertex], rest_volume * 1e6,
-                           deformed_volume * 1e6,
-                           volume_change * 100.0);
-  std::cout << fmt::format("{:<14}beam {:.1f} us per tool, force {:.3f} us per tool, deformation {:.3f} ms "
-                           "(first frame of a contact, normals included)\n",
-                           "time", attach_seconds * 1e6, force_seconds * 1e6, deform_seconds * 1e3);
+                           deformed_volume * 1e6, volume_change * 100.0);
+  if (beam)
+    std::cout << fmt::format("{:<14}beam {:.1f} us per tool, force {:.3f} us per tool, deformation {:.3f} ms "
+                             "(first frame of a contact, normals included)\n",
+                             "time", r.attach_seconds * 1e6, r.force_seconds * 1e6, r.deform_seconds * 1e3);
+  else
+    std::cout << fmt::format("{:<14}attach {:.1f} us per tool, force {:.3f} us per tool, deformation {:.3f} ms per frame "
+                             "(normals included)\n",
+                             "time", r.attach_seconds * 1e6, r.force_seconds * 1e6, r.deform_seconds * 1e3);
   if (!o.out_path.empty()) std::cout << fmt::format("{:<14}{} (LPS, mm)\n", "deformed", o.out_path);
   return 0;
 }
@@ -200,6 +300,10 @@ Command add_poke_command(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--snap-distance", o->snap_distance_mm, "Farthest a tool point may be from the surface, mm")
       ->check(kNonNegative)
+      ->capture_default_str();
+  add_deformation_model_option(app, o->deformation);
+  app.add_option("--settle", o->settle_seconds, "Mass-spring model: seconds the press is held before the force is read")
+      ->check(kPositive)
       ->capture_default_str();
   app.add_option("--out", o->out_path, "Write the deformed surface (.vtp, LPS, mm)");
   app.add_flag("--json", o->json, "Print the result as one JSON object on stdout");

@@ -1,9 +1,11 @@
 // `organsim poke`: the forces of a baked cylinder against beam theory, the JSON
 // keys, and bad tool arguments.
 #include <gtest/gtest.h>
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -108,6 +110,30 @@ TEST_F(Cli, PokeJsonHasTheDocumentedKeysAndWritesTheDeformedSurface) {
   ASSERT_EQ(text.exit_code, 0) << text.err;
   EXPECT_NE(text.out.find("force on the tool"), std::string::npos);
   EXPECT_NE(text.out.find("|F| 0.0141 N"), std::string::npos) << text.out;  // 3EIδ/L³ of the helper cylinder
+}
+
+TEST_F(Cli, PokeWithTheSpringModelPushesBackHarderTheDeeperItPresses) {
+  // The same press through the mass-spring model: the organ settles under the
+  // held node, and the force opposes the press and grows with its depth.
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  std::array<double, 2> pushed{};
+  for (int depth = 1; depth <= 2; ++depth) {
+    const CommandRun run = run_organsim(
+        "poke " + model + fmt::format(" --tool 80,30,0/0,{},0 --model springs --json", -2 * depth), dir_);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const nlohmann::json j = nlohmann::json::parse(run.out);
+    EXPECT_EQ(j["deformation_model"], "springs");
+    EXPECT_TRUE(j["tools"][0]["beam_length_mm"].is_null());
+    EXPECT_EQ(j["seconds"]["frames"], 120);  // 2 s of 1/60 s frames by default
+    const std::vector<double> force = j["tools"][0]["force_n"];
+    pushed[depth - 1] = force[1];  // the press goes along −y: the organ pushes back along +y
+    EXPECT_GT(force[1], 0.0) << run.out;
+    EXPECT_LT(std::abs(force[0]) + std::abs(force[2]), force[1]) << run.out;
+    EXPECT_NEAR(j["organ"]["max_displacement_mm"].get<double>(), 2.0 * depth, 0.5) << run.out;
+  }
+  // Nearly linear for small presses: twice as deep, about twice the force.
+  EXPECT_NEAR(pushed[1] / pushed[0], 2.0, 0.3);
 }
 
 TEST_F(Cli, PokeBadInputsFailWithOneLine) {
