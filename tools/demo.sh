@@ -2,7 +2,8 @@
 # README command (a): set up, build, and run the main job on the shipped sample:
 # a real CT with its liver label map -> organsim bake -> the model's summary ->
 # a static two-tool press (organsim poke) -> a replayed two-tool session in
-# real time (organsim replay) with forces and loop timings.
+# real time (organsim replay) with forces and loop timings, through the
+# multi-beam and the mass-spring models side by side.
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 bash "$repo/tools/setup.sh"
@@ -29,5 +30,8 @@ echo
 echo "== organsim replay: a recorded two-tool session through the real-time engine (1 kHz forces, 60 Hz deformation)"
 "$build/tools/organsim" replay "$out/liver.organ" "$repo/data_samples/liver_two_tools.session" \
   --forces "$out/liver_two_tools_forces.csv"
+echo
+echo "== organsim replay --model beam,springs: the same session through the multi-beam and the mass-spring models"
+"$build/tools/organsim" replay "$out/liver.organ" "$repo/data_samples/liver_two_tools.session" --model beam,springs
 echo
 echo "Outputs in $out (models; mask, surface and tetrahedra for 3D Slicer / ParaView in liver_intermediates/)."

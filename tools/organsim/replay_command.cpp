@@ -29,7 +29,7 @@ struct ReplayOptions {
   std::string model_path;
   std::string session_path;
   std::string merge = "influence";
-  std::string deformation = "beam";
+  std::vector<std::string> models{"beam"};
   std::string forces_path;
   std::string frames_dir;
   bool fast = false;
@@ -74,7 +74,157 @@ nlohmann::json timing_json(const Percentiles& p) {
   return {{"p50_ms", p.p50 * 1e3}, {"p99_ms", p.p99 * 1e3}, {"max_ms", p.max * 1e3}};
 }
 
+/// One model's run of the session.
+struct ModelRun {
+  std::string name;
+  std::vector<std::unique_ptr<ScriptedDevice>> devices;  ///< with the forces they received
+  std::vector<ToolTelemetry> telemetry;
+  std::vector<std::uint64_t> clamped, watchdog, non_finite;  ///< force-safety ticks per tool
+  RunTimings timings;
+  std::uint64_t refused = 0, instabilities = 0;
+};
+
+ModelRun run_model(const ReplayOptions& o, const std::string& name, const multibeam::BeamOrgan& organ,
+                   const Session& session, FrameWriter& frames) {
+  SafetyLimits limits;
+  limits.max_force = o.max_force;
+  limits.max_stiffness = o.max_stiffness;
+  EngineOptions options;
+  parse_model_kind(name, options.model);
+  options.beams.merge = o.merge == "sum" ? multibeam::MergeRule::sum : multibeam::MergeRule::influence;
+  const auto records = static_cast<std::size_t>(session.duration / options.force_period) + 16;
+  ModelRun run;
+  run.name = name;
+  std::vector<HapticDevice*> device_pointers;
+  for (const Trajectory& t : session.tools) {
+    run.devices.push_back(std::make_unique<ScriptedDevice>(t, limits, records));
+    device_pointers.push_back(run.devices.back().get());
+  }
+  Engine engine(organ, device_pointers, options);
+  run.timings = o.fast ? run_fast(engine, session.duration, [&] { frames.take(engine.surfaces()); })
+                       : run_realtime(engine, session.duration, [&] {
+                           frames.take(engine.surfaces());
+                           return true;
+                         });
+  if (!run.timings.priority_warning.empty() && !o.fast) warn("replay", run.timings.priority_warning);
+  for (std::size_t i = 0; i < run.devices.size(); ++i) {
+    run.telemetry.push_back(engine.telemetry(i));
+    run.clamped.push_back(engine.safety(i).clamp_count());
+    run.watchdog.push_back(engine.safety(i).stalled_count());
+    run.non_finite.push_back(engine.safety(i).non_finite_count());
+  }
+  run.refused = engine.refused_contacts();
+  run.instabilities = engine.model().instabilities();
+  if (run.instabilities > 0)
+    warn("replay", fmt::format("the {} model diverged {} time(s) and was reset to rest; use a smaller time step", name,
+                               run.instabilities));
+  return run;
+}
+
+void write_forces_csv(const ModelRun& run, const std::string& path) {
+  std::ostringstream csv;
+  csv << "t_s,tool,fx_n,fy_n,fz_n,in_contact\n";
+  for (std::size_t i = 0; i < run.devices.size(); ++i)
+    for (std::size_t r = 0; r < run.devices[i]->record_count(); ++r) {
+      const ForceRecord& f = run.devices[i]->record(r);
+      csv << fmt::format("{:.6f},{},{:.9g},{:.9g},{:.9g},{}\n", f.time, i + 1, f.force[0], f.force[1], f.force[2],
+                         f.in_contact ? 1 : 0);
+    }
+  io::write_file_atomically(path, csv.str());
+}
+
+void print_json(const ReplayOptions& o, const Session& session, const ModelRun& run, const FrameWriter& frames) {
+  const RunTimings& timings = run.timings;
+  const Percentiles period = percentiles(timings.force_periods), compute = percentiles(timings.force_computes);
+  nlohmann::json j;
+  j["model"] = o.model_path;
+  j["session"] = o.session_path;
+  j["mode"] = o.fast ? "fast" : "realtime";
+  j["merge"] = o.merge;
+  j["duration_s"] = session.duration;
+  j["wall_s"] = timings.wall_seconds;
+  nlohmann::json tools = nlohmann::json::array();
+  for (std::size_t i = 0; i < run.devices.size(); ++i)
+    tools.push_back({{"tool", i + 1},
+                     {"contacts", run.telemetry[i].contacts},
+                     {"peak_force_n", run.telemetry[i].peak_force},
+                     {"clamped_ticks", run.clamped[i]},
+                     {"watchdog_ticks", run.watchdog[i]},
+                     {"non_finite_forces", run.non_finite[i]}});
+  j["tools"] = tools;
+  j["force_loop"] = {{"ticks", timings.force_computes.size()},
+                     {"period", o.fast ? nlohmann::json(nullptr) : timing_json(period)},
+                     {"compute", timing_json(compute)},
+                     {"deadline_misses", timings.force_deadline_misses},
+                     {"realtime_priority", timings.realtime_priority}};
+  j["deformation_loop"] = {{"frames", timings.deformation_computes.size()},
+                           {"compute", timing_json(percentiles(timings.deformation_computes))}};
+  j["refused_contacts"] = run.refused;
+  j["deformation_model"] = run.name;
+  j["instabilities"] = run.instabilities;
+  if (!o.forces_path.empty()) j["forces_csv"] = o.forces_path;
+  if (!o.frames_dir.empty()) j["frames"] = {{"directory", o.frames_dir}, {"count", frames.count()}};
+  std::cout << j.dump() << '\n';
+}
+
+/// The text report: one column per model.
+void print_text(const ReplayOptions& o, const Session& session, const std::vector<ModelRun>& runs,
+                const FrameWriter& frames) {
+  const bool single = runs.size() == 1;
+  std::string names;
+  for (const ModelRun& run : runs) names += (names.empty() ? "" : ", ") + run.name;
+  std::cout << fmt::format("{:<16}{} with {} ({} model{}, {} tools, {:.2f} s, {} mode{})\n", "replay", o.session_path,
+                           o.model_path, names, single ? "" : "s", session.tools.size(), session.duration,
+                           o.fast ? "fast" : "real-time",
+                           runs.front().name == "beam" || !single ? ", " + o.merge + " merge" : std::string());
+  auto row = [&](const std::string& label, auto&& cell) {
+    std::string line = fmt::format("{:<16}", label);
+    for (std::size_t m = 0; m < runs.size(); ++m) {
+      const std::string text = cell(runs[m]);
+      line += single ? text : fmt::format("{:<52}", runs[m].name + ": " + text + "  ");
+    }
+    while (!line.empty() && line.back() == ' ') line.pop_back();
+    std::cout << line << '\n';
+  };
+  for (std::size_t i = 0; i < session.tools.size(); ++i)
+    row(fmt::format("tool {}", i + 1), [&](const ModelRun& run) {
+      return fmt::format("{} contact(s), peak force {:.3f} N{}", run.telemetry[i].contacts, run.telemetry[i].peak_force,
+                         run.clamped[i] > 0 ? fmt::format(" (clamped to {:.2f} N in {} ticks)", o.max_force, run.clamped[i])
+                                            : std::string());
+    });
+  row("force loop", [&](const ModelRun& run) {
+    const Percentiles compute = percentiles(run.timings.force_computes);
+    if (o.fast || !single)
+      return fmt::format("{} ticks, compute p50 {:.2f} us, p99 {:.2f} us{}", run.timings.force_computes.size(),
+                         compute.p50 * 1e6, compute.p99 * 1e6,
+                         single ? fmt::format(", max {:.2f} us", compute.max * 1e6) : std::string());
+    const Percentiles period = percentiles(run.timings.force_periods);
+    return fmt::format(
+        "{} ticks, period p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms; compute p50 {:.2f} us, p99 {:.2f} us, "
+        "max {:.2f} us; {} deadline misses (> 2 ms){}",
+        run.timings.force_computes.size(), period.p50 * 1e3, period.p99 * 1e3, period.max * 1e3, compute.p50 * 1e6,
+        compute.p99 * 1e6, compute.max * 1e6, run.timings.force_deadline_misses,
+        run.timings.realtime_priority ? ", real-time priority" : "");
+  });
+  if (!o.fast && !single)
+    row("force period", [&](const ModelRun& run) {
+      const Percentiles period = percentiles(run.timings.force_periods);
+      return fmt::format("p50 {:.3f}, p99 {:.3f}, max {:.3f} ms; {} misses", period.p50 * 1e3, period.p99 * 1e3,
+                         period.max * 1e3, run.timings.force_deadline_misses);
+    });
+  row("deformation", [&](const ModelRun& run) {
+    const Percentiles deform = percentiles(run.timings.deformation_computes);
+    return fmt::format("{} frames, compute p50 {:.3f} ms, p99 {:.3f} ms", run.timings.deformation_computes.size(),
+                       deform.p50 * 1e3, deform.p99 * 1e3);
+  });
+  if (!o.forces_path.empty()) std::cout << fmt::format("{:<16}{}\n", "forces", o.forces_path);
+  if (!o.frames_dir.empty())
+    std::cout << fmt::format("{:<16}{} frames in {} (frames.pvd for ParaView)\n", "surfaces", frames.count(), o.frames_dir);
+}
+
 int run_replay(const ReplayOptions& o) {
+  if (o.models.size() > 1 && (o.json || !o.forces_path.empty() || !o.frames_dir.empty()))
+    throw CLI::ValidationError("--model", "--json, --forces and --frames take one model; give --model beam or springs");
   if (!o.frames_dir.empty() && fs::exists(o.frames_dir) && !fs::is_directory(o.frames_dir))
     throw std::runtime_error("--frames " + o.frames_dir + " is a file; give a directory");
   model::OrganModel loaded = load_simulation_model("replay", o.model_path);
@@ -82,102 +232,15 @@ int run_replay(const ReplayOptions& o) {
   const std::vector<model::Triangle> file_triangles = loaded.surface_triangles;
   const multibeam::BeamOrgan organ(std::move(loaded));
 
-  SafetyLimits limits;
-  limits.max_force = o.max_force;
-  limits.max_stiffness = o.max_stiffness;
-  EngineOptions options;
-  parse_model_kind(o.deformation, options.model);
-  options.beams.merge = o.merge == "sum" ? multibeam::MergeRule::sum : multibeam::MergeRule::influence;
-  const auto records = static_cast<std::size_t>(session.duration / options.force_period) + 16;
-  std::vector<std::unique_ptr<ScriptedDevice>> devices;
-  std::vector<HapticDevice*> device_pointers;
-  for (const Trajectory& t : session.tools) {
-    devices.push_back(std::make_unique<ScriptedDevice>(t, limits, records));
-    device_pointers.push_back(devices.back().get());
-  }
-  Engine engine(organ, device_pointers, options);
   FrameWriter frames(o.frames_dir, organ, file_triangles);
-
-  const RunTimings timings = o.fast ? run_fast(engine, session.duration, [&] { frames.take(engine.surfaces()); })
-                                    : run_realtime(engine, session.duration, [&] {
-                                        frames.take(engine.surfaces());
-                                        return true;
-                                      });
+  std::vector<ModelRun> runs;
+  for (const std::string& name : o.models) runs.push_back(run_model(o, name, organ, session, frames));
   frames.finish();
-  if (!timings.priority_warning.empty() && !o.fast) warn("replay", timings.priority_warning);
-
-  if (!o.forces_path.empty()) {
-    std::ostringstream csv;
-    csv << "t_s,tool,fx_n,fy_n,fz_n,in_contact\n";
-    for (std::size_t i = 0; i < devices.size(); ++i)
-      for (std::size_t r = 0; r < devices[i]->record_count(); ++r) {
-        const ForceRecord& f = devices[i]->record(r);
-        csv << fmt::format("{:.6f},{},{:.9g},{:.9g},{:.9g},{}\n", f.time, i + 1, f.force[0], f.force[1], f.force[2],
-                           f.in_contact ? 1 : 0);
-      }
-    io::write_file_atomically(o.forces_path, csv.str());
-  }
-
-  const Percentiles period = percentiles(timings.force_periods), compute = percentiles(timings.force_computes);
-  const Percentiles deform = percentiles(timings.deformation_computes);
-  if (o.json) {
-    nlohmann::json j;
-    j["model"] = o.model_path;
-    j["session"] = o.session_path;
-    j["mode"] = o.fast ? "fast" : "realtime";
-    j["merge"] = o.merge;
-    j["duration_s"] = session.duration;
-    j["wall_s"] = timings.wall_seconds;
-    nlohmann::json tools = nlohmann::json::array();
-    for (std::size_t i = 0; i < devices.size(); ++i)
-      tools.push_back({{"tool", i + 1},
-                       {"contacts", engine.telemetry(i).contacts},
-                       {"peak_force_n", engine.telemetry(i).peak_force},
-                       {"clamped_ticks", engine.safety(i).clamp_count()},
-                       {"watchdog_ticks", engine.safety(i).stalled_count()},
-                       {"non_finite_forces", engine.safety(i).non_finite_count()}});
-    j["tools"] = tools;
-    j["force_loop"] = {{"ticks", timings.force_computes.size()},
-                       {"period", o.fast ? nlohmann::json(nullptr) : timing_json(period)},
-                       {"compute", timing_json(compute)},
-                       {"deadline_misses", timings.force_deadline_misses},
-                       {"realtime_priority", timings.realtime_priority}};
-    j["deformation_loop"] = {{"frames", timings.deformation_computes.size()}, {"compute", timing_json(deform)}};
-    j["refused_contacts"] = engine.refused_contacts();
-    j["deformation_model"] = o.deformation;
-    j["instabilities"] = engine.model().instabilities();
-    if (!o.forces_path.empty()) j["forces_csv"] = o.forces_path;
-    if (!o.frames_dir.empty()) j["frames"] = {{"directory", o.frames_dir}, {"count", frames.count()}};
-    std::cout << j.dump() << '\n';
-    return 0;
-  }
-  std::cout << fmt::format("{:<16}{} with {} ({} model, {} tools, {:.2f} s, {} mode{})\n", "replay", o.session_path,
-                           o.model_path, o.deformation, devices.size(), session.duration, o.fast ? "fast" : "real-time",
-                           options.model == ModelKind::beam ? ", " + o.merge + " merge" : std::string());
-  if (engine.model().instabilities() > 0)
-    warn("replay", fmt::format("the {} model diverged {} time(s) and was reset to rest; use a smaller time step",
-                               o.deformation, engine.model().instabilities()));
-  for (std::size_t i = 0; i < devices.size(); ++i)
-    std::cout << fmt::format("{:<16}{} contact(s), peak force {:.3f} N{}\n", fmt::format("tool {}", i + 1),
-                             engine.telemetry(i).contacts, engine.telemetry(i).peak_force,
-                             engine.safety(i).clamp_count() > 0 ? fmt::format(" (clamped to {:.2f} N in {} ticks)",
-                                                                              o.max_force, engine.safety(i).clamp_count())
-                                                                : std::string());
-  if (o.fast)
-    std::cout << fmt::format("{:<16}{} ticks, compute p50 {:.2f} us, p99 {:.2f} us, max {:.2f} us\n", "force loop",
-                             timings.force_computes.size(), compute.p50 * 1e6, compute.p99 * 1e6, compute.max * 1e6);
+  if (!o.forces_path.empty()) write_forces_csv(runs.front(), o.forces_path);
+  if (o.json)
+    print_json(o, session, runs.front(), frames);
   else
-    std::cout << fmt::format(
-        "{:<16}{} ticks, period p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms; compute p50 {:.2f} us, p99 {:.2f} us, "
-        "max {:.2f} us; {} deadline misses (> 2 ms){}\n",
-        "force loop", timings.force_computes.size(), period.p50 * 1e3, period.p99 * 1e3, period.max * 1e3,
-        compute.p50 * 1e6, compute.p99 * 1e6, compute.max * 1e6, timings.force_deadline_misses,
-        timings.realtime_priority ? ", real-time priority" : "");
-  std::cout << fmt::format("{:<17} {} frames, compute p50 {:.3f} ms, p99 {:.3f} ms\n", "deformation loop",
-                           timings.deformation_computes.size(), deform.p50 * 1e3, deform.p99 * 1e3);
-  if (!o.forces_path.empty()) std::cout << fmt::format("{:<16}{}\n", "forces", o.forces_path);
-  if (!o.frames_dir.empty())
-    std::cout << fmt::format("{:<16}{} frames in {} (frames.pvd for ParaView)\n", "surfaces", frames.count(), o.frames_dir);
+    print_text(o, session, runs, frames);
   return 0;
 }
 
@@ -188,7 +251,12 @@ Command add_replay_command(CLI::App& app) {
   app.add_option("model", o->model_path, "Model file (.organ)")->required();
   app.add_option("session", o->session_path, "Session file: recorded tool trajectories (docs/session-format.md)")
       ->required();
-  add_deformation_model_option(app, o->deformation);
+  app.add_option("--model", o->models,
+                 "Deformation model: beam (multi-beam) or springs (mass-spring); beam,springs replays the session "
+                 "through both and reports them side by side")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"beam", "springs"}))
+      ->capture_default_str();
   app.add_option("--merge", o->merge, "How beams combine: influence (eq. 7) or sum (eq. 5)")
       ->check(CLI::IsMember({"influence", "sum"}))
       ->capture_default_str();

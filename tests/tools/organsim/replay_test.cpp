@@ -165,6 +165,23 @@ TEST_F(Cli, ReplayWithTheSpringModelIsBitIdenticalAndPushesBack) {
   EXPECT_GT(csv[0].size(), 1000u);
 }
 
+TEST_F(Cli, ReplayThroughBothModelsReportsThemSideBySide) {
+  const auto [model, session] = write_cylinder_and_two_tool_press(dir_);
+  const CommandRun both = run_organsim("replay " + model + " " + session.string() + " --model beam,springs --fast", dir_);
+  ASSERT_EQ(both.exit_code, 0) << both.err;
+  for (const char* row : {"tool 1 ", "tool 2 ", "force loop ", "deformation "}) {
+    const std::size_t at = both.out.find(row);
+    ASSERT_NE(at, std::string::npos) << row << "\n" << both.out;
+    const std::string line = both.out.substr(at, both.out.find('\n', at) - at);
+    EXPECT_LT(line.find("beam: "), line.find("springs: ")) << line;  // one column per model, in the order given
+  }
+  // The files and the JSON document describe one run: one model only.
+  const CommandRun json =
+      run_organsim("replay " + model + " " + session.string() + " --model beam,springs --fast --json", dir_);
+  EXPECT_EQ(json.exit_code, 2);
+  EXPECT_NE(json.err.find("take one model"), std::string::npos) << json.err;
+}
+
 TEST_F(Cli, ReplayBadInputsFailWithOneLine) {
   const std::string model = (dir_ / "cylinder.organ").string();
   model::write_organ_model_file(testing::make_cylinder_model({}), model);
