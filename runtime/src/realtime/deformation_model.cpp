@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include <Eigen/Eigenvalues>
+
 #include "organsim/geometry/model_measures.h"
 
 namespace organsim::realtime {
@@ -121,7 +123,13 @@ class SpringModel final : public DeformationModel {
   void linearize(std::uint32_t node, ContactLinearization& contact) const noexcept {
     contact.displacement = simulation_.position(node) - simulation_.network().rest[node];
     contact.force = simulation_.reaction_force(node);
-    contact.stiffness = simulation_.contact_stiffness(node);
+    // Compressed springs make the Jacobian indefinite (their geometric term
+    // 1 − l⁰/l is negative); rendered as is, such a direction would push the
+    // hand further in. The device gets the positive part.
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(
+        0.5 * (simulation_.contact_stiffness(node) + simulation_.contact_stiffness(node).transpose()));
+    contact.stiffness = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() *
+                        eigen.eigenvectors().transpose();
   }
 
   const multibeam::BeamOrgan& organ_;
