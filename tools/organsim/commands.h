@@ -15,6 +15,7 @@ using Command = std::function<int()>;
 Command add_bake_command(CLI::App& app);
 Command add_info_command(CLI::App& app);
 Command add_phantom_command(CLI::App& app);
+Command add_plot_command(CLI::App& app);
 Command add_poke_command(CLI::App& app);
 Command add_replay_command(CLI::App& app);
 Command add_springs_command(CLI::App& app);

@@ -1,0 +1,155 @@
+// Line plots (line_plot.h): a vtkChartXY in an off-screen vtkContextView,
+// grabbed with vtkWindowToImageFilter and written with vtkPNGWriter into an
+// io::AtomicFile.
+#include "line_plot.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <vtkAxis.h>
+#include <vtkChartLegend.h>
+#include <vtkChartXY.h>
+#include <vtkContextScene.h>
+#include <vtkContextView.h>
+#include <vtkDoubleArray.h>
+#include <vtkNew.h>
+#include <vtkPNGWriter.h>
+#include <vtkPen.h>
+#include <vtkPlot.h>
+#include <vtkRenderWindow.h>
+#include <vtkRenderer.h>
+#include <vtkSmartPointer.h>
+#include <vtkTable.h>
+#include <vtkTextProperty.h>
+#include <vtkWindowToImageFilter.h>
+
+#include "organsim/io/atomic_file.h"
+
+namespace organsim::plot {
+namespace {
+
+// Matplotlib's "tab10" colours: distinct, and readable on white.
+constexpr std::array<std::array<unsigned char, 3>, 10> kColours{{{31, 119, 180},
+                                                                  {255, 127, 14},
+                                                                  {44, 160, 44},
+                                                                  {214, 39, 40},
+                                                                  {148, 103, 189},
+                                                                  {140, 86, 75},
+                                                                  {227, 119, 194},
+                                                                  {127, 127, 127},
+                                                                  {188, 189, 34},
+                                                                  {23, 190, 207}}};
+
+void check(const std::vector<Series>& series, int width, int height) {
+  if (series.empty()) throw std::invalid_argument("write_line_plot_png: no series to plot");
+  if (width < 64 || width > 8192 || height < 64 || height > 8192)
+    throw std::invalid_argument("write_line_plot_png: the picture must be 64 to 8192 pixels wide and high (got " +
+                                std::to_string(width) + "x" + std::to_string(height) + ")");
+  for (const Series& s : series) {
+    if (s.x.size() != s.y.size())
+      throw std::invalid_argument("write_line_plot_png: series '" + s.name + "' has " + std::to_string(s.x.size()) +
+                                  " x values but " + std::to_string(s.y.size()) + " y values");
+    if (s.x.empty()) throw std::invalid_argument("write_line_plot_png: series '" + s.name + "' has no points");
+    for (std::size_t i = 0; i < s.x.size(); ++i)
+      if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i]))
+        throw std::invalid_argument("write_line_plot_png: series '" + s.name + "' has a non-finite value at point " +
+                                    std::to_string(i + 1));
+  }
+}
+
+/// Fixes an axis whose data span nothing (a constant series) to a visible range.
+void widen_if_flat(vtkAxis* axis, double low, double high) {
+  if (high > low) return;
+  const double pad = low == 0.0 ? 1.0 : 0.1 * std::abs(low);
+  axis->SetBehavior(vtkAxis::FIXED);
+  axis->SetRange(low - pad, high + pad);
+}
+
+}  // namespace
+
+void write_line_plot_png(const std::vector<Series>& series, const std::string& title, const std::string& x_label,
+                         const std::string& y_label, const std::string& png_path, int width, int height) {
+  check(series, width, height);
+  const char* display = std::getenv("DISPLAY");
+  if (display == nullptr || *display == '\0')
+    throw std::runtime_error("no X display to render the plot " + png_path +
+                             " on (VTK renders off screen through X here): run under xvfb-run -a");
+
+  vtkNew<vtkContextView> view;
+  vtkRenderWindow* window = view->GetRenderWindow();
+  window->SetOffScreenRendering(1);
+  window->SetSize(width, height);
+  window->SetMultiSamples(0);
+  view->GetRenderer()->SetBackground(1.0, 1.0, 1.0);
+
+  vtkNew<vtkChartXY> chart;
+  view->GetScene()->AddItem(chart);
+  chart->SetTitle(title);
+  chart->GetTitleProperties()->SetFontSize(16);
+  chart->GetTitleProperties()->SetBold(true);
+  vtkAxis* x_axis = chart->GetAxis(vtkAxis::BOTTOM);
+  vtkAxis* y_axis = chart->GetAxis(vtkAxis::LEFT);
+  x_axis->SetTitle(x_label);
+  y_axis->SetTitle(y_label);
+  for (vtkAxis* axis : {x_axis, y_axis}) {
+    axis->GetTitleProperties()->SetFontSize(14);
+    axis->GetTitleProperties()->SetBold(false);
+    axis->GetLabelProperties()->SetFontSize(12);
+  }
+  chart->SetShowLegend(series.size() > 1);
+  chart->GetLegend()->GetLabelProperties()->SetFontSize(12);
+
+  double x_low = std::numeric_limits<double>::infinity(), x_high = -x_low, y_low = x_low, y_high = -x_low;
+  std::vector<vtkSmartPointer<vtkTable>> tables;
+  for (std::size_t k = 0; k < series.size(); ++k) {
+    const Series& s = series[k];
+    vtkNew<vtkDoubleArray> x, y;
+    x->SetName(x_label.empty() ? "x" : x_label.c_str());
+    y->SetName(s.name.empty() ? "y" : s.name.c_str());
+    x->SetNumberOfValues(static_cast<vtkIdType>(s.x.size()));
+    y->SetNumberOfValues(static_cast<vtkIdType>(s.y.size()));
+    for (std::size_t i = 0; i < s.x.size(); ++i) {
+      x->SetValue(static_cast<vtkIdType>(i), s.x[i]);
+      y->SetValue(static_cast<vtkIdType>(i), s.y[i]);
+      x_low = std::min(x_low, s.x[i]), x_high = std::max(x_high, s.x[i]);
+      y_low = std::min(y_low, s.y[i]), y_high = std::max(y_high, s.y[i]);
+    }
+    auto table = vtkSmartPointer<vtkTable>::New();
+    table->AddColumn(x);
+    table->AddColumn(y);
+    tables.push_back(table);
+    vtkPlot* line = chart->AddPlot(vtkChart::LINE);
+    line->SetInputData(table, 0, 1);
+    const auto& colour = kColours[k % kColours.size()];
+    line->SetColor(colour[0], colour[1], colour[2], 255);
+    line->SetWidth(2.0);
+    // Series past the palette's length are told apart by their dash pattern.
+    if (k >= kColours.size()) line->GetPen()->SetLineType(vtkPen::DASH_LINE);
+  }
+  widen_if_flat(x_axis, x_low, x_high);
+  widen_if_flat(y_axis, y_low, y_high);
+
+  window->Render();
+  vtkNew<vtkWindowToImageFilter> grab;
+  grab->SetInput(window);
+  grab->SetInputBufferTypeToRGB();
+  grab->ReadFrontBufferOff();
+  grab->Update();
+
+  io::AtomicFile file(png_path, ".png");
+  vtkNew<vtkPNGWriter> writer;
+  writer->SetCompressionLevel(9);
+  writer->SetFileName(file.temp_path().c_str());
+  writer->SetInputConnection(grab->GetOutputPort());
+  writer->Write();
+  if (writer->GetErrorCode() != 0) throw std::runtime_error("cannot write the plot " + png_path + " as PNG");
+  file.commit();
+}
+
+}  // namespace organsim::plot

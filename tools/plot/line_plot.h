@@ -1,0 +1,31 @@
+// Line plots as PNG files (VTK Charts, rendered off screen): the displacement
+// of a point over the steps, forces over time, any y(x) columns. Used by
+// `organsim plot` and the experiment scripts (tools/experiments/).
+//
+// VTK 9.1 as Debian builds it renders off screen through X only: without a
+// display, run under a virtual one (`xvfb-run -a organsim plot …`).
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace organsim::plot {
+
+/// One line: y over x, drawn in the legend as `name`.
+struct Series {
+  std::string name;
+  std::vector<double> x, y;
+};
+
+/// Draws the series as lines on one chart (axes scaled to fit all of them, a
+/// legend when there is more than one) and writes it atomically as a
+/// `width` × `height` PNG at `png_path` (io::AtomicFile: the file appears
+/// whole or not at all). Throws std::invalid_argument for no series, a series
+/// whose x and y differ in length or that is empty, a non-finite value (the
+/// message names the series and the point), or a size outside 64–8192 pixels;
+/// std::runtime_error when there is no X display (DISPLAY unset) or the file
+/// cannot be written.
+void write_line_plot_png(const std::vector<Series>& series, const std::string& title, const std::string& x_label,
+                         const std::string& y_label, const std::string& png_path, int width = 800, int height = 500);
+
+}  // namespace organsim::plot
