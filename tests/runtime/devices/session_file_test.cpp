@@ -68,6 +68,18 @@ class SessionFile : public ::testing::Test {
 
 constexpr const char* kHeader = "# organsim session 1\n";
 
+/// Reading `path` fails with an error that names the file (without a line) and says `phrase`.
+void expect_file_error(const std::string& path, const std::string& phrase) {
+  try {
+    read_session(path);
+    ADD_FAILURE() << "no error for " << path;
+  } catch (const std::runtime_error& e) {
+    const std::string message = e.what();
+    EXPECT_EQ(message.rfind(path + ": ", 0), 0u) << message;
+    EXPECT_NE(message.find(phrase), std::string::npos) << message;
+  }
+}
+
 TEST_F(SessionFile, ReadsTwoToolsWithAndWithoutShaftColumns) {
   // Tools interleave; comments and blank lines (anywhere after the header) are
   // ignored; tool 2 has shaft columns of any non-zero length.
@@ -223,15 +235,7 @@ TEST_F(SessionFile, AZeroShaftDirectionIsRejected) {
 TEST_F(SessionFile, EveryToolFromOneToNMustAppear) {
   // Tool 2 missing between 1 and 3: reported by number, after the whole file
   // was read (so with the file's name but no line).
-  const std::string path = write(std::string(kHeader) + "0,1,0,0,0\n0,3,0,0,0\n");
-  try {
-    read_session(path);
-    ADD_FAILURE() << "no error";
-  } catch (const std::runtime_error& e) {
-    const std::string message = e.what();
-    EXPECT_EQ(message.rfind(path + ": ", 0), 0u) << message;
-    EXPECT_NE(message.find("tool 2 has no samples"), std::string::npos) << message;
-  }
+  expect_file_error(write(std::string(kHeader) + "0,1,0,0,0\n0,3,0,0,0\n"), "tool 2 has no samples");
   // Only tool 2: tool 1 is missing.
   EXPECT_THROW(read_session(write(std::string(kHeader) + "0,2,0,0,0\n")), std::runtime_error);
 }
@@ -243,15 +247,7 @@ TEST_F(SessionFile, ASessionWithoutSamplesIsRejected) {
 }
 
 TEST_F(SessionFile, AMissingFileIsAnErrorNamingThePath) {
-  const std::string path = (dir_ / "no_such.session").string();
-  try {
-    read_session(path);
-    ADD_FAILURE() << "no error";
-  } catch (const std::runtime_error& e) {
-    const std::string message = e.what();
-    EXPECT_EQ(message.rfind(path + ": ", 0), 0u) << message;
-    EXPECT_NE(message.find("cannot open"), std::string::npos) << message;
-  }
+  expect_file_error((dir_ / "no_such.session").string(), "cannot open");
 }
 
 TEST_F(SessionFile, WriteThenReadRoundTripsToThePrintedPrecision) {
