@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # README command (a): set up, build, and run the main job on the shipped sample:
-# a real CT with its liver label map -> organsim bake -> the model's summary ->
+# a real CT with its liver label map -> organsim bake (and again from one seed,
+# no label map) -> the model's summary ->
 # a static two-tool press (organsim poke) -> a replayed two-tool session in
 # real time (organsim replay) with forces and loop timings, through the
 # multi-beam and the mass-spring models side by side.
@@ -16,7 +17,11 @@ echo "== organsim bake: real abdominal CT (TotalSegmentator sample, CC BY 4.0) +
 "$build/tools/organsim" bake "$sample/example_ct.nii.gz" --label "$sample/liver_mask_ct.nii.gz" \
   -o "$out/liver.organ" --intermediates "$out/liver_intermediates"
 echo
-echo "== organsim bake: the synthetic phantom, region growing from a seed, clamped at the portal vein entry"
+echo "== organsim bake: the same real CT from one seed, no label map (Dice against the label map printed)"
+"$build/tools/organsim" bake "$sample/example_ct.nii.gz" --seed-voxel 86,47,108 \
+  --reference "$sample/liver_mask_ct.nii.gz" -o "$out/liver_from_seed.organ"
+echo
+echo "== organsim bake: the synthetic phantom from a seed, clamped at the portal vein entry"
 "$build/tools/organsim" bake "$repo/data_samples/phantom_ct.nii.gz" --seed -65,5,0 \
   --fixed-point -29.76,16.10,-70.96 -o "$out/phantom_liver.organ"
 echo

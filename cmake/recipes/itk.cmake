@@ -6,7 +6,8 @@
 find_package(ITK 5.2 REQUIRED COMPONENTS
   ITKCommon ITKIOImageBase ITKIONIFTI ITKIONRRD ITKIOMeta ITKIOGDCM ITKImageGrid ITKImageIntensity
   ITKThresholding ITKRegionGrowing ITKBinaryMathematicalMorphology ITKMathematicalMorphology
-  ITKConnectedComponents ITKLabelMap ITKDistanceMap ITKImageStatistics)
+  ITKConnectedComponents ITKLabelMap ITKDistanceMap ITKImageStatistics ITKAnisotropicSmoothing ITKImageGradient
+  ITKWatersheds ITKImageFunction)
 add_library(organsim_itk INTERFACE)
 target_include_directories(organsim_itk SYSTEM INTERFACE ${ITK_INCLUDE_DIRS})
 target_link_libraries(organsim_itk INTERFACE ${ITK_LIBRARIES})

@@ -28,8 +28,17 @@ constexpr double kMetresPerMillimetre = 1e-3;
 constexpr double kMillilitresPerCubicMetre = 1e6;
 
 std::string format_triple(const std::array<double, 3>& v) { return fmt::format("{},{},{}", v[0], v[1], v[2]); }
-std::string format_triple(const std::array<long, 3>& v) { return fmt::format("{},{},{}", v[0], v[1], v[2]); }
 
+/// Seeds as the user gave them: "X,Y,Z mm" or "I,J,K voxel", separated by "; ".
+std::string seeds_text(const std::vector<SeedPoint>& seeds) {
+  std::string text;
+  for (const SeedPoint& seed : seeds) {
+    if (!text.empty()) text += "; ";
+    if (seed.point_mm) text += format_triple(*seed.point_mm) + " mm";
+    if (seed.voxel) text += fmt::format("{},{},{} voxel", (*seed.voxel)[0], (*seed.voxel)[1], (*seed.voxel)[2]);
+  }
+  return text;
+}
 /// Times the stages and tells the progress callback about them.
 class StageClock {
  public:
@@ -63,14 +72,13 @@ class StageClock {
 };
 
 void check_options(const BakeOptions& o) {
-  const bool label = !o.label_path.empty(), seed = o.seed_mm || o.seed_voxel;
-  if (label && seed) throw std::runtime_error("give either --label or a seed (--seed/--seed-voxel), not both");
+  const bool label = !o.label_path.empty(), seed = !o.seeded.seeds.empty();
+  if (label && seed) throw std::runtime_error("give either --label or seeds (--seed/--seed-voxel), not both");
   if (!label && !seed)
     throw std::runtime_error(
-        "no segmentation: give --label MASK (a label map) or --seed X,Y,Z / --seed-voxel I,J,K (region growing)");
-  if (o.seed_mm && o.seed_voxel) throw std::runtime_error("give either --seed or --seed-voxel, not both");
-  if (!(o.hu_low < o.hu_high))
-    throw std::runtime_error(fmt::format("--hu-window {},{} is empty; give LOW,HIGH with LOW < HIGH", o.hu_low, o.hu_high));
+        "no segmentation: give --label MASK (a label map) or --seed X,Y,Z / --seed-voxel I,J,K (a point in the organ)");
+  if (label && !o.seeded.background_seeds.empty())
+    throw std::runtime_error("background seeds go with --seed, not with a label map");
   const model::Material& m = o.material;
   if (!(std::isfinite(m.young_modulus) && m.young_modulus > 0.0))
     throw std::runtime_error(fmt::format("--young-modulus must be a positive number of pascals (got {})", m.young_modulus));
@@ -91,26 +99,32 @@ void check_options(const BakeOptions& o) {
 MaskImage::Pointer segment(const CtImage& ct, const BakeOptions& o, BakeReport& report) {
   MaskImage::Pointer mask;
   if (!o.label_path.empty()) {
-    mask = clean_mask(*read_label_mask(o.label_path, o.label_value, ct), o.closing_radius_mm.value_or(0.0));
+    mask = clean_mask(*read_label_mask(o.label_path, o.label_value, ct), o.label_closing_radius_mm);
     report.segmentation = fmt::format("label map (value {})", o.label_value);
   } else {
-    RegionGrowingOptions growing;
-    growing.seed_voxel = o.seed_voxel ? *o.seed_voxel : voxel_of_point(ct, *o.seed_mm);
-    growing.hu_low = o.hu_low;
-    growing.hu_high = o.hu_high;
-    growing.closing_radius_mm = o.closing_radius_mm.value_or(3.0);
-    growing.minimum_voxels = o.minimum_voxels;
-    mask = segment_by_region_growing(ct, growing);
-    report.segmentation = fmt::format("region growing from voxel ({}) in [{}, {}] HU", format_triple(growing.seed_voxel),
-                                      o.hu_low, o.hu_high);
+    SeededSegmentationOptions seeded = o.seeded;
+    seeded.minimum_voxels = o.minimum_voxels;
+    SeededSegmentation segmented = segment_from_seeds(ct, seeded);
+    mask = segmented.mask;
+    report.segmentation = fmt::format("seeds ({} in the organ, {} background)", o.seeded.seeds.size(),
+                                      o.seeded.background_seeds.size());
+    report.segmentation_warnings = segmented.report.warnings;
+    report.seeded = std::move(segmented.report);
   }
   report.mask_voxels = count_voxels(*mask);
   if (report.mask_voxels < o.minimum_voxels)
     throw std::runtime_error(fmt::format(
-        "the segmentation has only {} voxels (fewer than {}); check the label value or the seed and HU window",
+        "the segmentation has only {} voxels (fewer than {}); check the label value or the seeds",
         report.mask_voxels, o.minimum_voxels));
   const auto spacing = mask->GetSpacing();
   report.mask_volume_ml = static_cast<double>(report.mask_voxels) * spacing[0] * spacing[1] * spacing[2] * 1e-3;
+  if (!o.label_path.empty()) {
+    const auto [border, slices] = border_and_organ_slices(*mask);
+    report.segmentation_warnings = liver_plausibility_warnings(report.mask_volume_ml, border, slices);
+  }
+  if (!o.reference_label_path.empty())
+    report.reference_dice =
+        dice_coefficient(*mask, *read_label_mask(o.reference_label_path, o.reference_label_value, ct));
   return mask;
 }
 
@@ -161,7 +175,21 @@ class Intermediates {
 std::map<std::string, std::string> provenance_parameters(const BakeOptions& o, const BakeReport& report) {
   std::map<std::string, std::string> p;
   p["segmentation"] = report.segmentation;
-  p["closing_radius_mm"] = fmt::format("{}", o.closing_radius_mm.value_or(o.label_path.empty() ? 3.0 : 0.0));
+  if (o.label_path.empty()) {
+    const SeededSegmentationOptions& s = o.seeded;
+    p["seeds"] = seeds_text(s.seeds);
+    p["background_seeds"] = seeds_text(s.background_seeds);
+    p["hu_window"] = fmt::format("{},{}", report.seeded->hu_low, report.seeded->hu_high);
+    p["hu_window_source"] = report.seeded->window_given ? "given" : fmt::format("seed median -{}/+{} robust sigma", s.window_sigmas_below, s.window_sigmas_above);
+    p["working_spacing_mm"] = fmt::format("{}", s.working_spacing_mm);
+    p["smoothing"] = fmt::format("curvature anisotropic diffusion, {} iterations, conductance {}",
+                                 s.smoothing_iterations, s.smoothing_conductance);
+    p["opening_radius_mm"] = fmt::format("{}", s.opening_radius_mm);
+    p["reach_mm"] = fmt::format("{}", s.reach_mm);
+    p["closing_radius_mm"] = fmt::format("{}", s.closing_radius_mm);
+  } else {
+    p["closing_radius_mm"] = fmt::format("{}", o.label_closing_radius_mm);
+  }
   p["minimum_voxels"] = fmt::format("{}", o.minimum_voxels);
   p["fixed_point_mm"] = format_triple(report.fixed_point_mm);
   p["fixed_point_source"] = report.fixed_point_source;

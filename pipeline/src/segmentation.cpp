@@ -5,7 +5,6 @@
 #include <itkBinaryMorphologicalClosingImageFilter.h>
 #include <itkBinaryThresholdImageFilter.h>
 #include <itkConnectedComponentImageFilter.h>
-#include <itkConnectedThresholdImageFilter.h>
 #include <itkConstantPadImageFilter.h>
 #include <itkImageRegionConstIterator.h>
 #include <itkImageRegionIterator.h>
@@ -167,40 +166,6 @@ MaskImage::Pointer clean_mask(const MaskImage& mask, double closing_radius_mm) {
   itk::ImageRegionIterator<MaskImage> to(result, box);
   for (; !from.IsAtEnd(); ++from, ++to) to.Set(from.Get());
   return result;
-}
-
-MaskImage::Pointer segment_by_region_growing(const CtImage& ct, const RegionGrowingOptions& o) {
-  const auto size = ct.GetLargestPossibleRegion().GetSize();
-  CtImage::IndexType seed;
-  for (unsigned k = 0; k < 3; ++k) {
-    if (o.seed_voxel[k] < 0 || o.seed_voxel[k] >= static_cast<long>(size[k]))
-      throw std::runtime_error(fmt::format("seed voxel ({}, {}, {}) lies outside the volume ({}x{}x{} voxels); "
-                                           "choose a voxel inside the organ",
-                                           o.seed_voxel[0], o.seed_voxel[1], o.seed_voxel[2], size[0], size[1],
-                                           size[2]));
-    seed[k] = o.seed_voxel[k];
-  }
-  if (!(o.hu_low < o.hu_high))
-    throw std::runtime_error(fmt::format("HU window {},{} is empty; give LO,HI with LO < HI", o.hu_low, o.hu_high));
-  const double seed_hu = ct.GetPixel(seed);
-  if (seed_hu < o.hu_low || seed_hu > o.hu_high)
-    throw std::runtime_error(fmt::format("the seed voxel has {} HU, outside the window {},{}; move the seed into "
-                                         "the organ or widen --hu-window",
-                                         seed_hu, o.hu_low, o.hu_high));
-  auto grow = itk::ConnectedThresholdImageFilter<CtImage, MaskImage>::New();
-  grow->SetInput(&ct);
-  grow->SetSeed(seed);
-  grow->SetLower(static_cast<CtImage::PixelType>(std::ceil(o.hu_low)));
-  grow->SetUpper(static_cast<CtImage::PixelType>(std::floor(o.hu_high)));
-  grow->SetReplaceValue(1);
-  grow->Update();
-  MaskImage::Pointer mask = clean_mask(*grow->GetOutput(), o.closing_radius_mm);
-  const std::size_t voxels = count_voxels(*mask);
-  if (voxels < o.minimum_voxels)
-    throw std::runtime_error(fmt::format("the segmentation has only {} voxels (at least {} expected); check the seed "
-                                         "and --hu-window",
-                                         voxels, o.minimum_voxels));
-  return mask;
 }
 
 }  // namespace organsim::pipeline

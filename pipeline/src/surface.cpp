@@ -6,6 +6,7 @@
 #include <vtkImageData.h>
 #include <vtkPointData.h>
 #include <vtkPoints.h>
+#include <vtkPolyDataConnectivityFilter.h>
 #include <vtkPolyData.h>
 #include <vtkQuadricDecimation.h>
 #include <vtkSmartPointer.h>
@@ -88,40 +89,53 @@ Ptr<vtkImageData> to_vtk(const MaskImage& mask, const MaskImage::RegionType& box
   return image;
 }
 
-void check_closed_manifold(const geometry::SurfaceMesh& mesh) {
+/// The first edge that is not shared by exactly two consistently oriented
+/// triangles, as a message; empty for a closed, oriented manifold.
+std::string manifold_problem(const geometry::SurfaceMesh& mesh) {
   std::map<std::pair<std::uint32_t, std::uint32_t>, int> directed;
   for (const model::Triangle& t : mesh.triangles)
     for (int e = 0; e < 3; ++e) ++directed[{t[e], t[(e + 1) % 3]}];
   for (const auto& [edge, count] : directed) {
     const auto opposite = directed.find({edge.second, edge.first});
-    if (count != 1 || opposite == directed.end() || opposite->second != 1)
-      throw std::runtime_error(fmt::format(
-          "the extracted surface is not a closed, consistently oriented manifold (edge {}-{}); try more smoothing, "
-          "a larger --surface-vertices or a cleaner mask (--closing)",
-          edge.first, edge.second));
+    if (count != 1 || opposite == directed.end() || opposite->second != 1) {
+      const model::Point3& p = mesh.vertices[edge.first];
+      return fmt::format("edge {}-{} at ({:.1f}, {:.1f}, {:.1f}) mm {}", edge.first, edge.second, p[0] * 1e3,
+                         p[1] * 1e3, p[2] * 1e3,
+                         opposite == directed.end() ? "borders a hole" : "is shared by more than two triangles");
+    }
   }
+  return {};
 }
 
-}  // namespace
+/// The contour level between the values a block of factor³ voxels can take:
+/// a level equal to a voxel value puts surface vertices on grid points, where
+/// sheets of the surface touch and it stops being a manifold.
+double contour_level(long factor) {
+  const long voxels = factor * factor * factor;
+  return voxels % 2 == 0 ? (voxels / 2 - 0.5) / static_cast<double>(voxels) : 0.5;
+}
 
-geometry::SurfaceMesh extract_surface(const MaskImage& mask, const SurfaceOptions& options) {
-  const MaskImage::RegionType box = organ_bounding_box(mask, {0, 0, 0});
-  // Down-sample when full resolution would give far more vertices than the
-  // target: decimation, not contouring, dominates the cost on fine CTs.
-  const double faces = static_cast<double>(boundary_faces(mask, box));
-  const double oversampling = faces / (kVerticesPerTarget * static_cast<double>(options.target_vertices));
-  const long factor = std::clamp(static_cast<long>(std::ceil(std::sqrt(oversampling))), 1L, kLargestBlock);
+/// Flying edges, windowed-sinc smoothing and the largest connected sheet (a
+/// down-sampled thin bridge can part the organ into pieces; a model is one).
+Ptr<vtkPolyData> smoothed_contour(const MaskImage& mask, const MaskImage::RegionType& box, long factor,
+                                  const SurfaceOptions& options) {
   auto contour = Ptr<vtkFlyingEdges3D>::New();
   contour->SetInputData(to_vtk(mask, box, factor));
-  contour->SetValue(0, 0.5);
+  contour->SetValue(0, contour_level(factor));
   contour->ComputeNormalsOff();
   contour->ComputeGradientsOff();
   contour->ComputeScalarsOff();
-  contour->Update();
-  if (contour->GetOutput()->GetNumberOfCells() == 0) throw std::runtime_error("the segmentation is empty");
+  auto largest = Ptr<vtkPolyDataConnectivityFilter>::New();
+  largest->SetInputConnection(contour->GetOutputPort());
+  largest->SetExtractionModeToLargestRegion();
+  auto clean = Ptr<vtkCleanPolyData>::New();  // drops the points of the other pieces
+  clean->SetInputConnection(largest->GetOutputPort());
+  clean->PointMergingOff();
+  clean->Update();
+  if (clean->GetOutput()->GetNumberOfCells() == 0) throw std::runtime_error("the segmentation is empty");
 
   auto smooth = Ptr<vtkWindowedSincPolyDataFilter>::New();
-  smooth->SetInputConnection(contour->GetOutputPort());
+  smooth->SetInputConnection(clean->GetOutputPort());
   smooth->SetNumberOfIterations(options.smoothing_iterations);
   smooth->SetPassBand(options.smoothing_passband);
   smooth->NormalizeCoordinatesOn();
@@ -129,22 +143,26 @@ geometry::SurfaceMesh extract_surface(const MaskImage& mask, const SurfaceOption
   smooth->FeatureEdgeSmoothingOff();
   smooth->NonManifoldSmoothingOn();
   smooth->Update();
+  return smooth->GetOutput();
+}
 
-  Ptr<vtkPolyData> surface = smooth->GetOutput();
+Ptr<vtkPolyData> decimated(vtkPolyData* surface, std::size_t target_vertices) {
   const auto points = static_cast<std::size_t>(surface->GetNumberOfPoints());
-  if (points > options.target_vertices) {
-    auto decimate = Ptr<vtkQuadricDecimation>::New();
-    decimate->SetInputData(surface);
-    decimate->SetTargetReduction(1.0 - static_cast<double>(options.target_vertices) / points);
-    decimate->VolumePreservationOn();
-    auto clean = Ptr<vtkCleanPolyData>::New();
-    clean->SetInputConnection(decimate->GetOutputPort());
-    auto triangles = Ptr<vtkTriangleFilter>::New();
-    triangles->SetInputConnection(clean->GetOutputPort());
-    triangles->Update();
-    surface = triangles->GetOutput();
-  }
+  if (points <= target_vertices) return surface;
+  auto decimate = Ptr<vtkQuadricDecimation>::New();
+  decimate->SetInputData(surface);
+  decimate->SetTargetReduction(1.0 - static_cast<double>(target_vertices) / static_cast<double>(points));
+  decimate->VolumePreservationOn();
+  auto clean = Ptr<vtkCleanPolyData>::New();
+  clean->SetInputConnection(decimate->GetOutputPort());
+  auto triangles = Ptr<vtkTriangleFilter>::New();
+  triangles->SetInputConnection(clean->GetOutputPort());
+  triangles->Update();
+  return triangles->GetOutput();
+}
 
+/// VTK's scaled-index points into the patient frame (metres), outward triangles.
+geometry::SurfaceMesh to_mesh(vtkPolyData* surface, const MaskImage& mask) {
   geometry::SurfaceMesh mesh;
   const auto direction = mask.GetDirection();
   const auto origin = mask.GetOrigin();
@@ -167,8 +185,32 @@ geometry::SurfaceMesh extract_surface(const MaskImage& mask, const SurfaceOption
   // Flying edges' orientation depends on the image axes' handedness: make it outward.
   if (geometry::enclosed_volume(mesh.vertices, mesh.triangles) < 0)
     for (model::Triangle& t : mesh.triangles) std::swap(t[1], t[2]);
-  check_closed_manifold(mesh);
   return mesh;
+}
+
+}  // namespace
+
+geometry::SurfaceMesh extract_surface(const MaskImage& mask, const SurfaceOptions& options) {
+  const MaskImage::RegionType box = organ_bounding_box(mask, {0, 0, 0});
+  // Down-sample when full resolution would give far more vertices than the
+  // target: decimation, not contouring, dominates the cost on fine CTs.
+  const double faces = static_cast<double>(boundary_faces(mask, box));
+  const double oversampling = faces / (kVerticesPerTarget * static_cast<double>(options.target_vertices));
+  const long factor = std::clamp(static_cast<long>(std::ceil(std::sqrt(oversampling))), 1L, kLargestBlock);
+  const Ptr<vtkPolyData> surface = smoothed_contour(mask, box, factor, options);
+
+  // Quadric decimation can fold a thin part of the organ into edges shared by
+  // four triangles: then decimate less, and at last not at all.
+  std::string problem;
+  for (const std::size_t target : {options.target_vertices, 2 * options.target_vertices, std::size_t{0}}) {
+    geometry::SurfaceMesh mesh = to_mesh(target == 0 ? surface.Get() : decimated(surface, target).Get(), mask);
+    problem = manifold_problem(mesh);
+    if (problem.empty()) return mesh;
+  }
+  throw std::runtime_error(fmt::format(
+      "the extracted surface is not a closed, consistently oriented manifold even without decimation ({}); check the "
+      "mask there (--intermediates) or clean it with --closing",
+      problem));
 }
 
 std::vector<model::TexCoord> spherical_texture_coordinates(const std::vector<model::Point3>& vertices) {

@@ -42,7 +42,7 @@ void BM_BakePhantom512x512x200(benchmark::State& state) {
   const BigPhantom& phantom = big_phantom();
   organsim::pipeline::BakeOptions options;
   options.ct_path = phantom.ct_path;
-  options.seed_mm = phantom.seed_mm;
+  options.seeded.seeds = {organsim::pipeline::SeedPoint::at_mm(phantom.seed_mm)};
   options.surface.target_vertices = 5000;
   options.program_version = "bench";
   const std::string model_path = (fs::temp_directory_path() / "organsim_bench_phantom_512.organ").string();

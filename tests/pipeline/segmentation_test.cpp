@@ -11,56 +11,21 @@ const Phantom& phantom() {
   return p;
 }
 
-RegionGrowingOptions seeded_in_right_lobe() {
-  RegionGrowingOptions o;
-  o.seed_voxel = voxel_of_point(*phantom().ct, {-65.0, 5.0, 0.0});
-  return o;
-}
-
-TEST(Segmentation, RegionGrowingFindsThePhantomLiver) {
-  const MaskImage::Pointer mask = segment_by_region_growing(*phantom().ct, seeded_in_right_lobe());
-  const double dice = dice_coefficient(*mask, *phantom().liver_mask);
-  EXPECT_GE(dice, 0.95);
-  RecordProperty("dice", std::to_string(dice));
-}
-
-TEST(Segmentation, SeedOutsideTheVolumeOrTheWindowIsAClearError) {
-  EXPECT_THROW(
-      {
-        try {
-          voxel_of_point(*phantom().ct, {0.0, 0.0, 900.0});
-        } catch (const std::runtime_error& e) {
-          EXPECT_NE(std::string(e.what()).find("lies outside the volume"), std::string::npos) << e.what();
-          throw;
-        }
-      },
-      std::runtime_error);
-  RegionGrowingOptions outside = seeded_in_right_lobe();
-  outside.seed_voxel = {-1, 3, 3};
-  EXPECT_THROW(segment_by_region_growing(*phantom().ct, outside), std::runtime_error);
-  RegionGrowingOptions fat = seeded_in_right_lobe();
-  fat.seed_voxel = voxel_of_point(*phantom().ct, {0.0, -100.0, 0.0});  // visceral fat
-  try {
-    segment_by_region_growing(*phantom().ct, fat);
-    FAIL() << "a seed in fat was accepted";
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("outside the window"), std::string::npos) << e.what();
-  }
-}
-
-TEST(Segmentation, TinyAndEmptySegmentationsAreErrors) {
-  RegionGrowingOptions o = seeded_in_right_lobe();
-  o.minimum_voxels = 10000000;
-  try {
-    segment_by_region_growing(*phantom().ct, o);
-    FAIL() << "a tiny segmentation was accepted";
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("only"), std::string::npos) << e.what();
-  }
+TEST(Segmentation, EmptyMasksAreErrors) {
   auto empty = MaskImage::New();
   empty->SetRegions(phantom().liver_mask->GetLargestPossibleRegion());
   empty->Allocate(true);
   EXPECT_THROW(clean_mask(*empty, 2.0), std::runtime_error);
+  EXPECT_THROW(organ_bounding_box(*empty, {0, 0, 0}), std::runtime_error);
+}
+
+TEST(Segmentation, PointsOutsideTheVolumeAreAClearError) {
+  try {
+    voxel_of_point(*phantom().ct, {0.0, 0.0, 900.0});
+    FAIL() << "a point outside the volume was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("lies outside the volume"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Segmentation, CleaningKeepsTheLargestComponentAndFillsHoles) {

@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
+#include <numeric>
 
 #include "organsim/geometry/model_measures.h"
 #include "organsim/pipeline/surface.h"
@@ -42,6 +44,44 @@ TEST(Surface, EmptyMaskIsAnError) {
   const testing::Ellipsoid e;
   auto mask = testing::make_grid<MaskImage>(e, {4.0, 4.0, 4.0});
   EXPECT_THROW(extract_surface(*mask, SurfaceOptions{}), std::runtime_error);
+}
+
+/// Each directed edge once and its reverse once: closed, manifold, oriented.
+void expect_closed_oriented_manifold(const geometry::SurfaceMesh& mesh) {
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> directed;
+  for (const model::Triangle& t : mesh.triangles)
+    for (int e = 0; e < 3; ++e) ++directed[{t[e], t[(e + 1) % 3]}];
+  std::size_t bad = 0;
+  for (const auto& [edge, count] : directed) {
+    const auto opposite = directed.find({edge.second, edge.first});
+    bad += count != 1 || opposite == directed.end() || opposite->second != 1;
+  }
+  EXPECT_EQ(bad, 0u) << "edges not shared by exactly two consistently oriented triangles";
+  // One piece: every vertex reached from the first through the triangles.
+  std::vector<std::uint32_t> parent(mesh.vertices.size());
+  std::iota(parent.begin(), parent.end(), 0u);
+  const auto find = [&](std::uint32_t v) {
+    while (parent[v] != v) v = parent[v] = parent[parent[v]];
+    return v;
+  };
+  for (const model::Triangle& t : mesh.triangles) {
+    parent[find(t[1])] = find(t[0]);
+    parent[find(t[2])] = find(t[0]);
+  }
+  std::size_t pieces = 0;
+  for (std::uint32_t v = 0; v < parent.size(); ++v) pieces += find(v) == v;
+  EXPECT_EQ(pieces, 1u);
+  EXPECT_GT(geometry::enclosed_volume(mesh.vertices, mesh.triangles), 0.0);
+}
+
+TEST(Surface, AwkwardMaskGivesOneClosedManifoldAtEverySize) {
+  const MaskImage::Pointer mask = testing::make_awkward_mask();
+  for (const std::size_t target : {300u, 1000u, 3000u, 20000u}) {
+    SCOPED_TRACE(target);
+    SurfaceOptions options;
+    options.target_vertices = target;
+    expect_closed_oriented_manifold(extract_surface(*mask, options));
+  }
 }
 
 }  // namespace

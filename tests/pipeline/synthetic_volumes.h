@@ -78,4 +78,43 @@ inline MaskImage::Pointer make_ellipsoid_mask(const Ellipsoid& e, std::array<dou
   return mask;
 }
 
+/// A mask with what breaks marching cubes and decimation: two blocks joined by
+/// a one-voxel bridge, a handle (a ring on the first block), an interior
+/// cavity, a tunnel, a one-voxel spike, and voxels that touch the organ only
+/// along an edge or at a corner.
+inline MaskImage::Pointer make_awkward_mask() {
+  auto mask = MaskImage::New();
+  MaskImage::RegionType region;
+  region.SetSize({{90, 60, 60}});
+  mask->SetRegions(region);
+  MaskImage::SpacingType spacing;
+  spacing.Fill(1.5);
+  mask->SetSpacing(spacing);
+  mask->Allocate(true);
+  const auto set = [&](long i, long j, long k) { mask->SetPixel({{i, j, k}}, 1); };
+  const auto block = [&](long i0, long i1, long j0, long j1, long k0, long k1) {
+    for (long k = k0; k < k1; ++k)
+      for (long j = j0; j < j1; ++j)
+        for (long i = i0; i < i1; ++i) set(i, j, k);
+  };
+  block(8, 36, 12, 44, 12, 44);                        // first block
+  block(52, 80, 14, 42, 14, 42);                       // second block
+  for (long i = 36; i < 52; ++i) set(i, 28, 28);       // one-voxel bridge
+  for (long k = 44; k < 52; ++k) set(66, 28, k);       // one-voxel spike
+  for (long k = 20; k < 36; ++k)                        // a tunnel through the second block
+    for (long j = 24; j < 32; ++j)
+      for (long i = 14 + 52; i < 16 + 52; ++i) mask->SetPixel({{i, j, k}}, 0);
+  for (long k = 24; k < 30; ++k)                        // an interior cavity in the first block
+    for (long j = 24; j < 30; ++j)
+      for (long i = 18; i < 24; ++i) mask->SetPixel({{i, j, k}}, 0);
+  for (int a = 0; a < 360; ++a) {                      // a ring standing on the first block
+    const double t = a * M_PI / 180.0;
+    const long i = 22 + std::lround(10.0 * std::cos(t)), k = 44 + std::lround(10.0 * std::sin(t));
+    if (k >= 44) block(i, i + 2, 26, 30, k, k + 2);
+  }
+  set(7, 11, 20);   // touches the first block along an edge only
+  set(36, 44, 44);  // touches it at a corner only
+  return mask;
+}
+
 }  // namespace organsim::pipeline::testing

@@ -1,4 +1,5 @@
-// `organsim bake CT -o MODEL [segmentation] [fixed point] [mesh, beam, material options] [--json]`
+// `organsim bake CT -o MODEL [segmentation] [fixed point] [mesh, beam, material options] [--json]`;
+// the segmentation options are segment's (segmentation_options.h).
 #include <nlohmann/json.hpp>
 
 #include <chrono>
@@ -13,6 +14,7 @@
 #include "organsim/model/model_file.h"
 #include "organsim/pipeline/bake.h"
 #include "organsim/version.h"
+#include "segmentation_options.h"
 
 namespace organsim::cli {
 namespace {
@@ -20,7 +22,8 @@ namespace {
 struct BakeCommandOptions {
   pipeline::BakeOptions bake;
   std::string output_path;
-  std::vector<double> seed_mm, seed_voxel, hu_window{0.0, 150.0}, fixed_point_mm, fixed_point_voxel;
+  SegmentationCommandOptions segmentation;
+  std::vector<double> fixed_point_mm, fixed_point_voxel;
   double closing_radius_mm = -1.0;  // < 0: the default of the segmentation method
   bool json = false;
 };
@@ -69,6 +72,9 @@ nlohmann::ordered_json report_json(const pipeline::BakeReport& r, const model::O
   j["input_sha256"] = model.provenance.input_sha256;
   j["image"] = {{"size", r.image_size}, {"spacing_mm", r.image_spacing_mm}};
   j["segmentation"] = {{"method", r.segmentation}, {"voxels", r.mask_voxels}, {"volume_ml", r.mask_volume_ml}};
+  if (r.seeded) j["segmentation"]["seeded"] = seeded_segmentation_report_json(*r.seeded);
+  j["segmentation"]["warnings"] = r.segmentation_warnings;
+  if (r.reference_dice) j["segmentation"]["dice"] = *r.reference_dice;
   j["fixed_point"] = {{"position_mm", r.fixed_point_mm}, {"source", r.fixed_point_source}};
   if (r.fixed_point_source == "deepest interior point")
     j["fixed_point"]["depth_mm"] = r.fixed_point_depth_mm;
@@ -103,7 +109,9 @@ void print_report(const pipeline::BakeReport& r, const model::OrganModel& model,
   fmt::print("image           {}x{}x{} voxels of {:.3g}x{:.3g}x{:.3g} mm, SHA-256 {}\n", r.image_size[0],
              r.image_size[1], r.image_size[2], r.image_spacing_mm[0], r.image_spacing_mm[1], r.image_spacing_mm[2],
              model.provenance.input_sha256);
-  fmt::print("segmentation    {}: {} voxels\n", r.segmentation, r.mask_voxels);
+  fmt::print("segmentation    {}: {} voxels, {:.1f} mL\n", r.segmentation, r.mask_voxels, r.mask_volume_ml);
+  if (r.seeded) print_seeded_segmentation_report(*r.seeded);
+  if (r.reference_dice) fmt::print("Dice            {:.4f} against the reference label map\n", *r.reference_dice);
   fmt::print("fixed point     {:.2f},{:.2f},{:.2f} mm LPS ({}", r.fixed_point_mm[0], r.fixed_point_mm[1],
              r.fixed_point_mm[2], r.fixed_point_source);
   if (r.fixed_point_source == "deepest interior point")
@@ -130,14 +138,13 @@ void print_report(const pipeline::BakeReport& r, const model::OrganModel& model,
 
 int run_bake(BakeCommandOptions& o) {
   pipeline::BakeOptions& b = o.bake;
-  if (!o.seed_mm.empty()) b.seed_mm = std::array<double, 3>{o.seed_mm[0], o.seed_mm[1], o.seed_mm[2]};
-  if (!o.seed_voxel.empty()) b.seed_voxel = to_voxel(o.seed_voxel, "--seed-voxel");
+  b.seeded = seeded_segmentation_options(o.segmentation);
+  b.reference_label_path = o.segmentation.reference_path;
+  b.reference_label_value = o.segmentation.reference_value;
   if (!o.fixed_point_mm.empty())
     b.fixed_point_mm = std::array<double, 3>{o.fixed_point_mm[0], o.fixed_point_mm[1], o.fixed_point_mm[2]};
   if (!o.fixed_point_voxel.empty()) b.fixed_point_voxel = to_voxel(o.fixed_point_voxel, "--fixed-point-voxel");
-  b.hu_low = o.hu_window[0];
-  b.hu_high = o.hu_window[1];
-  if (o.closing_radius_mm >= 0.0) b.closing_radius_mm = o.closing_radius_mm;
+  if (o.closing_radius_mm >= 0.0) b.label_closing_radius_mm = b.seeded.closing_radius_mm = o.closing_radius_mm;
   b.program_version = kProgramVersion;
   b.output_path = o.output_path;
 
@@ -145,6 +152,7 @@ int run_bake(BakeCommandOptions& o) {
   pipeline::BakeProgress progress;
   if (verbosity() != Verbosity::quiet) progress = [&](const std::string& stage, double fraction) { printer(stage, fraction); };
   const pipeline::BakeResult result = pipeline::bake(b, progress);
+  for (const std::string& warning : result.report.segmentation_warnings) warn("bake", warning);
   const std::uintmax_t bytes = std::filesystem::file_size(o.output_path);
   if (o.json)
     fmt::print("{}\n", report_json(result.report, result.model, o.output_path, bytes).dump());
@@ -163,14 +171,10 @@ Command add_bake_command(CLI::App& app) {
   app.add_option("--series", b.series_uid, "Series instance UID, when the DICOM directory holds several series");
   app.add_option("--label", b.label_path, "Segmentation: a label map on the CT's grid (3D Slicer, TotalSegmentator)");
   app.add_option("--label-value", b.label_value, "The organ's value in the label map")->capture_default_str();
-  app.add_option("--seed", o->seed_mm, "Segmentation: region growing from this point X,Y,Z (LPS, mm)")
-      ->delimiter(',')->expected(3);
-  app.add_option("--seed-voxel", o->seed_voxel, "Segmentation: region growing from this voxel I,J,K")
-      ->delimiter(',')->expected(3);
-  app.add_option("--hu-window", o->hu_window, "Region-growing window LOW,HIGH in HU (liver: excludes fat and contrast)")
-      ->delimiter(',')->expected(2)->capture_default_str();
+  add_seeded_segmentation_options(app, o->segmentation);
   app.add_option("--closing", o->closing_radius_mm,
-                 "Morphological closing radius, mm (default: 3 after region growing, 0 for label maps)");
+                 "Morphological closing radius, mm (default: 3 after seeded segmentation, 0 for label maps)")
+      ->check(kNonNegative);
   app.add_option("--fixed-point", o->fixed_point_mm,
                  "Beam clamp X,Y,Z (LPS, mm; e.g. the portal vein entry), in or on the organ; default: the deepest "
                  "interior point")

@@ -29,7 +29,7 @@ void add_command(CLI::App& app, CommandTable& table, const char* name, const cha
 /// model and simulate it (and plot what they wrote). They link the runtime,
 /// never the offline pipeline.
 void add_simulation_commands(CLI::App& app, CommandTable& table);
-/// bake, phantom: the commands that run the offline pipeline
+/// bake, segment, phantom: the commands that run the offline pipeline
 /// (baking_commands.cpp, in the target that links the pipeline).
 void add_baking_commands(CLI::App& app, CommandTable& table);
 

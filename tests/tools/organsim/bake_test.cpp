@@ -105,7 +105,7 @@ TEST_F(Cli, BakeBadInputsFailWithOneLineAndLeaveNoModel) {
       {(dir_ / "two_series").string() + " --seed -65,5,0", "second series"},
       {ct + " --seed 900,0,0", "outside the volume"},
       {ct + " --seed-voxel 500,3,3", "outside the volume"},
-      {ct + " --seed 0,-100,0", "outside the window"},
+      {ct + " --seed 0,-100,0", "lies in fat"},
       {ct, "no segmentation"},
       {ct + " --label " + (kSamples / "phantom_liver_mask.nii.gz").string() + " --label-value 3", "label value 3"},
       {ct + " --label " + (kSamples / "real_ct_totalseg" / "liver_mask_ct.nii.gz").string(), "does not match"},

@@ -18,6 +18,7 @@
 #include "organsim/model/organ_model.h"
 #include "organsim/pipeline/beam_baking.h"
 #include "organsim/pipeline/ct_image.h"
+#include "organsim/pipeline/seeded_segmentation.h"
 #include "organsim/pipeline/surface.h"
 #include "organsim/pipeline/tetrahedra.h"
 
@@ -27,14 +28,14 @@ struct BakeOptions {
   std::string ct_path;     ///< DICOM series directory, NIfTI, NRRD or MHA/MHD
   std::string series_uid;  ///< chooses one series in a directory that holds several
 
-  // Segmentation: a label map, or region growing from a seed (physical point or voxel).
+  // Segmentation: a label map, or seeds (organsim/pipeline/seeded_segmentation.h).
   std::string label_path;
   int label_value = 1;
-  std::optional<std::array<double, 3>> seed_mm;     ///< LPS, mm
-  std::optional<std::array<long, 3>> seed_voxel;    ///< i, j, k
-  double hu_low = 0.0, hu_high = 150.0;             ///< region-growing window, HU
-  std::optional<double> closing_radius_mm;          ///< default: 3 mm after region growing, none for label maps
+  double label_closing_radius_mm = 0.0;             ///< closing applied to a label map, mm
+  SeededSegmentationOptions seeded;                 ///< used when there is no label map
   std::size_t minimum_voxels = 1000;                ///< smaller masks are an error
+  std::string reference_label_path;                 ///< when set: the report gives the Dice against this label map
+  int reference_label_value = 1;
 
   // The beams' clamp; default: the deepest interior point of the mask.
   std::optional<std::array<double, 3>> fixed_point_mm;
@@ -55,7 +56,10 @@ struct BakeOptions {
 struct BakeReport {
   std::array<std::size_t, 3> image_size{};
   std::array<double, 3> image_spacing_mm{};
-  std::string segmentation;  ///< "label map (value N)" or "region growing (...)"
+  std::string segmentation;  ///< "label map (value N)" or "seeds (N, M background)"
+  std::optional<SeededSegmentationReport> seeded;  ///< what the seeded segmentation did
+  std::vector<std::string> segmentation_warnings;  ///< the mask does not look like a whole liver
+  std::optional<double> reference_dice;            ///< against BakeOptions::reference_label_path
   std::size_t mask_voxels = 0;
   double mask_volume_ml = 0.0;
   std::array<double, 3> fixed_point_mm{};

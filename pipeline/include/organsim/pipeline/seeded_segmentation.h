@@ -1,0 +1,108 @@
+// Stage 2 of the pipeline, from seeds: the organ mask of a CT from one or more
+// points inside the organ (and optionally points in neighbouring structures
+// that must stay out), for when no label map exists.
+//
+// The method, each step an ITK filter (docs/segmentation.md has the why):
+//  1. working grid: voxels finer than `working_spacing_mm` are averaged in
+//     blocks (bin shrink), so a 512×512×200 CT costs what a 2 mm CT costs;
+//  2. edge-preserving smoothing (curvature anisotropic diffusion);
+//  3. a HU window from the seeds' neighbourhoods: the median − 4.5 to + 3
+//     robust σ (1.4826 × median absolute deviation, at least 10 HU), taken
+//     again from the organ's certain part (step 5) that this first window
+//     finds; or the window the user gives;
+//  4. with background seeds: a marker-controlled watershed on the gradient
+//     magnitude splits the window's region between the organ's seeds and the
+//     background seeds (3D Slicer's "grow from seeds" idea);
+//  5. leak control: the window's region eroded by the opening radius (mm,
+//     Euclidean distance maps) loses the bridges thinner than twice that into
+//     the heart, stomach, kidney or muscle at the same HU; its component at the
+//     seeds is certainly organ, what lies farther than the opening radius plus
+//     `reach_mm` from it is not, and a marker-controlled watershed on the
+//     gradient magnitude puts the border in between on the strongest edge
+//     (a thin fat plane, a partial-volume dip), which a touching muscle of the
+//     same HU still has;
+//  6. hole filling (3D, then slice by slice for vessels that cross a slice),
+//     closing, the component holding the seeds, and back onto the CT's grid.
+//
+// Errors are std::runtime_error with one line: a seed outside the volume, in
+// air, lung, fat or bone, a seed in a structure thinner than the opening, an
+// empty or tiny result.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "organsim/pipeline/ct_image.h"
+
+namespace organsim::pipeline {
+
+/// A point in the CT, as the user gave it: LPS millimetres or a voxel index.
+struct SeedPoint {
+  std::optional<std::array<double, 3>> point_mm;
+  std::optional<std::array<long, 3>> voxel;
+  static SeedPoint at_mm(const std::array<double, 3>& p) { return {p, std::nullopt}; }
+  static SeedPoint at_voxel(const std::array<long, 3>& v) { return {std::nullopt, v}; }
+};
+
+struct SeededSegmentationOptions {
+  std::vector<SeedPoint> seeds;             ///< inside the organ; at least one
+  std::vector<SeedPoint> background_seeds;  ///< in neighbours the organ must not include (heart, stomach, …)
+
+  double working_spacing_mm = 2.0;   ///< voxels finer than this are averaged in blocks; 0: full resolution
+  int smoothing_iterations = 5;      ///< curvature anisotropic diffusion; 0: none
+  double smoothing_conductance = 3.0;  ///< diffusion stops at edges steeper than about this (× mean gradient)
+  double seed_radius_mm = 10.0;      ///< neighbourhood of each seed that gives the HU statistics
+  /// HU window = [median − below × σ, median + above × σ], σ the robust σ. Wider
+  /// below: the liver's own lower tail (partial volume at its border with fat,
+  /// less-enhanced regions in a contrast phase, hypodense lesions); above lie
+  /// contrast-filled vessels and bone, which hole filling takes back.
+  double window_sigmas_below = 4.5;
+  double window_sigmas_above = 3.0;
+  double minimum_sigma_hu = 10.0;    ///< floor of the robust σ (a very uniform neighbourhood)
+  std::optional<std::pair<double, double>> hu_window;  ///< given LOW,HIGH replaces the statistics
+  double opening_radius_mm = 10.0;   ///< leak control: cuts bridges thinner than twice this, mm; 0: none
+  double reach_mm = 3.0;             ///< leak control: how far beyond the opened organ its border may lie, mm
+  double closing_radius_mm = 0.0;    ///< closes notches and vessel entries, mm; 0: none
+  std::size_t minimum_voxels = 1000; ///< smaller results are an error
+};
+
+/// What the segmentation did, for the user to judge it (and a warning when the
+/// result does not look like a liver).
+struct SeededSegmentationReport {
+  std::size_t voxels = 0;
+  double volume_ml = 0.0;
+  double seed_median_hu = 0.0, seed_sigma_hu = 0.0;  ///< statistics of the seeds' neighbourhoods (smoothed)
+  double organ_median_hu = 0.0, organ_sigma_hu = 0.0; ///< of the organ's certain part the first window found
+  double hu_low = 0.0, hu_high = 0.0;                 ///< the window used
+  bool window_given = false;                          ///< the user's window rather than the statistics
+  std::array<double, 3> working_spacing_mm{};
+  double background_split_ml = 0.0;  ///< given to the background seeds' regions
+  double grown_ml = 0.0;             ///< the window's region connected to the seeds, before leak control
+  double cut_by_opening_ml = 0.0;    ///< of that, what leak control removed
+  std::size_t border_slices = 0;     ///< axial slices where the mask touches the volume's side
+  std::vector<std::string> warnings;
+  std::vector<std::pair<std::string, double>> step_seconds;  ///< in order
+};
+
+struct SeededSegmentation {
+  MaskImage::Pointer mask;  ///< on the CT's grid
+  SeededSegmentationReport report;
+};
+
+/// Segments the organ holding `options.seeds`. Deterministic.
+SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentationOptions& options);
+
+/// Warnings for a mask that does not look like a whole liver: a volume outside
+/// 0.6–3.5 L, or touching the volume's side on many slices (a cut-off organ).
+std::vector<std::string> liver_plausibility_warnings(double volume_ml, std::size_t border_slices,
+                                                     std::size_t organ_slices);
+
+/// Axial slices (along the third index) in which the mask touches the
+/// volume's first or last row or column, and the slices the mask occupies.
+std::pair<std::size_t, std::size_t> border_and_organ_slices(const MaskImage& mask);
+
+}  // namespace organsim::pipeline

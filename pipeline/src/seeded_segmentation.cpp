@@ -1,0 +1,637 @@
+#include "organsim/pipeline/seeded_segmentation.h"
+
+#include <itkAndImageFilter.h>
+#include <itkBinShrinkImageFilter.h>
+#include <itkBinaryFillholeImageFilter.h>
+#include <itkBinaryThresholdImageFilter.h>
+#include <itkCastImageFilter.h>
+#include <itkConnectedComponentImageFilter.h>
+#include <itkCurvatureAnisotropicDiffusionImageFilter.h>
+#include <itkGradientMagnitudeRecursiveGaussianImageFilter.h>
+#include <itkImageRegionConstIterator.h>
+#include <itkImageRegionConstIteratorWithIndex.h>
+#include <itkImageRegionIterator.h>
+#include <itkLinearInterpolateImageFunction.h>
+#include <itkMorphologicalWatershedFromMarkersImageFilter.h>
+#include <itkRegionOfInterestImageFilter.h>
+#include <itkResampleImageFilter.h>
+#include <itkSignedMaurerDistanceMapImageFilter.h>
+#include <itkSliceBySliceImageFilter.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <set>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "organsim/pipeline/segmentation.h"
+
+namespace organsim::pipeline {
+namespace {
+
+using FloatImage = itk::Image<float, 3>;
+using LabelImage = itk::Image<std::uint32_t, 3>;
+
+constexpr double kMillilitresPerCubicMillimetre = 1e-3;
+// ITK's stability limit for curvature anisotropic diffusion in three dimensions.
+constexpr double kStableTimeStep = 0.0625;
+
+/// Times the steps into the report.
+class StepClock {
+ public:
+  explicit StepClock(SeededSegmentationReport& report) : report_(report) {}
+  void lap(const char* step) {
+    const auto now = std::chrono::steady_clock::now();
+    report_.step_seconds.emplace_back(step, std::chrono::duration<double>(now - last_).count());
+    last_ = now;
+  }
+
+ private:
+  SeededSegmentationReport& report_;
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
+double voxel_volume_ml(const itk::ImageBase<3>& image) {
+  const auto s = image.GetSpacing();
+  return s[0] * s[1] * s[2] * kMillilitresPerCubicMillimetre;
+}
+
+/// The seed's voxel on the CT grid; one-line error when it is outside.
+CtImage::IndexType ct_voxel(const CtImage& ct, const SeedPoint& seed, const char* what) {
+  std::array<long, 3> v{};
+  if (seed.point_mm) {
+    try {
+      v = voxel_of_point(ct, *seed.point_mm);
+    } catch (const std::runtime_error& e) {
+      throw std::runtime_error(fmt::format("{}: {}", what, e.what()));
+    }
+  } else if (seed.voxel) {
+    v = *seed.voxel;
+  } else {
+    throw std::invalid_argument("a seed has neither a point nor a voxel");
+  }
+  const auto size = ct.GetLargestPossibleRegion().GetSize();
+  for (unsigned k = 0; k < 3; ++k)
+    if (v[k] < 0 || v[k] >= static_cast<long>(size[k]))
+      throw std::runtime_error(fmt::format("{} voxel ({}, {}, {}) lies outside the volume ({}x{}x{} voxels); choose a "
+                                           "voxel inside the organ",
+                                           what, v[0], v[1], v[2], size[0], size[1], size[2]));
+  CtImage::IndexType index;
+  for (unsigned k = 0; k < 3; ++k) index[k] = v[k];
+  return index;
+}
+
+/// The same physical place on another grid (the working grid holds every CT voxel centre).
+template <typename Image>
+typename Image::IndexType on_grid(const CtImage& ct, const CtImage::IndexType& index, const Image& grid) {
+  CtImage::PointType point;
+  ct.TransformIndexToPhysicalPoint(index, point);
+  typename Image::IndexType result;
+  grid.TransformPhysicalPointToIndex(point, result);
+  const auto size = grid.GetLargestPossibleRegion().GetSize();
+  for (unsigned k = 0; k < 3; ++k) result[k] = std::clamp<long>(result[k], 0, static_cast<long>(size[k]) - 1);
+  return result;
+}
+
+/// Calls visit(index) for each voxel whose centre lies within radius_mm of `centre`.
+template <typename Image, typename Visit>
+void for_each_in_ball(const Image& image, const typename Image::IndexType& centre, double radius_mm, Visit&& visit) {
+  const auto spacing = image.GetSpacing();
+  const auto size = image.GetLargestPossibleRegion().GetSize();
+  long reach[3];
+  for (unsigned k = 0; k < 3; ++k) reach[k] = static_cast<long>(std::floor(radius_mm / spacing[k]));
+  typename Image::IndexType index;
+  for (long dk = -reach[2]; dk <= reach[2]; ++dk)
+    for (long dj = -reach[1]; dj <= reach[1]; ++dj)
+      for (long di = -reach[0]; di <= reach[0]; ++di) {
+        const double x = di * spacing[0], y = dj * spacing[1], z = dk * spacing[2];
+        if (x * x + y * y + z * z > radius_mm * radius_mm) continue;
+        index[0] = centre[0] + di, index[1] = centre[1] + dj, index[2] = centre[2] + dk;
+        bool inside = true;
+        for (unsigned k = 0; k < 3; ++k) inside &= index[k] >= 0 && index[k] < static_cast<long>(size[k]);
+        if (inside) visit(index);
+      }
+}
+
+struct RobustStatistics {
+  double median = 0.0, sigma = 0.0;  ///< sigma: 1.4826 × median absolute deviation (σ for a normal distribution)
+};
+
+RobustStatistics robust_statistics(std::vector<float> values) {
+  RobustStatistics s;
+  if (values.empty()) return s;
+  auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), middle, values.end());
+  s.median = *middle;
+  for (float& v : values) v = static_cast<float>(std::abs(v - s.median));
+  std::nth_element(values.begin(), middle, values.end());
+  s.sigma = 1.4826 * *middle;
+  return s;
+}
+
+/// What a seed's neighbourhood says about where it lies: an organ seed in
+/// air, lung, fat or bone is a user error, not a region to grow.
+void check_soft_tissue(double median_hu, const std::string& what) {
+  if (median_hu < -300.0)
+    throw std::runtime_error(fmt::format("{} lies in air or lung ({:.0f} HU); place it inside the organ (liver: 20 to "
+                                         "200 HU)",
+                                         what, median_hu));
+  if (median_hu < -30.0)
+    throw std::runtime_error(fmt::format("{} lies in fat ({:.0f} HU); place it inside the organ (liver: 20 to 200 HU)",
+                                         what, median_hu));
+  if (median_hu > 300.0)
+    throw std::runtime_error(fmt::format("{} lies in bone or a contrast-filled vessel ({:.0f} HU); place it in the "
+                                         "organ's tissue (liver: 20 to 200 HU)",
+                                         what, median_hu));
+}
+
+MaskImage::Pointer threshold(const FloatImage& image, double low, double high) {
+  auto filter = itk::BinaryThresholdImageFilter<FloatImage, MaskImage>::New();
+  filter->SetInput(&image);
+  filter->SetLowerThreshold(static_cast<float>(low));
+  filter->SetUpperThreshold(static_cast<float>(high));
+  filter->SetInsideValue(1);
+  filter->SetOutsideValue(0);
+  filter->Update();
+  return filter->GetOutput();
+}
+
+/// Euclidean distance (mm) from each voxel to the nearest voxel whose value is
+/// not `background`; ≤ 0 on those voxels themselves.
+FloatImage::Pointer distance_map(const MaskImage& mask, std::uint8_t background) {
+  auto distance = itk::SignedMaurerDistanceMapImageFilter<MaskImage, FloatImage>::New();
+  distance->SetInput(&mask);
+  distance->SetBackgroundValue(background);
+  distance->SetUseImageSpacing(true);
+  distance->SetSquaredDistance(false);
+  distance->SetInsideIsPositive(false);
+  distance->Update();
+  return distance->GetOutput();
+}
+
+/// Erosion and dilation by a Euclidean ball of radius r mm through distance
+/// maps: linear time whatever the radius.
+MaskImage::Pointer erode(const MaskImage& mask, double radius_mm) {
+  // Strictly farther than the radius from the outside: the dual of dilate's "within".
+  const float beyond = std::nextafter(static_cast<float>(radius_mm), std::numeric_limits<float>::max());
+  return threshold(*distance_map(mask, 1), beyond, std::numeric_limits<float>::max());
+}
+MaskImage::Pointer dilate(const MaskImage& mask, double radius_mm) {
+  return threshold(*distance_map(mask, 0), std::numeric_limits<float>::lowest(), radius_mm);
+}
+
+MaskImage::Pointer logical_and(const MaskImage& a, const MaskImage& b) {
+  auto filter = itk::AndImageFilter<MaskImage, MaskImage, MaskImage>::New();
+  filter->SetInput1(&a);
+  filter->SetInput2(&b);
+  filter->Update();
+  return filter->GetOutput();
+}
+
+LabelImage::Pointer components(const MaskImage& mask) {
+  auto filter = itk::ConnectedComponentImageFilter<MaskImage, LabelImage>::New();
+  filter->SetInput(&mask);
+  filter->SetFullyConnected(false);
+  filter->Update();
+  return filter->GetOutput();
+}
+
+/// The components of `mask` that hold a voxel of `indices`.
+MaskImage::Pointer components_holding(const MaskImage& mask, const std::vector<MaskImage::IndexType>& indices) {
+  const LabelImage::Pointer labels = components(mask);
+  std::set<std::uint32_t> wanted;
+  for (const auto& index : indices)
+    if (const std::uint32_t label = labels->GetPixel(index)) wanted.insert(label);
+  auto result = MaskImage::New();
+  result->CopyInformation(&mask);
+  result->SetRegions(mask.GetLargestPossibleRegion());
+  result->Allocate();
+  const std::uint32_t* from = labels->GetBufferPointer();
+  std::uint8_t* to = result->GetBufferPointer();
+  const std::size_t n = mask.GetLargestPossibleRegion().GetNumberOfPixels();
+  for (std::size_t i = 0; i < n; ++i) to[i] = from[i] != 0 && wanted.count(from[i]) != 0;
+  return result;
+}
+
+/// The voxel of `mask` nearest to `index` within radius_mm, if any.
+std::optional<MaskImage::IndexType> nearest_set_voxel(const MaskImage& mask, const MaskImage::IndexType& index,
+                                                      double radius_mm) {
+  std::optional<MaskImage::IndexType> best;
+  double best_distance = std::numeric_limits<double>::infinity();
+  const auto spacing = mask.GetSpacing();
+  for_each_in_ball(mask, index, radius_mm, [&](const MaskImage::IndexType& v) {
+    if (!mask.GetPixel(v)) return;
+    double d = 0.0;
+    for (unsigned k = 0; k < 3; ++k) d += std::pow((v[k] - index[k]) * spacing[k], 2);
+    if (d < best_distance) best_distance = d, best = v;
+  });
+  return best;
+}
+
+/// The part of `grown` that is certainly organ: its erosion by the opening
+/// radius, the components at (or nearest to) the seeds.
+MaskImage::Pointer certain_part(const MaskImage& grown, const std::vector<MaskImage::IndexType>& seeds,
+                                const SeededSegmentationOptions& o) {
+  const MaskImage::Pointer eroded = erode(grown, o.opening_radius_mm);
+  std::vector<MaskImage::IndexType> anchors;
+  for (const auto& seed : seeds) {
+    const auto anchor = nearest_set_voxel(*eroded, seed, 2.0 * o.opening_radius_mm + o.seed_radius_mm);
+    if (anchor) anchors.push_back(*anchor);
+  }
+  if (anchors.empty())
+    throw std::runtime_error(fmt::format(
+        "the seeds lie in a structure thinner than the leak control's opening ({} mm across); move a seed into the "
+        "organ's bulk or lower --opening",
+        2.0 * o.opening_radius_mm));
+  return components_holding(*eroded, anchors);
+}
+
+constexpr std::uint32_t kOrganMarker = 1, kOutsideMarker = 2, kBackgroundSeedMarker = 3;
+
+/// Watershed markers: outside `region` not the organ, inside to decide.
+LabelImage::Pointer outside_as_background(const MaskImage& region) {
+  auto markers = LabelImage::New();
+  markers->CopyInformation(&region);
+  markers->SetRegions(region.GetLargestPossibleRegion());
+  markers->Allocate();
+  const std::uint8_t* r = region.GetBufferPointer();
+  std::uint32_t* m = markers->GetBufferPointer();
+  const std::size_t n = region.GetLargestPossibleRegion().GetNumberOfPixels();
+  for (std::size_t i = 0; i < n; ++i) m[i] = r[i] ? 0u : kOutsideMarker;
+  return markers;
+}
+
+FloatImage::Pointer gradient_magnitude(const FloatImage& image) {
+  auto gradient = itk::GradientMagnitudeRecursiveGaussianImageFilter<FloatImage, FloatImage>::New();
+  gradient->SetInput(&image);
+  const auto s = image.GetSpacing();
+  gradient->SetSigma(std::min({s[0], s[1], s[2]}));
+  gradient->Update();
+  return gradient->GetOutput();
+}
+
+/// Floods the gradient magnitude from the markers: borders fall on the
+/// strongest edges between them. Returns the organ markers' voxels and adds
+/// the background seeds' voxels to `claimed_by_background`.
+MaskImage::Pointer watershed_organ(const FloatImage& gradient, const LabelImage& markers,
+                                   MaskImage& claimed_by_background) {
+  auto watershed = itk::MorphologicalWatershedFromMarkersImageFilter<FloatImage, LabelImage>::New();
+  watershed->SetInput(&gradient);
+  watershed->SetMarkerImage(&markers);
+  watershed->SetMarkWatershedLine(false);
+  watershed->SetFullyConnected(false);
+  watershed->Update();
+  auto organ = MaskImage::New();
+  organ->CopyInformation(&gradient);
+  organ->SetRegions(gradient.GetLargestPossibleRegion());
+  organ->Allocate();
+  const std::uint32_t* label = watershed->GetOutput()->GetBufferPointer();
+  std::uint8_t* to = organ->GetBufferPointer();
+  std::uint8_t* claimed = claimed_by_background.GetBufferPointer();
+  const std::size_t n = gradient.GetLargestPossibleRegion().GetNumberOfPixels();
+  for (std::size_t i = 0; i < n; ++i) {
+    to[i] = label[i] == kOrganMarker;
+    if (label[i] == kBackgroundSeedMarker) claimed[i] = 1;
+  }
+  return organ;
+}
+
+MaskImage::Pointer fill_holes_3d_then_axial(const MaskImage& mask) {
+  auto fill = itk::BinaryFillholeImageFilter<MaskImage>::New();
+  fill->SetInput(&mask);
+  fill->SetForegroundValue(1);
+  fill->SetFullyConnected(false);
+  using Slice = itk::Image<std::uint8_t, 2>;
+  auto fill_slice = itk::BinaryFillholeImageFilter<Slice>::New();
+  fill_slice->SetForegroundValue(1);
+  fill_slice->SetFullyConnected(false);
+  auto by_slice = itk::SliceBySliceImageFilter<MaskImage, MaskImage>::New();
+  by_slice->SetInput(fill->GetOutput());
+  by_slice->SetFilter(fill_slice);
+  by_slice->SetDimension(2);
+  by_slice->Update();
+  MaskImage::Pointer result = by_slice->GetOutput();
+  result->DisconnectPipeline();
+  return result;
+}
+
+MaskImage::Pointer largest_component(const MaskImage& mask) {
+  const LabelImage::Pointer labels = components(mask);
+  std::vector<std::size_t> sizes;
+  const std::uint32_t* l = labels->GetBufferPointer();
+  const std::size_t n = mask.GetLargestPossibleRegion().GetNumberOfPixels();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (l[i] >= sizes.size()) sizes.resize(l[i] + 1, 0);
+    ++sizes[l[i]];
+  }
+  std::uint32_t largest = 0;
+  for (std::uint32_t label = 1; label < sizes.size(); ++label)
+    if (sizes[label] > (largest ? sizes[largest] : 0)) largest = label;
+  auto result = MaskImage::New();
+  result->CopyInformation(&mask);
+  result->SetRegions(mask.GetLargestPossibleRegion());
+  result->Allocate();
+  std::uint8_t* to = result->GetBufferPointer();
+  for (std::size_t i = 0; i < n; ++i) to[i] = largest != 0 && l[i] == largest;
+  return result;
+}
+
+/// The working-grid mask on the CT's grid: linear interpolation of the mask
+/// as a fraction, cut at one half, over the organ's bounding box only.
+MaskImage::Pointer onto_ct_grid(const MaskImage& working, const CtImage& ct) {
+  auto fraction = itk::CastImageFilter<MaskImage, FloatImage>::New();
+  fraction->SetInput(&working);
+  fraction->Update();
+
+  // The organ's box on the CT grid, one working voxel wider on each side.
+  const MaskImage::RegionType box = organ_bounding_box(working, {1, 1, 1});
+  MaskImage::IndexType low = box.GetIndex(), high;
+  for (unsigned k = 0; k < 3; ++k) high[k] = low[k] + static_cast<long>(box.GetSize(k)) - 1;
+  CtImage::PointType p_low, p_high;
+  working.TransformIndexToPhysicalPoint(low, p_low);
+  working.TransformIndexToPhysicalPoint(high, p_high);
+  CtImage::IndexType c_low, c_high;
+  ct.TransformPhysicalPointToIndex(p_low, c_low);
+  ct.TransformPhysicalPointToIndex(p_high, c_high);
+  const auto size = ct.GetLargestPossibleRegion().GetSize();
+  CtImage::RegionType region;
+  for (unsigned k = 0; k < 3; ++k) {
+    const long a = std::clamp<long>(std::min(c_low[k], c_high[k]), 0, static_cast<long>(size[k]) - 1);
+    const long b = std::clamp<long>(std::max(c_low[k], c_high[k]), 0, static_cast<long>(size[k]) - 1);
+    region.SetIndex(k, a);
+    region.SetSize(k, static_cast<itk::SizeValueType>(b - a + 1));
+  }
+
+  auto resample = itk::ResampleImageFilter<FloatImage, FloatImage>::New();
+  resample->SetInput(fraction->GetOutput());
+  resample->SetInterpolator(itk::LinearInterpolateImageFunction<FloatImage, double>::New());
+  resample->SetOutputOrigin(ct.GetOrigin());
+  resample->SetOutputSpacing(ct.GetSpacing());
+  resample->SetOutputDirection(ct.GetDirection());
+  resample->SetOutputStartIndex(region.GetIndex());
+  resample->SetSize(region.GetSize());
+  resample->SetDefaultPixelValue(0.0f);
+  resample->Update();
+
+  auto result = MaskImage::New();
+  result->CopyInformation(&ct);
+  result->SetRegions(ct.GetLargestPossibleRegion());
+  result->Allocate(true);
+  itk::ImageRegionConstIterator<FloatImage> from(resample->GetOutput(), region);
+  itk::ImageRegionIterator<MaskImage> to(result, region);
+  for (; !from.IsAtEnd(); ++from, ++to) to.Set(from.Get() >= 0.5f ? 1 : 0);
+  return result;
+}
+
+}  // namespace
+
+std::pair<std::size_t, std::size_t> border_and_organ_slices(const MaskImage& mask) {
+  const auto size = mask.GetLargestPossibleRegion().GetSize();
+  const long nx = static_cast<long>(size[0]), ny = static_cast<long>(size[1]), nz = static_cast<long>(size[2]);
+  const std::uint8_t* v = mask.GetBufferPointer();
+  std::size_t border = 0, organ = 0;
+  for (long k = 0; k < nz; ++k) {
+    const std::uint8_t* slice = v + k * nx * ny;
+    bool any = false, touches = false;
+    for (long j = 0; j < ny; ++j)
+      for (long i = 0; i < nx; ++i)
+        if (slice[j * nx + i]) {
+          any = true;
+          touches |= i == 0 || j == 0 || i == nx - 1 || j == ny - 1;
+        }
+    organ += any;
+    border += touches;
+  }
+  return {border, organ};
+}
+
+std::vector<std::string> liver_plausibility_warnings(double volume_ml, std::size_t border_slices,
+                                                     std::size_t organ_slices) {
+  std::vector<std::string> warnings;
+  if (volume_ml < 600.0 || volume_ml > 3500.0)
+    warnings.push_back(fmt::format(
+        "the organ is {:.0f} mL; an adult liver is 0.6 to 3.5 L: check the mask (--intermediates), add seeds or "
+        "background seeds, or use a label map",
+        volume_ml));
+  if (border_slices * 10 > organ_slices && border_slices >= 3)
+    warnings.push_back(fmt::format(
+        "the organ touches the side of the volume on {} of its {} slices: it is cut off by the field of view, or the "
+        "segmentation leaked into the body wall",
+        border_slices, organ_slices));
+  return warnings;
+}
+
+SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentationOptions& o) {
+  if (o.seeds.empty()) throw std::runtime_error("no seed: give at least one point inside the organ (--seed X,Y,Z)");
+  if (o.hu_window && !(o.hu_window->first < o.hu_window->second))
+    throw std::runtime_error(fmt::format("HU window {},{} is empty; give LOW,HIGH with LOW < HIGH", o.hu_window->first,
+                                         o.hu_window->second));
+  if (!(o.opening_radius_mm >= 0.0 && o.reach_mm >= 0.0 && o.closing_radius_mm >= 0.0 && o.seed_radius_mm > 0.0 &&
+        o.window_sigmas_below > 0.0 && o.window_sigmas_above > 0.0 && o.working_spacing_mm >= 0.0 && o.smoothing_iterations >= 0))
+    throw std::runtime_error("segmentation radii, the window width and the working spacing must be non-negative");
+
+  SeededSegmentation result;
+  SeededSegmentationReport& report = result.report;
+  StepClock clock(report);
+
+  std::vector<CtImage::IndexType> seeds, background;
+  for (std::size_t s = 0; s < o.seeds.size(); ++s)
+    seeds.push_back(ct_voxel(ct, o.seeds[s], fmt::format("seed {}", s + 1).c_str()));
+  for (std::size_t s = 0; s < o.background_seeds.size(); ++s)
+    background.push_back(ct_voxel(ct, o.background_seeds[s], fmt::format("background seed {}", s + 1).c_str()));
+
+  // 1. Working grid.
+  auto as_float = itk::CastImageFilter<CtImage, FloatImage>::New();
+  as_float->SetInput(&ct);
+  auto shrink = itk::BinShrinkImageFilter<FloatImage, FloatImage>::New();
+  shrink->SetInput(as_float->GetOutput());
+  for (unsigned k = 0; k < 3; ++k) {
+    const double spacing = ct.GetSpacing()[k];
+    const unsigned factor =
+        o.working_spacing_mm > 0.0 ? std::max(1u, static_cast<unsigned>(std::floor(o.working_spacing_mm / spacing + 1e-6))) : 1u;
+    shrink->SetShrinkFactor(k, factor);
+  }
+  shrink->Update();
+  FloatImage::Pointer image = shrink->GetOutput();
+  for (unsigned k = 0; k < 3; ++k) report.working_spacing_mm[k] = image->GetSpacing()[k];
+  clock.lap("working grid");
+
+  // 2. Smoothing.
+  if (o.smoothing_iterations > 0) {
+    auto diffusion = itk::CurvatureAnisotropicDiffusionImageFilter<FloatImage, FloatImage>::New();
+    diffusion->SetInput(image);
+    diffusion->SetNumberOfIterations(static_cast<unsigned>(o.smoothing_iterations));
+    diffusion->SetTimeStep(kStableTimeStep);
+    diffusion->SetConductanceParameter(o.smoothing_conductance);
+    diffusion->Update();
+    image = diffusion->GetOutput();
+    image->DisconnectPipeline();
+  }
+  clock.lap("smoothing");
+
+  // 3. The window.
+  std::vector<FloatImage::IndexType> work_seeds, work_background;
+  std::vector<float> pooled;
+  for (std::size_t s = 0; s < seeds.size(); ++s) {
+    work_seeds.push_back(on_grid(ct, seeds[s], *image));
+    std::vector<float> values;
+    for_each_in_ball(*image, work_seeds.back(), o.seed_radius_mm,
+                     [&](const FloatImage::IndexType& v) { values.push_back(image->GetPixel(v)); });
+    const RobustStatistics local = robust_statistics(values);
+    const std::string what = fmt::format("seed {}", s + 1);
+    if (o.hu_window) {
+      if (local.median < o.hu_window->first || local.median > o.hu_window->second)
+        throw std::runtime_error(fmt::format("{} lies at {:.0f} HU, outside the window {},{}; move the seed into the "
+                                             "organ or widen --hu-window",
+                                             what, local.median, o.hu_window->first, o.hu_window->second));
+    } else {
+      check_soft_tissue(local.median, what);
+    }
+    pooled.insert(pooled.end(), values.begin(), values.end());
+  }
+  for (const auto& b : background) work_background.push_back(on_grid(ct, b, *image));
+  const RobustStatistics statistics = robust_statistics(pooled);
+  report.seed_median_hu = statistics.median;
+  report.seed_sigma_hu = statistics.sigma;
+  report.window_given = o.hu_window.has_value();
+  const auto window_from = [&](const RobustStatistics& st) {
+    const double sigma = std::max(st.sigma, o.minimum_sigma_hu);
+    report.hu_low = st.median - o.window_sigmas_below * sigma;
+    report.hu_high = st.median + o.window_sigmas_above * sigma;
+  };
+  if (o.hu_window) {
+    report.hu_low = o.hu_window->first, report.hu_high = o.hu_window->second;
+  } else {
+    window_from(statistics);
+    // A seed's neighbourhood sees a few centimetres of an organ whose HU
+    // drifts across it (enhancement, beam hardening) or a darker patch
+    // (a vessel, a lesion): the window is taken again from the organ's
+    // certain part that the first window finds.
+    if (o.opening_radius_mm > 0.0) {
+      const MaskImage::Pointer first = components_holding(*threshold(*image, report.hu_low, report.hu_high), work_seeds);
+      if (count_voxels(*first) > 0) {
+        const MaskImage::Pointer certain = certain_part(*first, work_seeds, o);
+        std::vector<float> values;
+        const std::uint8_t* c = certain->GetBufferPointer();
+        const float* v = image->GetBufferPointer();
+        const std::size_t n = certain->GetLargestPossibleRegion().GetNumberOfPixels();
+        for (std::size_t i = 0; i < n; ++i)
+          if (c[i]) values.push_back(v[i]);
+        const RobustStatistics organ = robust_statistics(std::move(values));
+        report.organ_median_hu = organ.median;
+        report.organ_sigma_hu = organ.sigma;
+        window_from(organ);
+      }
+    }
+  }
+  MaskImage::Pointer window = threshold(*image, report.hu_low, report.hu_high);
+  const double working_voxel_ml = voxel_volume_ml(*image);
+  clock.lap("window");
+
+  // 4. Background seeds take their share of the window. Their markers are
+  // small (a background seed is often put in a thin structure); the organ's
+  // markers are its certain part, less what lies near a background seed (a
+  // bridge thicker than the opening can carry the heart into it).
+  auto claimed_by_background = MaskImage::New();
+  claimed_by_background->CopyInformation(image);
+  claimed_by_background->SetRegions(image->GetLargestPossibleRegion());
+  claimed_by_background->Allocate(true);
+  const auto spacing = image->GetSpacing();
+  const double background_marker_radius_mm = 1.01 * std::max({spacing[0], spacing[1], spacing[2]});
+  const auto mark_background_seeds = [&](LabelImage& markers) {
+    for (const auto& b : work_background)
+      for_each_in_ball(*image, b, background_marker_radius_mm,
+                       [&](const FloatImage::IndexType& v) { markers.SetPixel(v, kBackgroundSeedMarker); });
+  };
+  if (!work_background.empty()) {
+    const std::size_t before = count_voxels(*window);
+    auto markers = outside_as_background(*window);
+    const MaskImage::Pointer grown = components_holding(*window, work_seeds);
+    if (o.opening_radius_mm > 0.0 && count_voxels(*grown) > 0) {
+      const MaskImage::Pointer certain = certain_part(*grown, work_seeds, o);
+      const double keep_away_mm = 2.0 * o.opening_radius_mm;
+      itk::ImageRegionConstIteratorWithIndex<MaskImage> it(certain, certain->GetLargestPossibleRegion());
+      for (; !it.IsAtEnd(); ++it) {
+        if (!it.Get()) continue;
+        bool near_background = false;
+        for (const auto& b : work_background) {
+          double d2 = 0.0;
+          for (unsigned k = 0; k < 3; ++k) d2 += std::pow((it.GetIndex()[k] - b[k]) * spacing[k], 2);
+          near_background |= d2 < keep_away_mm * keep_away_mm;
+        }
+        if (!near_background) markers->SetPixel(it.GetIndex(), kOrganMarker);
+      }
+    }
+    for (const auto& f : work_seeds)
+      for_each_in_ball(*image, f, o.seed_radius_mm / 2.0, [&](const FloatImage::IndexType& v) {
+        if (window->GetPixel(v)) markers->SetPixel(v, kOrganMarker);
+      });
+    mark_background_seeds(*markers);
+    window = watershed_organ(*gradient_magnitude(*image), *markers, *claimed_by_background);
+    report.background_split_ml = static_cast<double>(before - count_voxels(*window)) * working_voxel_ml;
+    clock.lap("background seeds");
+  }
+
+  // 5. Leak control.
+  const MaskImage::Pointer grown = components_holding(*window, work_seeds);
+  const std::size_t grown_voxels = count_voxels(*grown);
+  if (grown_voxels == 0)
+    throw std::runtime_error("the seeds are not inside the HU window's region; move them into the organ");
+  report.grown_ml = static_cast<double>(grown_voxels) * working_voxel_ml;
+  MaskImage::Pointer organ = grown;
+  if (o.opening_radius_mm > 0.0) {
+    // The organ's certain part: the eroded region at the seeds. Everything
+    // farther than the opening radius plus the reach from it, or outside the
+    // window, is certainly not the organ; the watershed on the gradient puts
+    // the border in between on the strongest edge.
+    const MaskImage::Pointer certain = certain_part(*grown, work_seeds, o);
+    const MaskImage::Pointer possible = logical_and(*dilate(*certain, o.opening_radius_mm + o.reach_mm), *grown);
+    auto markers = outside_as_background(*possible);
+    {
+      const std::uint8_t* c = certain->GetBufferPointer();
+      std::uint32_t* m = markers->GetBufferPointer();
+      const std::size_t n = certain->GetLargestPossibleRegion().GetNumberOfPixels();
+      for (std::size_t i = 0; i < n; ++i)
+        if (c[i]) m[i] = kOrganMarker;
+    }
+    // Background seeds next to the organ (a muscle it touches, the vena
+    // cava in it) compete for the undecided rim too.
+    mark_background_seeds(*markers);
+    organ = watershed_organ(*gradient_magnitude(*image), *markers, *claimed_by_background);
+  }
+  report.cut_by_opening_ml = static_cast<double>(grown_voxels - count_voxels(*organ)) * working_voxel_ml;
+  clock.lap("leak control");
+
+  // 6. Holes, notches, one piece, the CT's grid.
+  organ = fill_holes_3d_then_axial(*organ);
+  if (o.closing_radius_mm > 0.0) organ = erode(*dilate(*organ, o.closing_radius_mm), o.closing_radius_mm);
+  organ = fill_holes_3d_then_axial(*organ);
+  // What the background seeds claimed stays out, even where it is a hole (the vena cava).
+  {
+    std::uint8_t* v = organ->GetBufferPointer();
+    const std::uint8_t* c = claimed_by_background->GetBufferPointer();
+    const std::size_t n = organ->GetLargestPossibleRegion().GetNumberOfPixels();
+    for (std::size_t i = 0; i < n; ++i) v[i] = v[i] && !c[i];
+  }
+  organ = largest_component(*organ);
+  clock.lap("holes and closing");
+
+  const bool shrunk = image->GetSpacing() != ct.GetSpacing();
+  result.mask = shrunk ? onto_ct_grid(*organ, ct) : organ;
+  if (!shrunk) result.mask->CopyInformation(&ct);
+  clock.lap("CT grid");
+
+  report.voxels = count_voxels(*result.mask);
+  report.volume_ml = static_cast<double>(report.voxels) * voxel_volume_ml(ct);
+  if (report.voxels < o.minimum_voxels)
+    throw std::runtime_error(fmt::format("the segmentation has only {} voxels (at least {} expected); check the seeds",
+                                         report.voxels, o.minimum_voxels));
+  const auto [border, slices] = border_and_organ_slices(*result.mask);
+  report.border_slices = border;
+  report.warnings = liver_plausibility_warnings(report.volume_ml, border, slices);
+  return result;
+}
+
+}  // namespace organsim::pipeline

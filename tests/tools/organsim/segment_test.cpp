@@ -1,0 +1,81 @@
+// `organsim segment`: the mask on the CT's grid, the report (text and JSON)
+// with the Dice against a reference label, several and background seeds, and
+// its errors (a seed in air is an input error, a malformed seed a usage error).
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <string>
+
+#include "cli_fixture.h"
+#include "organsim/pipeline/ct_input.h"
+#include "organsim/pipeline/segmentation.h"
+
+namespace organsim {
+namespace {
+
+using namespace cli::testing;
+
+// A function, not a namespace-scope path: kSamples lives in another file.
+fs::path real_ct(const char* name) { return kSamples / "real_ct_totalseg" / name; }
+
+TEST_F(Cli, SegmentTheRealCtFromOneSeedAndCompareWithItsLabel) {
+  const fs::path mask = dir_ / "liver_mask.nii.gz";
+  const std::string label = real_ct("liver_mask_ct.nii.gz").string();
+  const CommandRun run = run_organsim("segment " + real_ct("example_ct.nii.gz").string() +
+                                          " --seed-voxel 86,47,108 -o " + mask.string() + " --reference " + label,
+                                      dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  for (const char* line : {"mask ", "HU window ", "leak control ", "working grid ", "time (segment) ", "Dice "})
+    EXPECT_NE(run.out.find(line), std::string::npos) << line << "\n" << run.out;
+  // The mask lies on the CT's grid: 3D Slicer overlays it, bake --label takes it.
+  const pipeline::CtImage::Pointer ct = pipeline::read_ct(real_ct("example_ct.nii.gz").string());
+  const pipeline::MaskImage::Pointer written = pipeline::read_label_mask(mask.string(), 1, *ct);
+  EXPECT_GE(pipeline::dice_coefficient(*written, *pipeline::read_label_mask(label, 1, *ct)), 0.90);
+}
+
+TEST_F(Cli, SegmentJsonWithSeveralAndBackgroundSeeds) {
+  const fs::path mask = dir_ / "mask.nii.gz";
+  const CommandRun run = run_organsim(
+      "segment " + real_ct("example_ct.nii.gz").string() +
+          " --seed-voxel 86,47,108 --seed-voxel 93,61,87 --background-seed-voxel 65,51,106 -o " + mask.string() +
+          " --reference " + real_ct("liver_mask_ct.nii.gz").string() + " --json",
+      dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json j = nlohmann::json::parse(run.out);
+  EXPECT_EQ(j["mask"], mask.string());
+  EXPECT_GE(j["dice"].get<double>(), 0.90);
+  const nlohmann::json& s = j["segmentation"];
+  EXPECT_NEAR(s["volume_ml"].get<double>(), 1126.0, 0.15 * 1126.0);
+  EXPECT_GT(s["background_split_ml"].get<double>(), 0.0);
+  EXPECT_GT(s["cut_by_opening_ml"].get<double>(), 0.0);
+  EXPECT_LT(s["hu_window"][0].get<double>(), s["organ_median_hu"].get<double>());
+  EXPECT_GT(s["hu_window"][1].get<double>(), s["organ_median_hu"].get<double>());
+  EXPECT_TRUE(s["warnings"].empty());
+  for (const char* step : {"working grid", "smoothing", "window", "background seeds", "leak control",
+                           "holes and closing", "CT grid"})
+    EXPECT_TRUE(s["seconds"].contains(step)) << step;
+}
+
+TEST_F(Cli, SegmentErrorsSayWhatIsWrong) {
+  const std::string ct = real_ct("example_ct.nii.gz").string();
+  const fs::path mask = dir_ / "mask.nii.gz";
+  struct Case {
+    std::string arguments;
+    int exit_code;
+    std::string fragment;
+  };
+  for (const Case& c : {Case{"--seed-voxel 2,2,60", 1, "lies in air"},
+                        Case{"--seed-voxel 2,2,600", 1, "outside the volume"},
+                        Case{"--seed 1,2", 2, "X,Y,Z"},
+                        Case{"--seed-voxel 1.5,2,3", 2, "whole voxel indices"},
+                        Case{"", 2, "at least one point inside the organ"}}) {
+    const CommandRun run = run_organsim("segment " + ct + " " + c.arguments + " -o " + mask.string(), dir_);
+    EXPECT_EQ(run.exit_code, c.exit_code) << c.arguments << "\n" << run.err;
+    EXPECT_NE(run.err.find(c.fragment), std::string::npos) << c.arguments << "\n" << run.err;
+    EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+    EXPECT_FALSE(fs::exists(mask)) << c.arguments;
+  }
+}
+
+}  // namespace
+}  // namespace organsim
