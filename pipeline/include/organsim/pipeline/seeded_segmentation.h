@@ -4,7 +4,7 @@
 //
 // The method, each step an ITK filter (docs/segmentation.md has the why):
 //  1. working grid: voxels finer than `working_spacing_mm` are averaged in
-//     blocks (bin shrink), so a 512×512×200 CT costs what a 2 mm CT costs;
+//     blocks (bin shrink), so a 512×512×200 CT costs what a 2.5 mm CT costs;
 //  2. edge-preserving smoothing (curvature anisotropic diffusion);
 //  3. a HU window from the seeds' neighbourhoods: the median − 4.5 to + 3
 //     robust σ (1.4826 × median absolute deviation, at least 10 HU), taken
@@ -52,7 +52,7 @@ struct SeededSegmentationOptions {
   std::vector<SeedPoint> seeds;             ///< inside the organ; at least one
   std::vector<SeedPoint> background_seeds;  ///< in neighbours the organ must not include (heart, stomach, …)
 
-  double working_spacing_mm = 2.0;   ///< voxels finer than this are averaged in blocks; 0: full resolution
+  double working_spacing_mm = 2.5;   ///< voxels finer than this are averaged in blocks; 0: full resolution
   int smoothing_iterations = 5;      ///< curvature anisotropic diffusion; 0: none
   double smoothing_conductance = 3.0;  ///< diffusion stops at edges steeper than about this (× mean gradient)
   double seed_radius_mm = 10.0;      ///< neighbourhood of each seed that gives the HU statistics
