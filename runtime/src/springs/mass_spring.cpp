@@ -92,6 +92,8 @@ MassSpring::MassSpring(SpringNetwork network, const SimulationOptions& options)
   quiet_steps_.assign(n, 0);
   integrated_nodes_.assign(n, 0);
   force_springs_.assign(s.size(), 0);
+  force_list_.assign(s.size(), PackedSpring{});
+  spring_force_.assign(n, Eigen::Vector3d::Zero());
   forced_nodes_.assign(n, 0);
   held_nodes_.assign(n, 0);
 
@@ -235,7 +237,10 @@ void MassSpring::rebuild_lists() noexcept {
   const Springs& s = network_.springs;
   force_spring_count_ = 0;
   for (std::uint32_t k = 0; k < s.size(); ++k)
-    if (integrated_[s.a[k]] || integrated_[s.b[k]]) force_springs_[force_spring_count_++] = k;
+    if (integrated_[s.a[k]] || integrated_[s.b[k]]) {
+      force_list_[force_spring_count_] = {s.a[k], s.b[k], s.rest_length[k], s.stiffness[k], s.damping[k]};
+      force_springs_[force_spring_count_++] = k;
+    }
   lists_dirty_ = false;
 }
 
@@ -287,22 +292,38 @@ void MassSpring::end_region() noexcept {
 }
 
 void MassSpring::accelerations(const Points& x, const Points& v, Points& a) noexcept {
-  const Springs& s = network_.springs;
-  for (std::size_t k = 0; k < integrated_count_; ++k) a[integrated_nodes_[k]].setZero();
-  for (std::size_t j = 0; j < force_spring_count_; ++j) {
-    const std::uint32_t k = force_springs_[j], ia = s.a[k], ib = s.b[k];
-    const Eigen::Vector3d d = x[ia] - x[ib];
-    const double l = d.norm();
-    if (!(l > 0.0)) continue;
-    const Eigen::Vector3d u = d / l;
-    const Eigen::Vector3d f = (s.stiffness[k] * (l - s.rest_length[k]) + s.damping[k] * u.dot(v[ia] - v[ib])) * u;
-    if (integrated_[ia]) a[ia] -= f;
-    if (integrated_[ib]) a[ib] += f;
+  // Accumulate into every node without asking which end is integrated (no
+  // branch in the loop); only the integrated nodes' sums are read below.
+  std::fill(spring_force_.begin(), spring_force_.end(), Eigen::Vector3d::Zero());
+  // The springs of one node a follow each other (the networks list them by
+  // their first end): its sum stays in a register until a changes, instead of
+  // a read-modify-write of memory that every next spring would wait for.
+  const PackedSpring* spring = force_list_.data();
+  std::uint32_t current = force_spring_count_ > 0 ? spring->a : 0;
+  Eigen::Vector3d current_sum = Eigen::Vector3d::Zero();
+  for (std::size_t j = 0; j < force_spring_count_; ++j, ++spring) {
+    if (spring->a != current) {
+      spring_force_[current] += current_sum;
+      current = spring->a;
+      current_sum.setZero();
+    }
+    const Eigen::Vector3d d = x[spring->a] - x[spring->b];
+    const double l2 = d.squaredNorm();
+    if (!(l2 > 0.0)) continue;
+    const double inverse_length = 1.0 / std::sqrt(l2);
+    // f = (k (l − l⁰) + c û·Δv) û, with û = d / l.
+    const double magnitude = (spring->stiffness * (l2 * inverse_length - spring->rest_length) +
+                              spring->damping * d.dot(v[spring->a] - v[spring->b]) * inverse_length) *
+                             inverse_length;
+    const Eigen::Vector3d f = magnitude * d;
+    current_sum -= f;
+    spring_force_[spring->b] += f;
   }
+  if (force_spring_count_ > 0) spring_force_[current] += current_sum;
   const double c = options_.point_damping;
   for (std::size_t k = 0; k < integrated_count_; ++k) {
     const std::uint32_t i = integrated_nodes_[k];
-    a[i] = (a[i] + external_[i] - c * v[i]) * inverse_mass_[i] + options_.gravity;
+    a[i] = (spring_force_[i] + external_[i] - c * v[i]) * inverse_mass_[i] + options_.gravity;
   }
 }
 
@@ -506,7 +527,6 @@ StepStatus MassSpring::step() noexcept {
   }
 
   // Blow-up: a non-finite state or the integrated part's energy beyond the limit.
-  const Springs& s = network_.springs;
   double energy = 0.0;
   bool finite = true;
   for (std::size_t k = 0; k < count; ++k) {
@@ -517,9 +537,9 @@ StepStatus MassSpring::step() noexcept {
               network_.mass[i] * options_.gravity.dot(x_[i] - network_.rest[i]);
   }
   for (std::size_t j = 0; j < force_spring_count_; ++j) {
-    const std::uint32_t k = force_springs_[j];
-    const double stretch = (x_[s.a[k]] - x_[s.b[k]]).norm() - s.rest_length[k];
-    energy += 0.5 * s.stiffness[k] * stretch * stretch;
+    const PackedSpring& spring = force_list_[j];
+    const double stretch = (x_[spring.a] - x_[spring.b]).norm() - spring.rest_length;
+    energy += 0.5 * spring.stiffness * stretch * stretch;
   }
   const double supplied = std::max(supplied_, work_ + work);
   if (!finite || !(energy <= options_.energy_growth_limit * (supplied + energy_floor_))) {

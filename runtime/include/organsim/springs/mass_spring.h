@@ -287,6 +287,14 @@ class MassSpring {
   std::vector<std::uint32_t> quiet_steps_;
   std::vector<std::uint32_t> integrated_nodes_, force_springs_;
   std::size_t integrated_count_ = 0, force_spring_count_ = 0;
+  // The springs of force_springs_, packed in that order: the force pass reads
+  // one 32-byte record per spring instead of five arrays through an index.
+  struct PackedSpring {
+    std::uint32_t a, b;
+    double rest_length, stiffness, damping;
+  };
+  std::vector<PackedSpring> force_list_;
+  Points spring_force_;  // per node Σ of the spring forces of one evaluation
   // Nodes with a non-zero external force, and held nodes.
   std::vector<std::uint32_t> forced_nodes_, held_nodes_;
   std::size_t forced_count_ = 0, held_count_ = 0;
