@@ -87,6 +87,8 @@ MassSpring::MassSpring(SpringNetwork network, const SimulationOptions& options)
     }
   }
 
+  for (std::uint32_t i = 0; i < n; ++i)
+    if (!network_.fixed[i]) movable_nodes_.push_back(i);
   integrated_.assign(n, 0);
   active_.assign(n, 0);
   quiet_steps_.assign(n, 0);
@@ -293,8 +295,9 @@ void MassSpring::end_region() noexcept {
 
 void MassSpring::accelerations(const Points& x, const Points& v, Points& a) noexcept {
   // Accumulate into every node without asking which end is integrated (no
-  // branch in the loop); only the integrated nodes' sums are read below.
-  std::fill(spring_force_.begin(), spring_force_.end(), Eigen::Vector3d::Zero());
+  // branch in the loop); only the integrated nodes' sums are read below, so
+  // only theirs start from zero (the others, anchors above all, are never read).
+  for (std::size_t k = 0; k < integrated_count_; ++k) spring_force_[integrated_nodes_[k]].setZero();
   // The springs of one node a follow each other (the networks list them by
   // their first end): its sum stays in a register until a changes, instead of
   // a read-modify-write of memory that every next spring would wait for.
@@ -434,8 +437,8 @@ void MassSpring::step_implicit_euler() noexcept {
 
 StepStatus MassSpring::step() noexcept {
   if (!stable_) return StepStatus::blew_up;
-  std::copy(x_.begin(), x_.end(), saved_x_.begin());
-  std::copy(v_.begin(), v_.end(), saved_v_.begin());
+  // Only movable nodes change in a step (anchors and clamped nodes never do).
+  for (const std::uint32_t i : movable_nodes_) saved_x_[i] = x_[i], saved_v_[i] = v_[i];
   if (seeds_dirty_) rebuild_seeds();
 
   // Held nodes jump to their targets: the tool does the work −½(r₀ + r₁)·Δx
@@ -536,15 +539,17 @@ StepStatus MassSpring::step() noexcept {
     energy += 0.5 * network_.mass[i] * v_[i].squaredNorm() -
               network_.mass[i] * options_.gravity.dot(x_[i] - network_.rest[i]);
   }
+  // Single-precision lengths: the test below needs the energy's size, not its
+  // last digits, and a float square root costs half a double one.
   for (std::size_t j = 0; j < force_spring_count_; ++j) {
     const PackedSpring& spring = force_list_[j];
-    const double stretch = (x_[spring.a] - x_[spring.b]).norm() - spring.rest_length;
+    const double stretch =
+        std::sqrt(static_cast<float>((x_[spring.a] - x_[spring.b]).squaredNorm())) - spring.rest_length;
     energy += 0.5 * spring.stiffness * stretch * stretch;
   }
   const double supplied = std::max(supplied_, work_ + work);
   if (!finite || !(energy <= options_.energy_growth_limit * (supplied + energy_floor_))) {
-    std::copy(saved_x_.begin(), saved_x_.end(), x_.begin());
-    std::copy(saved_v_.begin(), saved_v_.end(), v_.begin());
+    for (const std::uint32_t i : movable_nodes_) x_[i] = saved_x_[i], v_[i] = saved_v_[i];
     stable_ = false;
     return StepStatus::blew_up;
   }

@@ -275,7 +275,8 @@ class MassSpring {
   SimulationOptions options_;
   // State: one 3-vector per node, all nodes (fixed and held ones included).
   Points x_, v_;
-  Points saved_x_, saved_v_;  // the state before the current step (last good state)
+  Points saved_x_, saved_v_;  // the state before the current step (last good state), movable nodes
+  std::vector<std::uint32_t> movable_nodes_;  // the nodes that are not fixed
   // Per node inputs.
   Points external_, target_;
   std::vector<std::uint8_t> held_;
