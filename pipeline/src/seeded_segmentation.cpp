@@ -13,7 +13,6 @@
 #include <itkImageRegionIterator.h>
 #include <itkLinearInterpolateImageFunction.h>
 #include <itkMorphologicalWatershedFromMarkersImageFilter.h>
-#include <itkRegionOfInterestImageFilter.h>
 #include <itkResampleImageFilter.h>
 #include <itkSignedMaurerDistanceMapImageFilter.h>
 #include <itkSliceBySliceImageFilter.h>
