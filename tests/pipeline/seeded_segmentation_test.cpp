@@ -21,23 +21,20 @@ struct Case {
   MaskImage::Pointer label;
 };
 
+Case load_case(const char* ct, const char* label) {
+  Case c;
+  c.ct = read_ct((kRealCt / ct).string());
+  c.label = read_label_mask((kRealCt / label).string(), 1, *c.ct);
+  return c;
+}
+
 const Case& nifti_case() {
-  static const Case c = [] {
-    Case r;
-    r.ct = read_ct((kRealCt / "example_ct.nii.gz").string());
-    r.label = read_label_mask((kRealCt / "liver_mask_ct.nii.gz").string(), 1, *r.ct);
-    return r;
-  }();
+  static const Case c = load_case("example_ct.nii.gz", "liver_mask_ct.nii.gz");
   return c;
 }
 
 const Case& dicom_case() {
-  static const Case c = [] {
-    Case r;
-    r.ct = read_ct((kRealCt / "example_ct_dicom").string());
-    r.label = read_label_mask((kRealCt / "liver_mask_dicom.nii.gz").string(), 1, *r.ct);
-    return r;
-  }();
+  static const Case c = load_case("example_ct_dicom", "liver_mask_dicom.nii.gz");
   return c;
 }
 
