@@ -14,6 +14,7 @@ packages=(
   libgtest-dev libbenchmark-dev
   clang-14 libclang-rt-14-dev
   libopencv-dev xvfb xauth
+  calculix-ccx
 )
 
 missing=()

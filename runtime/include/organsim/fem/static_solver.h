@@ -1,0 +1,92 @@
+// Static equilibrium of a tetrahedral FEM problem (docs/fem.md): fixed nodes,
+// prescribed displacement components, nodal loads and a dead body force ρg,
+// applied in load steps, each solved by Newton–Raphson on the
+// ElasticitySystem to the paper's criterion ‖F − Q‖ / ‖F − Q‖_first ≤ tolerance.
+//
+// Prescribed displacements enter each load step through a consistent
+// predictor: the step's increment ΔūC of the constrained components is pushed
+// through the tangent (K_ff Δu_f = −(r_f + K_fc Δū_c)) rather than moving
+// those nodes alone, which on a nearly incompressible body would invert the
+// elements next to them. A load step that fails (no convergence within the
+// iteration limit, an inverted element, a non-finite value) is undone and
+// retried in halves; when halving no longer helps the solve stops with an
+// error that names the cause and the tetrahedron — never with NaN.
+//
+// The linear solver is a sparse LDLᵀ factorization (Eigen's SimplicialLDLT,
+// AMD ordering) of the free–free block of the Hessian: it is symmetric
+// positive definite for the displacement-only materials near equilibrium and
+// symmetric quasi-definite ([K_uu G; Gᵀ −C], K_uu positive definite, C positive
+// definite) for mooney-rivlin, and quasi-definite matrices have an LDLᵀ
+// factorization for every symmetric ordering, with no pivoting
+// (docs/fem.md compares it with the alternatives).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "organsim/fem/material.h"
+#include "organsim/fem/tet_mesh.h"
+
+namespace organsim::fem {
+
+struct PrescribedDisplacement {
+  std::int32_t node = 0;
+  int component = 0;   ///< 0: x, 1: y, 2: z
+  double value = 0;    ///< m, reached at the last load step
+};
+
+struct NodalLoad {
+  std::int32_t node = 0;
+  int component = 0;
+  double value = 0;    ///< N, reached at the last load step
+};
+
+struct StaticProblem {
+  TetMesh mesh;
+  Material material;
+  double density = 0;                                   ///< kg/m³
+  Eigen::Vector3d gravity = Eigen::Vector3d::Zero();    ///< m/s² (dead load ρg, scaled with the load steps)
+  std::vector<std::int32_t> fixed;                      ///< nodes held in all three components
+  std::vector<PrescribedDisplacement> prescribed;
+  std::vector<NodalLoad> loads;
+  int load_steps = 1;
+  double tolerance = 1e-8;                              ///< on ‖F − Q‖ / ‖F − Q‖_first
+};
+
+/// Throws std::invalid_argument with a one-line message naming the field or
+/// element at fault (an index out of range, a non-finite number, a material
+/// constant out of range, a node both fixed and prescribed, …). The
+/// tetrahedra's volumes are checked when the system is built.
+void validate(const StaticProblem& problem);
+
+struct SolverOptions {
+  int max_iterations = 25;   ///< Newton iterations per load increment
+  int max_step_cuts = 10;    ///< halvings of one load step before giving up
+};
+
+struct StaticSolution {
+  bool converged = false;
+  std::string error;                          ///< one line when not converged
+  Eigen::VectorXd displacements;              ///< 3 per node, m
+  Eigen::VectorXd pressures;                  ///< per tetrahedron, Pa (mooney-rivlin; else empty)
+  std::vector<int> newton_iterations;         ///< per load step (its increments' iterations summed)
+  /// Per Newton iteration of every increment: ‖F − Q‖ / ‖F − Q‖_first after it.
+  std::vector<std::vector<double>> residual_history;
+  /// The forces the supports exert on the body (N, 3 per node; 0 on free
+  /// components), and their sums over the fixed nodes and over the prescribed
+  /// components (with no other load, fixed + prescribed = − the body force).
+  Eigen::VectorXd nodal_reactions;
+  Eigen::Vector3d reaction_fixed = Eigen::Vector3d::Zero(), reaction_prescribed = Eigen::Vector3d::Zero();
+  int step_cuts = 0;
+  double assembly_seconds = 0, solve_seconds = 0;
+};
+
+/// Validates and solves `problem`. Errors of the input throw
+/// std::invalid_argument; a solve that fails returns converged = false with
+/// `error` set and the last converged state.
+StaticSolution solve_static(const StaticProblem& problem, const SolverOptions& options = {});
+
+}  // namespace organsim::fem

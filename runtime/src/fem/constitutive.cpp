@@ -1,0 +1,146 @@
+#include "constitutive.h"
+
+#include <cmath>
+
+#include <Eigen/LU>
+#include <Eigen/SVD>
+
+namespace organsim::fem {
+
+namespace {
+
+using Eigen::Matrix3d;
+
+double double_dot(const Matrix3d& a, const Matrix3d& b) noexcept { return (a.array() * b.array()).sum(); }
+
+Matrix3d symmetric_part(const Matrix3d& a) noexcept { return 0.5 * (a + a.transpose()); }
+
+/// dF for the vec index `column`: one entry 1, the rest 0.
+Matrix3d unit_direction(int column) noexcept {
+  Matrix3d d = Matrix3d::Zero();
+  d(column % 3, column / 3) = 1;
+  return d;
+}
+
+template <typename DirectionalDerivative>
+void fill_tangent(Matrix9d& tangent, DirectionalDerivative&& dP) noexcept {
+  for (int column = 0; column < 9; ++column) {
+    const Matrix3d d = dP(unit_direction(column));
+    tangent.col(column) = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(d.data());
+  }
+  // The exact tangent is symmetric; symmetrizing removes round-off asymmetry
+  // so that the assembled matrix is exactly symmetric.
+  tangent = 0.5 * (tangent + tangent.transpose()).eval();
+}
+
+double linear(const Constitutive& m, const Matrix3d& F, Matrix3d& P, Matrix9d* tangent) noexcept {
+  const Matrix3d strain = symmetric_part(F - Matrix3d::Identity());
+  const double trace = strain.trace();
+  P = 2 * m.mu * strain + m.lambda * trace * Matrix3d::Identity();
+  if (tangent)
+    fill_tangent(*tangent, [&](const Matrix3d& dF) -> Matrix3d {
+      return 2 * m.mu * symmetric_part(dF) + m.lambda * dF.trace() * Matrix3d::Identity();
+    });
+  return m.mu * double_dot(strain, strain) + 0.5 * m.lambda * trace * trace;
+}
+
+double stvk(const Constitutive& m, const Matrix3d& F, Matrix3d& P, Matrix9d* tangent) noexcept {
+  const Matrix3d E = 0.5 * (F.transpose() * F - Matrix3d::Identity());
+  const double trace = E.trace();
+  const Matrix3d S = m.lambda * trace * Matrix3d::Identity() + 2 * m.mu * E;
+  P = F * S;
+  if (tangent)
+    fill_tangent(*tangent, [&](const Matrix3d& dF) -> Matrix3d {
+      const Matrix3d dE = symmetric_part(F.transpose() * dF);
+      const Matrix3d dS = m.lambda * dE.trace() * Matrix3d::Identity() + 2 * m.mu * dE;
+      return dF * S + F * dS;
+    });
+  return 0.5 * m.lambda * trace * trace + m.mu * double_dot(E, E);
+}
+
+Eigen::Vector3d axial(const Matrix3d& skew) noexcept {
+  return {skew(2, 1), skew(0, 2), skew(1, 0)};
+}
+
+Matrix3d cross_matrix(const Eigen::Vector3d& w) noexcept {
+  Matrix3d m;
+  m << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
+  return m;
+}
+
+double corotational(const Constitutive& m, const Matrix3d& F, Matrix3d& P, Matrix9d* tangent) noexcept {
+  const Matrix3d R = polar_rotation(F);
+  const Matrix3d S = symmetric_part(R.transpose() * F);
+  const double volumetric = S.trace() - 3;
+  P = 2 * m.mu * (F - R) + m.lambda * volumetric * R;
+  if (tangent) {
+    // δR = R [w]×, with (tr S · I − S) w = axial(Rᵀ δF − δFᵀ R) (from Rᵀ δF = [w]× S + δS).
+    const Eigen::PartialPivLU<Matrix3d> rotation_rate((S.trace() * Matrix3d::Identity() - S).eval());
+    fill_tangent(*tangent, [&](const Matrix3d& dF) -> Matrix3d {
+      const Matrix3d RtdF = R.transpose() * dF;
+      const Eigen::Vector3d w = rotation_rate.solve(axial(RtdF - RtdF.transpose()));
+      const Matrix3d dR = R * cross_matrix(w);
+      return 2 * m.mu * (dF - dR) + m.lambda * RtdF.trace() * R + m.lambda * volumetric * dR;
+    });
+  }
+  return m.mu * (F - R).squaredNorm() + 0.5 * m.lambda * volumetric * volumetric;
+}
+
+double mooney_rivlin(const Constitutive& m, const Matrix3d& F, double p, Matrix3d& P, Matrix9d* tangent) noexcept {
+  const double J = F.determinant();
+  const Matrix3d F_inv_t = F.inverse().transpose();
+  const Matrix3d C = F.transpose() * F;
+  const double I1 = C.trace();
+  const double I2 = 0.5 * (I1 * I1 - double_dot(C, C));
+  const double a = std::pow(J, -2.0 / 3.0), b = a * a;  // J^(−2/3), J^(−4/3)
+  const Matrix3d FC = F * C;
+  // ∂I₁/∂F = 2F, ∂I₂/∂F = 2 (I₁ F − F C), ∂J/∂F = J F⁻ᵀ.
+  const Matrix3d dW1 = 2 * F - (2.0 / 3.0) * I1 * F_inv_t;
+  const Matrix3d dW2 = 2 * (I1 * F - FC) - (4.0 / 3.0) * I2 * F_inv_t;
+  P = m.c1 * a * dW1 + m.c2 * b * dW2 + p * J * F_inv_t;
+  if (tangent)
+    fill_tangent(*tangent, [&](const Matrix3d& dF) -> Matrix3d {
+      const double t = double_dot(F_inv_t, dF);  // δJ / J = tr(F⁻¹ δF)
+      const Matrix3d dF_inv_t = -F_inv_t * dF.transpose() * F_inv_t;
+      const double dI1 = 2 * double_dot(F, dF);
+      const double dI2 = 2 * double_dot(I1 * F - FC, dF);
+      const Matrix3d dFC = dF * C + F * (dF.transpose() * F + F.transpose() * dF);
+      const Matrix3d d_dW1 = 2 * dF - (2.0 / 3.0) * (dI1 * F_inv_t + I1 * dF_inv_t);
+      const Matrix3d d_dW2 = 2 * (dI1 * F + I1 * dF - dFC) - (4.0 / 3.0) * (dI2 * F_inv_t + I2 * dF_inv_t);
+      return m.c1 * a * (d_dW1 - (2.0 / 3.0) * t * dW1) + m.c2 * b * (d_dW2 - (4.0 / 3.0) * t * dW2) +
+             p * J * (t * F_inv_t + dF_inv_t);
+    });
+  return m.c1 * (a * I1 - 3) + m.c2 * (b * I2 - 3) + p * (J - 1) - p * p / (2 * m.bulk_modulus);
+}
+
+}  // namespace
+
+Constitutive::Constitutive(const Material& material)
+    : model(material.model),
+      mu(material.lame_mu()),
+      lambda(material.lame_lambda()),
+      c1(material.c1),
+      c2(material.c2),
+      bulk_modulus(material.bulk_modulus) {}
+
+Matrix3d polar_rotation(const Matrix3d& F) noexcept {
+  const Eigen::JacobiSVD<Matrix3d> svd(F, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Matrix3d U = svd.matrixU();
+  const Matrix3d V = svd.matrixV();
+  // U and V may each hold a reflection; with det F > 0 they hold both or neither.
+  if (U.determinant() * V.determinant() < 0) U.col(2) = -U.col(2);
+  return U * V.transpose();
+}
+
+double evaluate_material(const Constitutive& material, const Matrix3d& F, double pressure, Matrix3d& P,
+                         Matrix9d* tangent) noexcept {
+  switch (material.model) {
+    case MaterialModel::linear: return linear(material, F, P, tangent);
+    case MaterialModel::corotational: return corotational(material, F, P, tangent);
+    case MaterialModel::stvk: return stvk(material, F, P, tangent);
+    case MaterialModel::mooney_rivlin: return mooney_rivlin(material, F, pressure, P, tangent);
+  }
+  return 0;
+}
+
+}  // namespace organsim::fem
