@@ -49,6 +49,9 @@ void add_command(CLI::App& app, CommandTable& table, const char* name, const cha
 }
 
 void add_simulation_commands(CLI::App& app, CommandTable& table) {
+  add_command(app, table, "fem",
+              "Solve a static FEM problem file (linear, corotational, stvk, mooney-rivlin): displacements, pressures",
+              add_fem_command);
   add_command(app, table, "info", "Summarize a model file (counts, size, volume, material, provenance)", add_info_command);
   add_command(app, table, "plot", "Plot columns of a CSV file (forces, a springs trace) as a PNG line chart",
               add_plot_command);

@@ -1,6 +1,9 @@
 #include "organsim/mesh_io/mesh_io.h"
 
 #include <vtkCellArray.h>
+#include <vtkCellData.h>
+#include <vtkDoubleArray.h>
+#include <vtkPointData.h>
 #include <vtkFieldData.h>
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
@@ -11,6 +14,7 @@
 #include <vtkXMLPolyDataWriter.h>
 #include <vtkXMLUnstructuredGridWriter.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <sstream>
 #include <stdexcept>
@@ -95,6 +99,44 @@ void write_tetrahedra_vtu(const geometry::TetrahedralMesh& mesh, const std::stri
     grid->InsertNextCell(VTK_TETRA, 4, ids);
   }
   add_frame_and_units(*grid);
+  auto writer = Ptr<vtkXMLUnstructuredGridWriter>::New();
+  writer->SetDataModeToBinary();
+  write_atomically(*writer, grid.Get(), path, ".vtu");
+}
+
+namespace {
+
+Ptr<vtkDoubleArray> to_vtk_array(const DataArray& data, std::size_t count, const std::string& path) {
+  if (data.components < 1 || data.values.size() != count * static_cast<std::size_t>(data.components))
+    throw std::invalid_argument("cannot write '" + path + "': array '" + data.name + "' has the wrong size");
+  auto array = Ptr<vtkDoubleArray>::New();
+  array->SetName(data.name.c_str());
+  array->SetNumberOfComponents(data.components);
+  array->SetNumberOfTuples(static_cast<vtkIdType>(count));
+  std::copy(data.values.begin(), data.values.end(), array->GetPointer(0));
+  return array;
+}
+
+}  // namespace
+
+void write_field_vtu(const FieldMesh& mesh, const std::string& path) {
+  auto points = Ptr<vtkPoints>::New();
+  points->SetDataTypeToDouble();
+  points->SetNumberOfPoints(static_cast<vtkIdType>(mesh.points.size()));
+  for (std::size_t i = 0; i < mesh.points.size(); ++i)
+    points->SetPoint(static_cast<vtkIdType>(i), mesh.points[i].data());
+  auto grid = Ptr<vtkUnstructuredGrid>::New();
+  grid->SetPoints(points);
+  grid->Allocate(static_cast<vtkIdType>(mesh.tetrahedra.size()));
+  for (const auto& t : mesh.tetrahedra) {
+    const vtkIdType ids[4] = {t[0], t[1], t[2], t[3]};
+    grid->InsertNextCell(VTK_TETRA, 4, ids);
+  }
+  for (const DataArray& data : mesh.point_data)
+    grid->GetPointData()->AddArray(to_vtk_array(data, mesh.points.size(), path));
+  for (const DataArray& data : mesh.cell_data)
+    grid->GetCellData()->AddArray(to_vtk_array(data, mesh.tetrahedra.size(), path));
+  add_string_field(*grid->GetFieldData(), "UNITS", mesh.units.c_str());
   auto writer = Ptr<vtkXMLUnstructuredGridWriter>::New();
   writer->SetDataModeToBinary();
   write_atomically(*writer, grid.Get(), path, ".vtu");

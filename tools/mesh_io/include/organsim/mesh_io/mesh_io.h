@@ -13,6 +13,8 @@
 // without linking the offline pipeline.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
@@ -27,6 +29,24 @@ void write_surface_vtp(const geometry::SurfaceMesh& surface, const std::string& 
 void write_surface_stl(const geometry::SurfaceMesh& surface, const std::string& path);
 /// VTK XML UnstructuredGrid (.vtu) of VTK_TETRA cells.
 void write_tetrahedra_vtu(const geometry::TetrahedralMesh& mesh, const std::string& path);
+
+/// A named array of `components` values per point or per cell.
+struct DataArray {
+  std::string name;
+  int components = 1;
+  std::vector<double> values;  ///< (count × components), row-major
+};
+/// A tetrahedral mesh with point and cell data, in the units of a problem
+/// that is not in the patient frame (a `fem` problem file's metres): the
+/// coordinates are written as given and field data `UNITS` says `units`.
+struct FieldMesh {
+  std::vector<std::array<double, 3>> points;
+  std::vector<std::array<std::int64_t, 4>> tetrahedra;
+  std::vector<DataArray> point_data, cell_data;
+  std::string units = "m";
+};
+/// VTK XML UnstructuredGrid (.vtu) of `mesh` with its data arrays.
+void write_field_vtu(const FieldMesh& mesh, const std::string& path);
 
 /// One entry of a time series: the time (s) and the file's name, relative to
 /// the collection file.
