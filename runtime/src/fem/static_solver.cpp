@@ -237,23 +237,24 @@ void validate(const StaticProblem& problem) {
     require(n >= 0 && static_cast<std::size_t>(n) < nodes, "fixed[" + std::to_string(i) + "]: node out of range");
     for (int c = 0; c < 3; ++c) constrained[static_cast<std::size_t>(3 * n + c)] = true;
   }
+  // A prescribed displacement and a nodal load name the same things: node, component, value.
+  const auto check_component = [&](const char* field, std::size_t i, std::int32_t node, int component, double value) {
+    const std::string where = std::string(field) + "[" + std::to_string(i) + "]: ";
+    require(node >= 0 && static_cast<std::size_t>(node) < nodes, where + "node out of range");
+    require(component >= 0 && component <= 2, where + "component must be 0, 1 or 2");
+    require(std::isfinite(value), where + "value is not a finite number");
+    return where;
+  };
   for (std::size_t i = 0; i < problem.prescribed.size(); ++i) {
     const PrescribedDisplacement& p = problem.prescribed[i];
-    const std::string where = "prescribed[" + std::to_string(i) + "]: ";
-    require(p.node >= 0 && static_cast<std::size_t>(p.node) < nodes, where + "node out of range");
-    require(p.component >= 0 && p.component <= 2, where + "component must be 0, 1 or 2");
-    require(std::isfinite(p.value), where + "value is not a finite number");
-    require(!constrained[static_cast<std::size_t>(3 * p.node + p.component)],
-            where + node_name(p.node) + " component " + std::to_string(p.component) + " is already fixed or prescribed");
-    constrained[static_cast<std::size_t>(3 * p.node + p.component)] = true;
+    const std::string where = check_component("prescribed", i, p.node, p.component, p.value);
+    const auto dof = static_cast<std::size_t>(3 * p.node + p.component);
+    require(!constrained[dof], where + node_name(p.node) + " component " + std::to_string(p.component) +
+                                   " is already fixed or prescribed");
+    constrained[dof] = true;
   }
-  for (std::size_t i = 0; i < problem.loads.size(); ++i) {
-    const NodalLoad& l = problem.loads[i];
-    const std::string where = "loads[" + std::to_string(i) + "]: ";
-    require(l.node >= 0 && static_cast<std::size_t>(l.node) < nodes, where + "node out of range");
-    require(l.component >= 0 && l.component <= 2, where + "component must be 0, 1 or 2");
-    require(std::isfinite(l.value), where + "value is not a finite number");
-  }
+  for (std::size_t i = 0; i < problem.loads.size(); ++i)
+    check_component("loads", i, problem.loads[i].node, problem.loads[i].component, problem.loads[i].value);
   require(problem.load_steps >= 1 && problem.load_steps <= 100000, "load_steps: must be between 1 and 100000");
   require(std::isfinite(problem.tolerance) && problem.tolerance > 0 && problem.tolerance < 1,
           "tolerance: must be in (0, 1)");
