@@ -152,7 +152,12 @@ Command add_fem_command(CLI::App& app) {
   app.add_option("PROBLEM", o->problem_path, "Problem file (JSON, SI units; docs/fem.md)")->required();
   app.add_flag("--json", o->json,
                "Print one JSON object (converged, displacements, pressures, newton_iterations, reactions, time_s)");
-  app.add_option("--out", o->out_path, "Write the deformed mesh with displacement, pressure and stress (.vtu)");
+  app.add_option("--out", o->out_path, "Write the deformed mesh with displacement, pressure and stress (.vtu)")
+      ->check(CLI::Validator(
+          [](std::string& path) -> std::string {
+            return path.size() > 4 && path.compare(path.size() - 4, 4, ".vtu") == 0 ? "" : "must end in .vtu";
+          },
+          "FILE.vtu"));
   return [o] { return run_fem(*o); };
 }
 

@@ -39,6 +39,7 @@ const std::vector<Subcommand> kSubcommands = {
     {"bake", {"{dir}/ct.nii.gz", "-o {dir}/liver.organ"}, "--surface-vertices", "--stations many",
      "{dir}/missing.nii.gz --seed 0,0,0 -o {dir}/liver.organ", "missing.nii.gz"},
     {"phantom", {"-o {dir}/ct.nii.gz"}, "--mask", "--size 16,16", "-o {dir}/ct.png --size 16,16,16", "ct.png"},
+    {"fem", {"{dir}/problem.json"}, "--out", "--out {dir}/result.txt", "{dir}/missing.json", "missing.json"},
     {"info", {"{dir}/model.organ"}, "--beam", "--beam -1", "{dir}/missing.organ", "missing.organ"},
     {"plot", {"{dir}/trace.csv", "--x step", "--y dz", "-o {dir}/plot.png"}, "--title", "--size 16,16",
      "{dir}/missing.csv --x step --y dz -o {dir}/plot.png", "missing.csv"},
