@@ -137,7 +137,7 @@ PokeResult press_beams(const multibeam::BeamOrgan& organ, const std::vector<Tool
 PokeResult press_springs(const multibeam::BeamOrgan& organ, const std::vector<ToolSpec>& tools, const PokeOptions& o) {
   using namespace organsim::realtime;
   const std::unique_ptr<DeformationModel> springs =
-      make_deformation_model(ModelKind::springs, organ, {}, SpringModelOptions{}, tools.size());
+      make_deformation_model(ModelKind::springs, organ, ModelOptions{}, tools.size());
   PokeResult r;
   r.tools.resize(tools.size());
   std::vector<ContactLinearization> contacts(tools.size());

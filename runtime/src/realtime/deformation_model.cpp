@@ -139,6 +139,70 @@ class SpringModel final : public DeformationModel {
   std::uint64_t instabilities_ = 0;
 };
 
+/// A FEM model (fem/organ_fem.h): one warm-started iteration per frame; the
+/// contact's force and condensed stiffness are the linearization.
+class FemModel final : public DeformationModel {
+ public:
+  FemModel(ModelKind kind, const multibeam::BeamOrgan& organ, const fem::OrganFemOptions& options, std::size_t tools)
+      : kind_(kind), organ_(organ), fem_(organ.model(), material_of(kind), options, tools) {}
+
+  ModelKind kind() const noexcept override { return kind_; }
+
+  bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, ContactLinearization& contact) noexcept override {
+    if (!fem_.attach(tool, rest_point)) return false;
+    contact.action_point = rest_point;
+    contact.normal = geometry::triangle_normal(organ_.model(), organ_.surface_tree().closest_point(rest_point).triangle);
+    linearize(tool, contact);
+    // The organ may already be deformed there: the tool begins with no force
+    // where the material point is now.
+    contact.force.setZero();
+    return true;
+  }
+
+  void detach(std::uint32_t tool) noexcept override { fem_.detach(tool); }
+
+  bool step(double, const Eigen::Vector3d* displacements, model::Point3* positions, model::Point3* normals,
+            ContactLinearization* contacts) noexcept override {
+    const fem::FrameStatus status = fem_.step(displacements);
+    if (status == fem::FrameStatus::not_finite) return false;
+    if (status == fem::FrameStatus::inverted) ++instabilities_;
+    fem_.surface_positions(positions);
+    multibeam::compute_vertex_normals(organ_, positions, normals, 0, organ_.vertex_count());
+    for (std::uint32_t tool = 0; tool < multibeam::kMaxTools; ++tool)
+      if (fem_.attached(tool)) linearize(tool, contacts[tool]);
+    return true;
+  }
+
+  std::uint64_t instabilities() const noexcept override { return instabilities_; }
+
+ private:
+  static fem::MaterialModel material_of(ModelKind kind) {
+    switch (kind) {
+      case ModelKind::linear:
+        return fem::MaterialModel::linear;
+      case ModelKind::corotational:
+        return fem::MaterialModel::corotational;
+      case ModelKind::stvk:
+        return fem::MaterialModel::stvk;
+      case ModelKind::psh:
+        return fem::MaterialModel::mooney_rivlin;
+      default:
+        throw std::invalid_argument("not a FEM model");
+    }
+  }
+
+  void linearize(std::uint32_t tool, ContactLinearization& contact) const noexcept {
+    contact.displacement = fem_.contact_displacement(tool);
+    contact.force = fem_.contact_force(tool);
+    contact.stiffness = fem_.contact_stiffness(tool);
+  }
+
+  ModelKind kind_;
+  const multibeam::BeamOrgan& organ_;
+  fem::OrganFem fem_;
+  std::uint64_t instabilities_ = 0;
+};
+
 }  // namespace
 
 const char* model_name(ModelKind kind) noexcept {
@@ -147,12 +211,21 @@ const char* model_name(ModelKind kind) noexcept {
       return "beam";
     case ModelKind::springs:
       return "springs";
+    case ModelKind::linear:
+      return "linear";
+    case ModelKind::corotational:
+      return "corotational";
+    case ModelKind::stvk:
+      return "stvk";
+    case ModelKind::psh:
+      return "psh";
   }
   return "unknown";
 }
 
 bool parse_model_kind(const std::string& name, ModelKind& kind) noexcept {
-  for (ModelKind k : {ModelKind::beam, ModelKind::springs})
+  for (ModelKind k : {ModelKind::beam, ModelKind::springs, ModelKind::linear, ModelKind::corotational, ModelKind::stvk,
+                      ModelKind::psh})
     if (name == model_name(k)) {
       kind = k;
       return true;
@@ -161,13 +234,17 @@ bool parse_model_kind(const std::string& name, ModelKind& kind) noexcept {
 }
 
 std::unique_ptr<DeformationModel> make_deformation_model(ModelKind kind, const multibeam::BeamOrgan& organ,
-                                                         const multibeam::MultiBeamOptions& beam_options,
-                                                         const SpringModelOptions& spring_options, std::size_t tools) {
+                                                         const ModelOptions& options, std::size_t tools) {
   switch (kind) {
     case ModelKind::beam:
-      return std::make_unique<BeamModel>(organ, beam_options);
+      return std::make_unique<BeamModel>(organ, options.beams);
     case ModelKind::springs:
-      return std::make_unique<SpringModel>(organ, spring_options, tools);
+      return std::make_unique<SpringModel>(organ, options.springs, tools);
+    case ModelKind::linear:
+    case ModelKind::corotational:
+    case ModelKind::stvk:
+    case ModelKind::psh:
+      return std::make_unique<FemModel>(kind, organ, options.fem, tools);
   }
   throw std::invalid_argument("unknown deformation model");
 }

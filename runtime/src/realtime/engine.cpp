@@ -42,8 +42,9 @@ Engine::Engine(const multibeam::BeamOrgan& organ, const std::vector<devices::Hap
       devices_(devices),
       options_(options),
       model_(make_deformation_model(options.model, organ,
-                                    with_tools(options.beams, std::max<std::size_t>(devices.size(), 1)),
-                                    options.springs, std::max<std::size_t>(devices.size(), 1))),
+                                    {with_tools(options.beams, std::max<std::size_t>(devices.size(), 1)),
+                                     options.springs, options.fem},
+                                    std::max<std::size_t>(devices.size(), 1))),
       deformed_tree_(organ.model().surface_vertices, organ.model().surface_triangles),
       surfaces_(rest_frame(organ)) {
   if (devices.empty() || devices.size() > kMaxTools) throw std::invalid_argument("an engine drives 1 to 16 tools");

@@ -28,6 +28,7 @@
 
 #include <Eigen/Core>
 
+#include "organsim/fem/organ_fem.h"
 #include "organsim/model/organ_model.h"
 #include "organsim/multibeam/beam_organ.h"
 #include "organsim/multibeam/multibeam.h"
@@ -35,9 +36,11 @@
 
 namespace organsim::realtime {
 
-/// The deformation models the engine can run.
-enum class ModelKind : std::uint8_t { beam, springs };
-/// "beam" or "springs".
+/// The deformation models the engine can run: multi-beam, mass-spring, and
+/// the FEM models on the model's tetrahedra (fem/organ_fem.h): linear,
+/// co-rotational, St. Venant–Kirchhoff, and pressure-stabilized Mooney–Rivlin.
+enum class ModelKind : std::uint8_t { beam, springs, linear, corotational, stvk, psh };
+/// "beam", "springs", "linear", "corotational", "stvk" or "psh".
 const char* model_name(ModelKind kind) noexcept;
 /// Parses a model name; false for an unknown one.
 bool parse_model_kind(const std::string& name, ModelKind& kind) noexcept;
@@ -92,10 +95,16 @@ struct SpringModelOptions {
   }
 };
 
+/// The options of every model; each model reads its own.
+struct ModelOptions {
+  multibeam::MultiBeamOptions beams;
+  SpringModelOptions springs;
+  fem::OrganFemOptions fem;
+};
+
 /// The model `kind` on `organ`, sized for `tools` tools. Throws
 /// std::invalid_argument when the organ or the options do not suit it.
 std::unique_ptr<DeformationModel> make_deformation_model(ModelKind kind, const multibeam::BeamOrgan& organ,
-                                                         const multibeam::MultiBeamOptions& beam_options,
-                                                         const SpringModelOptions& spring_options, std::size_t tools);
+                                                         const ModelOptions& options, std::size_t tools);
 
 }  // namespace organsim::realtime

@@ -1,5 +1,5 @@
 // The real-time engine: a force loop (≥ 1 kHz) and a deformation loop (≥ 60 Hz)
-// around one deformation model (multi-beam or mass-spring; deformation_model.h) (Ushiki et al., multi-beam paper, §3;
+// around one deformation model (multi-beam, mass-spring or FEM; deformation_model.h) (Ushiki et al., multi-beam paper, §3;
 // docs/multibeam.md#references), with haptic devices, contact
 // detection and force safety. docs/realtime.md states the rules.
 //
@@ -46,6 +46,7 @@ struct EngineOptions {
   ModelKind model = ModelKind::beam;  ///< which deformation model runs
   multibeam::MultiBeamOptions beams;  ///< merge rule, beam theory, distances (max_tools is set from the devices)
   SpringModelOptions springs;         ///< the mass-spring model's network and integration
+  fem::OrganFemOptions fem;           ///< the FEM models' clamp and psh material
   double force_period = 1e-3;         ///< s
   double deformation_period = 1.0 / 60.0;  ///< s
   double shaft_length = 0.30;              ///< m, tip to handle (laparoscopic instruments: 30–36 cm)

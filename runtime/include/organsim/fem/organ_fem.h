@@ -1,0 +1,195 @@
+// The FEM models on a baked organ, frame by frame (docs/fem.md#real-time): what
+// the real-time engine runs for --model linear|corotational|stvk|psh.
+//
+// - Mesh: the model file's tetrahedra (P1); material E, ν from the model file
+//   (psh: Mooney–Rivlin from E with its own ν and β, see OrganFemOptions).
+// - Clamp: every tetrahedral node within `fixed_radius` of the model's first
+//   fixed point is held in all three components.
+// - Tools: a tool holds the point of the tetrahedral mesh's boundary nearest to
+//   its action point; the constraint is that this material point (a barycentric
+//   combination of one boundary face's three nodes) follows the tool's
+//   displacement. One 3-vector constraint per tool, enforced exactly through a
+//   Lagrange multiplier — the force the tool applies.
+// - Frame: one warm-started Newton iteration with a kept tangent (modified
+//   Newton): the internal forces of the current state are evaluated with the
+//   material's full nonlinearity, the correction is solved with the LDLᵀ
+//   factorization of a tangent from a recent state, and the tools' constraints
+//   are met exactly through the capacitance matrix W = Hᵀ A⁻¹ H (H: the
+//   constraints' columns; A⁻¹ H solved once per contact and tangent). For
+//   corotational and stvk a worker thread refactors the tangent at the state
+//   of frame k while the frames go on, and frame k + refresh_frames adopts it
+//   (waiting for the worker if it is late, so that a replay is deterministic):
+//   the asynchronous tangent of Courtecuisse et al. (2014). psh keeps its rest
+//   tangent. Linear material: the tangent never changes and every frame is the
+//   exact static solution. A true Newton
+//   iteration per frame would refactor the tangent every frame (the liver: 0.34
+//   s for the displacement-only materials, 1.9 s for psh; docs/fem.md).
+// - Contact force and stiffness: the tool's multiplier, and the condensed
+//   stiffness (W⁻¹)_tt of the contact with the other tools held, both refreshed
+//   every frame.
+// - Surface: every surface vertex is embedded in the tetrahedron that owns the
+//   boundary face nearest to it (barycentric weights; the baked boundary lies
+//   within the mesher's facet distance of the surface), and moves with it.
+//
+// Construction allocates everything (and factorizes); attach, detach, step and
+// the queries allocate nothing, take no lock, throw nothing and do no I/O on
+// the calling thread (the worker allocates while it factorizes).
+// Units: metres, newtons, pascals.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "organsim/fem/elasticity_system.h"
+#include "organsim/fem/material.h"
+#include "organsim/geometry/closest_point.h"
+#include "organsim/model/organ_model.h"
+
+namespace organsim::fem {
+
+struct OrganFemOptions {
+  /// Tetrahedral nodes within this distance of the model's first fixed point
+  /// are clamped, m. The multi-beam model clamps every beam at the fixed point
+  /// itself (a point clamp that still resists rotation); a clamped ball of
+  /// nodes is the FEM's nearest equivalent.
+  double fixed_radius = 0.010;
+  /// mooney-rivlin: ν of κ = E / (3 (1 − 2ν)) (the paper's nearly
+  /// incompressible liver: 0.49) and β of the pressure-jump stabilization (the
+  /// paper's 100).
+  double psh_poisson_ratio = 0.49;
+  double stabilization = 100.0;
+  /// corotational and stvk: frames between a tangent's request and its use
+  /// (0: keep the rest tangent). The worker must refactor within this many
+  /// frames or the frame that adopts it waits: on the shipped liver a
+  /// factorization takes 0.34 s (20 frames at 60 Hz). psh always keeps its rest
+  /// tangent: the quasi-definite rest matrix converges, while tangents
+  /// refreshed at pressed states (carrying the pressures' geometric stiffness)
+  /// made the lagging iteration diverge once the tools let go (docs/fem.md),
+  /// and one takes 1.9 s on the liver.
+  std::uint32_t refresh_frames = 30;
+};
+
+enum class FrameStatus : std::uint8_t {
+  ok,
+  not_finite,  ///< a tool displacement is not finite: nothing changed
+  inverted,    ///< even 1/16 of the iteration would invert a tetrahedron: the state is the previous one
+};
+
+class OrganFem {
+ public:
+  /// Throws std::invalid_argument with one line when the model has no
+  /// tetrahedra, too few nodes within the clamp radius, or options out of range.
+  OrganFem(const model::OrganModel& model, MaterialModel material, const OrganFemOptions& options, std::size_t tools);
+  ~OrganFem();
+  OrganFem(const OrganFem&) = delete;
+  OrganFem& operator=(const OrganFem&) = delete;
+
+  /// Contact begins at the boundary point nearest `rest_point` (m). False
+  /// (nothing changed) for a tool index out of range, a non-finite point, a
+  /// boundary face with a clamped node, or one sharing a node with another
+  /// tool's face (the two constraints would fight over it).
+  bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point) noexcept;
+  void detach(std::uint32_t tool) noexcept;
+  bool attached(std::uint32_t tool) const noexcept;
+
+  /// One frame: `displacements[tool]` (m) is where each attached tool's
+  /// contact point is to be, from its rest position (entries of detached tools
+  /// are ignored).
+  FrameStatus step(const Eigen::Vector3d* displacements) noexcept;
+  /// Back to the rest state (contacts kept).
+  void reset() noexcept;
+  /// Refactors the tangent at the current state now, on this thread (true
+  /// Newton when called before every step; allocates: not for real-time loops).
+  /// False when the tangent there is singular or indefinite (the kept one stays).
+  bool refresh_tangent();
+  /// Tangents adopted since construction (the rest tangent not counted).
+  std::uint64_t tangent_refreshes() const noexcept { return refreshes_; }
+  /// Frames whose iteration was cut short because the whole of it would have
+  /// inverted a tetrahedron (the organ then lags the tools).
+  std::uint64_t step_cuts() const noexcept { return step_cuts_; }
+
+  /// The contact's rest point on the tetrahedral boundary (m).
+  Eigen::Vector3d contact_point(std::uint32_t tool) const noexcept;
+  /// Where the contact point is now, from rest (m).
+  Eigen::Vector3d contact_displacement(std::uint32_t tool) const noexcept;
+  /// The force the organ exerts on the tool (N) after the last step (zero right after attach).
+  Eigen::Vector3d contact_force(std::uint32_t tool) const noexcept;
+  /// The contact's condensed stiffness (N/m): dF/dd with the other tools held.
+  Eigen::Matrix3d contact_stiffness(std::uint32_t tool) const noexcept;
+
+  /// The surface vertices' positions (m) in the model's vertex order.
+  void surface_positions(model::Point3* positions) const noexcept;
+  /// Node displacements (m, 3 per tetrahedral node) and, for psh, pressures (Pa, per tetrahedron).
+  Eigen::Ref<const Eigen::VectorXd> displacements() const noexcept;
+  Eigen::Ref<const Eigen::VectorXd> pressures() const noexcept;
+  /// The largest nodal force out of balance after the last step (N): the
+  /// internal force minus what the tools apply, on the free nodes. Zero at
+  /// equilibrium; for the linear material, round-off.
+  double unbalanced_force() const noexcept { return unbalanced_; }
+
+  const ElasticitySystem& system() const noexcept { return *system_; }
+  std::size_t clamped_node_count() const noexcept { return clamped_nodes_; }
+  /// Seconds the factorization of the rest tangent took (at construction).
+  double factorization_seconds() const noexcept { return factorization_seconds_; }
+
+ private:
+  struct Contact {
+    bool active = false;
+    std::uint64_t generation = 0;  ///< distinguishes successive contacts (responses are keyed by it)
+    std::array<std::int32_t, 3> nodes{};
+    Eigen::Vector3d weights = Eigen::Vector3d::Zero();
+    Eigen::Vector3d rest_point = Eigen::Vector3d::Zero();
+    Eigen::Vector3d target = Eigen::Vector3d::Zero();      ///< the displacement prescribed in the last step
+    Eigen::Vector3d multiplier = Eigen::Vector3d::Zero();  ///< force the tool applies to the organ, N
+    Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();
+  };
+  struct Tangent;
+  struct Capacitance;
+  class Worker;
+
+  /// Σ_i w_i v_{node i} of a field on free dofs (clamped dofs count as 0).
+  Eigen::Vector3d gather(const Contact& contact, const Eigen::Ref<const Eigen::VectorXd>& free_values) const noexcept;
+  /// A⁻¹ H_t of `contact` with `tangent` (3 solves).
+  void respond(Tangent& tangent, std::uint32_t tool, const Contact& contact) const noexcept;
+  /// W of the active tools and, per tool, the condensed stiffness (W⁻¹)_tt.
+  void update_capacitance() noexcept;
+  /// Adopts `fresh` as the kept tangent: responses of contacts it lacks solved.
+  void adopt(std::unique_ptr<Tangent>& fresh) noexcept;
+  void request_refresh() noexcept;
+  Eigen::Index pressure_count() const noexcept {
+    return system_->dof_count() - static_cast<Eigen::Index>(displacement_dofs_);
+  }
+
+  std::unique_ptr<ElasticitySystem> system_;
+  std::size_t clamped_nodes_ = 0;
+  double factorization_seconds_ = 0;
+  std::vector<std::int32_t> free_dofs_;  ///< per free index, its dof
+  std::size_t displacement_dofs_ = 0;
+  // Boundary faces of the tetrahedra (node triples) and their tetrahedron.
+  std::vector<model::Point3> node_points_;
+  std::vector<model::Triangle> boundary_faces_;
+  std::vector<std::int32_t> boundary_owner_;
+  std::unique_ptr<geometry::SurfaceBvh> boundary_tree_;  ///< refers into node_points_ and boundary_faces_
+  // Surface embedding: per surface vertex, its tetrahedron's nodes and weights.
+  std::vector<model::Point3> surface_rest_;
+  std::vector<std::array<std::int32_t, 4>> embed_nodes_;
+  std::vector<Eigen::Vector4d> embed_weights_;
+  // State and scratch (sized at construction).
+  Eigen::VectorXd state_, saved_, gradient_, rhs_, step_;
+  std::vector<Contact> contacts_;
+  std::uint64_t generations_ = 0;
+  std::unique_ptr<Tangent> tangent_;  ///< the kept tangent
+  std::unique_ptr<Capacitance> capacitance_;
+  std::unique_ptr<Worker> worker_;    ///< null when the tangent is never refreshed
+  std::uint32_t refresh_frames_ = 0;
+  std::uint64_t frame_ = 0, refresh_due_ = 0;
+  std::uint64_t refreshes_ = 0, step_cuts_ = 0;
+  double unbalanced_ = 0;
+  double pressure_scale_ = 1;  ///< κ / h̄: pressure rows (m³) to newtons in unbalanced_force()
+};
+
+}  // namespace organsim::fem
