@@ -117,9 +117,24 @@ CLI::Validator number_check(const char* description, bool (*accept)(double)) {
 const CLI::Validator kPositive = number_check("a positive number", [](double v) { return v > 0.0; });
 const CLI::Validator kNonNegative = number_check("a number >= 0", [](double v) { return v >= 0.0; });
 
+const std::vector<std::string>& deformation_model_names() {
+  static const std::vector<std::string> names{"beam", "springs", "linear", "corotational", "stvk", "psh"};
+  return names;
+}
+
 void add_deformation_model_option(CLI::App& app, std::string& kind) {
-  app.add_option("--model", kind, "Deformation model: beam (multi-beam) or springs (mass-spring); docs/architecture.md")
-      ->check(CLI::IsMember({"beam", "springs"}))
+  app.add_option("--model", kind,
+                 "Deformation model: beam (multi-beam), springs (mass-spring), or FEM on the tetrahedra: linear, "
+                 "corotational, stvk (St. Venant-Kirchhoff), psh (pressure-stabilized Mooney-Rivlin); "
+                 "docs/architecture.md")
+      ->check(CLI::IsMember(deformation_model_names()))
+      ->capture_default_str();
+}
+
+void add_fixed_radius_option(CLI::App& app, double& millimetres) {
+  app.add_option("--fixed-radius", millimetres,
+                 "FEM models: clamp the tetrahedral nodes within this distance of the fixed point, mm (docs/fem.md)")
+      ->check(kPositive)
       ->capture_default_str();
 }
 

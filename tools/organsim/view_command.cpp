@@ -52,6 +52,7 @@ struct ViewOptions {
   double seconds = 600.0;
   bool phantom = false;
   std::string deformation = "beam";
+  double fixed_radius_mm = 10.0;
   HapticRigOptions rig;
   std::vector<int> size{960, 720};
 };
@@ -88,6 +89,7 @@ std::string overlay(const std::vector<Eigen::Vector3d>& forces, const std::vecto
 EngineOptions engine_options(const ViewOptions& o) {
   EngineOptions options;
   parse_model_kind(o.deformation, options.model);
+  options.fem.fixed_radius = o.fixed_radius_mm * 1e-3;
   return options;
 }
 
@@ -295,6 +297,7 @@ Command add_view_command(CLI::App& app) {
   app.add_flag("--json", o->json, "Print a summary as one JSON object on stdout");
   app.add_flag("--phantom", o->phantom, "Tools are PHANToM / Touch devices (OpenHaptics, loaded at run time)");
   add_deformation_model_option(app, o->deformation);
+  add_fixed_radius_option(app, o->fixed_radius_mm);
   add_haptic_rig_options(app, o->rig);
   return [o] { return run_view(*o); };
 }

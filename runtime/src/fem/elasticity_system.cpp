@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 
@@ -192,6 +193,10 @@ std::int64_t ElasticitySystem::assemble(const Eigen::VectorXd& x, Eigen::VectorX
     if (nonlinear && !(J > 0)) return static_cast<std::int64_t>(e);
     const double pressure = has_pressure() ? x[static_cast<Eigen::Index>(3 * nodes + e)] : 0.0;
     evaluate_material(constitutive, F, pressure, P, tangent ? &A : nullptr);
+    if (tangent && definite_tangent_ && !has_pressure()) {
+      const Eigen::SelfAdjointEigenSolver<Matrix9d> eigen(A);
+      A = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() * eigen.eigenvectors().transpose();
+    }
     const double V = volume_[e];
     const Eigen::Matrix<double, 4, 3>& g = gradients_[e];
     const Eigen::Matrix<double, 3, 4> forces = V * P * g.transpose();  // column a: ∂Π/∂u_a

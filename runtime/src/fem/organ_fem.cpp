@@ -100,7 +100,9 @@ class OrganFem::Worker {
         gradient_(system.dof_count()),
         contacts_(owner.contacts_.size()),
         spare_(std::move(spare)),
-        thread_([this] { run(); }) {}
+        thread_([this] { run(); }) {
+    system_.set_definite_tangent(true);
+  }
   ~Worker() {
     stop_.store(true, std::memory_order_release);
     thread_.join();
@@ -366,11 +368,17 @@ void OrganFem::request_refresh() noexcept {
 }
 
 bool OrganFem::refresh_tangent() {
-  if (system_->assemble(state_, gradient_, true) >= 0) return false;
+  // The exact Hessian (Newton), or where it is indefinite its definite part.
   auto fresh = std::make_unique<Tangent>(system_->tangent_free(), contacts_.size());
-  if (!fresh->factorize(system_->tangent_free(), pressure_count())) return false;
-  adopt(fresh);
-  return true;
+  bool ok = false;
+  for (bool definite : {false, true}) {
+    system_->set_definite_tangent(definite);
+    ok = system_->assemble(state_, gradient_, true) < 0 && fresh->factorize(system_->tangent_free(), pressure_count());
+    if (ok || system_->has_pressure()) break;
+  }
+  system_->set_definite_tangent(false);
+  if (ok) adopt(fresh);
+  return ok;
 }
 
 FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
@@ -412,14 +420,14 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
     if (cut == kMaxStepCuts) {
       state_ = saved_;
       system_->assemble(state_, gradient_, false);
+      ++frame_;
       return FrameStatus::inverted;
     }
   }
-  for (std::size_t a = 0; a < w.active; ++a) {
-    Contact& c = contacts_[w.order[a]];
-    c.multiplier = (1.0 - fraction) * c.multiplier + fraction * w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a));
-  }
-  step_cuts_ += fraction < 1.0;
+  std::array<Eigen::Vector3d, kMaxContacts> multipliers;
+  for (std::size_t a = 0; a < w.active; ++a)
+    multipliers[a] = (1.0 - fraction) * contacts_[w.order[a]].multiplier +
+                     fraction * w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a));
 
   // Out of balance: internal forces minus the tools' forces, pressure rows in newtons.
   for (Eigen::Index j = 0; j < free; ++j) {
@@ -431,8 +439,10 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
     for (std::size_t i = 0; i < 3; ++i)
       for (int k = 0; k < 3; ++k)
         rhs_[system_->free_index()[static_cast<std::size_t>(3 * c.nodes[i] + k)]] -=
-            c.weights[static_cast<Eigen::Index>(i)] * c.multiplier[k];
+            c.weights[static_cast<Eigen::Index>(i)] * multipliers[a][k];
   }
+  for (std::size_t a = 0; a < w.active; ++a) contacts_[w.order[a]].multiplier = multipliers[a];
+  step_cuts_ += fraction < 1.0;
   unbalanced_ = free > 0 ? rhs_.cwiseAbs().maxCoeff() : 0.0;
   ++frame_;
   if (worker_ && refresh_due_ == 0) request_refresh();

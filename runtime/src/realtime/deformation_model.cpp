@@ -165,6 +165,8 @@ class FemModel final : public DeformationModel {
             ContactLinearization* contacts) noexcept override {
     const fem::FrameStatus status = fem_.step(displacements);
     if (status == fem::FrameStatus::not_finite) return false;
+    // The organ keeps its shape this frame: even a sixteenth of the step
+    // would have inverted a tetrahedron.
     if (status == fem::FrameStatus::inverted) ++instabilities_;
     fem_.surface_positions(positions);
     multibeam::compute_vertex_normals(organ_, positions, normals, 0, organ_.vertex_count());
@@ -177,18 +179,9 @@ class FemModel final : public DeformationModel {
 
  private:
   static fem::MaterialModel material_of(ModelKind kind) {
-    switch (kind) {
-      case ModelKind::linear:
-        return fem::MaterialModel::linear;
-      case ModelKind::corotational:
-        return fem::MaterialModel::corotational;
-      case ModelKind::stvk:
-        return fem::MaterialModel::stvk;
-      case ModelKind::psh:
-        return fem::MaterialModel::mooney_rivlin;
-      default:
-        throw std::invalid_argument("not a FEM model");
-    }
+    fem::MaterialModel material = fem::MaterialModel::linear;
+    if (!fem_material(kind, material)) throw std::invalid_argument("not a FEM model");
+    return material;
   }
 
   void linearize(std::uint32_t tool, ContactLinearization& contact) const noexcept {
@@ -230,6 +223,27 @@ bool parse_model_kind(const std::string& name, ModelKind& kind) noexcept {
       kind = k;
       return true;
     }
+  return false;
+}
+
+bool fem_material(ModelKind kind, fem::MaterialModel& material) noexcept {
+  switch (kind) {
+    case ModelKind::linear:
+      material = fem::MaterialModel::linear;
+      return true;
+    case ModelKind::corotational:
+      material = fem::MaterialModel::corotational;
+      return true;
+    case ModelKind::stvk:
+      material = fem::MaterialModel::stvk;
+      return true;
+    case ModelKind::psh:
+      material = fem::MaterialModel::mooney_rivlin;
+      return true;
+    case ModelKind::beam:
+    case ModelKind::springs:
+      break;
+  }
   return false;
 }
 

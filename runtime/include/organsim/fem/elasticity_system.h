@@ -55,6 +55,15 @@ class ElasticitySystem {
   /// Π(x) (J). Returns NaN when a tetrahedron is inverted.
   double energy(const Eigen::VectorXd& x) const noexcept;
 
+  /// With `definite`, assemble() replaces each element's material tangent
+  /// ∂P/∂F by its positive semi-definite part (negative eigenvalues set to 0;
+  /// Teran et al., "Robust quasistatic finite elements", 2005), so that the
+  /// tangent of a displacement-only material is positive definite wherever the
+  /// body is held: what an iteration that keeps a tangent for several steps
+  /// needs. Off by default (the exact Hessian: Newton's quadratic convergence).
+  /// Ignored for mooney-rivlin.
+  void set_definite_tangent(bool definite) noexcept { definite_tangent_ = definite; }
+
   const SparseMatrix& tangent_free() const noexcept { return free_free_; }
   const SparseMatrix& tangent_coupling() const noexcept { return free_constrained_; }
 
@@ -96,6 +105,7 @@ class ElasticitySystem {
   std::vector<std::int32_t> element_offsets_;
   std::vector<std::int32_t> face_offsets_;
   int local_size_ = 12;
+  bool definite_tangent_ = false;
 };
 
 }  // namespace organsim::fem

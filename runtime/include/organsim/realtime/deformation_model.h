@@ -44,6 +44,9 @@ enum class ModelKind : std::uint8_t { beam, springs, linear, corotational, stvk,
 const char* model_name(ModelKind kind) noexcept;
 /// Parses a model name; false for an unknown one.
 bool parse_model_kind(const std::string& name, ModelKind& kind) noexcept;
+/// The FEM models' materials: true and `material` set for linear,
+/// corotational, stvk and psh (mooney-rivlin); false for beam and springs.
+bool fem_material(ModelKind kind, fem::MaterialModel& material) noexcept;
 
 /// One contact as the force loop renders it (see the file comment).
 struct ContactLinearization {
