@@ -33,6 +33,10 @@ constexpr double kReleaseMargin = 1e-5;
 // m: a refused contact (no beam could be built) is not retried until the tool
 // has moved this far.
 constexpr double kRetryDistance = 1e-3;
+// m: a tip this close inside the deformed surface that has not crossed it
+// begins a contact too: the surface moved onto the tool (a bulge of a nearly
+// incompressible organ, or the organ pressed against a resting tool).
+constexpr double kCaughtDepth = 1e-3;
 
 }  // namespace
 
@@ -149,6 +153,16 @@ void Engine::deformation_step(double now) noexcept {
         const Eigen::Vector3d handle = tools.tips[i] + options_.shaft_length * shaft;
         crossed = deformed_tree_.first_crossing(handle, tools.tips[i], true, hit);
         shaft_offset = (1.0 - hit.along) * options_.shaft_length;
+      }
+      if (!crossed && previous_valid_[i] && tree_positions_ != nullptr) {
+        const geometry::SurfacePoint nearest = deformed_tree_.closest_point(tools.tips[i]);
+        const model::Triangle& t = triangles[nearest.triangle];
+        const Eigen::Vector3d a = vec(tree_positions_[t[0]]), b = vec(tree_positions_[t[1]]), c = vec(tree_positions_[t[2]]);
+        if (nearest.distance < kCaughtDepth && (tools.tips[i] - nearest.position).dot((b - a).cross(c - a)) < 0.0) {
+          crossed = true;
+          hit.triangle = nearest.triangle;
+          hit.barycentric = nearest.barycentric;
+        }
       }
     }
     if (crossed) {

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -134,6 +135,47 @@ TEST_F(Cli, PokeWithTheSpringModelPushesBackHarderTheDeeperItPresses) {
   }
   // Nearly linear for small presses: twice as deep, about twice the force.
   EXPECT_NEAR(pushed[1] / pushed[0], 2.0, 0.3);
+}
+
+TEST_F(Cli, PokeWithFemModelsAndTheirDifferenceFromTheBeams) {
+  // The helper cylinder's tetrahedra clamped over the x = 0 cap (31 mm): a
+  // press of the far cap's rim. Every FEM model pushes back against the press;
+  // the nearly incompressible psh keeps the volume better than linear (ν 0.45);
+  // --compare prints the second model's forces and the surfaces' distance.
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  std::map<std::string, nlohmann::json> runs;
+  for (const char* name : {"linear", "corotational", "stvk", "psh"}) {
+    const CommandRun run =
+        run_organsim("poke " + model + " --tool 150,0,30/0,0,-5 --model " + name + " --fixed-radius 31 --json", dir_);
+    ASSERT_EQ(run.exit_code, 0) << name << ": " << run.err;
+    runs[name] = nlohmann::json::parse(run.out);
+    const std::vector<double> force = runs[name]["tools"][0]["force_n"];
+    EXPECT_GT(force[2], 0.0) << name;  // pressed along −z: pushed back along +z
+    EXPECT_GE(runs[name]["seconds"]["frames"].get<int>(), 1) << name;
+  }
+  EXPECT_LE(runs["linear"]["seconds"]["frames"], 1);  // linear: one Newton iteration is the solution
+  EXPECT_LT(std::abs(runs["psh"]["organ"]["volume_change_percent"].get<double>()),
+            std::abs(runs["linear"]["organ"]["volume_change_percent"].get<double>()));
+
+  const CommandRun text =
+      run_organsim("poke " + model + " --tool 150,0,30/0,0,-5 --model psh --fixed-radius 31 --compare beam", dir_);
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  for (const char* expected : {"psh: ", "Newton", "compare       beam", "|F_psh - F_beam|", "surfaces psh vs beam"})
+    EXPECT_NE(text.out.find(expected), std::string::npos) << expected << "\n" << text.out;
+  const CommandRun json = run_organsim(
+      "poke " + model + " --tool 150,0,30/0,0,-5 --model linear --fixed-radius 31 --compare springs --json", dir_);
+  ASSERT_EQ(json.exit_code, 0) << json.err;
+  const nlohmann::json j = nlohmann::json::parse(json.out);
+  for (const char* key : {"deformation_model", "tools", "surface_difference_rms_mm", "surface_difference_max_mm"})
+    EXPECT_TRUE(j["compare"].contains(key)) << key;
+  EXPECT_GT(j["compare"]["surface_difference_max_mm"].get<double>(), 0.0);
+
+  const CommandRun clamp = run_organsim("poke " + model + " --tool 150,0,30/0,0,-5 --model psh", dir_);
+  EXPECT_EQ(clamp.exit_code, 1);
+  EXPECT_NE(clamp.err.find("raise the clamp radius"), std::string::npos) << clamp.err;
+  const CommandRun same = run_organsim("poke " + model + " --tool 150,0,30/0,0,-5 --model psh --compare psh", dir_);
+  EXPECT_EQ(same.exit_code, 2) << same.err;
 }
 
 TEST_F(Cli, PokeBadInputsFailWithOneLine) {

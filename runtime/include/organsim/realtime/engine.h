@@ -14,7 +14,9 @@
 // deformation frame crosses the current deformed surface inwards (a swept test,
 // so a fast tool cannot pass through a thin part), or else, for a tool whose
 // shaft is known, when its shaft (from the handle, shaft_length away, to the
-// tip) crosses the surface inwards. The crossing point, mapped to the rest
+// tip) crosses the surface inwards, or else when the surface moved onto the
+// tip (the tip lies less than 1 mm inside the deformed surface: a nearly
+// incompressible organ bulging under another tool). The crossing point, mapped to the rest
 // surface, is the action point and a beam is built to it; the tool's contact
 // point is the tip, or the shaft point at the crossing's distance from the tip.
 // The force loop renders the contact's linearization, F = F₀ − K (d − d₀) with
