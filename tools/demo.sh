@@ -2,9 +2,10 @@
 # README command (a): set up, build, and run the main job on the shipped sample:
 # a real CT with its liver label map -> organsim bake (and again from one seed,
 # no label map) -> the model's summary ->
-# a static two-tool press (organsim poke) -> a replayed two-tool session in
-# real time (organsim replay) with forces and loop timings, through the
-# multi-beam and the mass-spring models side by side.
+# a static two-tool press (organsim poke), multi-beam and then the
+# pressure-stabilized hyperelastic FEM with its difference from the beams ->
+# a replayed two-tool session in real time (organsim replay) with forces and
+# loop timings, through the multi-beam, mass-spring and FEM models side by side.
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 bash "$repo/tools/setup.sh"
@@ -32,11 +33,18 @@ echo "== organsim poke: two tools press the baked liver (multi-beam model): forc
 "$build/tools/organsim" poke "$out/liver.organ" --tool -7.1,-252.0,356.2/0,5,0 --tool -99.4,-217.0,387.9/-4,0,0 \
   --out "$out/liver_poked.vtp"
 echo
+echo "== organsim poke --model psh --compare beam: the same presses through the pressure-stabilized Mooney-Rivlin FEM"
+echo "   (paper 004; Newton to equilibrium on the model's tetrahedra) and how far the multi-beam model is from it"
+"$build/tools/organsim" poke "$out/liver.organ" --tool -7.1,-252.0,356.2/0,5,0 --tool -99.4,-217.0,387.9/-4,0,0 \
+  --model psh --compare beam
+echo
 echo "== organsim replay: a recorded two-tool session through the real-time engine (1 kHz forces, 60 Hz deformation)"
 "$build/tools/organsim" replay "$out/liver.organ" "$repo/data_samples/liver_two_tools.session" \
   --forces "$out/liver_two_tools_forces.csv"
 echo
-echo "== organsim replay --model beam,springs: the same session through the multi-beam and the mass-spring models"
-"$build/tools/organsim" replay "$out/liver.organ" "$repo/data_samples/liver_two_tools.session" --model beam,springs
+echo "== organsim replay --model beam,springs,corotational,psh: the same session through the multi-beam, mass-spring,"
+echo "   co-rotational FEM and pressure-stabilized FEM models"
+"$build/tools/organsim" replay "$out/liver.organ" "$repo/data_samples/liver_two_tools.session" \
+  --model beam,springs,corotational,psh
 echo
 echo "Outputs in $out (models; mask, surface and tetrahedra for 3D Slicer / ParaView in liver_intermediates/)."
