@@ -160,6 +160,7 @@ PokeResult press_fem(const multibeam::BeamOrgan& organ, const std::vector<ToolSp
   fem::OrganFemOptions options;
   options.fixed_radius = o.fixed_radius_mm * 1e-3;
   options.refresh_frames = 0;
+  options.relaxation = 1.0;  // Newton: full steps
   const auto setup_start = std::chrono::steady_clock::now();
   fem::OrganFem fem(organ.model(), material, options, tools.size());
   PokeResult r;

@@ -161,6 +161,8 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
     throw std::invalid_argument("the FEM clamp radius must be a finite length > 0");
   if (!(options.psh_poisson_ratio > 0 && options.psh_poisson_ratio < 0.5))
     throw std::invalid_argument("the psh Poisson's ratio must lie in (0, 0.5)");
+  if (!(options.relaxation > 0 && options.relaxation <= 1))
+    throw std::invalid_argument("the FEM relaxation must lie in (0, 1]");
   if (!(options.stabilization >= 0) || !std::isfinite(options.stabilization))
     throw std::invalid_argument("the psh stabilization beta must be a finite number >= 0");
   if (tools == 0 || tools > kMaxContacts) throw std::invalid_argument("the FEM model takes 1 to 16 tools");
@@ -268,8 +270,12 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
   step_.resize(free);
   refresh_frames_ =
       material == MaterialModel::corotational || material == MaterialModel::stvk ? options.refresh_frames : 0;
-  if (refresh_frames_ > 0)
+  relaxation_ = material == MaterialModel::linear ? 1.0 : options.relaxation;
+  if (refresh_frames_ > 0) {
+    rest_tangent_ = std::make_unique<Tangent>(system_->tangent_free(), tools);
+    rest_tangent_->factorize(system_->tangent_free(), pressure_count());
     worker_ = std::make_unique<Worker>(*this, *system_, std::make_unique<Tangent>(system_->tangent_free(), tools));
+  }
   update_capacitance();
 }
 
@@ -318,7 +324,7 @@ bool OrganFem::attach(std::uint32_t tool, const Eigen::Vector3d& rest_point) noe
   c.active = true;
   c.multiplier.setZero();
   c.target = contact_displacement(tool);
-  respond(*tangent_, tool, c);
+  respond(kept(), tool, c);
   update_capacitance();
   return true;
 }
@@ -342,7 +348,7 @@ void OrganFem::update_capacitance() noexcept {
     for (std::size_t b = 0; b < w.active; ++b)
       for (int k = 0; k < 3; ++k)
         w.matrix.block<3, 1>(static_cast<Eigen::Index>(3 * a), static_cast<Eigen::Index>(3 * b) + k) =
-            gather(contacts_[w.order[a]], tangent_->responses[w.order[b]].col(k));
+            gather(contacts_[w.order[a]], kept().responses[w.order[b]].col(k));
   // W is symmetric in exact arithmetic (and for a nonlinear tangent, nearly);
   // the multipliers and stiffness use its symmetric part.
   w.matrix = (0.5 * (w.matrix + w.matrix.transpose())).eval();
@@ -356,6 +362,7 @@ void OrganFem::update_capacitance() noexcept {
 
 void OrganFem::adopt(std::unique_ptr<Tangent>& fresh) noexcept {
   std::swap(tangent_, fresh);
+  using_rest_ = false;
   for (std::uint32_t t = 0; t < contacts_.size(); ++t)
     if (contacts_[t].active && tangent_->keys[t] != contacts_[t].generation) respond(*tangent_, t, contacts_[t]);
   update_capacitance();
@@ -381,6 +388,39 @@ bool OrganFem::refresh_tangent() {
   return ok;
 }
 
+double OrganFem::iterate() noexcept {
+  // Unconstrained correction Δ₀ = −A⁻¹ g, then the multipliers that make the
+  // contact points land on their targets: W λ = d − Hᵀ(u + Δ₀).
+  Capacitance& w = *capacitance_;
+  Tangent& tangent = kept();
+  const Eigen::Index free = static_cast<Eigen::Index>(free_dofs_.size());
+  for (Eigen::Index j = 0; j < free; ++j) rhs_[j] = -gradient_[free_dofs_[static_cast<std::size_t>(j)]];
+  tangent.solve(rhs_, step_);
+  const Eigen::Index n = static_cast<Eigen::Index>(3 * w.active);
+  w.gap.resize(n);
+  for (std::size_t a = 0; a < w.active; ++a) {
+    const std::uint32_t t = w.order[a];
+    w.gap.segment<3>(static_cast<Eigen::Index>(3 * a)) =
+        contacts_[t].target - contact_displacement(t) - gather(contacts_[t], step_);
+  }
+  if (n > 0) w.multipliers = w.ldlt.solve(w.gap);
+  for (std::size_t a = 0; a < w.active; ++a)
+    step_.noalias() += tangent.responses[w.order[a]] * w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a));
+  // A step that would invert a tetrahedron (a tool pushed deeper than the
+  // mesh can follow in one frame) is cut in halves; the organ then goes as far
+  // toward the targets as it can, with the multipliers interpolated as the
+  // linearization predicts: g(x + αΔ) ≈ (1 − α) g(x) + α H λ.
+  double fraction = relaxation_;
+  for (int cut = 0; cut <= kMaxStepCuts; ++cut, fraction *= 0.5) {
+    for (Eigen::Index j = 0; j < free; ++j)
+      state_[free_dofs_[static_cast<std::size_t>(j)]] = saved_[free_dofs_[static_cast<std::size_t>(j)]] + fraction * step_[j];
+    if (system_->assemble(state_, gradient_, false) < 0 && gradient_.allFinite()) return fraction;
+  }
+  state_ = saved_;
+  system_->assemble(state_, gradient_, false);
+  return 0.0;
+}
+
 FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
   Capacitance& w = *capacitance_;
   for (std::size_t a = 0; a < w.active; ++a)
@@ -392,37 +432,24 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
   }
   for (std::size_t a = 0; a < w.active; ++a) contacts_[w.order[a]].target = displacements[w.order[a]];
 
-  // Unconstrained correction Δ₀ = −A⁻¹ g, then the multipliers that make the
-  // contact points land on their targets: W λ = d − Hᵀ(u + Δ₀).
   const Eigen::Index free = static_cast<Eigen::Index>(free_dofs_.size());
-  for (Eigen::Index j = 0; j < free; ++j) rhs_[j] = -gradient_[free_dofs_[static_cast<std::size_t>(j)]];
-  tangent_->solve(rhs_, step_);
-  const Eigen::Index n = static_cast<Eigen::Index>(3 * w.active);
-  w.gap.resize(n);
-  for (std::size_t a = 0; a < w.active; ++a) {
-    const std::uint32_t t = w.order[a];
-    w.gap.segment<3>(static_cast<Eigen::Index>(3 * a)) =
-        contacts_[t].target - contact_displacement(t) - gather(contacts_[t], step_);
-  }
-  if (n > 0) w.multipliers = w.ldlt.solve(w.gap);
-  for (std::size_t a = 0; a < w.active; ++a)
-    step_.noalias() += tangent_->responses[w.order[a]] * w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a));
-  // A step that would invert a tetrahedron (a tool pushed deeper than the
-  // mesh can follow in one frame) is cut in halves; the organ then goes as far
-  // toward the targets as it can, with the multipliers interpolated as the
-  // linearization predicts: g(x + αΔ) ≈ (1 − α) g(x) + α H λ.
   saved_ = state_;
-  double fraction = 1.0;
-  for (int cut = 0;; ++cut, fraction *= 0.5) {
-    for (Eigen::Index j = 0; j < free; ++j)
-      state_[free_dofs_[static_cast<std::size_t>(j)]] = saved_[free_dofs_[static_cast<std::size_t>(j)]] + fraction * step_[j];
-    if (system_->assemble(state_, gradient_, false) < 0 && gradient_.allFinite()) break;
-    if (cut == kMaxStepCuts) {
-      state_ = saved_;
-      system_->assemble(state_, gradient_, false);
-      ++frame_;
-      return FrameStatus::inverted;
-    }
+  double fraction = iterate();
+  if (fraction == 0.0 && rest_tangent_ && !using_rest_) {
+    // A refreshed tangent that fails even in small steps (a state far from
+    // the one it was made at: a tool let go) gives way to the rest tangent
+    // until the worker's next one.
+    using_rest_ = true;
+    for (std::uint32_t t = 0; t < contacts_.size(); ++t)
+      if (contacts_[t].active && rest_tangent_->keys[t] != contacts_[t].generation)
+        respond(*rest_tangent_, t, contacts_[t]);
+    update_capacitance();
+    fraction = iterate();
+  }
+  if (fraction == 0.0) {
+    ++frame_;
+    if (worker_ && refresh_due_ == 0) request_refresh();
+    return FrameStatus::inverted;
   }
   std::array<Eigen::Vector3d, kMaxContacts> multipliers;
   for (std::size_t a = 0; a < w.active; ++a)
@@ -442,7 +469,7 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
             c.weights[static_cast<Eigen::Index>(i)] * multipliers[a][k];
   }
   for (std::size_t a = 0; a < w.active; ++a) contacts_[w.order[a]].multiplier = multipliers[a];
-  step_cuts_ += fraction < 1.0;
+  step_cuts_ += fraction < relaxation_;
   unbalanced_ = free > 0 ? rhs_.cwiseAbs().maxCoeff() : 0.0;
   ++frame_;
   if (worker_ && refresh_due_ == 0) request_refresh();

@@ -19,8 +19,10 @@
 //   corotational and stvk a worker thread refactors the tangent at the state
 //   of frame k while the frames go on, and frame k + refresh_frames adopts it
 //   (waiting for the worker if it is late, so that a replay is deterministic):
-//   the asynchronous tangent of Courtecuisse et al. (2014). psh keeps its rest
-//   tangent. Linear material: the tangent never changes and every frame is the
+//   the asynchronous tangent of Courtecuisse et al. (2014). The iteration's
+//   step is scaled by `relaxation` (½) for the nonlinear materials; a frame whose
+//   iteration fails with a refreshed tangent retries with the rest tangent,
+//   kept until the next refresh. psh keeps its rest tangent. Linear material: the tangent never changes and every frame is the
 //   exact static solution. A true Newton
 //   iteration per frame would refactor the tangent every frame (the liver: 0.34
 //   s for the displacement-only materials, 1.9 s for psh; docs/fem.md).
@@ -71,12 +73,19 @@ struct OrganFemOptions {
   /// made the lagging iteration diverge once the tools let go (docs/fem.md),
   /// and one takes 1.9 s on the liver.
   std::uint32_t refresh_frames = 30;
+  /// Nonlinear materials: the fraction ω of each iteration taken (damped
+  /// modified Newton; linear: always 1). A kept tangent A makes the iteration
+  /// contract when the eigenvalues of ω A⁻¹K(x) lie in (0, 2): ω = ½ admits a
+  /// current tangent K up to four times stiffer than the kept one. With ω = 1
+  /// the liver diverged after a quick press or a release (docs/fem.md); with ½
+  /// the contact point closes half of its remaining gap per frame. 1 for Newton.
+  double relaxation = 0.5;
 };
 
 enum class FrameStatus : std::uint8_t {
   ok,
   not_finite,  ///< a tool displacement is not finite: nothing changed
-  inverted,    ///< even 1/16 of the iteration would invert a tetrahedron: the state is the previous one
+  inverted,    ///< even 1/16 of the relaxed iteration would invert a tetrahedron: the state is the previous one
 };
 
 class OrganFem {
@@ -160,6 +169,10 @@ class OrganFem {
   /// Adopts `fresh` as the kept tangent: responses of contacts it lacks solved.
   void adopt(std::unique_ptr<Tangent>& fresh) noexcept;
   void request_refresh() noexcept;
+  /// One iteration from saved_ with the kept tangent: the fraction of it taken
+  /// (ω, ω/2 … ω/16), or 0 when even ω/16 inverts a tetrahedron (state restored).
+  double iterate() noexcept;
+  Tangent& kept() noexcept { return using_rest_ ? *rest_tangent_ : *tangent_; }
   Eigen::Index pressure_count() const noexcept {
     return system_->dof_count() - static_cast<Eigen::Index>(displacement_dofs_);
   }
@@ -183,12 +196,16 @@ class OrganFem {
   std::vector<Contact> contacts_;
   std::uint64_t generations_ = 0;
   std::unique_ptr<Tangent> tangent_;  ///< the kept tangent
+  /// corotational and stvk: the rest tangent, kept for when a refreshed one fails
+  std::unique_ptr<Tangent> rest_tangent_;
+  bool using_rest_ = false;
   std::unique_ptr<Capacitance> capacitance_;
   std::unique_ptr<Worker> worker_;    ///< null when the tangent is never refreshed
   std::uint32_t refresh_frames_ = 0;
   std::uint64_t frame_ = 0, refresh_due_ = 0;
   std::uint64_t refreshes_ = 0, step_cuts_ = 0;
   double unbalanced_ = 0;
+  double relaxation_ = 1;
   double pressure_scale_ = 1;  ///< κ / h̄: pressure rows (m³) to newtons in unbalanced_force()
 };
 
