@@ -272,8 +272,11 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
       material == MaterialModel::corotational || material == MaterialModel::stvk ? options.refresh_frames : 0;
   relaxation_ = material == MaterialModel::linear ? 1.0 : options.relaxation;
   if (refresh_frames_ > 0) {
-    rest_tangent_ = std::make_unique<Tangent>(system_->tangent_free(), tools);
-    rest_tangent_->factorize(system_->tangent_free(), pressure_count());
+    // The rest factorization stays as the fallback; the frames use it until
+    // the worker's first tangent takes the place of the empty one.
+    rest_tangent_ = std::move(tangent_);
+    using_rest_ = true;
+    tangent_ = std::make_unique<Tangent>(system_->tangent_free(), tools);
     worker_ = std::make_unique<Worker>(*this, *system_, std::make_unique<Tangent>(system_->tangent_free(), tools));
   }
   update_capacitance();
