@@ -116,6 +116,12 @@ TEST(OrganFem, CondensedStiffnessIsSymmetricPositiveAndTheForceDerivative) {
 
 class NonlinearOrganFem : public ::testing::TestWithParam<MaterialModel> {
  protected:
+  /// Both tests: the far cap's top rim node pressed 15 mm down and 4 mm sideways.
+  const model::OrganModel m = cylinder();
+  const std::int32_t node = top_far_node(m);
+  const Eigen::Vector3d press{0.0, 0.004, -0.015};
+  Eigen::Vector3d node_point() const { return point(m.volume_vertices[static_cast<std::size_t>(node)]); }
+
   /// Frames at a held press until the out-of-balance force is 1e-10 of the
   /// contact force; returns the frames taken (`limit` when it never got there).
   static int settle(OrganFem& fem, const Eigen::Vector3d& press, int limit, bool newton) {
@@ -145,14 +151,11 @@ class NonlinearOrganFem : public ::testing::TestWithParam<MaterialModel> {
 
 // The tangent refreshed before every frame: true Newton, quadratic.
 TEST_P(NonlinearOrganFem, NewtonFramesConvergeToTheStaticSolution) {
-  const model::OrganModel m = cylinder();
-  const std::int32_t node = top_far_node(m);
-  const Eigen::Vector3d press(0.0, 0.004, -0.015);
   OrganFemOptions options = cap_clamp();
   options.refresh_frames = 0;
   options.relaxation = 1.0;
   OrganFem fem(m, GetParam(), options, 1);
-  ASSERT_TRUE(fem.attach(0, point(m.volume_vertices[static_cast<std::size_t>(node)])));
+  ASSERT_TRUE(fem.attach(0, node_point()));
   EXPECT_LE(settle(fem, press, 12, true), 8);
   expect_static_solution(fem, m, node, press);
 }
@@ -161,13 +164,10 @@ TEST_P(NonlinearOrganFem, NewtonFramesConvergeToTheStaticSolution) {
 // from the state 4 frames back (psh: the rest tangent); linear convergence
 // over frames.
 TEST_P(NonlinearOrganFem, FramesWithAnAsynchronousTangentConvergeToTheStaticSolution) {
-  const model::OrganModel m = cylinder();
-  const std::int32_t node = top_far_node(m);
-  const Eigen::Vector3d press(0.0, 0.004, -0.015);
   OrganFemOptions options = cap_clamp();
   options.refresh_frames = 4;
   OrganFem fem(m, GetParam(), options, 1);
-  ASSERT_TRUE(fem.attach(0, point(m.volume_vertices[static_cast<std::size_t>(node)])));
+  ASSERT_TRUE(fem.attach(0, node_point()));
   EXPECT_LT(settle(fem, press, 300, false), 300) << "unbalanced " << fem.unbalanced_force() << " N";
   EXPECT_EQ(fem.tangent_refreshes() > 0, GetParam() != MaterialModel::mooney_rivlin);
   expect_static_solution(fem, m, node, press);
