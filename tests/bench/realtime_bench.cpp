@@ -1,12 +1,17 @@
 // Force-loop compute per tick with 1, 2, 4 and 8 tools in contact (scripted
-// devices, safety included), on a 100k-vertex organ.
+// devices, safety included), on a 100k-vertex organ; and the contact tree's
+// refit, full vs only above the moved vertices (the paper's partial refit).
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <vector>
 #include <memory>
 
 #include <benchmark/benchmark.h>
 
 #include "organsim/realtime/engine.h"
 #include "organsim/devices/scripted_device.h"
+#include "organsim/geometry/closest_point.h"
 #include "test_models.h"
 
 namespace {
@@ -55,6 +60,42 @@ void BM_ForceTick(benchmark::State& state) {
   state.counters["tools"] = tools;
 }
 BENCHMARK(BM_ForceTick)->Arg(1)->Arg(2)->Arg(4)->Arg(8)->Unit(benchmark::kMicrosecond);
+
+// Refit of the contact tree of a sphere with range(0) vertices after a dent:
+// range(1) per mille of the vertices moved (a cap around one contact, as a
+// dynamic region moves them); 1000 ‰ is the full refit.
+void BM_ContactTreeRefit(benchmark::State& state) {
+  const model::OrganModel model = testing::make_sphere_model(static_cast<std::size_t>(state.range(0)), 2);
+  const double fraction = static_cast<double>(state.range(1)) / 1000.0;
+  std::vector<model::Point3> dented = model.surface_vertices;
+  std::vector<std::uint32_t> moved;
+  // The cap z ≥ z₀ that holds that fraction of the vertices.
+  std::vector<double> heights;
+  for (const model::Point3& p : dented) heights.push_back(-p[2]);
+  const auto rank = static_cast<std::ptrdiff_t>(std::min(fraction, 1.0) * static_cast<double>(heights.size() - 1));
+  std::nth_element(heights.begin(), heights.begin() + rank, heights.end());
+  const double cap = -heights[static_cast<std::size_t>(rank)];
+  for (std::uint32_t v = 0; v < dented.size(); ++v)
+    if (dented[v][2] >= cap) {
+      dented[v][2] -= 0.1 * (dented[v][2] - cap);
+      moved.push_back(v);
+    }
+  geometry::SurfaceBvh tree(model.surface_vertices, model.surface_triangles);
+  const bool full = state.range(1) >= 1000;
+  for (auto _ : state) {
+    if (full) {
+      tree.refit(dented.data());
+    } else {
+      tree.refit(dented.data(), moved.data(), moved.size());
+    }
+    benchmark::ClobberMemory();
+  }
+  state.counters["moved_vertices"] = static_cast<double>(moved.size());
+}
+BENCHMARK(BM_ContactTreeRefit)
+    ->ArgsProduct({{3000, 100000}, {10, 100, 1000}})
+    ->ArgNames({"vertices", "moved_per_mille"})
+    ->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

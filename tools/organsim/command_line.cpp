@@ -131,13 +131,6 @@ void add_deformation_model_option(CLI::App& app, std::string& kind) {
       ->capture_default_str();
 }
 
-void add_fixed_radius_option(CLI::App& app, double& millimetres) {
-  app.add_option("--fixed-radius", millimetres,
-                 "FEM models: clamp the tetrahedral nodes within this distance of the fixed point, mm (docs/fem.md)")
-      ->check(kPositive)
-      ->capture_default_str();
-}
-
 Verbosity verbosity() { return g_verbosity; }
 
 void note(const std::string& command, const std::string& message) {

@@ -55,9 +55,6 @@ const std::vector<std::string>& deformation_model_names();
 /// --model NAME: which deformation model the engine runs (default beam).
 /// `kind` receives the name; realtime::parse_model_kind reads it.
 void add_deformation_model_option(CLI::App& app, std::string& kind);
-/// --fixed-radius MM: the FEM models clamp the tetrahedral nodes within this
-/// distance of the model's fixed point (default 10 mm).
-void add_fixed_radius_option(CLI::App& app, double& millimetres);
 
 /// Loads the model file at `path` for a command that simulates it with the
 /// multi-beam model: throws std::runtime_error (an input error) when the file

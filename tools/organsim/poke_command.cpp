@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command_line.h"
+#include "model_tuning.h"
 #include "organsim/geometry/model_measures.h"
 #include "organsim/mesh_io/mesh_io.h"
 #include "organsim/model/model_file.h"
@@ -40,7 +41,7 @@ struct PokeOptions {
   std::string deformation = "beam";
   std::string compare;          ///< a second model to press the same way, or empty
   double settle_seconds = 2.0;  ///< mass-spring model: how long the press is held before the force is read
-  double fixed_radius_mm = 10.0;
+  ModelTuning tuning;
 };
 
 Eigen::Vector3d parse_triple(const std::string& text, const std::string& whole) {
@@ -158,7 +159,8 @@ PokeResult press_fem(const multibeam::BeamOrgan& organ, const std::vector<ToolSp
                      fem::MaterialModel material) {
   constexpr int kMaxIterations = 40;
   fem::OrganFemOptions options;
-  options.fixed_radius = o.fixed_radius_mm * 1e-3;
+  realtime::SpringModelOptions unused;
+  apply_model_tuning(o.tuning, options, unused);
   options.refresh_frames = 0;
   options.relaxation = 1.0;  // Newton: full steps
   const auto setup_start = std::chrono::steady_clock::now();
@@ -209,7 +211,7 @@ PokeResult press_fem(const multibeam::BeamOrgan& organ, const std::vector<ToolSp
           : fmt::format("E {:g} Pa, nu {:g}", law.young_modulus, law.poisson_ratio);
   r.summary = fmt::format("{} tetrahedra, {} nodes ({} clamped within {:g} mm); {}; Newton, {} iteration(s)",
                           organ.model().tetrahedra.size(), organ.model().volume_vertices.size(),
-                          fem.clamped_node_count(), o.fixed_radius_mm, constants, r.frames);
+                          fem.clamped_node_count(), o.tuning.fixed_radius_mm, constants, r.frames);
   return r;
 }
 
@@ -218,8 +220,10 @@ PokeResult press_fem(const multibeam::BeamOrgan& organ, const std::vector<ToolSp
 /// read from the settled state.
 PokeResult press_springs(const multibeam::BeamOrgan& organ, const std::vector<ToolSpec>& tools, const PokeOptions& o) {
   using namespace organsim::realtime;
+  ModelOptions options;
+  apply_model_tuning(o.tuning, options.fem, options.springs);
   const std::unique_ptr<DeformationModel> springs =
-      make_deformation_model(ModelKind::springs, organ, ModelOptions{}, tools.size());
+      make_deformation_model(ModelKind::springs, organ, options, tools.size());
   PokeResult r;
   r.tools.resize(tools.size());
   std::vector<ContactLinearization> contacts(tools.size());
@@ -464,7 +468,7 @@ Command add_poke_command(CLI::App& app) {
   add_deformation_model_option(app, o->deformation);
   app.add_option("--compare", o->compare, "Press with this model too and print how its forces and surface differ")
       ->check(CLI::IsMember(deformation_model_names()));
-  add_fixed_radius_option(app, o->fixed_radius_mm);
+  add_model_tuning_options(app, o->tuning);
   app.add_option("--settle", o->settle_seconds, "Mass-spring model: seconds the press is held before the force is read")
       ->check(kPositive)
       ->capture_default_str();

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command_line.h"
+#include "model_tuning.h"
 #include "organsim/devices/scripted_device.h"
 #include "organsim/io/atomic_file.h"
 #include "organsim/mesh_io/mesh_io.h"
@@ -30,7 +31,7 @@ struct ReplayOptions {
   std::string session_path;
   std::string merge = "influence";
   std::vector<std::string> models{"beam"};
-  double fixed_radius_mm = 10.0;
+  ModelTuning tuning;
   std::string forces_path;
   std::string frames_dir;
   bool fast = false;
@@ -92,7 +93,7 @@ ModelRun run_model(const ReplayOptions& o, const std::string& name, const multib
   limits.max_stiffness = o.max_stiffness;
   EngineOptions options;
   parse_model_kind(name, options.model);
-  options.fem.fixed_radius = o.fixed_radius_mm * 1e-3;
+  apply_model_tuning(o.tuning, options.fem, options.springs);
   options.beams.merge = o.merge == "sum" ? multibeam::MergeRule::sum : multibeam::MergeRule::influence;
   const auto records = static_cast<std::size_t>(session.duration / options.force_period) + 16;
   ModelRun run;
@@ -264,7 +265,7 @@ Command add_replay_command(CLI::App& app) {
       ->delimiter(',')
       ->check(CLI::IsMember(deformation_model_names()))
       ->capture_default_str();
-  add_fixed_radius_option(app, o->fixed_radius_mm);
+  add_model_tuning_options(app, o->tuning);
   app.add_option("--merge", o->merge, "How beams combine: influence (eq. 7) or sum (eq. 5)")
       ->check(CLI::IsMember({"influence", "sum"}))
       ->capture_default_str();

@@ -39,6 +39,8 @@ struct SpringsOptions {
   bool mass_given = false;
   double gravity = 9.8;
   std::vector<double> stiffness{2.0, 2.0, 1.2};
+  bool stiffness_given = false;
+  bool volume_springs = false;
   std::vector<double> damping{0.4, 0.4, 0.24};
   bool damping_given = false;
   double point_damping = 0.0;
@@ -96,8 +98,14 @@ SpringNetwork make_network(const SpringsOptions& o) {
   model::ModelReadResult read = model::read_organ_model_file(o.model_path);
   if (!read) throw std::runtime_error(read.error);
   OrganNetworkOptions n;
-  n.stiffness = o.stiffness[0];
-  n.bending_factor = o.stiffness[2] / o.stiffness[0];
+  // The paper's 2 N/m holds 0.01 kg points; an organ's springs take their
+  // constant from its Young's modulus (k = E x mean edge, as in the engine)
+  // unless --stiffness is given.
+  if (o.stiffness_given) {
+    n.stiffness = o.stiffness[0];
+    n.bending_factor = o.stiffness[2] / o.stiffness[0];
+  }
+  n.volume_springs = o.volume_springs;
   // The paper's damping (0.4 N s/m for 0.01 kg points) would overdamp an
   // organ's light nodes far beyond explicit stability: unless --damping is
   // given, a fraction of critical damping (docs/springs.md).
@@ -137,6 +145,10 @@ int run_springs(const SpringsOptions& o) {
   const std::uint32_t at = o.at < 0 ? centre_vertex(o, network) : static_cast<std::uint32_t>(o.at);
   if (o.at >= static_cast<long>(surface))
     throw std::runtime_error(fmt::format("--at {}: the surface has vertices 0 to {}", o.at, surface - 1));
+  if (network.fixed[at])
+    throw std::runtime_error(fmt::format("--at {}: the vertex is fixed (--fixed {}), a force there does nothing; "
+                                         "choose a free vertex",
+                                         at, o.fixed));
   const std::vector<model::Triangle> triangles = network.triangles;
 
   SimulationOptions s;
@@ -251,7 +263,8 @@ Command add_springs_command(CLI::App& app) {
          "Mass per vertex, kg (default: 0.01 on a grid; density x volume on a model)")
       ->check(kPositive);
   app.add_option("--gravity", o->gravity, "Gravity along -z, m/s^2")->capture_default_str();
-  app.add_option("--stiffness", o->stiffness, "Spring constants KS,KSH,KB (structural, shear, bending), N/m")
+  app.add_option("--stiffness", o->stiffness,
+                 "Spring constants KS,KSH,KB (structural, shear, bending), N/m (a model: default E x mean edge)")
       ->delimiter(',')
       ->expected(3)
       ->check(kPositive)
@@ -264,6 +277,8 @@ Command add_springs_command(CLI::App& app) {
   app.add_option("--point-damping", o->point_damping, "Damping of every point's velocity, N s/m")
       ->check(kNonNegative)
       ->capture_default_str();
+  app.add_flag("--volume-springs", o->volume_springs,
+               "A model: also a spring on every tetrahedron edge, the surface tied to the tetrahedra");
   app.add_option("--body-factor", o->body_factor, "Body springs: this x the surface springs (0: none)")
       ->check(kNonNegative)
       ->capture_default_str();
@@ -284,6 +299,9 @@ Command add_springs_command(CLI::App& app) {
                  "Write one CSV row per step: the force vertex's displacement (m), active vertices, energies (J)");
   return [o, &app] {
     o->damping_given = app.count("--damping") > 0;
+    o->stiffness_given = app.count("--stiffness") > 0;
+    if (o->volume_springs && !o->grid.empty())
+      throw CLI::ValidationError("--volume-springs", "a grid has no tetrahedra; give a model file");
     return run_springs(*o);
   };
 }

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command_line.h"
+#include "model_tuning.h"
 #include "haptic_rig_options.h"
 #include "organsim/model/model_file.h"
 
@@ -22,7 +23,7 @@ struct TouchOptions {
   devices::HapticRigOptions rig;
   double seconds = 60.0;
   std::string deformation = "beam";
-  double fixed_radius_mm = 10.0;
+  ModelTuning tuning;
   bool json = false;
 };
 
@@ -34,7 +35,7 @@ int run_touch(const TouchOptions& o) {
   const std::vector<devices::HapticDevice*> tools = rig.tools();
   realtime::EngineOptions options;
   realtime::parse_model_kind(o.deformation, options.model);
-  options.fem.fixed_radius = o.fixed_radius_mm * 1e-3;
+  apply_model_tuning(o.tuning, options.fem, options.springs);
   realtime::Engine engine(organ, tools, options);
   devices::OpenHapticsServo servo(*rig.library, rig.servo_devices(), engine);
   note("touch", fmt::format("{} device(s) on {} for {:g} s; the force loop runs in the HD servo scheduler",
@@ -84,7 +85,7 @@ Command add_touch_command(CLI::App& app) {
   auto o = std::make_shared<TouchOptions>();
   app.add_option("model", o->model_path, "Model file (.organ)")->required();
   add_deformation_model_option(app, o->deformation);
-  add_fixed_radius_option(app, o->fixed_radius_mm);
+  add_model_tuning_options(app, o->tuning);
   add_haptic_rig_options(app, o->rig);
   app.add_option("--seconds", o->seconds, "How long to run")->check(kPositive)->capture_default_str();
   app.add_flag("--json", o->json, "Print the summary as one JSON object on stdout");

@@ -18,6 +18,7 @@
 #include <vtkRenderWindowInteractor.h>
 
 #include "command_line.h"
+#include "model_tuning.h"
 #include "haptic_rig_options.h"
 #include "organsim/devices/mouse_tool.h"
 #include "organsim/devices/scripted_device.h"
@@ -52,7 +53,7 @@ struct ViewOptions {
   double seconds = 600.0;
   bool phantom = false;
   std::string deformation = "beam";
-  double fixed_radius_mm = 10.0;
+  ModelTuning tuning;
   HapticRigOptions rig;
   std::vector<int> size{960, 720};
 };
@@ -89,7 +90,7 @@ std::string overlay(const std::vector<Eigen::Vector3d>& forces, const std::vecto
 EngineOptions engine_options(const ViewOptions& o) {
   EngineOptions options;
   parse_model_kind(o.deformation, options.model);
-  options.fem.fixed_radius = o.fixed_radius_mm * 1e-3;
+  apply_model_tuning(o.tuning, options.fem, options.springs);
   return options;
 }
 
@@ -297,7 +298,7 @@ Command add_view_command(CLI::App& app) {
   app.add_flag("--json", o->json, "Print a summary as one JSON object on stdout");
   app.add_flag("--phantom", o->phantom, "Tools are PHANToM / Touch devices (OpenHaptics, loaded at run time)");
   add_deformation_model_option(app, o->deformation);
-  add_fixed_radius_option(app, o->fixed_radius_mm);
+  add_model_tuning_options(app, o->tuning);
   add_haptic_rig_options(app, o->rig);
   return [o] { return run_view(*o); };
 }

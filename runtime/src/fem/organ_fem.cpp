@@ -24,16 +24,6 @@ using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 3 
 
 Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 
-/// Weights (w₀..w₃) with Σ w_i x_i = p and Σ w_i = 1 (outside the tetrahedron some are negative).
-Eigen::Vector4d barycentric(const TetMesh& mesh, const Tetrahedron& t, const Eigen::Vector3d& p) {
-  const Eigen::Vector3d& a = mesh.nodes[static_cast<std::size_t>(t[0])];
-  Eigen::Matrix3d edges;
-  edges << mesh.nodes[static_cast<std::size_t>(t[1])] - a, mesh.nodes[static_cast<std::size_t>(t[2])] - a,
-      mesh.nodes[static_cast<std::size_t>(t[3])] - a;
-  const Eigen::Vector3d w = edges.inverse() * (p - a);
-  return {1.0 - w.sum(), w[0], w[1], w[2]};
-}
-
 }  // namespace
 
 /// A factorized tangent and, per tool, the response A⁻¹ H_t of the contact
@@ -223,48 +213,11 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
                                 "--fixed-radius)");
   factorization_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-  // Boundary faces: the tetrahedron faces that no other tetrahedron shares.
-  struct Face {
-    std::array<std::int32_t, 3> sorted;
-    std::array<std::int32_t, 3> nodes;
-    std::int32_t tet;
-  };
-  constexpr int kFaceCorners[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
-  std::vector<Face> faces;
-  faces.reserve(4 * mesh.tetrahedra.size());
-  for (std::size_t e = 0; e < mesh.tetrahedra.size(); ++e)
-    for (const auto& corners : kFaceCorners) {
-      Face f;
-      for (int k = 0; k < 3; ++k) f.nodes[static_cast<std::size_t>(k)] = mesh.tetrahedra[e][static_cast<std::size_t>(corners[k])];
-      f.sorted = f.nodes;
-      std::sort(f.sorted.begin(), f.sorted.end());
-      f.tet = static_cast<std::int32_t>(e);
-      faces.push_back(f);
-    }
-  std::sort(faces.begin(), faces.end(), [](const Face& a, const Face& b) { return a.sorted < b.sorted; });
-  for (std::size_t i = 0; i < faces.size();) {
-    std::size_t j = i + 1;
-    while (j < faces.size() && faces[j].sorted == faces[i].sorted) ++j;
-    if (j == i + 1) {
-      boundary_faces_.push_back({static_cast<std::uint32_t>(faces[i].nodes[0]), static_cast<std::uint32_t>(faces[i].nodes[1]),
-                                 static_cast<std::uint32_t>(faces[i].nodes[2])});
-      boundary_owner_.push_back(faces[i].tet);
-    }
-    i = j;
-  }
+  boundary_ = geometry::tetrahedral_boundary(model.tetrahedra);
   node_points_ = model.volume_vertices;
-  boundary_tree_ = std::make_unique<geometry::SurfaceBvh>(node_points_, boundary_faces_);
-
+  boundary_tree_ = std::make_unique<geometry::SurfaceBvh>(node_points_, boundary_.faces);
   surface_rest_ = model.surface_vertices;
-  embed_nodes_.resize(surface_rest_.size());
-  embed_weights_.resize(surface_rest_.size());
-  for (std::size_t v = 0; v < surface_rest_.size(); ++v) {
-    const Eigen::Vector3d p = point(surface_rest_[v]);
-    const geometry::SurfacePoint nearest = boundary_tree_->closest_point(p);
-    const Tetrahedron& t = mesh.tetrahedra[static_cast<std::size_t>(boundary_owner_[nearest.triangle])];
-    embed_nodes_[v] = t;
-    embed_weights_[v] = barycentric(mesh, t, p);
-  }
+  embedding_ = geometry::embed_surface_in_tetrahedra(model, boundary_);
 
   rhs_.resize(free);
   step_.resize(free);
@@ -310,7 +263,7 @@ void OrganFem::respond(Tangent& tangent, std::uint32_t tool, const Contact& cont
 bool OrganFem::attach(std::uint32_t tool, const Eigen::Vector3d& rest_point) noexcept {
   if (tool >= contacts_.size() || !rest_point.allFinite()) return false;
   const geometry::SurfacePoint nearest = boundary_tree_->closest_point(rest_point);
-  const model::Triangle& face = boundary_faces_[nearest.triangle];
+  const model::Triangle& face = boundary_.faces[nearest.triangle];
   for (std::uint32_t node : face) {
     if (system_->free_index()[3 * node] < 0) return false;  // a clamped node cannot follow a tool
     for (std::size_t other = 0; other < contacts_.size(); ++other)
@@ -511,8 +464,8 @@ void OrganFem::surface_positions(model::Point3* positions) const noexcept {
   for (std::size_t v = 0; v < surface_rest_.size(); ++v) {
     Eigen::Vector3d x = point(surface_rest_[v]);
     for (std::size_t i = 0; i < 4; ++i)
-      x += embed_weights_[v][static_cast<Eigen::Index>(i)] *
-           state_.segment<3>(3 * static_cast<Eigen::Index>(embed_nodes_[v][i]));
+      x += embedding_.weights[v][static_cast<Eigen::Index>(i)] *
+           state_.segment<3>(3 * static_cast<Eigen::Index>(embedding_.hosts[v][i]));
     positions[v] = {x[0], x[1], x[2]};
   }
 }

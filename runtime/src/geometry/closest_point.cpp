@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <utility>
 
 namespace organsim::geometry {
 namespace {
@@ -57,6 +58,36 @@ SurfaceBvh::SurfaceBvh(const std::vector<model::Point3>& vertices, const std::ve
                    3.0;
   nodes_.reserve(2 * triangles.size() / kLeafSize + 2);
   if (!triangles.empty()) build(0, static_cast<std::uint32_t>(triangles.size()), centroids);
+
+  parent_.assign(nodes_.size(), 0);
+  for (std::uint32_t k = 0; k < nodes_.size(); ++k)
+    if (nodes_[k].count == 0) parent_[nodes_[k].first] = parent_[nodes_[k].right] = k;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> vertex_leaf;  // (vertex, leaf)
+  vertex_leaf.reserve(3 * triangles.size());
+  for (std::uint32_t k = 0; k < nodes_.size(); ++k)
+    for (std::uint32_t i = nodes_[k].first; nodes_[k].count > 0 && i < nodes_[k].first + nodes_[k].count; ++i)
+      for (std::uint32_t corner : triangles_[order_[i]]) vertex_leaf.emplace_back(corner, k);
+  std::sort(vertex_leaf.begin(), vertex_leaf.end());
+  vertex_leaf.erase(std::unique(vertex_leaf.begin(), vertex_leaf.end()), vertex_leaf.end());
+  vertex_leaf_offset_.assign(vertices.size() + 1, 0);
+  vertex_leaves_.reserve(vertex_leaf.size());
+  for (const auto& [vertex, leaf] : vertex_leaf) {
+    ++vertex_leaf_offset_[vertex + 1];
+    vertex_leaves_.push_back(leaf);
+  }
+  for (std::size_t v = 0; v < vertices.size(); ++v) vertex_leaf_offset_[v + 1] += vertex_leaf_offset_[v];
+  marked_.assign(nodes_.size(), 0);
+}
+
+void SurfaceBvh::fit(Node& node) const noexcept {
+  node.box.setEmpty();
+  if (node.count > 0) {
+    for (std::uint32_t i = node.first; i < node.first + node.count; ++i)
+      for (std::uint32_t corner : triangles_[order_[i]]) node.box.extend(point(vertices_[corner]));
+  } else {
+    node.box.extend(nodes_[node.first].box);
+    node.box.extend(nodes_[node.right].box);
+  }
 }
 
 std::uint32_t SurfaceBvh::build(std::uint32_t first, std::uint32_t count, std::vector<Eigen::Vector3d>& centroids) {
@@ -94,17 +125,29 @@ void SurfaceBvh::refit(const model::Point3* positions) noexcept {
   vertices_ = positions;
   // Children are created after their parent, so a reverse sweep sees both
   // children of a node before the node.
-  for (std::size_t k = nodes_.size(); k-- > 0;) {
-    Node& node = nodes_[k];
-    node.box.setEmpty();
-    if (node.count > 0) {
-      for (std::uint32_t i = node.first; i < node.first + node.count; ++i)
-        for (std::uint32_t corner : triangles_[order_[i]]) node.box.extend(point(vertices_[corner]));
-    } else {
-      node.box.extend(nodes_[node.first].box);
-      node.box.extend(nodes_[node.right].box);
-    }
+  for (std::size_t k = nodes_.size(); k-- > 0;) fit(nodes_[k]);
+}
+
+void SurfaceBvh::refit(const model::Point3* positions, const std::uint32_t* moved, std::size_t count) noexcept {
+  vertices_ = positions;
+  const std::size_t vertex_count = vertex_leaf_offset_.size() - 1;
+  for (std::size_t m = 0; m < count; ++m) {
+    const std::uint32_t vertex = moved[m];
+    if (vertex >= vertex_count) continue;
+    for (std::uint32_t e = vertex_leaf_offset_[vertex]; e < vertex_leaf_offset_[vertex + 1]; ++e)
+      for (std::uint32_t node = vertex_leaves_[e]; !marked_[node]; node = parent_[node]) {
+        marked_[node] = 1;
+        if (node == 0) break;
+      }
   }
+  // A sweep over the marks (a byte per node) costs less than sorting the
+  // marked nodes; children come after their parent, so in decreasing index
+  // order both children of a node are refitted before it.
+  for (std::size_t k = nodes_.size(); k-- > 0;)
+    if (marked_[k]) {
+      fit(nodes_[k]);
+      marked_[k] = 0;
+    }
 }
 
 bool SurfaceBvh::first_crossing(const Eigen::Vector3d& from, const Eigen::Vector3d& to, bool entering_only,

@@ -57,8 +57,10 @@ class SpringModel final : public DeformationModel {
   SpringModel(const multibeam::BeamOrgan& organ, const SpringModelOptions& options, std::size_t tools)
       : organ_(organ),
         options_(options),
-        simulation_(springs::make_organ_network(organ.model(), options.network), options.simulation),
-        held_(tools, kNone) {}
+        simulation_(make_simulation(organ.model(), options)),
+        held_(tools, kNone),
+        moved_mark_(organ.vertex_count(), 0),
+        moved_(organ.vertex_count()) {}
 
   ModelKind kind() const noexcept override { return ModelKind::springs; }
 
@@ -93,17 +95,22 @@ class SpringModel final : public DeformationModel {
       if (!displacements[tool].allFinite()) return false;
       simulation_.hold(held_[tool], simulation_.network().rest[held_[tool]] + displacements[tool]);
     }
-    const double steps = std::clamp(std::round(dt / options_.simulation.dt), 1.0,
+    const double steps = std::clamp(std::round(dt / simulation_.options().dt), 1.0,
                                     static_cast<double>(options_.max_steps_per_frame));
-    for (int s = 0; s < static_cast<int>(steps); ++s)
+    begin_moved();
+    for (int s = 0; s < static_cast<int>(steps); ++s) {
       if (simulation_.step() == springs::StepStatus::blew_up) {
         // Back to rest and on: the state before the failed step was itself
         // about to diverge. The force safety's onset limit keeps the device
         // from a kick when the contact force comes back.
         ++instabilities_;
         simulation_.reset();
+        moved_all_ = true;
         break;
       }
+      note_moved(simulation_.integrated_nodes(), simulation_.active_count());
+      active_nodes_ = simulation_.active_count();
+    }
     const std::size_t n = organ_.vertex_count();
     for (std::size_t v = 0; v < n; ++v) {
       const Eigen::Vector3d& x = simulation_.position(static_cast<std::uint32_t>(v));
@@ -117,8 +124,49 @@ class SpringModel final : public DeformationModel {
 
   std::uint64_t instabilities() const noexcept override { return instabilities_; }
 
+  const std::uint32_t* moved_vertices(std::size_t& count) const noexcept override {
+    count = moved_all_ ? 0 : moved_count_;
+    return moved_all_ ? nullptr : moved_.data();
+  }
+
+  std::size_t active_nodes() const noexcept override { return active_nodes_; }
+
  private:
   static constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+  static constexpr double kStableFraction = 0.8;
+
+  /// The simulation at options.simulation.dt, or at a smaller step where the
+  /// network's stiffest mode needs one (kStableFraction of the integrator's limit).
+  static springs::MassSpring make_simulation(const model::OrganModel& model, const SpringModelOptions& options) {
+    springs::SpringNetwork network = springs::make_organ_network(model, options.network);
+    springs::SimulationOptions simulation = options.simulation;
+    const double limit = springs::largest_stable_step(simulation.integrator,
+                                                      springs::stiffest_mode(network, simulation.point_damping));
+    simulation.dt = std::min(simulation.dt, kStableFraction * limit);
+    if (!(simulation.dt > 0.0))
+      throw std::invalid_argument("the springs' integrator is unstable at any step on this network: use symplectic "
+                                  "or implicit Euler, or add damping");
+    return springs::MassSpring(std::move(network), simulation);
+  }
+
+  /// A frame's moved surface vertices: those integrated in any of its steps,
+  /// and the held ones (they jump to the tool). Every free node moves in a
+  /// step unless the region is dynamic.
+  void begin_moved() noexcept {
+    for (std::size_t k = 0; k < moved_count_; ++k) moved_mark_[moved_[k]] = 0;
+    moved_count_ = 0;
+    moved_all_ = options_.simulation.region != springs::Region::dynamic;
+    for (std::uint32_t node : held_)
+      if (node != kNone) note_moved(&node, 1);
+  }
+  void note_moved(const std::uint32_t* nodes, std::size_t count) noexcept {
+    if (moved_all_) return;
+    for (std::size_t k = 0; k < count; ++k)
+      if (nodes[k] < moved_mark_.size() && !moved_mark_[nodes[k]]) {
+        moved_mark_[nodes[k]] = 1;
+        moved_[moved_count_++] = nodes[k];
+      }
+  }
 
   void linearize(std::uint32_t node, ContactLinearization& contact) const noexcept {
     contact.displacement = simulation_.position(node) - simulation_.network().rest[node];
@@ -137,6 +185,10 @@ class SpringModel final : public DeformationModel {
   springs::MassSpring simulation_;
   std::vector<std::uint32_t> held_;  // per tool: the node it holds, or kNone
   std::uint64_t instabilities_ = 0;
+  std::vector<std::uint8_t> moved_mark_;  // per surface vertex
+  std::vector<std::uint32_t> moved_;
+  std::size_t moved_count_ = 0, active_nodes_ = 0;
+  bool moved_all_ = true;
 };
 
 /// A FEM model (fem/organ_fem.h): one warm-started iteration per frame; the

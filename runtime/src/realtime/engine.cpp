@@ -50,6 +50,8 @@ Engine::Engine(const multibeam::BeamOrgan& organ, const std::vector<devices::Hap
                                      options.springs, options.fem},
                                     std::max<std::size_t>(devices.size(), 1))),
       deformed_tree_(organ.model().surface_vertices, organ.model().surface_triangles),
+      moved_mark_(organ.vertex_count(), 0),
+      moved_list_(organ.vertex_count()),
       surfaces_(rest_frame(organ)) {
   if (devices.empty() || devices.size() > kMaxTools) throw std::invalid_argument("an engine drives 1 to 16 tools");
   for (devices::HapticDevice* d : devices)
@@ -143,10 +145,7 @@ void Engine::deformation_step(double now) noexcept {
       // vertices) only in frames where some tool looks for a contact, onto the
       // last published surface, which the writer does not touch until it has
       // published a newer one.
-      if (tree_stale_) {
-        deformed_tree_.refit(tree_positions_);
-        tree_stale_ = false;
-      }
+      if (tree_stale_) refit_contact_tree();
       crossed = previous_valid_[i] && deformed_tree_.first_crossing(previous_tip_[i], tools.tips[i], true, hit);
       const Eigen::Vector3d& shaft = tools.shafts[i];
       if (!crossed && shaft.squaredNorm() > 0.0) {
@@ -204,11 +203,43 @@ void Engine::deformation_step(double now) noexcept {
   contact_frames_.write_slot() = contacts_;
   contact_frames_.publish();
   if (!moved) return;  // cannot happen with finite tips; keep showing the previous frame
+  note_moved_vertices();
   tree_positions_ = frame.positions.data();
   tree_stale_ = true;
   frame.frame = ++frame_;
   frame.time = now;
   surfaces_.publish();
+}
+
+void Engine::note_moved_vertices() noexcept {
+  if (all_moved_) return;
+  std::size_t count = 0;
+  const std::uint32_t* moved = model_->moved_vertices(count);
+  // Beyond a quarter of the surface the full refit costs about as much
+  // (realtime_bench BM_ContactTreeRefit).
+  if (moved == nullptr || moved_count_ + count > moved_list_.size() / 4) {
+    all_moved_ = true;
+    return;
+  }
+  for (std::size_t k = 0; k < count; ++k)
+    if (moved[k] < moved_mark_.size() && !moved_mark_[moved[k]]) {
+      moved_mark_[moved[k]] = 1;
+      moved_list_[moved_count_++] = moved[k];
+    }
+}
+
+void Engine::refit_contact_tree() noexcept {
+  // Every surface is written whole, so a vertex that no step moved since the
+  // last refit has the same coordinates in the newly published buffer.
+  if (all_moved_) {
+    deformed_tree_.refit(tree_positions_);
+  } else {
+    deformed_tree_.refit(tree_positions_, moved_list_.data(), moved_count_);
+  }
+  for (std::size_t k = 0; k < moved_count_; ++k) moved_mark_[moved_list_[k]] = 0;
+  moved_count_ = 0;
+  all_moved_ = false;
+  tree_stale_ = false;
 }
 
 }  // namespace organsim::realtime

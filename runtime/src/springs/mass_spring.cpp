@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -94,7 +95,13 @@ MassSpring::MassSpring(SpringNetwork network, const SimulationOptions& options)
   quiet_steps_.assign(n, 0);
   integrated_nodes_.assign(n, 0);
   force_springs_.assign(s.size(), 0);
-  force_list_.assign(s.size(), PackedSpring{});
+  for (auto* list : {&force_a_, &force_b_}) list->assign(s.size(), 0);
+  for (auto* list : {&force_rest_, &force_stiffness_, &force_damping_}) list->assign(s.size(), 0.0);
+  spring_order_.resize(s.size());
+  std::iota(spring_order_.begin(), spring_order_.end(), 0u);
+  std::sort(spring_order_.begin(), spring_order_.end(), [&s](std::uint32_t l, std::uint32_t r) {
+    return s.a[l] != s.a[r] ? s.a[l] < s.a[r] : s.b[l] != s.b[r] ? s.b[l] < s.b[r] : l < r;
+  });
   spring_force_.assign(n, Eigen::Vector3d::Zero());
   forced_nodes_.assign(n, 0);
   held_nodes_.assign(n, 0);
@@ -238,10 +245,15 @@ void MassSpring::rebuild_lists() noexcept {
   }
   const Springs& s = network_.springs;
   force_spring_count_ = 0;
-  for (std::uint32_t k = 0; k < s.size(); ++k)
+  for (const std::uint32_t k : spring_order_)
     if (integrated_[s.a[k]] || integrated_[s.b[k]]) {
-      force_list_[force_spring_count_] = {s.a[k], s.b[k], s.rest_length[k], s.stiffness[k], s.damping[k]};
-      force_springs_[force_spring_count_++] = k;
+      const std::size_t j = force_spring_count_++;
+      force_a_[j] = s.a[k];
+      force_b_[j] = s.b[k];
+      force_rest_[j] = s.rest_length[k];
+      force_stiffness_[j] = s.stiffness[k];
+      force_damping_[j] = s.damping[k];
+      force_springs_[j] = k;
     }
   lists_dirty_ = false;
 }
@@ -298,29 +310,51 @@ void MassSpring::accelerations(const Points& x, const Points& v, Points& a) noex
   // branch in the loop); only the integrated nodes' sums are read below, so
   // only theirs start from zero (the others, anchors above all, are never read).
   for (std::size_t k = 0; k < integrated_count_; ++k) spring_force_[integrated_nodes_[k]].setZero();
-  // The springs of one node a follow each other (the networks list them by
-  // their first end): its sum stays in a register until a changes, instead of
-  // a read-modify-write of memory that every next spring would wait for.
-  const PackedSpring* spring = force_list_.data();
-  std::uint32_t current = force_spring_count_ > 0 ? spring->a : 0;
+  // Blocks of springs in three passes: gather the end differences, then the
+  // block's square roots and divisions (a loop the compiler vectorizes: one
+  // spring at a time, the divider bounded the pass), then scatter the forces.
+  // Springs are ordered by their first end a: its sum stays in a register
+  // until a changes, instead of a read-modify-write of memory that every next
+  // spring would wait for.
+  constexpr std::size_t kBlock = 64;
+  alignas(64) double dx[kBlock], dy[kBlock], dz[kBlock], squared[kBlock], closing[kBlock], magnitude[kBlock];
+  const std::uint32_t* ends_a = force_a_.data();
+  const std::uint32_t* ends_b = force_b_.data();
+  std::uint32_t current = force_spring_count_ > 0 ? ends_a[0] : 0;
   Eigen::Vector3d current_sum = Eigen::Vector3d::Zero();
-  for (std::size_t j = 0; j < force_spring_count_; ++j, ++spring) {
-    if (spring->a != current) {
-      spring_force_[current] += current_sum;
-      current = spring->a;
-      current_sum.setZero();
+  for (std::size_t first = 0; first < force_spring_count_; first += kBlock) {
+    const std::size_t count = std::min(kBlock, force_spring_count_ - first);
+    for (std::size_t j = 0; j < count; ++j) {
+      const std::uint32_t ia = ends_a[first + j], ib = ends_b[first + j];
+      const Eigen::Vector3d d = x[ia] - x[ib];
+      dx[j] = d.x();
+      dy[j] = d.y();
+      dz[j] = d.z();
+      squared[j] = d.squaredNorm();
+      closing[j] = d.dot(v[ia] - v[ib]);
     }
-    const Eigen::Vector3d d = x[spring->a] - x[spring->b];
-    const double l2 = d.squaredNorm();
-    if (!(l2 > 0.0)) continue;
-    const double inverse_length = 1.0 / std::sqrt(l2);
-    // f = (k (l − l⁰) + c û·Δv) û, with û = d / l.
-    const double magnitude = (spring->stiffness * (l2 * inverse_length - spring->rest_length) +
-                              spring->damping * d.dot(v[spring->a] - v[spring->b]) * inverse_length) *
-                             inverse_length;
-    const Eigen::Vector3d f = magnitude * d;
-    current_sum -= f;
-    spring_force_[spring->b] += f;
+    const double* rest = force_rest_.data() + first;
+    const double* stiffness = force_stiffness_.data() + first;
+    const double* damping = force_damping_.data() + first;
+    for (std::size_t j = 0; j < count; ++j) {
+      // f = (k (l − l⁰) + c û·Δv) û with û = d / l, as a multiple of d.
+      const double l2 = squared[j] > 0.0 ? squared[j] : 1.0;
+      const double inverse_length = 1.0 / std::sqrt(l2);
+      const double m =
+          (stiffness[j] * (l2 * inverse_length - rest[j]) + damping[j] * closing[j] * inverse_length) * inverse_length;
+      magnitude[j] = squared[j] > 0.0 ? m : 0.0;
+    }
+    for (std::size_t j = 0; j < count; ++j) {
+      const std::uint32_t ia = ends_a[first + j];
+      if (ia != current) {
+        spring_force_[current] += current_sum;
+        current = ia;
+        current_sum.setZero();
+      }
+      const Eigen::Vector3d f = magnitude[j] * Eigen::Vector3d(dx[j], dy[j], dz[j]);
+      current_sum -= f;
+      spring_force_[ends_b[first + j]] += f;
+    }
   }
   if (force_spring_count_ > 0) spring_force_[current] += current_sum;
   const double c = options_.point_damping;
@@ -539,14 +573,24 @@ StepStatus MassSpring::step() noexcept {
     energy += 0.5 * network_.mass[i] * v_[i].squaredNorm() -
               network_.mass[i] * options_.gravity.dot(x_[i] - network_.rest[i]);
   }
-  // Single-precision lengths: the test below needs the energy's size, not its
-  // last digits, and a float square root costs half a double one.
-  for (std::size_t j = 0; j < force_spring_count_; ++j) {
-    const PackedSpring& spring = force_list_[j];
-    const double stretch =
-        std::sqrt(static_cast<float>((x_[spring.a] - x_[spring.b]).squaredNorm())) - spring.rest_length;
-    energy += 0.5 * spring.stiffness * stretch * stretch;
+  // Single-precision lengths (the test below needs the energy's size, not its
+  // last digits), a block's square roots at once, and eight partial sums so
+  // that the additions do not wait for each other.
+  constexpr std::size_t kBlock = 64, kLanes = 8;
+  alignas(64) float squared[kBlock];
+  alignas(64) double partial[kLanes] = {};
+  for (std::size_t first = 0; first < force_spring_count_; first += kBlock) {
+    const std::size_t block = std::min(kBlock, force_spring_count_ - first);
+    for (std::size_t j = 0; j < block; ++j)
+      squared[j] = static_cast<float>((x_[force_a_[first + j]] - x_[force_b_[first + j]]).squaredNorm());
+    const double* rest = force_rest_.data() + first;
+    const double* stiffness = force_stiffness_.data() + first;
+    for (std::size_t j = 0; j < block; ++j) {
+      const double stretch = std::sqrt(squared[j]) - rest[j];
+      partial[j % kLanes] += 0.5 * stiffness[j] * stretch * stretch;
+    }
   }
+  for (const double lane : partial) energy += lane;
   const double supplied = std::max(supplied_, work_ + work);
   if (!finite || !(energy <= options_.energy_growth_limit * (supplied + energy_floor_))) {
     for (const std::uint32_t i : movable_nodes_) x_[i] = saved_x_[i], v_[i] = saved_v_[i];

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "organsim/geometry/model_measures.h"
+#include "organsim/geometry/tetrahedral_embedding.h"
 #include "organsim/springs/mass_spring.h"
 
 namespace organsim::springs {
@@ -33,6 +34,32 @@ void reserve_springs(Springs& s, std::size_t count) {
   s.stiffness.reserve(count);
   s.damping.reserve(count);
   s.kind.reserve(count);
+}
+
+/// Every tetrahedron edge once (node indices offset by `base`), then four ties
+/// per surface vertex to the corners of the tetrahedron it is embedded in.
+void add_volume_springs(SpringNetwork& net, const model::OrganModel& model, std::size_t base, double edge_stiffness,
+                        double edge_damping, double tie_stiffness, double tie_damping) {
+  for (const model::Tetrahedron& t : model.tetrahedra)
+    for (std::uint32_t corner : t)
+      if (corner >= model.volume_vertices.size())
+        throw std::invalid_argument("make_organ_network: a tetrahedron's vertex index is out of range");
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
+  edges.reserve(6 * model.tetrahedra.size());
+  for (const model::Tetrahedron& t : model.tetrahedra)
+    for (std::size_t i = 0; i < 4; ++i)
+      for (std::size_t j = i + 1; j < 4; ++j) edges.emplace_back(std::min(t[i], t[j]), std::max(t[i], t[j]));
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  const geometry::SurfaceEmbedding embedding =
+      geometry::embed_surface_in_tetrahedra(model, geometry::tetrahedral_boundary(model.tetrahedra));
+  reserve_springs(net.springs, net.springs.size() + edges.size() + 4 * embedding.hosts.size());
+  const auto offset = static_cast<std::uint32_t>(base);
+  for (const auto& [a, b] : edges)
+    add_spring(net, offset + a, offset + b, edge_stiffness, edge_damping, SpringKind::volume);
+  for (std::uint32_t v = 0; v < embedding.hosts.size(); ++v)
+    for (std::uint32_t corner : embedding.hosts[v])
+      add_spring(net, v, offset + corner, tie_stiffness, tie_damping, SpringKind::volume);
 }
 
 bool non_negative(double value) { return std::isfinite(value) && value >= 0.0; }
@@ -124,7 +151,10 @@ SpringNetwork make_organ_network(const model::OrganModel& model, const OrganNetw
   require(non_negative(o.anchor_depth), "anchor_depth must be non-negative and finite (m)");
   require(non_negative(o.uniform_mass), "uniform_mass must be non-negative and finite (kg)");
   require(non_negative(o.clamp_radius), "clamp_radius must be non-negative and finite (m)");
-  if (o.volume_springs) throw std::invalid_argument("volume springs are not available yet");
+  require(non_negative(o.volume_factor), "volume_factor must be non-negative and finite");
+  require(!(o.volume_springs && o.area_weighted_mass), "area_weighted_mass does not combine with volume_springs");
+  require(!o.volume_springs || !model.tetrahedra.empty(),
+          "volume springs need the model's tetrahedra: re-bake it with organsim bake, which meshes the volume");
   const std::size_t vertex_count = model.surface_vertices.size();
   require(vertex_count <= (std::size_t{1} << 30), "the surface is too large");
   for (const model::Point3& p : model.surface_vertices)
@@ -200,8 +230,10 @@ SpringNetwork make_organ_network(const model::OrganModel& model, const OrganNetw
       volume = geometry::enclosed_volume(model.surface_vertices, model.surface_triangles);
     }
     require(std::isfinite(volume) && volume > 0.0, "the organ's volume must be positive to lump masses");
+    // With volume springs the tetrahedral nodes are simulated too and take their shares.
+    const std::size_t sharing = vertex_count + (o.volume_springs ? model.volume_vertices.size() : 0);
     for (std::size_t v = 0; v < vertex_count; ++v)
-      mass[v] = density * volume * (o.area_weighted_mass ? area[v] / total_area : 1.0 / static_cast<double>(vertex_count));
+      mass[v] = density * volume * (o.area_weighted_mass ? area[v] / total_area : 1.0 / static_cast<double>(sharing));
   }
 
   double mean_mass = 0.0;
@@ -225,10 +257,21 @@ SpringNetwork make_organ_network(const model::OrganModel& model, const OrganNetw
   if (body) net.mass.insert(net.mass.end(), mass.begin(), mass.end());
   net.fixed.assign(nodes, 0);
   for (std::size_t v = vertex_count; v < nodes; ++v) net.fixed[v] = 1;
+  const std::size_t volume_base = nodes;
+  if (o.volume_springs) {
+    for (const model::Point3& p : model.volume_vertices) {
+      require(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]), "a tetrahedral node is not finite");
+      net.rest.push_back(vec(p));
+    }
+    net.mass.resize(net.rest.size(), mean_mass);
+    net.fixed.resize(net.rest.size(), 0);
+  }
   if (o.clamp_radius > 0.0) {
     require(!model.fixed_points.empty(), "clamp_radius needs a fixed point");
     const Eigen::Vector3d centre = vec(model.fixed_points[0]);
     for (std::size_t v = 0; v < vertex_count; ++v)
+      if ((net.rest[v] - centre).norm() <= o.clamp_radius) net.fixed[v] = 1;
+    for (std::size_t v = volume_base; v < net.rest.size(); ++v)
       if ((net.rest[v] - centre).norm() <= o.clamp_radius) net.fixed[v] = 1;
   }
   net.triangles = model.surface_triangles;
@@ -256,6 +299,7 @@ SpringNetwork make_organ_network(const model::OrganModel& model, const OrganNetw
   if (body)
     for (std::uint32_t v = 0; v < ns; ++v)
       add_spring(net, v, ns + v, o.body_factor * k, o.body_factor * d, SpringKind::body);
+  if (o.volume_springs) add_volume_springs(net, model, volume_base, o.volume_factor * k, o.volume_factor * d, k, d);
   return net;
 }
 

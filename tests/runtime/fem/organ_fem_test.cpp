@@ -126,7 +126,9 @@ class NonlinearOrganFem : public ::testing::TestWithParam<MaterialModel> {
   /// contact force; returns the frames taken (`limit` when it never got there).
   static int settle(OrganFem& fem, const Eigen::Vector3d& press, int limit, bool newton) {
     for (int frame = 1; frame <= limit; ++frame) {
-      if (newton) EXPECT_TRUE(fem.refresh_tangent());
+      if (newton) {
+        EXPECT_TRUE(fem.refresh_tangent());
+      }
       EXPECT_EQ(fem.step(&press), FrameStatus::ok) << "frame " << frame;
       if (fem.unbalanced_force() < 1e-10 * fem.contact_force(0).norm()) return frame;
     }

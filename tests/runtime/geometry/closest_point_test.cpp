@@ -43,5 +43,46 @@ TEST(SurfaceBvh, MatchesBruteForceOnASphere) {
   }
 }
 
+TEST(SurfaceBvh, PartialRefitAnswersLikeAFullRefit) {
+  // Two frames as the engine sees them: each on its own buffer, the second
+  // moving fewer vertices than the first; the partial refit is told only each
+  // frame's moved vertices (some repeated, one out of range).
+  const model::OrganModel model = testing::make_sphere_model(2000, 4);
+  const std::vector<model::Point3>& rest = model.surface_vertices;
+  geometry::SurfaceBvh partial(rest, model.surface_triangles), full(rest, model.surface_triangles);
+  std::vector<model::Point3> frame = rest;
+  double radius = 0.0;
+  for (const model::Point3& p : rest) radius = std::max(radius, vec(p).norm());
+  std::mt19937 random(5);
+  std::uniform_real_distribution<double> coordinate(-1.2 * radius, 1.2 * radius);
+  for (const double cap : {0.5, 0.8}) {
+    std::vector<model::Point3> next = frame;
+    std::vector<std::uint32_t> moved;
+    for (std::uint32_t v = 0; v < rest.size(); ++v)
+      if (rest[v][2] > cap * radius) {
+        next[v][2] -= 0.4 * (rest[v][2] - cap * radius) + 0.05 * radius;  // a dent in the cap
+        moved.push_back(v);
+        if (v % 7 == 0) moved.push_back(v);
+      }
+    moved.push_back(static_cast<std::uint32_t>(rest.size() + 3));
+    ASSERT_GT(moved.size(), 10u);
+    ASSERT_LT(moved.size(), rest.size() / 2);
+    frame = next;
+    partial.refit(frame.data(), moved.data(), moved.size());
+    full.refit(frame.data());
+    for (int trial = 0; trial < 400; ++trial) {
+      const Eigen::Vector3d q(coordinate(random), coordinate(random), coordinate(random));
+      const geometry::SurfacePoint a = partial.closest_point(q), b = full.closest_point(q);
+      EXPECT_EQ(a.distance, b.distance) << trial;
+      EXPECT_EQ(a.triangle, b.triangle) << trial;
+      const Eigen::Vector3d to(0.0, 0.0, 0.0);
+      geometry::SegmentHit ha, hb;
+      ASSERT_EQ(partial.first_crossing(q * 3.0, to, true, ha), full.first_crossing(q * 3.0, to, true, hb));
+      EXPECT_EQ(ha.triangle, hb.triangle) << trial;
+      EXPECT_EQ(ha.along, hb.along) << trial;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace organsim

@@ -1,9 +1,14 @@
 // The real-time pieces: wait-free hand-off, force safety, contact detection on
 // the deformed surface, and the engine's loops stepped deterministically.
+#include <algorithm>
+#include <array>
 #include <atomic>
 #include <cstring>
 #include <cmath>
+#include <memory>
+#include <set>
 #include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -123,6 +128,47 @@ TEST_F(CylinderEngine, PressAndReleaseAtTheFarCap) {
   }
   EXPECT_TRUE(touched);
   EXPECT_TRUE(released_after);
+}
+
+TEST_F(CylinderEngine, ASpringsDynamicRegionReportsEveryVertexItMoves) {
+  // The engine refits its contact tree only above the vertices a model says it
+  // moved: every vertex whose position changed in a frame must be listed.
+  ModelOptions options;
+  options.springs.simulation.region = springs::Region::dynamic;
+  const std::unique_ptr<DeformationModel> model = make_deformation_model(ModelKind::springs, organ, options, 1);
+  const std::size_t n = organ.vertex_count();
+  std::vector<model::Point3> previous = organ.model().surface_vertices, positions(n), normals(n);
+  std::array<ContactLinearization, 1> contacts{};
+  ASSERT_TRUE(model->attach(0, {spec.length, 0.0, 0.0}, contacts[0]));
+  std::size_t most = 0, changed_total = 0;
+  for (int frame = 0; frame < 90; ++frame) {
+    if (frame == 45) model->detach(0);
+    const Eigen::Vector3d press(-0.005 * std::min(1.0, frame / 20.0), 0.0, 0.0);
+    ASSERT_TRUE(model->step(1.0 / 60.0, &press, positions.data(), normals.data(), contacts.data()));
+    std::size_t count = 0;
+    const std::uint32_t* moved = model->moved_vertices(count);
+    ASSERT_NE(moved, nullptr) << frame;
+    const std::set<std::uint32_t> listed(moved, moved + count);
+    EXPECT_EQ(listed.size(), count) << frame;  // no repeats
+    for (std::uint32_t v = 0; v < n; ++v)
+      if (positions[v] != previous[v]) {
+        EXPECT_TRUE(listed.count(v)) << "frame " << frame << ", vertex " << v;
+        ++changed_total;
+      }
+    most = std::max(most, count);
+    if (frame < 45) EXPECT_GT(model->active_nodes(), 0u) << frame;  // the tool's neighbourhood at least
+    previous = positions;
+  }
+  EXPECT_GT(changed_total, 0u);
+  EXPECT_LT(most, n / 2);  // a region, not the organ
+  // Integrating every node, the model claims nothing narrower than all.
+  const std::unique_ptr<DeformationModel> everywhere = make_deformation_model(ModelKind::springs, organ, {}, 1);
+  ASSERT_TRUE(everywhere->attach(0, {spec.length, 0.0, 0.0}, contacts[0]));
+  const Eigen::Vector3d press(-0.001, 0.0, 0.0);
+  ASSERT_TRUE(everywhere->step(1.0 / 60.0, &press, positions.data(), normals.data(), contacts.data()));
+  std::size_t count = 1;
+  EXPECT_EQ(everywhere->moved_vertices(count), nullptr);
+  EXPECT_EQ(count, 0u);
 }
 
 TEST_F(CylinderEngine, AFastToolCannotPassThroughTheOrgan) {

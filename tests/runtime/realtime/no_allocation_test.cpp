@@ -77,12 +77,20 @@ TEST(RealTime, EngineLoopsAllocateNothingWithEveryModel) {
   press.positions = {{0.16, 0.0, 0.0}, {0.144, 0.002, 0.0}, {0.16, 0.0, 0.0}};
   side.times = {0.0, 0.2, 0.6};
   side.positions = {{0.08, 0.04, 0.0}, {0.08, 0.026, 0.0}, {0.08, 0.04, 0.0}};
-  for (realtime::ModelKind kind :
-       {realtime::ModelKind::beam, realtime::ModelKind::springs, realtime::ModelKind::linear,
-        realtime::ModelKind::corotational, realtime::ModelKind::stvk, realtime::ModelKind::psh}) {
+  // The springs also with a dynamic region (partial refits of the contact
+  // tree) and with volume springs.
+  enum class Springs { plain, dynamic_region, volume };
+  const std::pair<realtime::ModelKind, Springs> variants[] = {
+      {realtime::ModelKind::beam, Springs::plain},          {realtime::ModelKind::springs, Springs::plain},
+      {realtime::ModelKind::springs, Springs::dynamic_region}, {realtime::ModelKind::springs, Springs::volume},
+      {realtime::ModelKind::linear, Springs::plain},        {realtime::ModelKind::corotational, Springs::plain},
+      {realtime::ModelKind::stvk, Springs::plain},          {realtime::ModelKind::psh, Springs::plain}};
+  for (const auto& [kind, variant] : variants) {
     devices::ScriptedDevice a(press, {}, 1000), b(side, {}, 1000);
     realtime::EngineOptions options;
     options.model = kind;
+    if (variant == Springs::dynamic_region) options.springs.simulation.region = springs::Region::dynamic;
+    options.springs.network.volume_springs = variant == Springs::volume;
     options.fem.fixed_radius = 0.031;  // the cylinder's clamped cap
     options.fem.refresh_frames = 3;  // tangents adopted during the test
     realtime::Engine engine(organ, {&a, &b}, options);
@@ -98,7 +106,7 @@ TEST(RealTime, EngineLoopsAllocateNothingWithEveryModel) {
     EXPECT_GE(engine.telemetry(0).contacts, 1u) << realtime::model_name(kind);
     EXPECT_GE(engine.telemetry(1).contacts, 1u) << realtime::model_name(kind);
     EXPECT_GT(engine.telemetry(0).peak_force, 0.0) << realtime::model_name(kind);
-    EXPECT_EQ(engine.model().instabilities(), 0u) << realtime::model_name(kind);
+    EXPECT_EQ(engine.model().instabilities(), 0u) << realtime::model_name(kind) << " variant " << static_cast<int>(variant);
   }
 }
 

@@ -83,6 +83,52 @@ double measured_period(const Oscillation& o) {
   return (o.down_crossings.back() - o.down_crossings.front()) / static_cast<double>(o.down_crossings.size() - 1);
 }
 
+TEST(OneSpring, StiffestModeAndLargestStableStepsAreTheAnalyticOnes) {
+  OneSpring spring;
+  SpringNetwork net = spring.network();
+  net.rest[1].x() = spring.length;  // the linearization at rest
+  StiffestMode mode = stiffest_mode(net, 0.0);
+  EXPECT_NEAR(mode.omega, spring.omega(), 1e-9 * spring.omega());
+  EXPECT_EQ(mode.damping_rate, 0.0);
+  const double w = spring.omega();
+  // Undamped: symplectic Euler to ω·dt = 2, RK4 to 2√2; explicit Euler and
+  // midpoint amplify an undamped oscillation at any step.
+  EXPECT_NEAR(largest_stable_step(Integrator::symplectic_euler, mode) * w, 2.0, 0.02);
+  EXPECT_NEAR(largest_stable_step(Integrator::rk4, mode) * w, 2.0 * std::sqrt(2.0), 0.03);
+  EXPECT_EQ(largest_stable_step(Integrator::explicit_euler, mode), 0.0);
+  EXPECT_EQ(largest_stable_step(Integrator::midpoint, mode), 0.0);
+  EXPECT_TRUE(std::isinf(largest_stable_step(Integrator::implicit_euler, mode)));
+  // Damped (spring damping d along the spring, point damping c): γ = (d + c)/m;
+  // explicit Euler on ẍ = −ω²x − γẋ is stable up to dt = γ/ω² (|1 + dt·μ| = 1).
+  net.springs.damping = {0.2};
+  mode = stiffest_mode(net, 0.1);
+  EXPECT_NEAR(mode.damping_rate, 0.3 / spring.m, 1e-9 * 0.3 / spring.m);
+  const double g = mode.damping_rate;
+  EXPECT_NEAR(largest_stable_step(Integrator::explicit_euler, mode), g / (w * w), 0.011 * g / (w * w));
+  // Symplectic Euler: dt²ω² + 2·dt·γ = 4.
+  const double symplectic = (-g + std::sqrt(g * g + 4.0 * w * w)) / (w * w);
+  EXPECT_NEAR(largest_stable_step(Integrator::symplectic_euler, mode), symplectic, 0.011 * symplectic);
+  // And the simulation agrees: 0.95 of the limit decays, 1.05 of it grows.
+  for (const double fraction : {0.95, 1.05}) {
+    SimulationOptions o = spring.options(Integrator::symplectic_euler, 1.0);
+    o.dt = fraction * symplectic;
+    o.point_damping = 0.1;
+    SpringNetwork damped = spring.network();
+    damped.springs.damping = {0.2};
+    MassSpring damped_sim(damped, o);
+    double amplitude = 0.0;  // the largest excursion over the last 100 steps (several periods)
+    for (int n = 0; n < 400; ++n) {
+      damped_sim.step();
+      if (n >= 300) amplitude = std::max(amplitude, std::abs(damped_sim.position(1).x() - spring.length));
+    }
+    if (fraction < 1.0) {
+      EXPECT_LT(amplitude, 1e-3 * spring.amplitude);
+    } else {
+      EXPECT_GT(amplitude, spring.amplitude);
+    }
+  }
+}
+
 TEST(OneSpring, RungeKuttaPeriodAndAmplitudeAreExactAtSmallSteps) {
   const OneSpring spring;
   const double period = 2.0 * kPi * std::sqrt(spring.m / spring.k);

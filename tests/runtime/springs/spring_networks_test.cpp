@@ -6,6 +6,7 @@
 #include <ostream>
 #include <set>
 #include <stdexcept>
+#include <string>
 #include <utility>
 
 #include <gtest/gtest.h>
@@ -284,12 +285,17 @@ TEST_F(Cylinder, ClampRadiusFixesTheNodesNearTheFixedPoint) {
 TEST_F(Cylinder, RefusesWhatItCannotBuild) {
   OrganNetworkOptions o;
   o.volume_springs = true;
+  model::OrganModel surface_only = model;
+  surface_only.tetrahedra.clear();
   try {
-    make_organ_network(model, o);
+    make_organ_network(surface_only, o);
     FAIL();
   } catch (const std::invalid_argument& e) {
-    EXPECT_STREQ(e.what(), "volume springs are not available yet");
+    EXPECT_NE(std::string(e.what()).find("volume springs need the model's tetrahedra"), std::string::npos) << e.what();
   }
+  o.area_weighted_mass = true;
+  EXPECT_THROW(make_organ_network(model, o), std::invalid_argument);
+  o = {};
   model::OrganModel empty = model;
   empty.surface_triangles.clear();
   EXPECT_THROW(make_organ_network(empty, {}), std::invalid_argument);
@@ -299,6 +305,99 @@ TEST_F(Cylinder, RefusesWhatItCannotBuild) {
   o = {};
   o.anchor_depth = -1.0;
   EXPECT_THROW(make_organ_network(model, o), std::invalid_argument);
+}
+
+TEST_F(Cylinder, VolumeSpringsJoinEveryTetrahedronEdgeAndTieEachVertexToItsTetrahedron) {
+  OrganNetworkOptions o;
+  o.volume_springs = true;
+  o.volume_factor = 0.5;
+  o.clamp_radius = spec.radius * 1.01;
+  const SpringNetwork net = make_organ_network(model, o);
+  const std::size_t ns = model.surface_vertices.size(), nv = model.volume_vertices.size(), base = 2 * ns;
+  ASSERT_EQ(net.rest.size(), base + nv);
+  EXPECT_EQ(net.surface_nodes, ns);
+  std::set<std::pair<std::uint32_t, std::uint32_t>> tet_edges;
+  for (const model::Tetrahedron& t : model.tetrahedra)
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) tet_edges.insert({std::min(t[i], t[j]), std::max(t[i], t[j])});
+  ASSERT_EQ(count_kind(net, SpringKind::volume), tet_edges.size() + 4 * ns);
+
+  double structural_k = 0.0;
+  for (std::size_t k = 0; k < net.springs.size(); ++k)
+    if (net.springs.kind[k] == SpringKind::structural) structural_k = net.springs.stiffness[k];
+  std::set<std::pair<std::uint32_t, std::uint32_t>> seen_edges;
+  std::map<std::uint32_t, std::set<std::uint32_t>> ties;  // surface vertex → tetrahedral nodes
+  for (std::size_t k = 0; k < net.springs.size(); ++k) {
+    if (net.springs.kind[k] != SpringKind::volume) continue;
+    const std::uint32_t a = net.springs.a[k], b = net.springs.b[k];
+    EXPECT_NEAR(net.springs.rest_length[k], (net.rest[a] - net.rest[b]).norm(), 1e-15);
+    ASSERT_GE(b, base);
+    if (a >= base) {
+      seen_edges.insert({a - static_cast<std::uint32_t>(base), b - static_cast<std::uint32_t>(base)});
+      EXPECT_DOUBLE_EQ(net.springs.stiffness[k], 0.5 * structural_k);
+    } else {
+      ASSERT_LT(a, ns);
+      ties[a].insert(b - static_cast<std::uint32_t>(base));
+      EXPECT_DOUBLE_EQ(net.springs.stiffness[k], structural_k);
+    }
+  }
+  EXPECT_EQ(seen_edges, tet_edges);
+  ASSERT_EQ(ties.size(), ns);
+  for (const auto& [vertex, corners] : ties) {
+    // The four corners of one tetrahedron that holds the vertex (here a corner of it).
+    ASSERT_EQ(corners.size(), 4u) << vertex;
+    const bool one_tetrahedron = std::any_of(model.tetrahedra.begin(), model.tetrahedra.end(), [&](const auto& t) {
+      return std::set<std::uint32_t>(t.begin(), t.end()) == corners;
+    });
+    EXPECT_TRUE(one_tetrahedron) << vertex;
+    EXPECT_TRUE(corners.count(vertex)) << vertex;  // the cylinder's tetrahedra use the surface vertices
+  }
+  // Masses: ρV shared equally by the surface and tetrahedral nodes; the clamp holds tetrahedral nodes too.
+  const double share = model.material.density * geometry::measure_model(model).tetrahedra_volume / static_cast<double>(ns + nv);
+  for (std::size_t v = 0; v < net.rest.size(); ++v) {
+    if (v < ns || v >= base) {
+      EXPECT_NEAR(net.mass[v], share, 1e-15) << v;
+    }
+  }
+  for (std::size_t v = base; v < net.rest.size(); ++v)
+    EXPECT_EQ(net.fixed[v] != 0, net.rest[v].norm() <= o.clamp_radius) << v;
+}
+
+TEST_F(Cylinder, VolumeSpringsRestInEquilibriumAndStiffenTheOrgan) {
+  // A cantilever clamped at its near cap, pulled down at the far cap's centre:
+  // the hollow surface network (no body springs) bends further than the one
+  // filled with volume springs.
+  auto deflection = [&](bool volume) {
+    OrganNetworkOptions o;
+    o.body_factor = 0.0;
+    o.volume_springs = volume;
+    o.clamp_radius = spec.radius * 1.01;
+    o.critical_fraction = 1.0;
+    SimulationOptions s;
+    s.integrator = Integrator::implicit_euler;
+    s.dt = 0.05;
+    s.gravity.setZero();
+    s.implicit_cg_iterations = 400;
+    MassSpring sim(make_organ_network(model, o), s);
+    for (int i = 0; i < 3; ++i) EXPECT_EQ(sim.step(), StepStatus::ok);
+    double drift = 0.0;
+    for (std::uint32_t v = 0; v < sim.node_count(); ++v)
+      drift = std::max(drift, (sim.position(v) - sim.network().rest[v]).norm());
+    EXPECT_LT(drift, 1e-12) << "volume " << volume;  // the rest shape is an equilibrium
+    std::uint32_t far = 0;
+    for (std::uint32_t v = 0; v < sim.network().surface_nodes; ++v)
+      if (sim.network().rest[v].x() > sim.network().rest[far].x() + 1e-9 ||
+          (std::abs(sim.network().rest[v].x() - sim.network().rest[far].x()) < 1e-9 &&
+           sim.network().rest[v].norm() < sim.network().rest[far].norm()))
+        far = v;
+    sim.set_external_force(far, Eigen::Vector3d(0, 0, -0.05));
+    for (int i = 0; i < 400; ++i) EXPECT_EQ(sim.step(), StepStatus::ok);
+    EXPECT_LT(sim.velocity(far).norm(), 1e-4) << "volume " << volume;
+    return sim.network().rest[far].z() - sim.position(far).z();
+  };
+  const double hollow = deflection(false), filled = deflection(true);
+  EXPECT_GT(filled, 0.0);
+  EXPECT_LT(filled, 0.5 * hollow) << "hollow " << hollow << " m, filled " << filled << " m";
 }
 
 TEST_F(Cylinder, TheOrganNetworkSettlesUnderItsOwnWeightOnItsClampAndAnchors) {

@@ -165,6 +165,30 @@ TEST_F(Cli, ReplayWithTheSpringModelIsBitIdenticalAndPushesBack) {
   EXPECT_GT(csv[0].size(), 1000u);
 }
 
+TEST_F(Cli, ReplayWithADynamicRegionAndVolumeSpringsIsBitIdenticalAndPushesBack) {
+  const auto [model, session] = write_cylinder_and_two_tool_press(dir_);
+  for (const std::string variant : {"--region dynamic", "--volume-springs", "--volume-springs --region dynamic"}) {
+    std::array<std::string, 2> csv;
+    for (int run = 0; run < 2; ++run) {
+      const fs::path forces = dir_ / fmt::format("springs_{}.csv", run);
+      const CommandRun replay = run_organsim("replay " + model + " " + session.string() + " --model springs " +
+                                                 variant + " --fast --json --forces " + forces.string(),
+                                             dir_);
+      ASSERT_EQ(replay.exit_code, 0) << variant << "\n" << replay.err;
+      const nlohmann::json j = nlohmann::json::parse(replay.out);
+      EXPECT_EQ(j["instabilities"], 0) << variant;
+      for (int tool = 0; tool < 2; ++tool) {
+        EXPECT_EQ(j["tools"][tool]["contacts"], 1) << variant << ", tool " << tool;
+        EXPECT_GT(j["tools"][tool]["peak_force_n"].get<double>(), 0.001) << variant << ", tool " << tool;
+      }
+      std::ifstream in(forces);
+      csv[run].assign(std::istreambuf_iterator<char>(in), {});
+    }
+    EXPECT_EQ(csv[0], csv[1]) << variant;
+    EXPECT_GT(csv[0].size(), 1000u) << variant;
+  }
+}
+
 TEST_F(Cli, ReplayWithEveryFemModelIsBitIdenticalAndPushesBack) {
   // The FEM models on the cylinder's tetrahedra, clamped over its x = 0 cap:
   // the asynchronous tangent of corotational and stvk is adopted at fixed

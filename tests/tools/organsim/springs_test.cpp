@@ -189,6 +189,22 @@ TEST_F(Cli, SpringsRunsOnABakedOrganWithSymplecticEuler) {
   EXPECT_LT(j["force_vertex_displacement"][2].get<double>(), -0.001);  // pushed down by the 5 N force
 }
 
+TEST_F(Cli, SpringsVolumeSpringsStiffenABakedOrgan) {
+  // Settled by implicit Euler: the organ filled with springs on its
+  // tetrahedra's edges gives less under the same force than its surface alone.
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const std::string settle = model + " --integrator implicit --dt 0.01 --steps 300 --gravity 0 --force 0,0,-0.5";
+  const nlohmann::json hollow = springs_json(settle, dir_), filled = springs_json(settle + " --volume-springs", dir_);
+  ASSERT_TRUE(hollow["stable"].get<bool>());
+  ASSERT_TRUE(filled["stable"].get<bool>());
+  EXPECT_EQ(filled["positions"].size(), hollow["positions"].size());  // the surface's vertices only
+  const double hollow_dz = hollow["force_vertex_displacement"][2].get<double>(),
+               filled_dz = filled["force_vertex_displacement"][2].get<double>();
+  EXPECT_LT(filled_dz, 0.0);
+  EXPECT_LT(hollow_dz, filled_dz);
+}
+
 TEST_F(Cli, SpringsBadInputIsOneErrorLine) {
   const std::vector<std::pair<std::string, int>> cases = {
       {"--grid 2x5", 2},
@@ -199,6 +215,8 @@ TEST_F(Cli, SpringsBadInputIsOneErrorLine) {
       {"--grid 15x15 --force nan,0,0", 2},
       {"--grid 15x15 --force 0,0,inf", 2},
       {"--grid 15x15 --at 225", 1},
+      {"--grid 15x15 --at 0", 1},                      // a border vertex: fixed
+      {"--grid 15x15 --volume-springs", 2},            // a grid has no tetrahedra
       {"", 2},                                         // neither a model nor a grid
       {(dir_ / "missing.organ").string(), 1},          // a model that is not there
   };

@@ -49,6 +49,7 @@
 #include "organsim/fem/elasticity_system.h"
 #include "organsim/fem/material.h"
 #include "organsim/geometry/closest_point.h"
+#include "organsim/geometry/tetrahedral_embedding.h"
 #include "organsim/model/organ_model.h"
 
 namespace organsim::fem {
@@ -182,15 +183,11 @@ class OrganFem {
   double factorization_seconds_ = 0;
   std::vector<std::int32_t> free_dofs_;  ///< per free index, its dof
   std::size_t displacement_dofs_ = 0;
-  // Boundary faces of the tetrahedra (node triples) and their tetrahedron.
   std::vector<model::Point3> node_points_;
-  std::vector<model::Triangle> boundary_faces_;
-  std::vector<std::int32_t> boundary_owner_;
-  std::unique_ptr<geometry::SurfaceBvh> boundary_tree_;  ///< refers into node_points_ and boundary_faces_
-  // Surface embedding: per surface vertex, its tetrahedron's nodes and weights.
+  geometry::TetrahedralBoundary boundary_;
+  std::unique_ptr<geometry::SurfaceBvh> boundary_tree_;  ///< refers into node_points_ and boundary_.faces
   std::vector<model::Point3> surface_rest_;
-  std::vector<std::array<std::int32_t, 4>> embed_nodes_;
-  std::vector<Eigen::Vector4d> embed_weights_;
+  geometry::SurfaceEmbedding embedding_;  ///< each surface vertex in a tetrahedron
   // State and scratch (sized at construction).
   Eigen::VectorXd state_, saved_, gradient_, rhs_, step_;
   std::vector<Contact> contacts_;

@@ -46,6 +46,13 @@ class SurfaceBvh {
   /// kept by pointer until the next refit): boxes recomputed bottom-up.
   void refit(const model::Point3* positions) noexcept;
 
+  /// The same, recomputing only the boxes above the `count` vertices in
+  /// `moved` (the paper's partial refit: the leaves holding a triangle at a
+  /// moved vertex, and their ancestors). Exact when every other vertex has at
+  /// `positions` the coordinates it had at the last refit. Indices out of
+  /// range and repeats are ignored; allocates nothing.
+  void refit(const model::Point3* positions, const std::uint32_t* moved, std::size_t count) noexcept;
+
   /// The surface point closest to `query` (finite). Exact: every triangle whose
   /// box could hold a closer point is tested.
   SurfacePoint closest_point(const Eigen::Vector3d& query) const noexcept;
@@ -64,11 +71,17 @@ class SurfaceBvh {
     std::uint32_t right = 0;  ///< inner: right child
   };
   std::uint32_t build(std::uint32_t first, std::uint32_t count, std::vector<Eigen::Vector3d>& centroids);
+  void fit(Node& node) const noexcept;
 
   const model::Point3* vertices_;
   const std::vector<model::Triangle>& triangles_;
   std::vector<std::uint32_t> order_;
   std::vector<Node> nodes_;
+  // For the partial refit: each node's parent, each vertex's leaves (CSR),
+  // and a mark per node.
+  std::vector<std::uint32_t> parent_;
+  std::vector<std::uint32_t> vertex_leaf_offset_, vertex_leaves_;
+  std::vector<std::uint8_t> marked_;
 };
 
 }  // namespace organsim::geometry

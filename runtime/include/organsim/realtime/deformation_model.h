@@ -76,6 +76,18 @@ class DeformationModel {
                     ContactLinearization* contacts) noexcept = 0;
   /// Steps that diverged and were undone (dynamic models); 0 for static ones.
   virtual std::uint64_t instabilities() const noexcept { return 0; }
+  /// The surface vertices whose positions the last successful step() may have
+  /// changed (`count` of them, valid until the next step()), when the model
+  /// knows a smaller set than all: the mass-spring model in a dynamic region.
+  /// The engine then refits its contact tree only above them. nullptr: any
+  /// vertex may have moved.
+  virtual const std::uint32_t* moved_vertices(std::size_t& count) const noexcept {
+    count = 0;
+    return nullptr;
+  }
+  /// Nodes the last step() integrated (the mass-spring model's active
+  /// region); 0 for models that have no such notion.
+  virtual std::size_t active_nodes() const noexcept { return 0; }
 };
 
 /// How the mass-spring model runs inside the engine (docs/springs.md).

@@ -140,6 +140,14 @@ class Engine {
   geometry::SurfaceBvh deformed_tree_;
   const model::Point3* tree_positions_ = nullptr;  // the last published surface
   bool tree_stale_ = false;                 // the tree does not describe it yet
+  // The surface vertices moved since the tree's last refit (per vertex mark
+  // and list), unless all may have moved.
+  std::vector<std::uint8_t> moved_mark_;
+  std::vector<std::uint32_t> moved_list_;
+  std::size_t moved_count_ = 0;
+  bool all_moved_ = true;
+  void note_moved_vertices() noexcept;
+  void refit_contact_tree() noexcept;
   ContactFrame contacts_;
   std::array<Eigen::Vector3d, kMaxTools> previous_tip_{};
   std::array<bool, kMaxTools> previous_valid_{};

@@ -40,8 +40,9 @@ struct Springs {
 };
 
 /// A network: nodes [0, surface_nodes) are the simulated surface (in the
-/// order of the mesh they were built from), the rest are the body springs'
-/// anchors, which never move.
+/// order of the mesh they were built from); after them come the body springs'
+/// anchors, which never move, and an organ's tetrahedral nodes when it has
+/// volume springs.
 struct SpringNetwork {
   std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>> rest;  ///< (N) rest positions, m
   std::vector<double> mass;            ///< (N) kg (anchors: any positive value; they do not move)
@@ -89,10 +90,13 @@ struct OrganNetworkOptions {
   double critical_fraction = 0.1;
   double body_factor = 2.0;      ///< body springs: this × the structural constant and damping; 0 leaves them (and the anchors) out
   double anchor_depth = 0.0;     ///< m; 0: the mean edge length
-  /// Also every tetrahedron edge between surface and interior nodes. Not
-  /// available yet (the baked tetrahedra do not share the surface's vertices):
-  /// true makes make_organ_network throw std::invalid_argument.
+  /// Volumetric springs (the model's tetrahedra): the tetrahedral nodes are
+  /// simulated too, every tetrahedron edge is a spring (volume_factor × k and
+  /// d), and since the baked tetrahedra do not share the surface's vertices,
+  /// each surface vertex is tied by four springs (k, d) to the corners of the
+  /// tetrahedron it is embedded in (geometry/tetrahedral_embedding.h).
   bool volume_springs = false;
+  double volume_factor = 1.0;
   /// kg per node; 0: the organ's mass ρ·V (ρ the model's density; V the
   /// tetrahedra's volume, or the volume the surface encloses when the model has
   /// no tetrahedra) shared among the surface nodes: equally, or with
@@ -107,7 +111,9 @@ struct OrganNetworkOptions {
 
 /// Nodes: the model's surface vertices in order, then (body_factor > 0) one
 /// anchor per surface vertex, anchor i at surface_nodes + i, fixed, with its
-/// vertex's mass. Springs, in this order: every surface edge once as a
+/// vertex's mass, then (volume_springs) the tetrahedral nodes in order, which
+/// move; with masses from ρV, every surface and tetrahedral node gets an equal
+/// share. Springs, in this order: every surface edge once as a
 /// structural spring (k, d); for each edge shared by exactly
 /// two triangles, a bending spring between the two vertices opposite it
 /// (bending_factor·k, bending_factor·d; edges on a border or on
@@ -116,12 +122,16 @@ struct OrganNetworkOptions {
 /// (−Σ of the adjacent triangles' (b − a) × (c − a), normalized), rest length
 /// anchor_depth, body_factor × the structural constant and damping. Anchors of
 /// thin parts may lie outside the organ: choose anchor_depth below half the
-/// thickness. Rest lengths are the rest distances. Every spring has a < b.
+/// thickness; then (volume_springs) every tetrahedron edge once, in the
+/// order of its sorted node pair, and per surface vertex the four ties to its
+/// host tetrahedron's corners (kind volume). The clamp fixes tetrahedral nodes
+/// within clamp_radius too. Rest lengths are the rest distances. Every spring
+/// has a < b.
 /// Throws std::invalid_argument on a model without surface triangles, a
 /// surface vertex on no triangle, bad indices, bad options, a zero structural
 /// constant (stiffness 0 and E = 0), a non-positive density or volume when the
 /// masses come from them, clamp_radius > 0 without fixed points, or
-/// volume_springs ("volume springs are not available yet").
+/// volume_springs on a model without tetrahedra or with area_weighted_mass.
 SpringNetwork make_organ_network(const model::OrganModel& model, const OrganNetworkOptions& options);
 
 enum class Integrator : std::uint8_t { explicit_euler, midpoint, rk4, symplectic_euler, implicit_euler };
@@ -188,6 +198,24 @@ struct SimulationOptions {
   std::uint32_t implicit_cg_iterations = 50;
 };
 
+/// The stiffest motion of a network linearized at rest, over its free nodes:
+/// ω² the largest eigenvalue of M⁻¹K (K the springs' axial stiffness) and γ
+/// that of M⁻¹D (their damping) plus the point damping over the lightest free
+/// mass. Power iterations: ω and γ are approached from below (within about
+/// 10⁻⁴ relative; take a margin).
+struct StiffestMode {
+  double omega = 0.0;         ///< rad/s
+  double damping_rate = 0.0;  ///< 1/s
+};
+StiffestMode stiffest_mode(const SpringNetwork& network, double point_damping);
+
+/// The largest dt (s) at which `integrator` is stable on the mode
+/// ẍ = −ω²x − γẋ: |R(dt·μ)| ≤ 1 at its eigenvalues μ for the explicit ones,
+/// dt²ω² + 2·dt·γ < 4 and dt·γ < 2 for symplectic Euler; infinite for implicit
+/// Euler, 0 when no step is stable (explicit Euler without damping). Taking ω
+/// and γ of different modes together (stiffest_mode) errs on the safe side.
+double largest_stable_step(Integrator integrator, const StiffestMode& mode);
+
 struct Energy {
   double kinetic = 0.0;  ///< J
   double spring = 0.0;   ///< J
@@ -252,6 +280,8 @@ class MassSpring {
   /// Nodes integrated in the last step (all free nodes, i.e. neither fixed nor
   /// held, with Region::all); 0 before the first step and after reset().
   std::size_t active_count() const noexcept { return active_count_; }
+  /// Those nodes (active_count() indices; valid until the next step() or reset()).
+  const std::uint32_t* integrated_nodes() const noexcept { return integrated_nodes_.data(); }
   /// Steps taken since construction or reset() (a step that blew up is not counted).
   std::uint64_t steps() const noexcept { return steps_; }
 
@@ -288,13 +318,13 @@ class MassSpring {
   std::vector<std::uint32_t> quiet_steps_;
   std::vector<std::uint32_t> integrated_nodes_, force_springs_;
   std::size_t integrated_count_ = 0, force_spring_count_ = 0;
-  // The springs of force_springs_, packed in that order: the force pass reads
-  // one 32-byte record per spring instead of five arrays through an index.
-  struct PackedSpring {
-    std::uint32_t a, b;
-    double rest_length, stiffness, damping;
-  };
-  std::vector<PackedSpring> force_list_;
+  // The springs of force_springs_ in that order, as arrays: the force pass
+  // reads them in blocks, the block's square roots and divisions vectorized.
+  std::vector<std::uint32_t> force_a_, force_b_;
+  std::vector<double> force_rest_, force_stiffness_, force_damping_;
+  // All springs ordered by (first end, second end): consecutive springs share
+  // their first end, whose force sum then stays in a register.
+  std::vector<std::uint32_t> spring_order_;
   Points spring_force_;  // per node Σ of the spring forces of one evaluation
   // Nodes with a non-zero external force, and held nodes.
   std::vector<std::uint32_t> forced_nodes_, held_nodes_;

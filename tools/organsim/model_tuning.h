@@ -1,0 +1,29 @@
+// The command-line options that shape a deformation model beyond its name
+// (replay, poke, touch, view).
+#pragma once
+
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "organsim/fem/organ_fem.h"
+#include "organsim/realtime/deformation_model.h"
+
+namespace organsim::cli {
+
+/// What shapes the deformation models beyond their name.
+struct ModelTuning {
+  double fixed_radius_mm = 10.0;     ///< --fixed-radius: FEM clamp ball
+  bool volume_springs = false;       ///< --volume-springs: springs on the tetrahedra's edges too
+  std::string region = "all";        ///< --region all|dynamic: the springs' integrated region
+  double region_threshold_mm = 1.0;  ///< --region-threshold: displacement that grows a dynamic region
+};
+/// --fixed-radius MM (the FEM models clamp the tetrahedral nodes within this
+/// distance of the model's fixed point), --volume-springs, --region and
+/// --region-threshold MM (the mass-spring model; docs/springs.md).
+void add_model_tuning_options(CLI::App& app, ModelTuning& tuning);
+/// Applies the tuning to the FEM and mass-spring options (of an engine or of
+/// realtime::ModelOptions).
+void apply_model_tuning(const ModelTuning& tuning, fem::OrganFemOptions& fem, realtime::SpringModelOptions& springs);
+
+}  // namespace organsim::cli
