@@ -5,12 +5,14 @@
 // "ns per spring" counter compares a step against that. The "blowups" counter
 // says how often a run diverged and was reset (0: every timed step was a real
 // step of a stable simulation; docs/springs.md gives the measured limits).
+#include <cstdlib>
 #include <memory>
 #include <vector>
 
 #include <benchmark/benchmark.h>
 
 #include "organsim/devices/scripted_device.h"
+#include "organsim/model/model_file.h"
 #include "organsim/multibeam/beam_organ.h"
 #include "organsim/realtime/engine.h"
 #include "organsim/springs/mass_spring.h"
@@ -70,6 +72,25 @@ void BM_StepLiverSurface3000(benchmark::State& state) { run_steps(state, liver_s
 BENCHMARK(BM_StepGrid225)->DenseRange(0, 4)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_StepGrid625)->DenseRange(0, 4)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_StepLiverSurface3000)->DenseRange(0, 4)->Unit(benchmark::kMicrosecond);
+
+/// A baked liver's surface network as the engine builds it (k = E·ℓ̄, masses
+/// ρV/n, body springs), from the model file named by ORGANSIM_BENCH_MODEL (e.g.
+/// demo_output/liver.organ, which README command (a) bakes from the shipped CT);
+/// skipped without it.
+void BM_StepBakedLiver(benchmark::State& state) {
+  const char* path = std::getenv("ORGANSIM_BENCH_MODEL");
+  if (path == nullptr) {
+    state.SkipWithError("set ORGANSIM_BENCH_MODEL to a baked model file (e.g. demo_output/liver.organ)");
+    return;
+  }
+  const model::ModelReadResult read = model::read_organ_model_file(path);
+  if (!read) {
+    state.SkipWithError(read.error.c_str());
+    return;
+  }
+  run_steps(state, make_organ_network(*read.model, {}), 1e-4);
+}
+BENCHMARK(BM_StepBakedLiver)->DenseRange(0, 4)->Unit(benchmark::kMicrosecond);
 
 /// The force loop's cost with the spring model: the same 3×3 linearization as the beam's.
 void BM_EngineForceTickSprings(benchmark::State& state) {

@@ -211,7 +211,7 @@ void MassSpring::reset() noexcept {
   std::fill(v_.begin(), v_.end(), Eigen::Vector3d::Zero());
   std::fill(active_.begin(), active_.end(), std::uint8_t{0});
   std::fill(quiet_steps_.begin(), quiet_steps_.end(), 0u);
-  lists_dirty_ = seeds_dirty_ = true;
+  lists_dirty_ = seeds_dirty_ = stage_stale_ = true;
   supplied_ = work_ = 0.0;
   stable_ = true;
   active_count_ = 0;
@@ -256,6 +256,24 @@ void MassSpring::rebuild_lists() noexcept {
       force_springs_[j] = k;
     }
   lists_dirty_ = false;
+  stage_stale_ = true;
+}
+
+void MassSpring::sync_stage() noexcept {
+  // The stage state's nodes that no stage writes (fixed, held, not integrated)
+  // must hold the state's values; of those only the held ones change from step
+  // to step while the lists stay as they are.
+  if (stage_stale_) {
+    std::copy(x_.begin(), x_.end(), stage_x_.begin());
+    std::copy(v_.begin(), v_.end(), stage_v_.begin());
+    stage_stale_ = false;
+    return;
+  }
+  for (std::size_t k = 0; k < held_count_; ++k) {
+    const std::uint32_t i = held_nodes_[k];
+    stage_x_[i] = x_[i];
+    stage_v_[i] = v_[i];
+  }
 }
 
 void MassSpring::mark_seeds() noexcept {
@@ -513,8 +531,7 @@ StepStatus MassSpring::step() noexcept {
       }
       break;
     case Integrator::midpoint:
-      std::copy(x_.begin(), x_.end(), stage_x_.begin());
-      std::copy(v_.begin(), v_.end(), stage_v_.begin());
+      sync_stage();
       accelerations(x_, v_, accel_);
       for (std::size_t k = 0; k < count; ++k) {
         const std::uint32_t i = nodes[k];
@@ -529,8 +546,7 @@ StepStatus MassSpring::step() noexcept {
       }
       break;
     case Integrator::rk4:
-      std::copy(x_.begin(), x_.end(), stage_x_.begin());
-      std::copy(v_.begin(), v_.end(), stage_v_.begin());
+      sync_stage();
       accelerations(x_, v_, accel_);  // k1 = (v, a1)
       for (std::size_t k = 0; k < count; ++k) {
         const std::uint32_t i = nodes[k];

@@ -156,7 +156,9 @@ TEST_F(CylinderEngine, ASpringsDynamicRegionReportsEveryVertexItMoves) {
         ++changed_total;
       }
     most = std::max(most, count);
-    if (frame < 45) EXPECT_GT(model->active_nodes(), 0u) << frame;  // the tool's neighbourhood at least
+    if (frame < 45) {
+      EXPECT_GT(model->active_nodes(), 0u) << frame;  // the tool's neighbourhood at least
+    }
     previous = positions;
   }
   EXPECT_GT(changed_total, 0u);

@@ -298,6 +298,7 @@ class MassSpring {
   /// Accelerations of the integrated nodes at the state (x, v); other entries untouched.
   void accelerations(const Points& x, const Points& v, Points& a) noexcept;
   void step_implicit_euler() noexcept;
+  void sync_stage() noexcept;
   void apply_implicit_matrix(const Points& p, Points& q) noexcept;
   bool freely_movable(std::uint32_t node) const noexcept { return !network_.fixed[node] && !held_[node]; }
 
@@ -330,6 +331,7 @@ class MassSpring {
   std::vector<std::uint32_t> forced_nodes_, held_nodes_;
   std::size_t forced_count_ = 0, held_count_ = 0;
   bool lists_dirty_ = true, seeds_dirty_ = true;
+  bool stage_stale_ = true;  // the stage state's unwritten nodes may differ from the state
   // Integrator scratch: stage state, RK4 sums, accelerations.
   Points stage_x_, stage_v_, sum_x_, sum_v_, accel_;
   // Implicit Euler: per-spring blocks dt·d·l̂l̂ᵀ + dt²·K_s, inverse diagonal
