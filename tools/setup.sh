@@ -15,6 +15,7 @@ packages=(
   clang-14 libclang-rt-14-dev
   libopencv-dev xvfb xauth
   calculix-ccx
+  libsuitesparse-dev libmumps-seq-dev libopenblas-dev
 )
 
 missing=()

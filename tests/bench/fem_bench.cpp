@@ -1,19 +1,29 @@
 // FEM speed, one thread: per material, the gradient (internal forces) and the
-// tangent assembly, the LDLᵀ factorization and one solve with it, on the
-// paper's curved tube (408 nodes, 1,152 tetrahedra) and on a liver-sized box
-// (3,179 nodes, 15,360 tetrahedra; the shipped liver has 4,029 and 14,904),
-// clamped at its x = 0 face. A real-time frame (fem/organ_fem.h) costs one
-// gradient and one solve; a full Newton iteration adds the tangent and the
-// factorization. The "nnz(L)" counter is the factor's size, which sets the
-// solve's memory traffic (16 bytes per entry: value and index).
+// tangent assembly, the factorization and one solve with it, on the paper's
+// curved tube (408 nodes, 1,152 tetrahedra), on a liver-sized box (3,179
+// nodes, 15,360 tetrahedra) clamped at its x = 0 face, and — when
+// ORGANSIM_BENCH_MODEL names a baked model — on its tetrahedra clamped as the
+// engine clamps them (10 mm ball). A real-time frame (fem/organ_fem.h) costs
+// one gradient and one solve; a full Newton iteration (NewtonIteration) is the
+// tangent, the factorization and one solve. `solver` 0 is Eigen's simplicial
+// LDLᵀ, 1 the direct library's (CHOLMOD / MUMPS; built with it only). The
+// "nnz(L)" counter is the factor's size, which sets the solve's memory traffic
+// (16 bytes per entry: value and index).
+#include <cstdlib>
 #include <memory>
+#include <stdexcept>
 #include <vector>
 
 #include <benchmark/benchmark.h>
-#include <Eigen/SparseCholesky>
 
 #include "organsim/fem/elasticity_system.h"
+#include "organsim/fem/factorization.h"
 #include "organsim/fem/tet_mesh.h"
+#include "organsim/model/model_file.h"
+#include "organsim/multibeam/beam_organ.h"
+#ifdef ORGANSIM_HAVE_FEM_DIRECT
+#include "organsim/fem/direct_factorizations.h"
+#endif
 
 namespace {
 
@@ -22,8 +32,49 @@ using namespace organsim::fem;
 constexpr MaterialModel kMaterials[] = {MaterialModel::linear, MaterialModel::corotational, MaterialModel::stvk,
                                         MaterialModel::mooney_rivlin};
 
+const char* bench_model() { return std::getenv("ORGANSIM_BENCH_MODEL"); }
+
+/// The baked model's tetrahedra (m) and its fixed point.
+struct BakedMesh {
+  TetMesh mesh;
+  Eigen::Vector3d fixed_point = Eigen::Vector3d::Zero();
+};
+
+const BakedMesh& baked_mesh() {
+  static const BakedMesh baked = [] {
+    BakedMesh b;
+    auto read = organsim::model::read_organ_model_file(bench_model());
+    if (!read) throw std::runtime_error(read.error);
+    const organsim::multibeam::BeamOrgan organ(std::move(*read.model));  // in metres
+    for (const auto& p : organ.model().volume_vertices) b.mesh.nodes.emplace_back(p[0], p[1], p[2]);
+    for (const auto& t : organ.model().tetrahedra)
+      b.mesh.tetrahedra.push_back({static_cast<std::int32_t>(t[0]), static_cast<std::int32_t>(t[1]),
+                                   static_cast<std::int32_t>(t[2]), static_cast<std::int32_t>(t[3])});
+    const auto& f = organ.model().fixed_points[0];
+    b.fixed_point = {f[0], f[1], f[2]};
+    return b;
+  }();
+  return baked;
+}
+
 TetMesh mesh_for(int which) {
+  if (which == 2) return baked_mesh().mesh;
   return which == 0 ? curved_tube(TubeOptions{}) : box_mesh({16, 16, 10}, {0.16, 0.16, 0.10});
+}
+
+bool held(int which, const TetMesh& mesh, std::size_t n) {
+  if (which == 2) return (mesh.nodes[n] - baked_mesh().fixed_point).norm() <= 0.010;
+  return which == 0 ? mesh.nodes[n].z() > mesh.nodes[0].z() - 1e-9 : mesh.nodes[n].x() < 1e-9;
+}
+
+std::unique_ptr<Factorization> factorization_for(int solver, const ElasticitySystem& system) {
+  const MatrixKind kind = system.has_pressure() ? MatrixKind::quasi_definite : MatrixKind::positive_definite;
+#ifdef ORGANSIM_HAVE_FEM_DIRECT
+  if (solver == 1) return direct_factorization(kind, false);
+#endif
+  (void)kind;
+  (void)solver;
+  return make_simplicial_factorization();
 }
 
 struct Setup {
@@ -33,18 +84,17 @@ struct Setup {
 
   Setup(int which, MaterialModel model) : mesh(mesh_for(which)) {
     std::vector<bool> clamped(3 * mesh.nodes.size(), false);
-    const double x0 = which == 0 ? mesh.nodes[0].z() : 0.0;
-    for (std::size_t n = 0; n < mesh.nodes.size(); ++n) {
-      const bool held = which == 0 ? mesh.nodes[n].z() > x0 - 1e-9 : mesh.nodes[n].x() < 1e-9;
-      if (held) clamped[3 * n] = clamped[3 * n + 1] = clamped[3 * n + 2] = true;
-    }
+    for (std::size_t n = 0; n < mesh.nodes.size(); ++n)
+      if (held(which, mesh, n)) clamped[3 * n] = clamped[3 * n + 1] = clamped[3 * n + 2] = true;
     const Material material = model == MaterialModel::mooney_rivlin ? Material::mooney_rivlin_from_young(5000, 0.49, 100)
                                                                    : Material::from_young(model, 5000, 0.45);
     system = std::make_unique<ElasticitySystem>(mesh, material, clamped);
     // A small deformation, so that the nonlinear materials do real work.
     state = Eigen::VectorXd::Zero(system->dof_count());
+    const Eigen::Vector3d origin = mesh.nodes[0];
     for (std::size_t n = 0; n < mesh.nodes.size(); ++n)
-      if (system->free_index()[3 * n] >= 0) state[static_cast<Eigen::Index>(3 * n + 1)] = 0.01 * mesh.nodes[n].squaredNorm();
+      if (system->free_index()[3 * n] >= 0)
+        state[static_cast<Eigen::Index>(3 * n + 1)] = 0.01 * (mesh.nodes[n] - origin).squaredNorm();
     gradient.resize(system->dof_count());
   }
 };
@@ -69,37 +119,74 @@ void Tangent(benchmark::State& state) {
 void Factorize(benchmark::State& state) {
   Setup s(static_cast<int>(state.range(0)), kMaterials[state.range(1)]);
   s.system->assemble(s.state, s.gradient, true);
-  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt;
-  ldlt.analyzePattern(s.system->tangent_free());
-  for (auto _ : state) ldlt.factorize(s.system->tangent_free());
+  const auto factorization = factorization_for(static_cast<int>(state.range(2)), *s.system);
+  factorization->analyze(s.system->tangent_free());
+  for (auto _ : state)
+    if (!factorization->factorize(s.system->tangent_free())) state.SkipWithError("factorization failed");
   state.counters["unknowns"] = static_cast<double>(s.system->free_count());
-  state.counters["nnz(L)"] = static_cast<double>(ldlt.matrixL().nestedExpression().nonZeros());
+  state.counters["nnz(L)"] = static_cast<double>(factorization->factor_nonzeros());
 }
 
 void Solve(benchmark::State& state) {
   Setup s(static_cast<int>(state.range(0)), kMaterials[state.range(1)]);
   s.system->assemble(s.state, s.gradient, true);
-  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt(s.system->tangent_free());
+  const auto factorization = factorization_for(static_cast<int>(state.range(2)), *s.system);
+  factorization->analyze(s.system->tangent_free());
+  if (!factorization->factorize(s.system->tangent_free())) state.SkipWithError("factorization failed");
   const Eigen::VectorXd rhs = Eigen::VectorXd::Ones(s.system->free_count());
   Eigen::VectorXd x(s.system->free_count());
   for (auto _ : state) {
-    x = ldlt.solve(rhs);
+    factorization->solve(rhs, x);
     benchmark::DoNotOptimize(x.data());
   }
-  const double bytes = 16.0 * 2.0 * static_cast<double>(ldlt.matrixL().nestedExpression().nonZeros());
+  const double bytes = 16.0 * 2.0 * static_cast<double>(factorization->factor_nonzeros());
   state.counters["GB/s"] = benchmark::Counter(bytes, benchmark::Counter::kIsIterationInvariantRate);
 }
 
+/// One full Newton iteration: gradient and tangent, factorization, solve.
+void NewtonIteration(benchmark::State& state) {
+  Setup s(static_cast<int>(state.range(0)), kMaterials[state.range(1)]);
+  s.system->assemble(s.state, s.gradient, true);
+  const auto factorization = factorization_for(static_cast<int>(state.range(2)), *s.system);
+  factorization->analyze(s.system->tangent_free());
+  Eigen::VectorXd rhs(s.system->free_count()), x(s.system->free_count());
+  for (auto _ : state) {
+    s.system->assemble(s.state, s.gradient, true);
+    if (!factorization->factorize(s.system->tangent_free())) state.SkipWithError("factorization failed");
+    for (Eigen::Index d = 0, j = 0; d < s.system->dof_count(); ++d)
+      if (s.system->free_index()[static_cast<std::size_t>(d)] >= 0) rhs[j++] = -s.gradient[d];
+    factorization->solve(rhs, x);
+    benchmark::DoNotOptimize(x.data());
+  }
+  state.SetLabel(factorization->name());
+}
+
+int meshes() { return bench_model() ? 3 : 2; }
+
 void Arguments(benchmark::internal::Benchmark* b) {
   b->ArgNames({"mesh", "material"})->Unit(benchmark::kMillisecond);
-  for (int mesh = 0; mesh < 2; ++mesh)
+  for (int mesh = 0; mesh < meshes(); ++mesh)
     for (int material = 0; material < 4; ++material) b->Args({mesh, material});
+}
+
+#ifdef ORGANSIM_HAVE_FEM_DIRECT
+constexpr int kSolvers = 2;
+#else
+constexpr int kSolvers = 1;
+#endif
+
+void SolverArguments(benchmark::internal::Benchmark* b) {
+  b->ArgNames({"mesh", "material", "solver"})->Unit(benchmark::kMillisecond);
+  for (int mesh = 0; mesh < meshes(); ++mesh)
+    for (int material = 0; material < 4; ++material)
+      for (int solver = 0; solver < kSolvers; ++solver) b->Args({mesh, material, solver});
 }
 
 BENCHMARK(Gradient)->Apply(Arguments);
 BENCHMARK(Tangent)->Apply(Arguments);
-BENCHMARK(Factorize)->Apply(Arguments)->Iterations(2);
-BENCHMARK(Solve)->Apply(Arguments);
+BENCHMARK(Factorize)->Apply(SolverArguments)->Iterations(2);
+BENCHMARK(Solve)->Apply(SolverArguments);
+BENCHMARK(NewtonIteration)->Apply(SolverArguments)->Iterations(3);
 
 }  // namespace
 

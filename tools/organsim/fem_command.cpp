@@ -15,6 +15,7 @@
 
 #include "command_line.h"
 #include "fem_problem_file.h"
+#include "model_tuning.h"
 #include "organsim/fem/elasticity_system.h"
 #include "organsim/mesh_io/mesh_io.h"
 
@@ -25,6 +26,7 @@ struct FemOptions {
   std::string problem_path;
   bool json = false;
   std::string out_path;
+  std::string linear_solver = ModelTuning::default_linear_solver();
 };
 
 std::string number(double value) { return fmt::format("{:.17g}", value); }
@@ -86,7 +88,7 @@ std::string json_report(const fem::StaticProblem& problem, const fem::StaticSolu
   }
   j << "],\"step_cuts\":" << s.step_cuts << ",\"reactions\":" << vector3(s.reaction_fixed + s.reaction_prescribed)
     << ",\"reactions_fixed\":" << vector3(s.reaction_fixed) << ",\"reactions_prescribed\":" << vector3(s.reaction_prescribed)
-    << ",\"time_s\":{\"assembly\":" << number(s.assembly_seconds) << ",\"solve\":" << number(s.solve_seconds)
+    << ",\"linear_solver\":" << nlohmann::json(s.linear_solver).dump() << ",\"time_s\":{\"assembly\":" << number(s.assembly_seconds) << ",\"solve\":" << number(s.solve_seconds)
     << ",\"total\":" << number(total_seconds) << "}}\n";
   return j.str();
 }
@@ -103,7 +105,9 @@ int run_fem(const FemOptions& o) {
   const auto start = std::chrono::steady_clock::now();
   fem::StaticSolution solution;
   try {
-    solution = fem::solve_static(problem);
+    fem::SolverOptions options;
+    options.factorization = factorization_factory(o.linear_solver);
+    solution = fem::solve_static(problem, options);
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error("'" + o.problem_path + "': " + e.what());
   }
@@ -135,8 +139,8 @@ int run_fem(const FemOptions& o) {
     const Eigen::Vector3d& p = solution.reaction_prescribed;
     std::cout << fmt::format("{:<14}fixed ({:.6g}, {:.6g}, {:.6g}) N, prescribed ({:.6g}, {:.6g}, {:.6g}) N\n",
                              "reactions", f.x(), f.y(), f.z(), p.x(), p.y(), p.z());
-    std::cout << fmt::format("{:<14}assembly {:.3f} s, solve {:.3f} s, total {:.3f} s\n", "time",
-                             solution.assembly_seconds, solution.solve_seconds, total);
+    std::cout << fmt::format("{:<14}assembly {:.3f} s, solve {:.3f} s ({}), total {:.3f} s\n", "time",
+                             solution.assembly_seconds, solution.solve_seconds, solution.linear_solver, total);
     if (solution.converged && !o.out_path.empty())
       std::cout << fmt::format("{:<14}{} (deformed mesh in m; displacement, stress, von_mises{})\n", "out",
                                o.out_path, solution.pressures.size() ? ", pressure" : "");
@@ -158,6 +162,7 @@ Command add_fem_command(CLI::App& app) {
             return path.size() > 4 && path.compare(path.size() - 4, 4, ".vtu") == 0 ? "" : "must end in .vtu";
           },
           "FILE.vtu"));
+  add_linear_solver_option(app, o->linear_solver);
   return [o] { return run_fem(*o); };
 }
 

@@ -2,7 +2,41 @@
 
 #include "command_line.h"
 
+#ifdef ORGANSIM_HAVE_FEM_DIRECT
+#include "organsim/fem/direct_factorizations.h"
+#endif
+
 namespace organsim::cli {
+
+const char* ModelTuning::default_linear_solver() {
+#ifdef ORGANSIM_HAVE_FEM_DIRECT
+  return "direct";
+#else
+  return "simplicial";
+#endif
+}
+
+void add_linear_solver_option(CLI::App& app, std::string& linear_solver) {
+#ifdef ORGANSIM_HAVE_FEM_DIRECT
+  const std::vector<std::string> choices = {"simplicial", "direct"};
+#else
+  const std::vector<std::string> choices = {"simplicial"};
+#endif
+  app.add_option("--linear-solver", linear_solver,
+                 "FEM models: factorize tangents with Eigen's simplicial LDLT, or with CHOLMOD (positive definite) "
+                 "and MUMPS (PSH) (docs/fem.md#linear-solver)")
+      ->check(CLI::IsMember(choices))
+      ->capture_default_str();
+}
+
+fem::FactorizationFactory factorization_factory(const std::string& linear_solver) {
+#ifdef ORGANSIM_HAVE_FEM_DIRECT
+  if (linear_solver == "direct") return &fem::direct_factorization;
+#else
+  (void)linear_solver;
+#endif
+  return nullptr;
+}
 
 void add_model_tuning_options(CLI::App& app, ModelTuning& tuning) {
   app.add_option("--fixed-radius", tuning.fixed_radius_mm,
@@ -18,10 +52,12 @@ void add_model_tuning_options(CLI::App& app, ModelTuning& tuning) {
                  "springs, dynamic region: a node displaced beyond this activates its neighbours, mm")
       ->check(kPositive)
       ->capture_default_str();
+  add_linear_solver_option(app, tuning.linear_solver);
 }
 
 void apply_model_tuning(const ModelTuning& tuning, fem::OrganFemOptions& fem, realtime::SpringModelOptions& springs) {
   fem.fixed_radius = tuning.fixed_radius_mm * 1e-3;
+  fem.factorization = factorization_factory(tuning.linear_solver);
   springs.network.volume_springs = tuning.volume_springs;
   springs.simulation.region = tuning.region == "dynamic" ? springs::Region::dynamic : springs::Region::all;
   springs.simulation.threshold = tuning.region_threshold_mm * 1e-3;

@@ -17,10 +17,18 @@ struct ModelTuning {
   bool volume_springs = false;       ///< --volume-springs: springs on the tetrahedra's edges too
   std::string region = "all";        ///< --region all|dynamic: the springs' integrated region
   double region_threshold_mm = 1.0;  ///< --region-threshold: displacement that grows a dynamic region
+  std::string linear_solver = default_linear_solver();  ///< --linear-solver: the FEM tangents' factorization
+  static const char* default_linear_solver();
 };
+/// --linear-solver simplicial|direct: Eigen's simplicial LDLT, or (when
+/// organsim was built with SuiteSparse and MUMPS) CHOLMOD and MUMPS.
+void add_linear_solver_option(CLI::App& app, std::string& linear_solver);
+/// The factory for --linear-solver's value (null: the simplicial one).
+fem::FactorizationFactory factorization_factory(const std::string& linear_solver);
 /// --fixed-radius MM (the FEM models clamp the tetrahedral nodes within this
 /// distance of the model's fixed point), --volume-springs, --region and
-/// --region-threshold MM (the mass-spring model; docs/springs.md).
+/// --region-threshold MM (the mass-spring model; docs/springs.md) and
+/// --linear-solver.
 void add_model_tuning_options(CLI::App& app, ModelTuning& tuning);
 /// Applies the tuning to the FEM and mass-spring options (of an engine or of
 /// realtime::ModelOptions).

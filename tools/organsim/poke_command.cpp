@@ -163,6 +163,7 @@ PokeResult press_fem(const multibeam::BeamOrgan& organ, const std::vector<ToolSp
   apply_model_tuning(o.tuning, options, unused);
   options.refresh_frames = 0;
   options.relaxation = 1.0;  // Newton: full steps
+  options.realtime_solves = false;
   const auto setup_start = std::chrono::steady_clock::now();
   fem::OrganFem fem(organ.model(), material, options, tools.size());
   PokeResult r;
@@ -209,9 +210,10 @@ PokeResult press_fem(const multibeam::BeamOrgan& organ, const std::vector<ToolSp
       material == fem::MaterialModel::mooney_rivlin
           ? fmt::format("c1 = c2 {:g} Pa, kappa {:g} Pa, beta {:g}", law.c1, law.bulk_modulus, law.stabilization)
           : fmt::format("E {:g} Pa, nu {:g}", law.young_modulus, law.poisson_ratio);
-  r.summary = fmt::format("{} tetrahedra, {} nodes ({} clamped within {:g} mm); {}; Newton, {} iteration(s)",
+  r.summary = fmt::format("{} tetrahedra, {} nodes ({} clamped within {:g} mm); {}; Newton, {} iteration(s), {}",
                           organ.model().tetrahedra.size(), organ.model().volume_vertices.size(),
-                          fem.clamped_node_count(), o.tuning.fixed_radius_mm, constants, r.frames);
+                          fem.clamped_node_count(), o.tuning.fixed_radius_mm, constants, r.frames,
+                          fem.linear_solver());
   return r;
 }
 

@@ -11,7 +11,6 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
-#include <Eigen/SparseCholesky>
 
 namespace organsim::fem {
 namespace {
@@ -29,17 +28,18 @@ Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 /// A factorized tangent and, per tool, the response A⁻¹ H_t of the contact
 /// it was solved for.
 struct OrganFem::Tangent {
-  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt;
+  std::unique_ptr<Factorization> factorization;
   std::vector<Eigen::MatrixX3d> responses;  ///< per tool: free dofs × 3
   std::vector<std::uint64_t> keys;          ///< per tool: the contact generation of its response (0: none)
-  Eigen::VectorXd load, scratch;
+  Eigen::VectorXd load, warm_up;
 
-  Tangent(const SparseMatrix& pattern, std::size_t tools)
-      : responses(tools, Eigen::MatrixX3d::Zero(pattern.rows(), 3)),
+  Tangent(const SparseMatrix& pattern, std::size_t tools, std::unique_ptr<Factorization> made)
+      : factorization(std::move(made)),
+        responses(tools, Eigen::MatrixX3d::Zero(pattern.rows(), 3)),
         keys(tools, 0),
         load(Eigen::VectorXd::Zero(pattern.rows())),
-        scratch(pattern.rows()) {
-    ldlt.analyzePattern(pattern);
+        warm_up(pattern.rows()) {
+    factorization->analyze(pattern);
   }
 
   /// Factorizes `tangent` (same pattern); false when a pivot is zero or not
@@ -47,24 +47,17 @@ struct OrganFem::Tangent {
   /// positive definite, or for psh quasi-definite with exactly one negative
   /// pivot per pressure (Sylvester: LDLᵀ keeps the inertia under any ordering).
   /// A tangent that fails (a buckling or unstable state) would drive the next
-  /// iterations away from equilibrium; the kept one serves instead.
+  /// iterations away from equilibrium; the kept one serves instead. A first
+  /// solve readies the factorization's real-time solves.
   bool factorize(const SparseMatrix& tangent, Eigen::Index negative_pivots) {
-    ldlt.factorize(tangent);
-    const Eigen::VectorXd& pivots = ldlt.vectorD();
-    return ldlt.info() == Eigen::Success && pivots.allFinite() &&
-           pivots.cwiseAbs().minCoeff() > 1e-14 * pivots.cwiseAbs().maxCoeff() &&
-           (pivots.array() < 0).count() == negative_pivots;
+    std::fill(keys.begin(), keys.end(), 0);  // the responses were solved with another factorization
+    if (!factorization->factorize(tangent) || factorization->negative_pivots() != negative_pivots) return false;
+    solve(load, warm_up);
+    return true;
   }
 
-  /// SimplicialLDLT::solve step by step into our own scratch (P A Pᵀ = L D Lᵀ):
-  /// its own solve applies the inverse permutation in place, which allocates.
   void solve(const Eigen::Ref<const Eigen::VectorXd>& rhs, Eigen::Ref<Eigen::VectorXd> solution) noexcept {
-    const auto& permutation = ldlt.permutationP().indices();
-    for (Eigen::Index i = 0; i < rhs.size(); ++i) scratch[permutation[i]] = rhs[i];
-    ldlt.matrixL().solveInPlace(scratch);
-    scratch.array() /= ldlt.vectorD().array();
-    ldlt.matrixU().solveInPlace(scratch);
-    for (Eigen::Index i = 0; i < rhs.size(); ++i) solution[i] = scratch[permutation[i]];
+    factorization->solve(rhs, solution);
   }
 };
 
@@ -191,6 +184,8 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
                            ? Material::mooney_rivlin_from_young(young, options.psh_poisson_ratio, options.stabilization)
                            : Material::from_young(material, young, poisson);
   system_ = std::make_unique<ElasticitySystem>(mesh, law, constrained);
+  factorization_ = options.factorization;
+  realtime_solves_ = options.realtime_solves;
   if (system_->has_pressure()) pressure_scale_ = law.bulk_modulus / system_->mean_diameter();
 
   const std::size_t dofs = static_cast<std::size_t>(system_->dof_count());
@@ -206,7 +201,7 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
 
   displacement_dofs_ = 3 * mesh.nodes.size();
   contacts_.resize(tools);
-  tangent_ = std::make_unique<Tangent>(system_->tangent_free(), tools);
+  tangent_ = make_tangent(true);
   const auto start = std::chrono::steady_clock::now();
   if (!tangent_->factorize(system_->tangent_free(), pressure_count()))
     throw std::invalid_argument("the FEM stiffness at rest is singular: the clamp does not hold the organ (raise "
@@ -229,13 +224,23 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
     // the worker's first tangent takes the place of the empty one.
     rest_tangent_ = std::move(tangent_);
     using_rest_ = true;
-    tangent_ = std::make_unique<Tangent>(system_->tangent_free(), tools);
-    worker_ = std::make_unique<Worker>(*this, *system_, std::make_unique<Tangent>(system_->tangent_free(), tools));
+    tangent_ = make_tangent(true);
+    worker_ = std::make_unique<Worker>(*this, *system_, make_tangent(true));
   }
   update_capacitance();
 }
 
 OrganFem::~OrganFem() = default;
+
+std::unique_ptr<OrganFem::Tangent> OrganFem::make_tangent(bool realtime_solve) const {
+  const MatrixKind kind = system_->has_pressure() ? MatrixKind::quasi_definite : MatrixKind::positive_definite;
+  return std::make_unique<Tangent>(system_->tangent_free(), contacts_.size(),
+                                   make_factorization(factorization_, kind, realtime_solve && realtime_solves_));
+}
+
+const char* OrganFem::linear_solver() const noexcept {
+  return (using_rest_ ? *rest_tangent_ : *tangent_).factorization->name();
+}
 
 bool OrganFem::attached(std::uint32_t tool) const noexcept { return tool < contacts_.size() && contacts_[tool].active; }
 
@@ -332,7 +337,8 @@ void OrganFem::request_refresh() noexcept {
 
 bool OrganFem::refresh_tangent() {
   // The exact Hessian (Newton), or where it is indefinite its definite part.
-  auto fresh = std::make_unique<Tangent>(system_->tangent_free(), contacts_.size());
+  // The tangent this replaces is analyzed already: the next call reuses it.
+  std::unique_ptr<Tangent> fresh = newton_spare_ ? std::move(newton_spare_) : make_tangent(false);
   bool ok = false;
   for (bool definite : {false, true}) {
     system_->set_definite_tangent(definite);
@@ -341,6 +347,7 @@ bool OrganFem::refresh_tangent() {
   }
   system_->set_definite_tangent(false);
   if (ok) adopt(fresh);
+  newton_spare_ = std::move(fresh);
   return ok;
 }
 

@@ -6,8 +6,6 @@
 #include <stdexcept>
 #include <string>
 
-#include <Eigen/SparseCholesky>
-
 #include "organsim/fem/elasticity_system.h"
 
 namespace organsim::fem {
@@ -28,7 +26,14 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 class NewtonSolver {
  public:
   NewtonSolver(const StaticProblem& problem, const SolverOptions& options, StaticSolution& out)
-      : problem_(problem), options_(options), out_(out), system_(problem.mesh, problem.material, constraint_mask(problem)) {
+      : problem_(problem),
+        options_(options),
+        out_(out),
+        system_(problem.mesh, problem.material, constraint_mask(problem)),
+        factorization_(make_factorization(
+            options.factorization,
+            system_.has_pressure() ? MatrixKind::quasi_definite : MatrixKind::positive_definite, false)) {
+    out_.linear_solver = factorization_->name();
     const Eigen::Index dofs = system_.dof_count(), displacement_dofs = static_cast<Eigen::Index>(3 * problem.mesh.nodes.size());
     x_ = Eigen::VectorXd::Zero(dofs);
     gradient_.resize(dofs);
@@ -145,15 +150,17 @@ class NewtonSolver {
       }
       start = std::chrono::steady_clock::now();
       if (!analyzed_) {
-        ldlt_.analyzePattern(system_.tangent_free());
+        factorization_->analyze(system_.tangent_free());
         analyzed_ = true;
       }
-      ldlt_.factorize(system_.tangent_free());
-      step_ = ldlt_.solve(-residual_);
+      const bool factorized = factorization_->factorize(system_.tangent_free());
+      step_.resize(residual_.size());
+      residual_ = -residual_;
+      if (factorized) factorization_->solve(residual_, step_);
       out_.solve_seconds += seconds_since(start);
       // No Newton step of a held body moves a node by more than ten times the
       // body's size; one that does solved a singular system.
-      if (ldlt_.info() != Eigen::Success || !step_.allFinite() || step_.cwiseAbs().cwiseProduct(displacement_rows_).maxCoeff() > step_limit_) {
+      if (!factorized || !step_.allFinite() || step_.cwiseAbs().cwiseProduct(displacement_rows_).maxCoeff() > step_limit_) {
         failure = "the tangent stiffness is singular (is the body held by fixed or prescribed nodes?)";
         out_.residual_history.push_back(history);
         return false;
@@ -195,7 +202,7 @@ class NewtonSolver {
   ElasticitySystem system_;
   Eigen::VectorXd x_, gradient_, full_load_, full_prescribed_, row_scale_, displacement_rows_, residual_, step_;
   double residual_floor_ = 0, step_limit_ = 0;
-  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt_;
+  std::unique_ptr<Factorization> factorization_;
   bool analyzed_ = false;
 };
 

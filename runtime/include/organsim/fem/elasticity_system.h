@@ -23,12 +23,11 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 
+#include "organsim/fem/factorization.h"
 #include "organsim/fem/material.h"
 #include "organsim/fem/tet_mesh.h"
 
 namespace organsim::fem {
-
-using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 
 class ElasticitySystem {
  public:

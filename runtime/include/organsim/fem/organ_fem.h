@@ -24,8 +24,9 @@
 //   iteration fails with a refreshed tangent retries with the rest tangent,
 //   kept until the next refresh. psh keeps its rest tangent. Linear material: the tangent never changes and every frame is the
 //   exact static solution. A true Newton
-//   iteration per frame would refactor the tangent every frame (the liver: 0.34
-//   s for the displacement-only materials, 1.9 s for psh; docs/fem.md).
+//   iteration per frame would refactor the tangent every frame (the liver, one
+//   thread: 0.29 s simplicial / 0.06 s direct for the displacement-only
+//   materials, 1.5 s / 0.18 s for psh; docs/fem.md).
 // - Contact force and stiffness: the tool's multiplier, and the condensed
 //   stiffness (W⁻¹)_tt of the contact with the other tools held, both refreshed
 //   every frame.
@@ -81,6 +82,13 @@ struct OrganFemOptions {
   /// the liver diverged after a quick press or a release (docs/fem.md); with ½
   /// the contact point closes half of its remaining gap per frame. 1 for Newton.
   double relaxation = 0.5;
+  /// The tangents' factorization (null: Eigen's simplicial LDLᵀ). The frames
+  /// solve only with factorizations whose solve is real-time safe; where the
+  /// factory has none for the matrix kind, the simplicial one serves.
+  FactorizationFactory factorization = nullptr;
+  /// false: the frames may solve with factorizations whose solves allocate
+  /// (MUMPS for psh), for Newton solves outside real-time loops.
+  bool realtime_solves = true;
 };
 
 enum class FrameStatus : std::uint8_t {
@@ -113,7 +121,8 @@ class OrganFem {
   /// Back to the rest state (contacts kept).
   void reset() noexcept;
   /// Refactors the tangent at the current state now, on this thread (true
-  /// Newton when called before every step; allocates: not for real-time loops).
+  /// Newton when called before every step; allocates, and the fresh tangent
+  /// may be one whose solves allocate too: not for real-time loops).
   /// False when the tangent there is singular or indefinite (the kept one stays).
   bool refresh_tangent();
   /// Tangents adopted since construction (the rest tangent not counted).
@@ -143,6 +152,8 @@ class OrganFem {
 
   const ElasticitySystem& system() const noexcept { return *system_; }
   std::size_t clamped_node_count() const noexcept { return clamped_nodes_; }
+  /// The kept tangent's factorization, for reports.
+  const char* linear_solver() const noexcept;
   /// Seconds the factorization of the rest tangent took (at construction).
   double factorization_seconds() const noexcept { return factorization_seconds_; }
 
@@ -163,6 +174,8 @@ class OrganFem {
 
   /// Σ_i w_i v_{node i} of a field on free dofs (clamped dofs count as 0).
   Eigen::Vector3d gather(const Contact& contact, const Eigen::Ref<const Eigen::VectorXd>& free_values) const noexcept;
+  /// An empty tangent with the options' factorization, analyzed.
+  std::unique_ptr<Tangent> make_tangent(bool realtime_solve) const;
   /// A⁻¹ H_t of `contact` with `tangent` (3 solves).
   void respond(Tangent& tangent, std::uint32_t tool, const Contact& contact) const noexcept;
   /// W of the active tools and, per tool, the condensed stiffness (W⁻¹)_tt.
@@ -179,6 +192,8 @@ class OrganFem {
   }
 
   std::unique_ptr<ElasticitySystem> system_;
+  FactorizationFactory factorization_ = nullptr;
+  bool realtime_solves_ = true;
   std::size_t clamped_nodes_ = 0;
   double factorization_seconds_ = 0;
   std::vector<std::int32_t> free_dofs_;  ///< per free index, its dof
@@ -195,6 +210,7 @@ class OrganFem {
   std::unique_ptr<Tangent> tangent_;  ///< the kept tangent
   /// corotational and stvk: the rest tangent, kept for when a refreshed one fails
   std::unique_ptr<Tangent> rest_tangent_;
+  std::unique_ptr<Tangent> newton_spare_;  ///< refresh_tangent(): the tangent it replaced, analyzed, for its next call
   bool using_rest_ = false;
   std::unique_ptr<Capacitance> capacitance_;
   std::unique_ptr<Worker> worker_;    ///< null when the tangent is never refreshed

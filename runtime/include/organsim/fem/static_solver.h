@@ -12,13 +12,12 @@
 // retried in halves; when halving no longer helps the solve stops with an
 // error that names the cause and the tetrahedron — never with NaN.
 //
-// The linear solver is a sparse LDLᵀ factorization (Eigen's SimplicialLDLT,
-// AMD ordering) of the free–free block of the Hessian: it is symmetric
-// positive definite for the displacement-only materials near equilibrium and
-// symmetric quasi-definite ([K_uu G; Gᵀ −C], K_uu positive definite, C positive
-// definite) for mooney-rivlin, and quasi-definite matrices have an LDLᵀ
-// factorization for every symmetric ordering, with no pivoting
-// (docs/fem.md compares it with the alternatives).
+// The linear solver factorizes the free–free block of the Hessian
+// (factorization.h): symmetric positive definite for the displacement-only
+// materials near equilibrium, symmetric quasi-definite ([K_uu G; Gᵀ −C], K_uu
+// and C positive definite) for mooney-rivlin; quasi-definite matrices have an
+// LDLᵀ factorization for every symmetric ordering, with no pivoting
+// (docs/fem.md compares the factorizations with the alternatives).
 #pragma once
 
 #include <cstdint>
@@ -27,6 +26,7 @@
 
 #include <Eigen/Core>
 
+#include "organsim/fem/factorization.h"
 #include "organsim/fem/material.h"
 #include "organsim/fem/tet_mesh.h"
 
@@ -65,6 +65,8 @@ void validate(const StaticProblem& problem);
 struct SolverOptions {
   int max_iterations = 25;   ///< Newton iterations per load increment
   int max_step_cuts = 10;    ///< halvings of one load step before giving up
+  /// The tangent's factorization (null: Eigen's simplicial LDLᵀ).
+  FactorizationFactory factorization = nullptr;
 };
 
 struct StaticSolution {
@@ -82,6 +84,7 @@ struct StaticSolution {
   Eigen::Vector3d reaction_fixed = Eigen::Vector3d::Zero(), reaction_prescribed = Eigen::Vector3d::Zero();
   int step_cuts = 0;
   double assembly_seconds = 0, solve_seconds = 0;
+  std::string linear_solver;                  ///< the factorization's name
 };
 
 /// Validates and solves `problem`. Errors of the input throw

@@ -1,0 +1,72 @@
+// Sparse symmetric factorizations for the FEM solvers (docs/fem.md#linear-solver).
+//
+// The tangent of a displacement-only material is positive definite near a
+// stable equilibrium; PSH's is the saddle-point matrix [K G; Gᵀ −C], which is
+// quasi-definite (K and C positive definite) and has an LDLᵀ factorization
+// with a diagonal D for every symmetric ordering. Its inertia — as many
+// negative pivots as pressures — tells a stable state's tangent from one of an
+// unstable or buckled state.
+//
+// The runtime core ships one factorization, Eigen's simplicial LDLᵀ (AMD
+// ordering); it needs nothing but Eigen and its solve allocates nothing. The
+// optional `organsim::fem_direct` library (runtime/direct/) adds supernodal and
+// multifrontal factorizations from SuiteSparse (CHOLMOD) and MUMPS, 5–9 times
+// faster on the liver; a program opts in by passing its factory in the
+// solvers' options.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+
+namespace organsim::fem {
+
+using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+
+enum class MatrixKind : std::uint8_t {
+  positive_definite,  ///< linear, co-rotational, St. VK tangents
+  quasi_definite,     ///< PSH: [K G; Gᵀ −C], one negative pivot per pressure
+};
+
+/// One factorization of a symmetric sparse matrix with a fixed pattern, both
+/// triangles stored. Not thread-safe; one per thread.
+class Factorization {
+ public:
+  virtual ~Factorization() = default;
+  /// Orders and analyzes the pattern (once per pattern). Allocates.
+  virtual void analyze(const SparseMatrix& matrix) = 0;
+  /// Factorizes a matrix with the analyzed pattern. False when a pivot is
+  /// zero or not finite, or the matrix is not of the kind asked for (a
+  /// positive definite factorization of an indefinite matrix). Allocates.
+  virtual bool factorize(const SparseMatrix& matrix) = 0;
+  /// Negative pivots of the last successful factorization (Sylvester: the
+  /// number of negative eigenvalues).
+  virtual Eigen::Index negative_pivots() const noexcept = 0;
+  /// solution = matrix⁻¹ rhs with the last factorization (the two may alias
+  /// no memory). Allocates nothing after the first call when realtime_solve().
+  virtual void solve(const Eigen::Ref<const Eigen::VectorXd>& rhs, Eigen::Ref<Eigen::VectorXd> solution) noexcept = 0;
+  /// True when solve() allocates nothing, takes no lock and does no I/O once
+  /// it has run once after a factorize(): what a real-time loop may call.
+  virtual bool realtime_solve() const noexcept = 0;
+  /// Stored entries of the factor (L, or L and U): its memory traffic per solve.
+  virtual std::size_t factor_nonzeros() const noexcept = 0;
+  /// What it is, for reports: "simplicial LDLT (Eigen, AMD)".
+  virtual const char* name() const noexcept = 0;
+};
+
+/// Makes a factorization for matrices of `kind`; with `realtime_solve`, one
+/// whose solve() a real-time loop may call. Returns null when it has none
+/// that fits (the caller then uses the simplicial one).
+using FactorizationFactory = std::unique_ptr<Factorization> (*)(MatrixKind kind, bool realtime_solve);
+
+/// Eigen's SimplicialLDLT with AMD ordering: every kind, real-time solves.
+std::unique_ptr<Factorization> make_simplicial_factorization();
+
+/// `factory`'s factorization for `kind`, or the simplicial one when the
+/// factory is null or has none that fits.
+std::unique_ptr<Factorization> make_factorization(FactorizationFactory factory, MatrixKind kind, bool realtime_solve);
+
+}  // namespace organsim::fem
