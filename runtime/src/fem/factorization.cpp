@@ -1,5 +1,7 @@
 #include "organsim/fem/factorization.h"
 
+#include <cmath>
+
 #include <Eigen/SparseCholesky>
 
 namespace organsim::fem {
