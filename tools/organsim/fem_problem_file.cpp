@@ -86,7 +86,7 @@ fem::StaticProblem parse_fem_problem(const std::string& text) {
   json document;
   try {
     document = json::parse(text, nullptr, true, /*ignore_comments=*/true);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // a syntax error, or a number beyond double's range
     throw std::runtime_error(std::string("not valid JSON: ") + e.what());
   }
   if (!document.is_object()) fail("problem", "expected one JSON object");

@@ -163,6 +163,8 @@ TEST_F(Cli, FemRejectsMalformedProblemsWithOneLine) {
   write(dir_ / "bad.json", "{\"nodes\": [[0, 0, 1e999]]}");
   CommandRun run = run_organsim("fem " + (dir_ / "bad.json").string(), dir_);
   EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("not valid JSON"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("number overflow"), std::string::npos) << run.err;
   write(dir_ / "bad.json", "{ not json");
   run = run_organsim("fem " + (dir_ / "bad.json").string(), dir_);
   EXPECT_EQ(run.exit_code, 1);
