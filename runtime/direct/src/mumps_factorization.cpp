@@ -7,7 +7,7 @@
 
 #include "organsim/fem/direct_factorizations.h"
 
-#include "blas_threads.h"
+#include "solver_threads.h"
 
 namespace organsim::fem {
 namespace {
@@ -19,7 +19,7 @@ constexpr int kUseCommWorld = -987654;  // the sequential library's stand-in com
 class MumpsFactorization final : public Factorization {
  public:
   MumpsFactorization() {
-    detail::use_one_blas_thread();
+    detail::use_one_solver_thread();
     id_.job = kJobInit;
     id_.par = 1;  // this process works too
     id_.sym = 2;  // general symmetric, with pivoting: any symmetric matrix (SYM 1 would assume positive definite)

@@ -12,6 +12,7 @@ class SimplicialFactorization final : public Factorization {
   void analyze(const SparseMatrix& matrix) override {
     ldlt_.analyzePattern(matrix);
     scratch_.resize(matrix.rows());
+    scratch3_.resize(matrix.rows(), 3);
     diagonal_.resize(matrix.rows());
   }
 
@@ -46,6 +47,15 @@ class SimplicialFactorization final : public Factorization {
     for (Eigen::Index i = 0; i < rhs.size(); ++i) solution[i] = scratch_[permutation[i]];
   }
 
+  void solve3(const Eigen::Ref<const Eigen::MatrixX3d>& rhs, Eigen::Ref<Eigen::MatrixX3d> solution) noexcept override {
+    const auto& permutation = ldlt_.permutationP().indices();
+    for (Eigen::Index i = 0; i < rhs.rows(); ++i) scratch3_.row(permutation[i]) = rhs.row(i);
+    ldlt_.matrixL().solveInPlace(scratch3_);
+    scratch3_.array().colwise() /= ldlt_.vectorD().array();
+    ldlt_.matrixU().solveInPlace(scratch3_);
+    for (Eigen::Index i = 0; i < rhs.rows(); ++i) solution.row(i) = scratch3_.row(permutation[i]);
+  }
+
   bool realtime_solve() const noexcept override { return true; }
   std::size_t factor_nonzeros() const noexcept override {
     return static_cast<std::size_t>(ldlt_.matrixL().nestedExpression().nonZeros());
@@ -55,6 +65,7 @@ class SimplicialFactorization final : public Factorization {
  private:
   Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt_;
   Eigen::VectorXd scratch_, diagonal_;
+  Eigen::MatrixX3d scratch3_;
   Eigen::Index negative_ = 0;
 };
 

@@ -7,6 +7,8 @@
 #include <string>
 #include <thread>
 #include <atomic>
+#include <pthread.h>
+#include <sched.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -32,13 +34,16 @@ struct OrganFem::Tangent {
   std::vector<Eigen::MatrixX3d> responses;  ///< per tool: free dofs × 3
   std::vector<std::uint64_t> keys;          ///< per tool: the contact generation of its response (0: none)
   Eigen::VectorXd load, warm_up;
+  Eigen::MatrixX3d loads, warm_up3;  ///< a contact's three unit loads (one per direction)
 
   Tangent(const SparseMatrix& pattern, std::size_t tools, std::unique_ptr<Factorization> made)
       : factorization(std::move(made)),
         responses(tools, Eigen::MatrixX3d::Zero(pattern.rows(), 3)),
         keys(tools, 0),
         load(Eigen::VectorXd::Zero(pattern.rows())),
-        warm_up(pattern.rows()) {
+        warm_up(pattern.rows()),
+        loads(Eigen::MatrixX3d::Zero(pattern.rows(), 3)),
+        warm_up3(pattern.rows(), 3) {
     factorization->analyze(pattern);
   }
 
@@ -48,11 +53,12 @@ struct OrganFem::Tangent {
   /// pivot per pressure (Sylvester: LDLᵀ keeps the inertia under any ordering).
   /// A tangent that fails (a buckling or unstable state) would drive the next
   /// iterations away from equilibrium; the kept one serves instead. A first
-  /// solve readies the factorization's real-time solves.
+  /// solve of each width readies the factorization's real-time solves.
   bool factorize(const SparseMatrix& tangent, Eigen::Index negative_pivots) {
     std::fill(keys.begin(), keys.end(), 0);  // the responses were solved with another factorization
     if (!factorization->factorize(tangent) || factorization->negative_pivots() != negative_pivots) return false;
     solve(load, warm_up);
+    factorization->solve3(loads, warm_up3);
     return true;
   }
 
@@ -100,7 +106,9 @@ class OrganFem::Worker {
   /// Owner: waits for the requested refresh; true with `spare()` holding the
   /// fresh tangent, false when the tangent at the snapshot was unusable.
   bool wait() noexcept {
-    while (phase_.load(std::memory_order_acquire) == kRequested) std::this_thread::yield();
+    // Sleep, not yield: the deformation loop runs with real-time priority,
+    // and a yielding real-time thread would keep the worker off its CPU.
+    while (phase_.load(std::memory_order_acquire) == kRequested) std::this_thread::sleep_for(std::chrono::microseconds(100));
     return phase_.load(std::memory_order_acquire) == kReady;
   }
   std::unique_ptr<Tangent>& spare() noexcept { return spare_; }
@@ -111,6 +119,12 @@ class OrganFem::Worker {
   static constexpr int kIdle = 0, kRequested = 1, kReady = 2, kFailed = 3;
 
   void run() {
+    // The lowest priority (SCHED_IDLE): the worker takes what the loops
+    // leave. On the 2-vCPU VM, as an ordinary thread it made the co-rotational
+    // liver's frame p99 27–88 ms (the scheduler now and then put the
+    // deformation loop's work behind it); as an idle-class thread, 13–15 ms.
+    sched_param idle{};
+    pthread_setschedparam(pthread_self(), SCHED_IDLE, &idle);
     while (!stop_.load(std::memory_order_acquire)) {
       if (phase_.load(std::memory_order_acquire) != kRequested) {
         std::this_thread::sleep_for(std::chrono::microseconds(500));
@@ -255,13 +269,12 @@ Eigen::Vector3d OrganFem::gather(const Contact& contact, const Eigen::Ref<const 
 }
 
 void OrganFem::respond(Tangent& tangent, std::uint32_t tool, const Contact& contact) const noexcept {
-  for (int k = 0; k < 3; ++k) {
-    tangent.load.setZero();
+  tangent.loads.setZero();
+  for (int k = 0; k < 3; ++k)
     for (std::size_t i = 0; i < 3; ++i)
-      tangent.load[system_->free_index()[static_cast<std::size_t>(3 * contact.nodes[i] + k)]] =
+      tangent.loads(system_->free_index()[static_cast<std::size_t>(3 * contact.nodes[i] + k)], k) =
           contact.weights[static_cast<Eigen::Index>(i)];
-    tangent.solve(tangent.load, tangent.responses[tool].col(k));
-  }
+  tangent.factorization->solve3(tangent.loads, tangent.responses[tool]);
   tangent.keys[tool] = contact.generation;
 }
 

@@ -5,6 +5,8 @@
 // libraries are C and Fortran: operator new would not see them).
 #include "organsim/fem/direct_factorizations.h"
 
+#include <dlfcn.h>
+
 #include <gtest/gtest.h>
 
 #include "organsim/fem/elasticity_system.h"
@@ -158,3 +160,14 @@ TEST(DirectFactorizations, CholmodSolvesAllocateNothingOnceWarm) {
 
 }  // namespace
 }  // namespace organsim::fem
+
+TEST(DirectFactorizations, TheSolverLibrariesRunOnTheCallingThreadOnly) {
+  const auto factorization = organsim::fem::make_cholmod_factorization();
+  // CHOLMOD (Debian's, built with OpenMP) loads libgomp; OpenBLAS may be the BLAS.
+  using GetCount = int (*)();
+  const auto max_active_levels = reinterpret_cast<GetCount>(dlsym(RTLD_DEFAULT, "omp_get_max_active_levels"));
+  const auto blas_threads = reinterpret_cast<GetCount>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"));
+  if (!max_active_levels && !blas_threads) GTEST_SKIP() << "neither libgomp nor OpenBLAS is loaded";
+  if (max_active_levels) EXPECT_EQ(max_active_levels(), 0) << "OpenMP regions would wake threads on the other CPU";
+  if (blas_threads) EXPECT_EQ(blas_threads(), 1);
+}

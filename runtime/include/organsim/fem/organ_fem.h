@@ -176,7 +176,7 @@ class OrganFem {
   Eigen::Vector3d gather(const Contact& contact, const Eigen::Ref<const Eigen::VectorXd>& free_values) const noexcept;
   /// An empty tangent with the options' factorization, analyzed.
   std::unique_ptr<Tangent> make_tangent(bool realtime_solve) const;
-  /// A⁻¹ H_t of `contact` with `tangent` (3 solves).
+  /// A⁻¹ H_t of `contact` with `tangent` (one solve of three columns).
   void respond(Tangent& tangent, std::uint32_t tool, const Contact& contact) const noexcept;
   /// W of the active tools and, per tool, the condensed stiffness (W⁻¹)_tt.
   void update_capacitance() noexcept;

@@ -24,7 +24,7 @@ struct RunTimings {
   std::vector<double> deformation_periods;   ///< s between successive deformation steps (real time only)
   std::vector<double> deformation_computes;  ///< s inside deformation_step
   std::uint64_t force_deadline_misses = 0;   ///< force periods longer than 2 ms
-  bool realtime_priority = false;            ///< the force thread got SCHED_FIFO
+  bool realtime_priority = false;            ///< both loops got SCHED_FIFO (force 80, deformation 70)
   std::string priority_warning;              ///< why not, when it did not
   double wall_seconds = 0.0;
 };
@@ -36,7 +36,8 @@ struct RunTimings {
 RunTimings run_fast(Engine& engine, double duration, const std::function<void()>& after_frame = {});
 
 /// Runs the loops on two threads at their rates for `duration` (s) of wall
-/// time, the force thread with real-time priority where the OS permits.
+/// time, with real-time priority where the OS permits (the force thread above
+/// the deformation thread).
 /// `poll` (may be empty) runs repeatedly on the calling thread meanwhile (for
 /// example to save or draw published frames; returning false stops the loops
 /// early), and once more after the loops stop.
