@@ -37,8 +37,9 @@ class CholmodFactorization final : public Factorization {
     common_.error_handler = nullptr;
   }
   ~CholmodFactorization() override {
-    release(one_);
-    release(three_);
+    cholmod_free_dense(&solution_, &common_);
+    cholmod_free_dense(&work_y_, &common_);
+    cholmod_free_dense(&work_e_, &common_);
     cholmod_free_factor(&factor_, &common_);
     cholmod_finish(&common_);
   }
@@ -66,22 +67,18 @@ class CholmodFactorization final : public Factorization {
   Eigen::Index negative_pivots() const noexcept override { return 0; }
 
   void solve(const Eigen::Ref<const Eigen::VectorXd>& rhs, Eigen::Ref<Eigen::VectorXd> solution) noexcept override {
-    const double* x = solve_columns(rhs.data(), rhs.size(), 1, one_);
-    if (!x) {
+    cholmod_dense b{};
+    b.nrow = b.d = b.nzmax = static_cast<std::size_t>(rhs.size());
+    b.ncol = 1;
+    b.x = const_cast<double*>(rhs.data());
+    b.xtype = CHOLMOD_REAL;
+    b.dtype = CHOLMOD_DOUBLE;
+    // Reuses solution_, work_y_ and work_e_ once they have the right size.
+    if (!cholmod_solve2(CHOLMOD_A, factor_, &b, nullptr, &solution_, nullptr, &work_y_, &work_e_, &common_)) {
       solution.setConstant(std::nan(""));
       return;
     }
-    solution = Eigen::Map<const Eigen::VectorXd>(x, rows_);
-  }
-
-  void solve3(const Eigen::Ref<const Eigen::MatrixX3d>& rhs, Eigen::Ref<Eigen::MatrixX3d> solution) noexcept override {
-    // Column-major with a leading dimension of rows(): what CHOLMOD reads.
-    const double* x = rhs.outerStride() == rhs.rows() ? solve_columns(rhs.data(), rhs.rows(), 3, three_) : nullptr;
-    if (!x) {
-      Factorization::solve3(rhs, solution);
-      return;
-    }
-    solution = Eigen::Map<const Eigen::MatrixX3d>(x, rows_, 3);
+    solution = Eigen::Map<const Eigen::VectorXd>(static_cast<const double*>(solution_->x), rows_);
   }
 
   bool realtime_solve() const noexcept override { return true; }
@@ -89,37 +86,9 @@ class CholmodFactorization final : public Factorization {
   const char* name() const noexcept override { return "supernodal LLT (CHOLMOD)"; }
 
  private:
-  /// cholmod_solve2's result and workspaces for one column count: it reuses
-  /// them once they have the right size, so one set per count keeps solves
-  /// of one and of three columns from reallocating each other's.
-  struct Workspace {
-    cholmod_dense *solution = nullptr, *y = nullptr, *e = nullptr;
-  };
-
-  /// The solution of A X = B (B: `rows` × `columns`, column-major) in
-  /// `work.solution`, or null when CHOLMOD fails.
-  const double* solve_columns(const double* rhs, Eigen::Index rows, std::size_t columns, Workspace& work) noexcept {
-    cholmod_dense b{};
-    b.nrow = b.d = static_cast<std::size_t>(rows);
-    b.ncol = columns;
-    b.nzmax = b.nrow * columns;
-    b.x = const_cast<double*>(rhs);
-    b.xtype = CHOLMOD_REAL;
-    b.dtype = CHOLMOD_DOUBLE;
-    if (!cholmod_solve2(CHOLMOD_A, factor_, &b, nullptr, &work.solution, nullptr, &work.y, &work.e, &common_))
-      return nullptr;
-    return static_cast<const double*>(work.solution->x);
-  }
-
-  void release(Workspace& work) {
-    cholmod_free_dense(&work.solution, &common_);
-    cholmod_free_dense(&work.y, &common_);
-    cholmod_free_dense(&work.e, &common_);
-  }
-
   cholmod_common common_{};
   cholmod_factor* factor_ = nullptr;
-  Workspace one_, three_;
+  cholmod_dense *solution_ = nullptr, *work_y_ = nullptr, *work_e_ = nullptr;
   Eigen::Index rows_ = 0;
 };
 

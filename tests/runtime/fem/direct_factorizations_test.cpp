@@ -63,6 +63,13 @@ Eigen::VectorXd solve_with(Factorization& f, const SparseMatrix& m, const Eigen:
   EXPECT_TRUE(f.factorize(m)) << f.name();
   Eigen::VectorXd x(m.rows());
   f.solve(rhs, x);
+  // Three columns in one solve (MUMPS: the base class's three solves) agree with it.
+  Eigen::MatrixX3d rhs3(m.rows(), 3), x3(m.rows(), 3);
+  rhs3 << rhs, 0.5 * rhs, -rhs;
+  f.solve3(rhs3, x3);
+  EXPECT_LT((x3.col(0) - x).norm(), 1e-12 * x.norm()) << f.name();
+  EXPECT_LT((x3.col(1) - 0.5 * x).norm(), 1e-12 * x.norm()) << f.name();
+  EXPECT_LT((x3.col(2) + x).norm(), 1e-12 * x.norm()) << f.name();
   return x;
 }
 
@@ -144,11 +151,18 @@ TEST(DirectFactorizations, CholmodSolvesAllocateNothingOnceWarm) {
   ASSERT_TRUE(cholmod->factorize(m));
   const Eigen::VectorXd rhs = Eigen::VectorXd::Ones(m.rows());
   Eigen::VectorXd x(m.rows());
+  const Eigen::MatrixX3d rhs3 = Eigen::MatrixX3d::Random(m.rows(), 3);
+  Eigen::MatrixX3d x3(m.rows(), 3);
   cholmod->solve(rhs, x);  // the first solve sizes the workspace
+  cholmod->solve3(rhs3, x3);
   const long before = allocations;
-  for (int i = 0; i < 20; ++i) cholmod->solve(rhs, x);
+  for (int i = 0; i < 20; ++i) {
+    cholmod->solve(rhs, x);
+    cholmod->solve3(rhs3, x3);
+  }
   EXPECT_EQ(allocations, before);
   EXPECT_LT((m * x - rhs).norm(), 1e-9 * rhs.norm());
+  EXPECT_LT((m * x3 - rhs3).norm(), 1e-9 * rhs3.norm());
   // The counter itself works: MUMPS's solves allocate.
   const auto mumps = make_mumps_factorization();
   mumps->analyze(m);

@@ -37,6 +37,14 @@ void expect_solves(Factorization& f, const SparseMatrix& matrix) {
   // Backward error: the rows carry different units, so the residual is
   // judged against ‖A‖‖x‖ + ‖b‖, not against ‖b‖ alone.
   EXPECT_LT((matrix * solution - rhs).norm(), 1e-12 * (matrix.norm() * solution.norm() + rhs.norm()));
+  // Three right-hand sides at once: each column as its own solve gives it.
+  Eigen::MatrixX3d rhs3(matrix.rows(), 3), solution3(matrix.rows(), 3);
+  rhs3 << rhs, -2.0 * rhs, Eigen::VectorXd::Ones(matrix.rows());
+  f.solve3(rhs3, solution3);
+  for (Eigen::Index k = 0; k < 3; ++k) {
+    f.solve(rhs3.col(k), solution);
+    EXPECT_LT((solution3.col(k) - solution).norm(), 1e-12 * solution.norm()) << "column " << k;
+  }
 }
 
 TEST(Factorization, SimplicialSolvesDefiniteAndQuasiDefiniteTangentsWithTheirInertia) {

@@ -18,8 +18,9 @@
 // 27k-unknown PSH saddle matrix in 143–161 ms (1,408 ms). Both run on the
 // calling thread only (one OpenBLAS thread, OpenMP regions inactive).
 //
-// Every factorization also solves three right-hand sides in one pass
-// (solve3: a contact's three directions), CHOLMOD through its own workspace.
+// solve3 (a contact's three directions) is three solves here: CHOLMOD's
+// solve of three columns goes through BLAS-3 and allocates (9 blocks per call
+// with Debian's CHOLMOD 3.0 and OpenBLAS 0.3.21), which real-time loops may not.
 #pragma once
 
 #include <memory>
