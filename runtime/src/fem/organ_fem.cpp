@@ -33,14 +33,13 @@ struct OrganFem::Tangent {
   std::unique_ptr<Factorization> factorization;
   std::vector<Eigen::MatrixX3d> responses;  ///< per tool: free dofs × 3
   std::vector<std::uint64_t> keys;          ///< per tool: the contact generation of its response (0: none)
-  Eigen::VectorXd load, warm_up;
+  Eigen::VectorXd warm_up;
   Eigen::MatrixX3d loads, warm_up3;  ///< a contact's three unit loads (one per direction)
 
   Tangent(const SparseMatrix& pattern, std::size_t tools, std::unique_ptr<Factorization> made)
       : factorization(std::move(made)),
         responses(tools, Eigen::MatrixX3d::Zero(pattern.rows(), 3)),
         keys(tools, 0),
-        load(Eigen::VectorXd::Zero(pattern.rows())),
         warm_up(pattern.rows()),
         loads(Eigen::MatrixX3d::Zero(pattern.rows(), 3)),
         warm_up3(pattern.rows(), 3) {
@@ -57,7 +56,7 @@ struct OrganFem::Tangent {
   bool factorize(const SparseMatrix& tangent, Eigen::Index negative_pivots) {
     std::fill(keys.begin(), keys.end(), 0);  // the responses were solved with another factorization
     if (!factorization->factorize(tangent) || factorization->negative_pivots() != negative_pivots) return false;
-    solve(load, warm_up);
+    solve(loads.col(0), warm_up);
     factorization->solve3(loads, warm_up3);
     return true;
   }
@@ -122,7 +121,7 @@ class OrganFem::Worker {
     // The lowest priority (SCHED_IDLE): the worker takes what the loops
     // leave. On the 2-vCPU VM, as an ordinary thread it made the co-rotational
     // liver's frame p99 27–88 ms (the scheduler now and then put the
-    // deformation loop's work behind it); as an idle-class thread, 13–15 ms.
+    // deformation loop's work behind it); as an idle-class thread, 10–15 ms.
     sched_param idle{};
     pthread_setschedparam(pthread_self(), SCHED_IDLE, &idle);
     while (!stop_.load(std::memory_order_acquire)) {
