@@ -6,9 +6,12 @@
 //   3. Table 6: assembly and solve time of one Newton iteration, relative to
 //      the co-rotational assembly;
 //   4. Figs. 3–4: the pressure field for β = 0, 1, 10, 100, 1000 (its
-//      face-to-face oscillation, and a CSV of pressure per element);
-//   5. Fig. 5: the sag at ρ = 5000;
-//   6. with a model file: Table 5 on the liver's tetrahedra.
+//      face-to-face oscillation, a CSV of pressure per element, and the
+//      deformed tubes coloured by pressure, tube_pressure_3d.png);
+//   5. Fig. 5: the sag at ρ = 5000 (tube_sag_3d.png);
+//   6. with a model file: Table 5 on the liver's tetrahedra, and the PSH press
+//      solved with every tangent factorized against GMRES with a kept
+//      factorization (tangent_solver.h), with the direct solvers when built.
 // Tube: top ring fixed; the middle ring moved +50 % of the tube's x extent in x
 // (y, z free); the bottom ring moved −30 % of its z extent in z (x, y free);
 // self-weight along −z. Material: E = 1 MPa, ν = 0.49 (PSH: c1 = c2 = E/(8(1+ν)),
@@ -31,6 +34,10 @@
 #include "organsim/fem/elasticity_system.h"
 #include "organsim/fem/static_solver.h"
 #include "organsim/model/model_file.h"
+#include "plot/field_view.h"
+#ifdef ORGANSIM_HAVE_FEM_DIRECT
+#include "organsim/fem/direct_factorizations.h"
+#endif
 
 namespace {
 
@@ -196,6 +203,63 @@ StaticProblem liver_problem(const model::OrganModel& organ, const Material& mate
   return p;
 }
 
+/// The deformed mesh (mm) as a panel of a field view, coloured by `values`
+/// (one per tetrahedron or one per node).
+plot::FieldPanel deformed_panel(const StaticProblem& p, const StaticSolution& s, const std::string& title,
+                                const Eigen::VectorXd& values) {
+  plot::FieldPanel panel;
+  panel.title = title;
+  for (std::size_t n = 0; n < p.mesh.nodes.size(); ++n) {
+    const Eigen::Vector3d x = 1e3 * (p.mesh.nodes[n] + s.displacements.segment<3>(3 * static_cast<Eigen::Index>(n)));
+    panel.points.push_back({x.x(), x.y(), x.z()});
+  }
+  for (const Tetrahedron& t : p.mesh.tetrahedra) panel.tetrahedra.push_back(t);
+  (static_cast<std::size_t>(values.size()) == p.mesh.tetrahedra.size() ? panel.cell_values : panel.point_values)
+      .assign(values.data(), values.data() + values.size());
+  return panel;
+}
+
+// (Panel titles in ASCII: VTK's embedded fonts lack Greek letters.)
+
+/// Writes a field view, or says why it could not (no X display: run under xvfb-run -a).
+void write_view(const std::vector<plot::FieldPanel>& panels, const plot::FieldView& view,
+                const std::filesystem::path& path) {
+  try {
+    plot::write_field_view_png(panels, view, path.string());
+    std::cout << "\n![" << path.filename().string() << "](" << path.string() << ")\n";
+  } catch (const std::runtime_error& e) {
+    std::cout << "\n(" << path.filename().string() << " not drawn: " << e.what() << ")\n";
+  }
+}
+
+/// The liver's PSH press solved with every tangent factorized and with GMRES
+/// reusing the last factorization: Newton iterations, linear solves, times.
+void newton_linear_solves(const StaticProblem& p) {
+  std::cout << "\n### PSH (β = 100) press on the liver: Newton's linear solves\n\n"
+               "| tangents | Newton iterations | factorizations | GMRES solves (iterations) | analysis (s) | assembly (s) "
+               "| factorizations + solves (s) | per Newton iteration (ms, without the analysis) |\n"
+               "|---|---|---|---|---|---|---|---|\n";
+  std::string linear_solver;
+  for (const int krylov : {0, TangentSolverOptions{}.max_krylov_iterations}) {
+    SolverOptions options;
+#ifdef ORGANSIM_HAVE_FEM_DIRECT
+    options.factorization = direct_factorization;
+#endif
+    options.tangent.max_krylov_iterations = krylov;
+    const StaticSolution s = solve_static(p, options);
+    if (!s.converged) throw std::runtime_error("liver psh: " + s.error);
+    linear_solver = s.linear_solver;
+    int iterations = 0;
+    for (int i : s.newton_iterations) iterations += i;
+    const double work = s.solve_seconds - s.analysis_seconds;
+    std::printf("| %s | %d | %d | %d (%d) | %.2f | %.2f | %.2f | %.0f |\n",
+                krylov ? "GMRES with the kept factorization" : "each factorized", iterations, s.factorizations,
+                s.krylov_solves, s.krylov_iterations, s.analysis_seconds, s.assembly_seconds, work,
+                1e3 * (s.assembly_seconds + work) / iterations);
+  }
+  std::cout << "\nFactorization: " << linear_solver << ".\n";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -251,6 +315,20 @@ int main(int argc, char** argv) {
       for (const StaticSolution& s : sweep) csv << "," << s.pressures[e];
       csv << "\n";
     }
+    // Figs. 3–4: one colour scale for all, the stabilized (β = 100) field's
+    // range widened by half its span; the unstabilized field's checkerboard
+    // runs off both ends of it.
+    std::vector<plot::FieldPanel> panels;
+    for (std::size_t i = 0; i < betas.size(); ++i)
+      panels.push_back(deformed_panel(base, sweep[i], "beta = " + std::to_string(static_cast<int>(betas[i])),
+                                      sweep[i].pressures / 1e3));
+    const Eigen::VectorXd& stabilized = sweep[3].pressures;  // β = 100
+    plot::FieldView pressure_view;
+    pressure_view.scalar_title = "pressure (kPa)";
+    const double span = (stabilized.maxCoeff() - stabilized.minCoeff()) / 1e3;
+    pressure_view.low = stabilized.minCoeff() / 1e3 - 0.5 * span;
+    pressure_view.high = stabilized.maxCoeff() / 1e3 + 0.5 * span;
+    write_view(panels, pressure_view, out_dir / "tube_pressure_3d.png");
 
     std::cout << "\n### Sag under ten times the density (PSH β = 100)\n\n";
     const StaticProblem light = tube_problem(material_named("psh", 100), 500);
@@ -264,6 +342,15 @@ int main(int argc, char** argv) {
     }
     std::printf("ρ = 5000 against ρ = 500: the nodes sag %.2f mm more on average, %.2f mm at most.\n",
                 mean / static_cast<double>(a.displacements.size() / 3) * 1e3, largest * 1e3);
+    Eigen::VectorXd sag(a.displacements.size() / 3);
+    for (Eigen::Index n = 0; n < sag.size(); ++n) sag[n] = 1e3 * (a.displacements[3 * n + 2] - b.displacements[3 * n + 2]);
+    plot::FieldView sag_view;
+    sag_view.scalar_title = "extra sag (mm)";
+    sag_view.low = 0;
+    sag_view.high = std::max(sag.maxCoeff(), 1e-6);
+    write_view({deformed_panel(light, a, "rho = 500", Eigen::VectorXd::Zero(sag.size())),
+                deformed_panel(heavy, b, "rho = 5000", sag)},
+               sag_view, out_dir / "tube_sag_3d.png");
 
     if (argc > 2) {
       const model::ModelReadResult read = model::read_organ_model_file(argv[2]);
@@ -273,6 +360,7 @@ int main(int argc, char** argv) {
                   argv[2]);
       compare_models("Table 5 and 6 on the liver (no gravity; a 10 mm patch at the top pressed down 10 % of the height)",
                      [&organ](const Material& m) { return liver_problem(organ, m); }, nullptr);
+      newton_linear_solves(liver_problem(organ, material_named("psh", 100)));
     }
   } catch (const std::exception& e) {
     std::cerr << "fem_paper: error: " << e.what() << "\n";

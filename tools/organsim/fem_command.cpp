@@ -27,6 +27,7 @@ struct FemOptions {
   bool json = false;
   std::string out_path;
   std::string linear_solver = ModelTuning::default_linear_solver();
+  int krylov_iterations = fem::TangentSolverOptions{}.max_krylov_iterations;
 };
 
 std::string number(double value) { return fmt::format("{:.17g}", value); }
@@ -88,7 +89,8 @@ std::string json_report(const fem::StaticProblem& problem, const fem::StaticSolu
   }
   j << "],\"step_cuts\":" << s.step_cuts << ",\"reactions\":" << vector3(s.reaction_fixed + s.reaction_prescribed)
     << ",\"reactions_fixed\":" << vector3(s.reaction_fixed) << ",\"reactions_prescribed\":" << vector3(s.reaction_prescribed)
-    << ",\"linear_solver\":" << nlohmann::json(s.linear_solver).dump() << ",\"time_s\":{\"assembly\":" << number(s.assembly_seconds) << ",\"solve\":" << number(s.solve_seconds)
+    << ",\"linear_solver\":" << nlohmann::json(s.linear_solver).dump() << ",\"factorizations\":" << s.factorizations
+    << ",\"krylov_solves\":" << s.krylov_solves << ",\"krylov_iterations\":" << s.krylov_iterations << ",\"time_s\":{\"assembly\":" << number(s.assembly_seconds) << ",\"solve\":" << number(s.solve_seconds)
     << ",\"total\":" << number(total_seconds) << "}}\n";
   return j.str();
 }
@@ -107,6 +109,7 @@ int run_fem(const FemOptions& o) {
   try {
     fem::SolverOptions options;
     options.factorization = factorization_factory(o.linear_solver);
+    options.tangent.max_krylov_iterations = o.krylov_iterations;
     solution = fem::solve_static(problem, options);
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error("'" + o.problem_path + "': " + e.what());
@@ -139,6 +142,9 @@ int run_fem(const FemOptions& o) {
     const Eigen::Vector3d& p = solution.reaction_prescribed;
     std::cout << fmt::format("{:<14}fixed ({:.6g}, {:.6g}, {:.6g}) N, prescribed ({:.6g}, {:.6g}, {:.6g}) N\n",
                              "reactions", f.x(), f.y(), f.z(), p.x(), p.y(), p.z());
+    std::cout << fmt::format("{:<14}{} factorization(s), {} GMRES solve(s) with a kept one ({} iterations)\n",
+                             "linear solves", solution.factorizations, solution.krylov_solves,
+                             solution.krylov_iterations);
     std::cout << fmt::format("{:<14}assembly {:.3f} s, solve {:.3f} s ({}), total {:.3f} s\n", "time",
                              solution.assembly_seconds, solution.solve_seconds, solution.linear_solver, total);
     if (solution.converged && !o.out_path.empty())
@@ -163,6 +169,11 @@ Command add_fem_command(CLI::App& app) {
           },
           "FILE.vtu"));
   add_linear_solver_option(app, o->linear_solver);
+  app.add_option("--krylov-iterations", o->krylov_iterations,
+                 "GMRES iterations allowed with the last factorization before a tangent is factorized afresh; 0 "
+                 "factorizes every Newton iteration's tangent")
+      ->check(CLI::Range(0, 200))
+      ->capture_default_str();
   return [o] { return run_fem(*o); };
 }
 

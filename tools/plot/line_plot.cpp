@@ -2,11 +2,11 @@
 // grabbed with vtkWindowToImageFilter and written with vtkPNGWriter into an
 // io::AtomicFile.
 #include "line_plot.h"
+#include "window_png.h"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdlib>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -19,7 +19,6 @@
 #include <vtkContextView.h>
 #include <vtkDoubleArray.h>
 #include <vtkNew.h>
-#include <vtkPNGWriter.h>
 #include <vtkPen.h>
 #include <vtkPlot.h>
 #include <vtkRenderWindow.h>
@@ -27,9 +26,7 @@
 #include <vtkSmartPointer.h>
 #include <vtkTable.h>
 #include <vtkTextProperty.h>
-#include <vtkWindowToImageFilter.h>
 
-#include "organsim/io/atomic_file.h"
 
 namespace organsim::plot {
 namespace {
@@ -76,10 +73,7 @@ void widen_if_flat(vtkAxis* axis, double low, double high) {
 void write_line_plot_png(const std::vector<Series>& series, const std::string& title, const std::string& x_label,
                          const std::string& y_label, const std::string& png_path, int width, int height) {
   check(series, width, height);
-  const char* display = std::getenv("DISPLAY");
-  if (display == nullptr || *display == '\0')
-    throw std::runtime_error("no X display to render the plot " + png_path +
-                             " on (VTK renders off screen through X here): run under xvfb-run -a");
+  require_display(png_path);
 
   vtkNew<vtkContextView> view;
   vtkRenderWindow* window = view->GetRenderWindow();
@@ -135,21 +129,7 @@ void write_line_plot_png(const std::vector<Series>& series, const std::string& t
   widen_if_flat(x_axis, x_low, x_high);
   widen_if_flat(y_axis, y_low, y_high);
 
-  window->Render();
-  vtkNew<vtkWindowToImageFilter> grab;
-  grab->SetInput(window);
-  grab->SetInputBufferTypeToRGB();
-  grab->ReadFrontBufferOff();
-  grab->Update();
-
-  io::AtomicFile file(png_path, ".png");
-  vtkNew<vtkPNGWriter> writer;
-  writer->SetCompressionLevel(9);
-  writer->SetFileName(file.temp_path().c_str());
-  writer->SetInputConnection(grab->GetOutputPort());
-  writer->Write();
-  if (writer->GetErrorCode() != 0) throw std::runtime_error("cannot write the plot " + png_path + " as PNG");
-  file.commit();
+  write_window_png(window, png_path);
 }
 
 }  // namespace organsim::plot

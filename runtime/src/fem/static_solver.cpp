@@ -30,10 +30,11 @@ class NewtonSolver {
         options_(options),
         out_(out),
         system_(problem.mesh, problem.material, constraint_mask(problem)),
-        factorization_(make_factorization(
-            options.factorization,
-            system_.has_pressure() ? MatrixKind::quasi_definite : MatrixKind::positive_definite, false)) {
-    out_.linear_solver = factorization_->name();
+        tangent_solver_(make_factorization(
+                            options.factorization,
+                            system_.has_pressure() ? MatrixKind::quasi_definite : MatrixKind::positive_definite, false),
+                        options.tangent) {
+    out_.linear_solver = tangent_solver_.name();
     const Eigen::Index dofs = system_.dof_count(), displacement_dofs = static_cast<Eigen::Index>(3 * problem.mesh.nodes.size());
     x_ = Eigen::VectorXd::Zero(dofs);
     gradient_.resize(dofs);
@@ -77,6 +78,7 @@ class NewtonSolver {
           continue;
         }
         x_ = saved;
+        tangent_solver_.refactorize_next();
         iterations += used;
         if (++cuts > options_.max_step_cuts) {
           out_.error = "load step " + std::to_string(step) + " of " + std::to_string(steps) + " failed after " +
@@ -149,15 +151,13 @@ class NewtonSolver {
         if (iteration == options_.max_iterations) break;
       }
       start = std::chrono::steady_clock::now();
-      if (!analyzed_) {
-        factorization_->analyze(system_.tangent_free());
-        analyzed_ = true;
-      }
-      const bool factorized = factorization_->factorize(system_.tangent_free());
-      step_.resize(residual_.size());
       residual_ = -residual_;
-      if (factorized) factorization_->solve(residual_, step_);
+      const bool factorized = tangent_solver_.solve(system_.tangent_free(), residual_, step_);
       out_.solve_seconds += seconds_since(start);
+      out_.factorizations = tangent_solver_.factorizations();
+      out_.krylov_solves = tangent_solver_.krylov_solves();
+      out_.krylov_iterations = tangent_solver_.krylov_iterations();
+      out_.analysis_seconds = tangent_solver_.analysis_seconds();
       // No Newton step of a held body moves a node by more than ten times the
       // body's size; one that does solved a singular system.
       if (!factorized || !step_.allFinite() || step_.cwiseAbs().cwiseProduct(displacement_rows_).maxCoeff() > step_limit_) {
@@ -202,8 +202,7 @@ class NewtonSolver {
   ElasticitySystem system_;
   Eigen::VectorXd x_, gradient_, full_load_, full_prescribed_, row_scale_, displacement_rows_, residual_, step_;
   double residual_floor_ = 0, step_limit_ = 0;
-  std::unique_ptr<Factorization> factorization_;
-  bool analyzed_ = false;
+  TangentSolver tangent_solver_;
 };
 
 }  // namespace

@@ -182,6 +182,10 @@ TEST(DirectFactorizations, TheSolverLibrariesRunOnTheCallingThreadOnly) {
   const auto max_active_levels = reinterpret_cast<GetCount>(dlsym(RTLD_DEFAULT, "omp_get_max_active_levels"));
   const auto blas_threads = reinterpret_cast<GetCount>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"));
   if (!max_active_levels && !blas_threads) GTEST_SKIP() << "neither libgomp nor OpenBLAS is loaded";
-  if (max_active_levels) EXPECT_EQ(max_active_levels(), 0) << "OpenMP regions would wake threads on the other CPU";
-  if (blas_threads) EXPECT_EQ(blas_threads(), 1);
+  if (max_active_levels) {
+    EXPECT_EQ(max_active_levels(), 0) << "OpenMP regions would wake threads on the other CPU";
+  }
+  if (blas_threads) {
+    EXPECT_EQ(blas_threads(), 1);
+  }
 }

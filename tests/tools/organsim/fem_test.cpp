@@ -110,11 +110,33 @@ TEST_F(Cli, FemSolvesAProblemFileForEveryMaterial) {
   }
 }
 
+TEST_F(Cli, FemReportsItsLinearSolvesAndCanFactorizeEveryTangent) {
+  write(dir_ / "bar.json", bar_document("mooney-rivlin").dump());
+  const auto solve = [&](const std::string& options) {
+    const CommandRun run = run_organsim("fem " + (dir_ / "bar.json").string() + " --json " + options, dir_);
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    return json::parse(run.out);
+  };
+  const json kept = solve(""), every = solve("--krylov-iterations 0");
+  int iterations = 0;
+  for (const auto& n : kept["newton_iterations"]) iterations += n.get<int>();
+  EXPECT_EQ(kept["newton_iterations"], every["newton_iterations"]);
+  EXPECT_EQ(every["factorizations"].get<int>(), iterations);
+  EXPECT_EQ(every["krylov_solves"].get<int>(), 0);
+  EXPECT_EQ(kept["factorizations"].get<int>() + kept["krylov_solves"].get<int>(), iterations);
+  EXPECT_LT(kept["factorizations"].get<int>(), iterations);
+  EXPECT_GE(kept["krylov_iterations"].get<int>(), kept["krylov_solves"].get<int>());
+  const CommandRun bad = run_organsim("fem " + (dir_ / "bar.json").string() + " --krylov-iterations -1", dir_);
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.err.find("--krylov-iterations"), std::string::npos) << bad.err;
+}
+
 TEST_F(Cli, FemTextReportAndParaViewOutput) {
   write(dir_ / "bar.json", bar_document("mooney-rivlin").dump());
   const CommandRun run = run_organsim("fem " + (dir_ / "bar.json").string() + " --out " + (dir_ / "r.vtu").string(), dir_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
-  for (const char* line : {"problem ", "solve ", "converged", "displacement ", "pressure ", "reactions ", "time "})
+  for (const char* line :
+       {"problem ", "solve ", "converged", "displacement ", "pressure ", "reactions ", "linear solves ", "time "})
     EXPECT_NE(run.out.find(line), std::string::npos) << line << "\n" << run.out;
   const std::string vtu = read_bytes(dir_ / "r.vtu");
   for (const char* array : {"\"displacement\"", "\"stress\"", "\"von_mises\"", "\"pressure\"", "UNITS"})

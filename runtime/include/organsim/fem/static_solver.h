@@ -17,7 +17,9 @@
 // materials near equilibrium, symmetric quasi-definite ([K_uu G; Gᵀ −C], K_uu
 // and C positive definite) for mooney-rivlin; quasi-definite matrices have an
 // LDLᵀ factorization for every symmetric ordering, with no pivoting
-// (docs/fem.md compares the factorizations with the alternatives).
+// (docs/fem.md compares the factorizations with the alternatives). The
+// factorization is kept while GMRES preconditioned with it solves the later
+// iterations' systems in a few steps (tangent_solver.h).
 #pragma once
 
 #include <cstdint>
@@ -28,6 +30,7 @@
 
 #include "organsim/fem/factorization.h"
 #include "organsim/fem/material.h"
+#include "organsim/fem/tangent_solver.h"
 #include "organsim/fem/tet_mesh.h"
 
 namespace organsim::fem {
@@ -67,6 +70,8 @@ struct SolverOptions {
   int max_step_cuts = 10;    ///< halvings of one load step before giving up
   /// The tangent's factorization (null: Eigen's simplicial LDLᵀ).
   FactorizationFactory factorization = nullptr;
+  /// When a tangent is factorized afresh and when GMRES reuses the last factorization.
+  TangentSolverOptions tangent;
 };
 
 struct StaticSolution {
@@ -83,7 +88,11 @@ struct StaticSolution {
   Eigen::VectorXd nodal_reactions;
   Eigen::Vector3d reaction_fixed = Eigen::Vector3d::Zero(), reaction_prescribed = Eigen::Vector3d::Zero();
   int step_cuts = 0;
+  /// Newton systems solved: by a fresh factorization, and by GMRES with the
+  /// kept one; GMRES iterations run (one solve with the factor each).
+  int factorizations = 0, krylov_solves = 0, krylov_iterations = 0;
   double assembly_seconds = 0, solve_seconds = 0;
+  double analysis_seconds = 0;                ///< the pattern's ordering and analysis, part of solve_seconds
   std::string linear_solver;                  ///< the factorization's name
 };
 

@@ -1,0 +1,78 @@
+#include "organsim/fem/tangent_solver.h"
+
+#include <chrono>
+#include <utility>
+
+#include <unsupported/Eigen/IterativeSolvers>
+
+namespace organsim::fem {
+namespace {
+
+/// Eigen's preconditioner interface over a factorization of an earlier
+/// tangent: computing it for the current tangent keeps the earlier factor.
+class KeptFactorization {
+ public:
+  KeptFactorization() = default;
+  template <typename Matrix>
+  explicit KeptFactorization(const Matrix&) {}
+  template <typename Matrix>
+  KeptFactorization& analyzePattern(const Matrix&) { return *this; }
+  template <typename Matrix>
+  KeptFactorization& factorize(const Matrix&) { return *this; }
+  template <typename Matrix>
+  KeptFactorization& compute(const Matrix&) { return *this; }
+
+  void use(Factorization* factorization) noexcept { factorization_ = factorization; }
+
+  template <typename Rhs>
+  Eigen::VectorXd solve(const Eigen::MatrixBase<Rhs>& rhs) const {
+    const Eigen::VectorXd b = rhs;
+    Eigen::VectorXd x(b.size());
+    factorization_->solve(b, x);
+    return x;
+  }
+  Eigen::ComputationInfo info() const noexcept { return Eigen::Success; }
+
+ private:
+  Factorization* factorization_ = nullptr;
+};
+
+}  // namespace
+
+TangentSolver::TangentSolver(std::unique_ptr<Factorization> factorization, const TangentSolverOptions& options)
+    : factorization_(std::move(factorization)), options_(options) {}
+
+bool TangentSolver::krylov_solve(const SparseMatrix& tangent, const Eigen::VectorXd& rhs, Eigen::VectorXd& solution) {
+  Eigen::GMRES<SparseMatrix, KeptFactorization> gmres;
+  gmres.preconditioner().use(factorization_.get());
+  gmres.setMaxIterations(options_.max_krylov_iterations);
+  gmres.set_restart(options_.max_krylov_iterations);
+  gmres.setTolerance(options_.krylov_tolerance);
+  gmres.compute(tangent);
+  solution = gmres.solve(rhs);
+  krylov_iterations_ += static_cast<int>(gmres.iterations());
+  if (gmres.info() != Eigen::Success || !solution.allFinite()) return false;
+  ++krylov_solves_;
+  if (gmres.iterations() > options_.refactorize_after) refactorize_next_ = true;
+  return true;
+}
+
+bool TangentSolver::solve(const SparseMatrix& tangent, const Eigen::VectorXd& rhs, Eigen::VectorXd& solution) {
+  if (factorized_ && !refactorize_next_ && options_.max_krylov_iterations > 0 && krylov_solve(tangent, rhs, solution))
+    return true;
+  refactorize_next_ = false;
+  if (!analyzed_) {
+    const auto start = std::chrono::steady_clock::now();
+    factorization_->analyze(tangent);
+    analysis_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    analyzed_ = true;
+  }
+  ++factorizations_;
+  factorized_ = factorization_->factorize(tangent);
+  if (!factorized_) return false;
+  solution.resize(rhs.size());
+  factorization_->solve(rhs, solution);
+  return true;
+}
+
+}  // namespace organsim::fem
