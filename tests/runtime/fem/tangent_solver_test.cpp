@@ -39,6 +39,15 @@ struct Block {
   }
 };
 
+/// A block's tangents at rest and stretched by `strain`, a right-hand side of ones, and room for the solution.
+struct Systems {
+  Block block;
+  SparseMatrix rest, stretched;
+  Eigen::VectorXd b, x;
+  explicit Systems(double strain)
+      : rest(block.tangent_at(0)), stretched(block.tangent_at(strain)), b(Eigen::VectorXd::Ones(rest.rows())) {}
+};
+
 Eigen::VectorXd direct_solution(const SparseMatrix& a, const Eigen::VectorXd& b) {
   auto factorization = make_simplicial_factorization();
   factorization->analyze(a);
@@ -66,13 +75,13 @@ TEST(TangentSolver, GmresWithTheKeptFactorizationGivesTheCurrentTangentsSolution
 }
 
 TEST(TangentSolver, FactorizesWhenGmresMissesTheToleranceWithinItsBudget) {
-  Block block;
-  const SparseMatrix rest = block.tangent_at(0), stretched = block.tangent_at(0.15);
-  const Eigen::VectorXd b = Eigen::VectorXd::Ones(rest.rows());
+  Systems sys(0.15);
+  const SparseMatrix &rest = sys.rest, &stretched = sys.stretched;
+  const Eigen::VectorXd& b = sys.b;
+  Eigen::VectorXd& x = sys.x;
   TangentSolverOptions options;
   options.max_krylov_iterations = 1;
   TangentSolver solver(make_simplicial_factorization(), options);
-  Eigen::VectorXd x;
   ASSERT_TRUE(solver.solve(rest, b, x));
   ASSERT_TRUE(solver.solve(stretched, b, x));
   EXPECT_EQ(solver.factorizations(), 2);
@@ -82,13 +91,13 @@ TEST(TangentSolver, FactorizesWhenGmresMissesTheToleranceWithinItsBudget) {
 }
 
 TEST(TangentSolver, ASlowGmresSolveMakesTheNextTangentBeFactorized) {
-  Block block;
-  const SparseMatrix rest = block.tangent_at(0), stretched = block.tangent_at(0.03);
-  const Eigen::VectorXd b = Eigen::VectorXd::Ones(rest.rows());
+  Systems sys(0.03);
+  const SparseMatrix &rest = sys.rest, &stretched = sys.stretched;
+  const Eigen::VectorXd& b = sys.b;
+  Eigen::VectorXd& x = sys.x;
   TangentSolverOptions options;
   options.refactorize_after = 1;
   TangentSolver solver(make_simplicial_factorization(), options);
-  Eigen::VectorXd x;
   ASSERT_TRUE(solver.solve(rest, b, x));
   ASSERT_TRUE(solver.solve(stretched, b, x));  // GMRES, more than one iteration
   EXPECT_EQ(solver.krylov_solves(), 1);
@@ -100,13 +109,13 @@ TEST(TangentSolver, ASlowGmresSolveMakesTheNextTangentBeFactorized) {
 }
 
 TEST(TangentSolver, ZeroKrylovIterationsFactorizesEveryTangent) {
-  Block block;
-  const SparseMatrix rest = block.tangent_at(0), stretched = block.tangent_at(0.03);
-  const Eigen::VectorXd b = Eigen::VectorXd::Ones(rest.rows());
+  Systems sys(0.03);
+  const SparseMatrix &rest = sys.rest, &stretched = sys.stretched;
+  const Eigen::VectorXd& b = sys.b;
+  Eigen::VectorXd& x = sys.x;
   TangentSolverOptions options;
   options.max_krylov_iterations = 0;
   TangentSolver solver(make_simplicial_factorization(), options);
-  Eigen::VectorXd x;
   for (const SparseMatrix* a : {&rest, &stretched, &stretched}) ASSERT_TRUE(solver.solve(*a, b, x));
   EXPECT_EQ(solver.factorizations(), 3);
   EXPECT_EQ(solver.krylov_solves(), 0);
