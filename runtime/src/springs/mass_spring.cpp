@@ -328,14 +328,13 @@ void MassSpring::accelerations(const Points& x, const Points& v, Points& a) noex
   // branch in the loop); only the integrated nodes' sums are read below, so
   // only theirs start from zero (the others, anchors above all, are never read).
   for (std::size_t k = 0; k < integrated_count_; ++k) spring_force_[integrated_nodes_[k]].setZero();
-  // Blocks of springs in three passes: gather the end differences, then the
-  // block's square roots and divisions (a loop the compiler vectorizes: one
-  // spring at a time, the divider bounded the pass), then scatter the forces.
-  // Springs are ordered by their first end a: its sum stays in a register
-  // until a changes, instead of a read-modify-write of memory that every next
-  // spring would wait for.
+  // Blocks of springs in three passes: gather the ends' differences, then the
+  // block's arithmetic (square roots and divisions included) in a loop the
+  // compiler vectorizes, then scatter the forces. Springs are ordered by their
+  // first end a: its sum stays in a register until a changes, instead of a
+  // read-modify-write of memory that every next spring would wait for.
   constexpr std::size_t kBlock = 64;
-  alignas(64) double dx[kBlock], dy[kBlock], dz[kBlock], squared[kBlock], closing[kBlock], magnitude[kBlock];
+  alignas(64) double dx[kBlock], dy[kBlock], dz[kBlock], dvx[kBlock], dvy[kBlock], dvz[kBlock];
   const std::uint32_t* ends_a = force_a_.data();
   const std::uint32_t* ends_b = force_b_.data();
   std::uint32_t current = force_spring_count_ > 0 ? ends_a[0] : 0;
@@ -345,22 +344,23 @@ void MassSpring::accelerations(const Points& x, const Points& v, Points& a) noex
     for (std::size_t j = 0; j < count; ++j) {
       const std::uint32_t ia = ends_a[first + j], ib = ends_b[first + j];
       const Eigen::Vector3d d = x[ia] - x[ib];
-      dx[j] = d.x();
-      dy[j] = d.y();
-      dz[j] = d.z();
-      squared[j] = d.squaredNorm();
-      closing[j] = d.dot(v[ia] - v[ib]);
+      const Eigen::Vector3d dv = v[ia] - v[ib];
+      dx[j] = d.x(), dy[j] = d.y(), dz[j] = d.z();
+      dvx[j] = dv.x(), dvy[j] = dv.y(), dvz[j] = dv.z();
     }
     const double* rest = force_rest_.data() + first;
     const double* stiffness = force_stiffness_.data() + first;
     const double* damping = force_damping_.data() + first;
     for (std::size_t j = 0; j < count; ++j) {
-      // f = (k (l − l⁰) + c û·Δv) û with û = d / l, as a multiple of d.
-      const double l2 = squared[j] > 0.0 ? squared[j] : 1.0;
+      // f = (k (l − l⁰) + c û·Δv) û with û = d / l, as a multiple m of d.
+      const double squared = dx[j] * dx[j] + dy[j] * dy[j] + dz[j] * dz[j];
+      const double closing = dx[j] * dvx[j] + dy[j] * dvy[j] + dz[j] * dvz[j];
+      const double l2 = squared > 0.0 ? squared : 1.0;
       const double inverse_length = 1.0 / std::sqrt(l2);
       const double m =
-          (stiffness[j] * (l2 * inverse_length - rest[j]) + damping[j] * closing[j] * inverse_length) * inverse_length;
-      magnitude[j] = squared[j] > 0.0 ? m : 0.0;
+          (stiffness[j] * (l2 * inverse_length - rest[j]) + damping[j] * closing * inverse_length) * inverse_length;
+      const double magnitude = squared > 0.0 ? m : 0.0;
+      dx[j] *= magnitude, dy[j] *= magnitude, dz[j] *= magnitude;  // now the force on b
     }
     for (std::size_t j = 0; j < count; ++j) {
       const std::uint32_t ia = ends_a[first + j];
@@ -369,7 +369,7 @@ void MassSpring::accelerations(const Points& x, const Points& v, Points& a) noex
         current = ia;
         current_sum.setZero();
       }
-      const Eigen::Vector3d f = magnitude[j] * Eigen::Vector3d(dx[j], dy[j], dz[j]);
+      const Eigen::Vector3d f(dx[j], dy[j], dz[j]);
       current_sum -= f;
       spring_force_[ends_b[first + j]] += f;
     }
@@ -590,10 +590,12 @@ StepStatus MassSpring::step() noexcept {
               network_.mass[i] * options_.gravity.dot(x_[i] - network_.rest[i]);
   }
   // Single-precision lengths (the test below needs the energy's size, not its
-  // last digits), a block's square roots at once, and eight partial sums so
-  // that the additions do not wait for each other.
+  // last digits) and a block's square roots at once; the block's terms are
+  // summed in eight lanes so that the additions vectorize and do not wait for
+  // each other.
   constexpr std::size_t kBlock = 64, kLanes = 8;
   alignas(64) float squared[kBlock];
+  alignas(64) double term[kBlock];
   alignas(64) double partial[kLanes] = {};
   for (std::size_t first = 0; first < force_spring_count_; first += kBlock) {
     const std::size_t block = std::min(kBlock, force_spring_count_ - first);
@@ -603,8 +605,11 @@ StepStatus MassSpring::step() noexcept {
     const double* stiffness = force_stiffness_.data() + first;
     for (std::size_t j = 0; j < block; ++j) {
       const double stretch = std::sqrt(squared[j]) - rest[j];
-      partial[j % kLanes] += 0.5 * stiffness[j] * stretch * stretch;
+      term[j] = 0.5 * stiffness[j] * stretch * stretch;
     }
+    for (std::size_t j = block; j < kBlock; ++j) term[j] = 0.0;
+    for (std::size_t j = 0; j < kBlock; j += kLanes)
+      for (std::size_t lane = 0; lane < kLanes; ++lane) partial[lane] += term[j + lane];
   }
   for (const double lane : partial) energy += lane;
   const double supplied = std::max(supplied_, work_ + work);
