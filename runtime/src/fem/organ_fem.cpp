@@ -110,6 +110,9 @@ class OrganFem::Worker {
     while (phase_.load(std::memory_order_acquire) == kRequested) std::this_thread::sleep_for(std::chrono::microseconds(100));
     return phase_.load(std::memory_order_acquire) == kReady;
   }
+  /// Owner: true when the requested refresh is done and usable (the owner
+  /// may then work on `spare()`), without waiting.
+  bool ready() const noexcept { return phase_.load(std::memory_order_acquire) == kReady; }
   std::unique_ptr<Tangent>& spare() noexcept { return spare_; }
   /// Owner: the result is taken; the worker may be asked again.
   void release() noexcept { phase_.store(kIdle, std::memory_order_release); }
@@ -298,6 +301,7 @@ bool OrganFem::attach(std::uint32_t tool, const Eigen::Vector3d& rest_point) noe
   c.multiplier.setZero();
   c.target = contact_displacement(tool);
   respond(kept(), tool, c);
+  solved_this_frame_ = true;
   update_capacitance();
   return true;
 }
@@ -400,6 +404,19 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
   Capacitance& w = *capacitance_;
   for (std::size_t a = 0; a < w.active; ++a)
     if (!displacements[w.order[a]].allFinite()) return FrameStatus::not_finite;
+  if (worker_ && refresh_due_ > 0 && frame_ < refresh_due_ && !solved_this_frame_ && worker_->ready()) {
+    // A contact attached after the request lacks its response in the fresh
+    // tangent: solve one per frame (none in a frame that attached one) while
+    // the tangent waits to be adopted, rather than all of them in the frame
+    // that adopts it.
+    Tangent& fresh = *worker_->spare();
+    for (std::uint32_t t = 0; t < contacts_.size(); ++t)
+      if (contacts_[t].active && fresh.keys[t] != contacts_[t].generation) {
+        respond(fresh, t, contacts_[t]);
+        break;
+      }
+  }
+  solved_this_frame_ = false;
   if (worker_ && refresh_due_ > 0 && frame_ >= refresh_due_) {
     if (worker_->wait()) adopt(worker_->spare());
     worker_->release();

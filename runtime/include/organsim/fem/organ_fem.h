@@ -216,6 +216,7 @@ class OrganFem {
   std::unique_ptr<Worker> worker_;    ///< null when the tangent is never refreshed
   std::uint32_t refresh_frames_ = 0;
   std::uint64_t frame_ = 0, refresh_due_ = 0;
+  bool solved_this_frame_ = false;  // a contact's response was solved since the last step
   std::uint64_t refreshes_ = 0, step_cuts_ = 0;
   double unbalanced_ = 0;
   double relaxation_ = 1;

@@ -8,8 +8,12 @@
 //   indefinite away from equilibrium. Its solves allocate (Fortran work arrays).
 // - Real-time solves of a positive definite tangent (the tangent worker's
 //   definite tangents for co-rotational and St. VK): CHOLMOD's supernodal LLᵀ
-//   (BLAS-3 on dense supernodes), solved through cholmod_solve2, which reuses
-//   its workspace: after the first solve per factorization it allocates nothing.
+//   (BLAS-3 on dense supernodes), solved by our own pass over its supernodes:
+//   cholmod_solve2 calls OpenBLAS, whose triangular solve takes its buffer
+//   pool's lock on every call (a 30 ms stall of the deformation loop while
+//   the tangent worker factorized, now and then) and whose small-matrix GEMM
+//   allocates (three columns). Ours allocates nothing and takes no lock once
+//   factorized, and solves a contact's three directions in one pass.
 // - Real-time solves of a quasi-definite tangent: none here; the simplicial
 //   factorization serves.
 //
@@ -18,9 +22,6 @@
 // 27k-unknown PSH saddle matrix in 143–161 ms (1,408 ms). Both run on the
 // calling thread only (one OpenBLAS thread, OpenMP regions inactive).
 //
-// solve3 (a contact's three directions) is three solves here: CHOLMOD's
-// solve of three columns goes through BLAS-3 and allocates (9 blocks per call
-// with Debian's CHOLMOD 3.0 and OpenBLAS 0.3.21), which real-time loops may not.
 #pragma once
 
 #include <memory>
