@@ -29,7 +29,7 @@ struct TangentSolverOptions {
   /// tangent be factorized: the kept factorization has drifted too far.
   int refactorize_after = 8;
   /// GMRES's goal: the preconditioned residual relative to the preconditioned right-hand side.
-  double krylov_tolerance = 1e-10;
+  double krylov_tolerance = 1e-6;
 };
 
 class TangentSolver {
