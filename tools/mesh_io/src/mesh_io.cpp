@@ -127,16 +127,21 @@ void write_field_vtu(const FieldMesh& mesh, const std::string& path) {
     points->SetPoint(static_cast<vtkIdType>(i), mesh.points[i].data());
   auto grid = Ptr<vtkUnstructuredGrid>::New();
   grid->SetPoints(points);
-  grid->Allocate(static_cast<vtkIdType>(mesh.tetrahedra.size()));
+  grid->Allocate(static_cast<vtkIdType>(mesh.tetrahedra.size() + mesh.triangles.size()));
   for (const auto& t : mesh.tetrahedra) {
     const vtkIdType ids[4] = {t[0], t[1], t[2], t[3]};
     grid->InsertNextCell(VTK_TETRA, 4, ids);
   }
+  for (const auto& t : mesh.triangles) {
+    const vtkIdType ids[3] = {t[0], t[1], t[2]};
+    grid->InsertNextCell(VTK_TRIANGLE, 3, ids);
+  }
   for (const DataArray& data : mesh.point_data)
     grid->GetPointData()->AddArray(to_vtk_array(data, mesh.points.size(), path));
   for (const DataArray& data : mesh.cell_data)
-    grid->GetCellData()->AddArray(to_vtk_array(data, mesh.tetrahedra.size(), path));
+    grid->GetCellData()->AddArray(to_vtk_array(data, mesh.tetrahedra.size() + mesh.triangles.size(), path));
   add_string_field(*grid->GetFieldData(), "UNITS", mesh.units.c_str());
+  if (!mesh.space.empty()) add_string_field(*grid->GetFieldData(), "SPACE", mesh.space.c_str());
   auto writer = Ptr<vtkXMLUnstructuredGridWriter>::New();
   writer->SetDataModeToBinary();
   write_atomically(*writer, grid.Get(), path, ".vtu");

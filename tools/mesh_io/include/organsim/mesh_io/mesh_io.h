@@ -36,14 +36,17 @@ struct DataArray {
   int components = 1;
   std::vector<double> values;  ///< (count × components), row-major
 };
-/// A tetrahedral mesh with point and cell data, in the units of a problem
-/// that is not in the patient frame (a `fem` problem file's metres): the
-/// coordinates are written as given and field data `UNITS` says `units`.
+/// A mesh of tetrahedra and triangles (cells in that order) with point and
+/// cell data: the coordinates are written as given, field data `UNITS` says
+/// `units` (a `fem` problem file's metres) and, when `space` is not empty,
+/// `SPACE` says the frame (a patient model's "LPS", in mm).
 struct FieldMesh {
   std::vector<std::array<double, 3>> points;
   std::vector<std::array<std::int64_t, 4>> tetrahedra;
+  std::vector<std::array<std::int64_t, 3>> triangles;
   std::vector<DataArray> point_data, cell_data;
   std::string units = "m";
+  std::string space;
 };
 /// VTK XML UnstructuredGrid (.vtu) of `mesh` with its data arrays.
 void write_field_vtu(const FieldMesh& mesh, const std::string& path);

@@ -1,0 +1,92 @@
+// Static presses of a baked organ with any deformation model: each tool's
+// contact point moved by a prescribed displacement, the organ held where the
+// model holds it, and what came of it (forces, the deformed surface, timings).
+// What `poke` prints for one or two models and `compare` tabulates for all.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "model_tuning.h"
+#include "organsim/multibeam/beam_organ.h"
+
+namespace organsim::cli {
+
+/// One --tool X,Y,Z/DX,DY,DZ: a point on or near the surface and its
+/// prescribed displacement (model frame, mm).
+struct ToolSpec {
+  std::string text;
+  Eigen::Vector3d point_mm;
+  Eigen::Vector3d displacement_mm;
+};
+
+
+/// Parses X,Y,Z/DX,DY,DZ; throws std::runtime_error naming the text.
+ToolSpec parse_tool(const std::string& text);
+
+/// How a press is set up beyond the model's name.
+struct PressOptions {
+  std::string command = "poke";           ///< for warnings
+  std::string merge = "influence";        ///< multi-beam: influence or sum
+  std::string theory = "euler-bernoulli"; ///< multi-beam: euler-bernoulli or timoshenko
+  double snap_distance_mm = 10.0;         ///< farthest a tool point may be from the surface
+  double settle_seconds = 2.0;            ///< mass-spring: how long the press is held before the force is read
+  ModelTuning tuning;
+};
+
+/// What one press gave, whatever the model.
+struct ToolResult {
+  Eigen::Vector3d action_point = Eigen::Vector3d::Zero();  ///< m, rest surface
+  double snap_distance = 0.0;                              ///< m, from the tool point to the action point
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  double beam_length = 0.0;                                ///< m (multi-beam model only)
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();         ///< N on the tool
+};
+
+struct PressResult {
+  std::string model;            ///< the deformation model's name
+  std::string summary;          ///< one line on how the model was set up and solved
+  std::vector<ToolResult> tools;
+  std::vector<model::Point3> positions, normals;
+  double attach_seconds = 0.0;  ///< per tool
+  double force_seconds = 0.0;   ///< per tool and force evaluation
+  double deform_seconds = 0.0;  ///< per deformation frame (FEM: per Newton iteration)
+  double frame_seconds = 0.0;   ///< one real-time frame at the pressed state (FEM: one iteration with the kept factor)
+  double setup_seconds = 0.0;   ///< FEM: building the system and factorizing the rest tangent
+  int frames = 1;               ///< deformation frames (FEM: Newton iterations) to equilibrium
+};
+
+/// The rest-surface point a tool presses: the nearest one, within the snap
+/// distance (m). Throws std::runtime_error naming the tool (its 0-based
+/// `index` is printed 1-based) when it is farther or not finite.
+Eigen::Vector3d snap_to_surface(const multibeam::BeamOrgan& organ, const ToolSpec& tool, std::size_t index,
+                                const PressOptions& o);
+
+/// Presses the organ with `model` (beam, springs, linear, corotational,
+/// stvk, psh): the multi-beam model's one deformation, the mass-spring model
+/// settled over `settle_seconds`, a FEM model's static equilibrium by Newton's
+/// method. Throws std::runtime_error with a one-line reason.
+PressResult press(const std::string& model, const multibeam::BeamOrgan& organ, const std::vector<ToolSpec>& tools,
+                  const PressOptions& o);
+
+/// How the deformed organ of a press looks, in numbers.
+struct Deformation {
+  double max_displacement = 0.0;  ///< m
+  std::size_t max_vertex = 0;     ///< runtime numbering
+  double rest_volume = 0.0, deformed_volume = 0.0;  ///< m³
+};
+
+Deformation measure(const multibeam::BeamOrgan& organ, const std::vector<model::Point3>& positions);
+
+/// Where two presses of the same organ differ: the surfaces vertex by vertex
+/// (m) and the tools' forces (N).
+struct Difference {
+  double rms = 0.0, max = 0.0;  ///< vertex distance between the two deformed surfaces, m
+  std::vector<double> force;    ///< per tool |F_a − F_b|, N
+};
+
+Difference difference(const PressResult& a, const PressResult& b);
+
+}  // namespace organsim::cli
