@@ -184,31 +184,13 @@ int run_compare(CompareOptions o) {
 Command add_compare_command(CLI::App& app) {
   auto o = std::make_shared<CompareOptions>();
   app.add_option("model", o->model_path, "Model file (.organ)")->required();
-  app.add_option("--tool", o->tools,
-                 "A tool: X,Y,Z/DX,DY,DZ, a point on or near the surface and its prescribed displacement "
-                 "(model frame, mm); repeat for more tools")
-      ->required()
-      ->allow_extra_args(false);
+  add_press_options(app, o->tools, o->press);
   app.add_option("--models", o->models, "The models to press, comma-separated")
       ->delimiter(',')
       ->check(CLI::IsMember(deformation_model_names()))
       ->capture_default_str();
   app.add_option("--reference", o->reference, "The model the others are measured against")
       ->check(CLI::IsMember(deformation_model_names()))
-      ->capture_default_str();
-  app.add_option("--merge", o->press.merge, "Multi-beam: how beams combine, influence (eq. 7) or sum (eq. 5)")
-      ->check(CLI::IsMember({"influence", "sum"}))
-      ->capture_default_str();
-  app.add_option("--theory", o->press.theory, "Multi-beam: euler-bernoulli or timoshenko")
-      ->check(CLI::IsMember({"euler-bernoulli", "timoshenko"}))
-      ->capture_default_str();
-  app.add_option("--snap-distance", o->press.snap_distance_mm, "Farthest a tool point may be from the surface, mm")
-      ->check(kNonNegative)
-      ->capture_default_str();
-  add_model_tuning_options(app, o->press.tuning);
-  app.add_option("--settle", o->press.settle_seconds,
-                 "Mass-spring model: seconds the press is held before the force is read")
-      ->check(kPositive)
       ->capture_default_str();
   app.add_option("--out", o->out_dir, "Write each model's deformed surface as DIR/<model>.vtu (ParaView)");
   app.add_flag("--json", o->json, "Print the comparison as one JSON object on stdout");

@@ -158,27 +158,10 @@ int run_poke(const PokeOptions& o) {
 Command add_poke_command(CLI::App& app) {
   auto o = std::make_shared<PokeOptions>();
   app.add_option("model", o->model_path, "Model file (.organ)")->required();
-  app.add_option("--tool", o->tools,
-                 "A tool: X,Y,Z/DX,DY,DZ, a point on or near the surface and its prescribed displacement "
-                 "(model frame, mm); repeat for more tools")
-      ->required()
-      ->allow_extra_args(false);
-  app.add_option("--merge", o->press.merge, "How beams combine: influence (eq. 7) or sum (eq. 5)")
-      ->check(CLI::IsMember({"influence", "sum"}))
-      ->capture_default_str();
-  app.add_option("--theory", o->press.theory, "Beam theory: euler-bernoulli or timoshenko")
-      ->check(CLI::IsMember({"euler-bernoulli", "timoshenko"}))
-      ->capture_default_str();
-  app.add_option("--snap-distance", o->press.snap_distance_mm, "Farthest a tool point may be from the surface, mm")
-      ->check(kNonNegative)
-      ->capture_default_str();
+  add_press_options(app, o->tools, o->press);
   add_deformation_model_option(app, o->deformation);
   app.add_option("--compare", o->compare, "Press with this model too and print how its forces and surface differ")
       ->check(CLI::IsMember(deformation_model_names()));
-  add_model_tuning_options(app, o->press.tuning);
-  app.add_option("--settle", o->press.settle_seconds, "Mass-spring model: seconds the press is held before the force is read")
-      ->check(kPositive)
-      ->capture_default_str();
   app.add_option("--out", o->out_path, "Write the deformed surface (.vtp, LPS, mm)");
   app.add_flag("--json", o->json, "Print the result as one JSON object on stdout");
   return [o] { return run_poke(*o); };

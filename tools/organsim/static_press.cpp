@@ -297,4 +297,25 @@ Difference difference(const PressResult& a, const PressResult& b) {
 }
 
 
+void add_press_options(CLI::App& app, std::vector<std::string>& tools, PressOptions& o) {
+  app.add_option("--tool", tools,
+                 "A tool: X,Y,Z/DX,DY,DZ, a point on or near the surface and its prescribed displacement "
+                 "(model frame, mm); repeat for more tools")
+      ->required()
+      ->allow_extra_args(false);
+  app.add_option("--merge", o.merge, "Multi-beam: how beams combine, influence (eq. 7) or sum (eq. 5)")
+      ->check(CLI::IsMember({"influence", "sum"}))
+      ->capture_default_str();
+  app.add_option("--theory", o.theory, "Multi-beam: euler-bernoulli or timoshenko")
+      ->check(CLI::IsMember({"euler-bernoulli", "timoshenko"}))
+      ->capture_default_str();
+  app.add_option("--snap-distance", o.snap_distance_mm, "Farthest a tool point may be from the surface, mm")
+      ->check(kNonNegative)
+      ->capture_default_str();
+  add_model_tuning_options(app, o.tuning);
+  app.add_option("--settle", o.settle_seconds, "Mass-spring model: seconds the press is held before the force is read")
+      ->check(kPositive)
+      ->capture_default_str();
+}
+
 }  // namespace organsim::cli

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
 #include <Eigen/Core>
 
 #include "model_tuning.h"
@@ -57,6 +58,10 @@ struct PressResult {
   double setup_seconds = 0.0;   ///< FEM: building the system and factorizing the rest tangent
   int frames = 1;               ///< deformation frames (FEM: Newton iterations) to equilibrium
 };
+
+/// Registers --tool (repeatable, required; into `tools`), --merge, --theory,
+/// --snap-distance, the model tuning options and --settle.
+void add_press_options(CLI::App& app, std::vector<std::string>& tools, PressOptions& o);
 
 /// The rest-surface point a tool presses: the nearest one, within the snap
 /// distance (m). Throws std::runtime_error naming the tool (its 0-based
