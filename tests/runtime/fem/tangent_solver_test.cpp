@@ -80,47 +80,38 @@ TEST(TangentSolver, GmresWithTheKeptFactorizationGivesTheCurrentTangentsSolution
 
 TEST(TangentSolver, FactorizesWhenGmresMissesTheToleranceWithinItsBudget) {
   Systems sys(0.15);
-  const SparseMatrix &rest = sys.rest, &stretched = sys.stretched;
-  const Eigen::VectorXd& b = sys.b;
-  Eigen::VectorXd& x = sys.x;
   TangentSolverOptions options;
   options.max_krylov_iterations = 1;
   TangentSolver solver(make_simplicial_factorization(), options);
-  ASSERT_TRUE(solver.solve(rest, b, x));
-  ASSERT_TRUE(solver.solve(stretched, b, x));
+  ASSERT_TRUE(solver.solve(sys.rest, sys.b, sys.x));
+  ASSERT_TRUE(solver.solve(sys.stretched, sys.b, sys.x));
   EXPECT_EQ(solver.factorizations(), 2);
   EXPECT_EQ(solver.krylov_solves(), 0);
-  const Eigen::VectorXd exact = direct_solution(stretched, b);
-  EXPECT_LT((x - exact).norm(), 1e-9 * exact.norm());
+  const Eigen::VectorXd exact = direct_solution(sys.stretched, sys.b);
+  EXPECT_LT((sys.x - exact).norm(), 1e-9 * exact.norm());
 }
 
 TEST(TangentSolver, ASlowGmresSolveMakesTheNextTangentBeFactorized) {
   Systems sys(0.03);
-  const SparseMatrix &rest = sys.rest, &stretched = sys.stretched;
-  const Eigen::VectorXd& b = sys.b;
-  Eigen::VectorXd& x = sys.x;
   TangentSolverOptions options;
   options.refactorize_after = 1;
   TangentSolver solver(make_simplicial_factorization(), options);
-  ASSERT_TRUE(solver.solve(rest, b, x));
-  ASSERT_TRUE(solver.solve(stretched, b, x));  // GMRES, more than one iteration
+  ASSERT_TRUE(solver.solve(sys.rest, sys.b, sys.x));
+  ASSERT_TRUE(solver.solve(sys.stretched, sys.b, sys.x));  // GMRES, more than one iteration
   EXPECT_EQ(solver.krylov_solves(), 1);
-  ASSERT_TRUE(solver.solve(stretched, b, x));
+  ASSERT_TRUE(solver.solve(sys.stretched, sys.b, sys.x));
   EXPECT_EQ(solver.factorizations(), 2);
-  ASSERT_TRUE(solver.solve(stretched, b, x));  // now the factorization is this tangent's own: one iteration
+  ASSERT_TRUE(solver.solve(sys.stretched, sys.b, sys.x));  // now the factorization is this tangent's own: one iteration
   EXPECT_EQ(solver.krylov_solves(), 2);
   EXPECT_EQ(solver.factorizations(), 2);
 }
 
 TEST(TangentSolver, ZeroKrylovIterationsFactorizesEveryTangent) {
   Systems sys(0.03);
-  const SparseMatrix &rest = sys.rest, &stretched = sys.stretched;
-  const Eigen::VectorXd& b = sys.b;
-  Eigen::VectorXd& x = sys.x;
   TangentSolverOptions options;
   options.max_krylov_iterations = 0;
   TangentSolver solver(make_simplicial_factorization(), options);
-  for (const SparseMatrix* a : {&rest, &stretched, &stretched}) ASSERT_TRUE(solver.solve(*a, b, x));
+  for (const SparseMatrix* a : {&sys.rest, &sys.stretched, &sys.stretched}) ASSERT_TRUE(solver.solve(*a, sys.b, sys.x));
   EXPECT_EQ(solver.factorizations(), 3);
   EXPECT_EQ(solver.krylov_solves(), 0);
 }
