@@ -38,9 +38,6 @@ echo "   (paper 004; Newton to equilibrium on the model's tetrahedra) and how fa
 "$build/tools/organsim" poke "$out/liver.organ" --tool -7.1,-252.0,356.2/0,5,0 --tool -99.4,-217.0,387.9/-4,0,0 \
   --model psh --compare beam
 echo
-echo "== organsim compare: the same presses with every model, each against the PSH FEM (paper 004's Table 5 measure)"
-"$build/tools/organsim" compare "$out/liver.organ" --tool -7.1,-252.0,356.2/0,5,0 --tool -99.4,-217.0,387.9/-4,0,0
-echo
 echo "== organsim replay: a recorded two-tool session through the real-time engine (1 kHz forces, 60 Hz deformation)"
 "$build/tools/organsim" replay "$out/liver.organ" "$repo/data_samples/liver_two_tools.session" \
   --forces "$out/liver_two_tools_forces.csv"
@@ -49,5 +46,8 @@ echo "== organsim replay --model beam,springs,corotational,psh: the same session
 echo "   co-rotational FEM and pressure-stabilized FEM models"
 "$build/tools/organsim" replay "$out/liver.organ" "$repo/data_samples/liver_two_tools.session" \
   --model beam,springs,corotational,psh
+echo
+echo "== organsim compare: the same presses with every model, each against the PSH FEM (paper 004's Table 5 measure)"
+"$build/tools/organsim" compare "$out/liver.organ" --tool -7.1,-252.0,356.2/0,5,0 --tool -99.4,-217.0,387.9/-4,0,0
 echo
 echo "Outputs in $out (models; mask, surface and tetrahedra for 3D Slicer / ParaView in liver_intermediates/)."

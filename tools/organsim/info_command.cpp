@@ -84,7 +84,9 @@ nlohmann::json summary_json(const InfoOptions& o, const model::ModelReadResult& 
                    {"poisson_ratio", mat.poisson_ratio},
                    {"density_kg_m3", mat.density},
                    {"attenuation_alpha", mat.attenuation_alpha},
-                   {"attenuation_beta_per_m", mat.attenuation_beta}};
+                   {"attenuation_beta_per_m", mat.attenuation_beta},
+                   {"beam_stiffness_scale", mat.beam_stiffness_scale},
+                   {"spring_stiffness_scale", mat.spring_stiffness_scale}};
   nlohmann::json fixed = nlohmann::json::array();
   for (const model::Point3& p : m.fixed_points) fixed.push_back(as_json(p));
   j["fixed_points_m"] = fixed;
@@ -130,6 +132,9 @@ void print_text(const nlohmann::json& j) {
              mat["young_modulus_pa"].get<double>(), mat["poisson_ratio"].get<double>(),
              mat["density_kg_m3"].get<double>(), mat["attenuation_alpha"].get<double>(),
              mat["attenuation_beta_per_m"].get<double>());
+  if (mat["beam_stiffness_scale"].get<double>() != 1.0 || mat["spring_stiffness_scale"].get<double>() != 1.0)
+    fmt::print("calibrated      beams E x {:g}, springs E x {:g}\n", mat["beam_stiffness_scale"].get<double>(),
+               mat["spring_stiffness_scale"].get<double>());
   for (const auto& p : j["fixed_points_m"]) fmt::print("fixed point     ({}) mm\n", vec_mm(p));
   fmt::print("beam tables     {}\n", c["beam_stations"].get<unsigned>() > 0
                                         ? fmt::format("{} stations per surface vertex", c["beam_stations"].get<unsigned>())

@@ -2,6 +2,7 @@
 // a static press: the force each tool feels for a prescribed displacement, and
 // how the organ deforms, with any deformation model (and the difference from a
 // second one).
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <optional>
@@ -13,6 +14,7 @@
 #include "command_line.h"
 #include "organsim/mesh_io/mesh_io.h"
 #include "organsim/model/model_file.h"
+#include "plot/field_view.h"
 #include "static_press.h"
 
 namespace organsim::cli {
@@ -23,12 +25,42 @@ struct PokeOptions {
   std::vector<std::string> tools;
   bool json = false;
   std::string out_path;
+  std::string png_path;  ///< a picture of the deformed tetrahedra, or empty
   std::string deformation = "beam";
   std::string compare;  ///< a second model to press the same way, or empty
   PressOptions press;
 };
 
 nlohmann::json triple(const Eigen::Vector3d& v) { return {v[0], v[1], v[2]}; }
+
+/// The deformed tetrahedra coloured by the displacement's magnitude (mm),
+/// seen from the front (along +y, LPS: from anterior), head up.
+void draw_tetrahedra(const multibeam::BeamOrgan& organ, const PressResult& r, const std::vector<ToolSpec>& tools,
+                     const PokeOptions& o, const std::string& path) {
+  if (r.node_positions.empty())
+    throw std::runtime_error("--png: the " + o.deformation +
+                             " model moves only the surface here (the mass-spring model needs --volume-springs)");
+  plot::FieldPanel panel;
+  panel.title = o.deformation == "beam" ? fmt::format("beam, {} merge", o.press.merge) : o.deformation;
+  const std::vector<model::Point3>& rest = organ.model().volume_vertices;
+  double deepest = 0.0;
+  for (const ToolSpec& t : tools) deepest = std::max(deepest, t.displacement_mm.norm());
+  for (std::size_t n = 0; n < rest.size(); ++n) {
+    const model::Point3& at = r.node_positions[n];
+    panel.points.push_back({at[0] * 1e3, at[1] * 1e3, at[2] * 1e3});
+    panel.point_values.push_back(
+        1e3 * std::hypot(at[0] - rest[n][0], at[1] - rest[n][1], at[2] - rest[n][2]));
+  }
+  for (const model::Tetrahedron& t : organ.model().tetrahedra)
+    panel.tetrahedra.push_back({static_cast<std::int32_t>(t[0]), static_cast<std::int32_t>(t[1]),
+                                static_cast<std::int32_t>(t[2]), static_cast<std::int32_t>(t[3])});
+  plot::FieldView view;
+  view.scalar_title = "|u| (mm)";
+  view.high = deepest > 0.0 ? deepest : 1.0;
+  view.panel_width = 640;
+  view.height = 560;
+  plot::write_field_view_png({panel}, view, path);
+}
 
 int run_poke(const PokeOptions& o) {
   std::vector<ToolSpec> tools;
@@ -45,7 +77,7 @@ int run_poke(const PokeOptions& o) {
   const bool beam = o.deformation == "beam";
   const PressResult r = press(o.deformation, organ, tools, o.press);
   const std::vector<model::Point3>& positions = r.positions;
-  const Deformation shape = measure(organ, positions);
+  const Deformation shape = measure(organ, r);
   const double volume_change = (shape.deformed_volume - shape.rest_volume) / shape.rest_volume;
   std::optional<PressResult> other;
   Difference versus;
@@ -60,6 +92,8 @@ int run_poke(const PokeOptions& o) {
     for (std::size_t v = 0; v < positions.size(); ++v) in_file_order[organ.file_vertex_index()[v]] = positions[v];
     mesh_io::write_surface_vtp({in_file_order, file_triangles}, o.out_path);
   }
+
+  if (!o.png_path.empty()) draw_tetrahedra(organ, r, tools, o, o.png_path);
 
   if (o.json) {
     nlohmann::json j;
@@ -78,6 +112,7 @@ int run_poke(const PokeOptions& o) {
                       {"normal", triple(t.normal)},
                       {"displacement_mm", triple(tools[i].displacement_mm)},
                       {"force_n", triple(t.force)},
+                      {"action_point_moved_mm", triple(t.action_moved * 1e3)},
                       {"force_magnitude_n", t.force.norm()}});
     }
     j["tools"] = list;
@@ -86,7 +121,8 @@ int run_poke(const PokeOptions& o) {
                   {"max_displacement_vertex", organ.file_vertex_index()[shape.max_vertex]},
                   {"rest_volume_ml", shape.rest_volume * 1e6},
                   {"deformed_volume_ml", shape.deformed_volume * 1e6},
-                  {"volume_change_percent", volume_change * 100.0}};
+                  {"volume_change_percent", volume_change * 100.0},
+                  {"volume_of", shape.volume_of_tetrahedra ? "tetrahedra" : "surface"}};
     j["seconds"] = {{"beam_per_tool", beam ? nlohmann::json(r.attach_seconds) : nlohmann::json(nullptr)},
                     {"attach_per_tool", r.attach_seconds},
                     {"force_per_tool", r.force_seconds},
@@ -102,7 +138,7 @@ int run_poke(const PokeOptions& o) {
                       {"tools", forces},
                       {"surface_difference_rms_mm", versus.rms * 1e3},
                       {"surface_difference_max_mm", versus.max * 1e3},
-                      {"max_displacement_mm", measure(organ, other->positions).max_displacement * 1e3}};
+                      {"max_displacement_mm", measure(organ, *other).max_displacement * 1e3}};
     }
     if (!o.out_path.empty()) j["deformed_surface"] = o.out_path;
     std::cout << j.dump() << '\n';
@@ -118,12 +154,15 @@ int run_poke(const PokeOptions& o) {
                              beam ? fmt::format(", beam {:.1f} mm", t.beam_length * 1e3)
                              : o.deformation == "springs" ? std::string(", held node")
                                                           : std::string(", held boundary point"));
+    std::cout << fmt::format("{:<14}press {} -> action point moved {} ({:.2f} mm from the tool's target)\n", "",
+                             mm(tools[i].displacement_mm), mm(t.action_moved * 1e3),
+                             (t.action_moved * 1e3 - tools[i].displacement_mm).norm());
     std::cout << fmt::format("{:<14}press {} -> force on the tool ({:.4f}, {:.4f}, {:.4f}) N, |F| {:.4f} N\n", "",
                              mm(tools[i].displacement_mm), t.force[0], t.force[1], t.force[2], t.force.norm());
   }
-  std::cout << fmt::format("{:<14}max vertex displacement {:.2f} mm (vertex {}); volume {:.1f} -> {:.1f} mL ({:+.2f} %)\n",
+  std::cout << fmt::format("{:<14}max vertex displacement {:.2f} mm (vertex {}); volume of the {} {:.1f} -> {:.1f} mL ({:+.2f} %)\n",
                            "organ", shape.max_displacement * 1e3, organ.file_vertex_index()[shape.max_vertex],
-                           shape.rest_volume * 1e6, shape.deformed_volume * 1e6, volume_change * 100.0);
+                           shape.volume_of_tetrahedra ? "tetrahedra" : "surface", shape.rest_volume * 1e6, shape.deformed_volume * 1e6, volume_change * 100.0);
   if (beam)
     std::cout << fmt::format("{:<14}beam {:.1f} us per tool, force {:.3f} us per tool, deformation {:.3f} ms "
                              "(first frame of a contact, normals included)\n",
@@ -138,7 +177,7 @@ int run_poke(const PokeOptions& o) {
                              "time", r.setup_seconds, r.attach_seconds * 1e3, r.deform_seconds * 1e3);
   if (other) {
     std::cout << fmt::format("{:<14}{}: {}; max vertex displacement {:.2f} mm\n", "compare", o.compare, other->summary,
-                             measure(organ, other->positions).max_displacement * 1e3);
+                             measure(organ, *other).max_displacement * 1e3);
     for (std::uint32_t i = 0; i < tools.size(); ++i) {
       const Eigen::Vector3d& f = other->tools[i].force;
       std::cout << fmt::format("{:<14}tool {}: force ({:.4f}, {:.4f}, {:.4f}) N, |F| {:.4f} N; |F_{} - F_{}| {:.4f} N "
@@ -163,6 +202,8 @@ Command add_poke_command(CLI::App& app) {
   app.add_option("--compare", o->compare, "Press with this model too and print how its forces and surface differ")
       ->check(CLI::IsMember(deformation_model_names()));
   app.add_option("--out", o->out_path, "Write the deformed surface (.vtp, LPS, mm)");
+  app.add_option("--png", o->png_path,
+                 "Draw the deformed tetrahedra coloured by the displacement (needs an X display: xvfb-run -a)");
   app.add_flag("--json", o->json, "Print the result as one JSON object on stdout");
   return [o] { return run_poke(*o); };
 }

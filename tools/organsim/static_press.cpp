@@ -69,6 +69,7 @@ PressResult press_beams(const multibeam::BeamOrgan& organ, const std::vector<Too
   options.max_tools = static_cast<std::uint32_t>(tools.size());
   options.merge = o.merge == "sum" ? MergeRule::sum : MergeRule::influence;
   options.beam.theory = o.theory == "timoshenko" ? BeamTheory::timoshenko : BeamTheory::euler_bernoulli;
+  options.beam.centroid_offsets = o.sections == "eccentric";
   options.snap_distance = o.snap_distance_mm * 1e-3;
   MultiBeam beams(organ, options);
 
@@ -97,12 +98,20 @@ PressResult press_beams(const multibeam::BeamOrgan& organ, const std::vector<Too
   const Status deformed = beams.deform(displacements.data(), r.positions.data(), r.normals.data(), r.positions.size());
   r.deform_seconds = r.frame_seconds = seconds_since(deform_start);
   if (deformed != Status::ok) throw std::runtime_error(describe(deformed));
+  const std::vector<model::Point3>& nodes = organ.model().volume_vertices;
+  r.node_positions.resize(nodes.size());
+  for (std::size_t n = 0; n < nodes.size(); ++n) {
+    const Eigen::Vector3d rest(nodes[n][0], nodes[n][1], nodes[n][2]);
+    const Eigen::Vector3d at = rest + beams.displacement_at(rest);
+    r.node_positions[n] = {at[0], at[1], at[2]};
+  }
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
     const ToolBeam& b = beams.beam(i);
     r.tools[i].action_point = b.action.position;
     r.tools[i].snap_distance = b.action.distance;
     r.tools[i].normal = geometry::triangle_normal(organ.model(), b.action.triangle);
     r.tools[i].beam_length = b.length;
+    r.tools[i].action_moved = beams.displacement_at(b.action.position);
   }
   return r;
 }
@@ -134,20 +143,38 @@ PressResult press_fem(const multibeam::BeamOrgan& organ, const std::vector<ToolS
   }
   r.attach_seconds = seconds_since(attach_start) / tools.size();
   const auto newton_start = std::chrono::steady_clock::now();
-  double force_scale = 0.0;
-  for (r.frames = 1;; ++r.frames) {
-    if (r.frames > 1 && !fem.refresh_tangent())
-      throw std::runtime_error(fmt::format("the {} tangent became singular or indefinite at Newton iteration {}: the "
-                                           "press is deeper than the mesh can follow",
-                                           fem::material_name(material), r.frames));
-    if (fem.step(displacements.data()) != fem::FrameStatus::ok)
-      throw std::runtime_error("the press inverts a tetrahedron even in small steps: press less deep");
-    for (std::uint32_t i = 0; i < tools.size(); ++i) force_scale = std::max(force_scale, fem.contact_force(i).norm());
-    if (fem.unbalanced_force() <= 1e-9 * force_scale) break;
-    if (r.frames == kMaxIterations)
-      throw std::runtime_error(fmt::format("Newton's method did not converge in {} iterations (out of balance {:.3g} N)",
-                                           kMaxIterations, fem.unbalanced_force()));
+  // Newton's method to the equilibrium under `target`; an empty string, or why it failed.
+  auto equilibrium = [&](const std::vector<Eigen::Vector3d>& target) -> std::string {
+    double force_scale = 0.0;
+    for (int iteration = 1;; ++iteration, ++r.frames) {
+      if (iteration > 1 && !fem.refresh_tangent())
+        return fmt::format("the {} tangent became singular or indefinite at Newton iteration {}: the press is deeper "
+                           "than the mesh can follow",
+                           fem::material_name(material), iteration);
+      if (fem.step(target.data()) != fem::FrameStatus::ok)
+        return "the press inverts a tetrahedron even in small steps: press less deep";
+      for (std::uint32_t i = 0; i < tools.size(); ++i) force_scale = std::max(force_scale, fem.contact_force(i).norm());
+      if (fem.unbalanced_force() <= 1e-9 * force_scale) return "";
+      if (iteration == kMaxIterations)
+        return fmt::format("Newton's method did not converge in {} iterations (out of balance {:.3g} N)",
+                           kMaxIterations, fem.unbalanced_force());
+    }
+  };
+  // The whole press at once; failing that, from rest again in load steps
+  // (each equilibrium the next one's start).
+  std::string failure;
+  for (int load_steps : {1, 4, 16}) {
+    fem.reset();
+    r.frames = 1;
+    failure.clear();
+    for (int step = 1; step <= load_steps && failure.empty(); ++step) {
+      std::vector<Eigen::Vector3d> target = displacements;
+      for (Eigen::Vector3d& d : target) d *= static_cast<double>(step) / load_steps;
+      failure = equilibrium(target);
+    }
+    if (failure.empty()) break;
   }
+  if (!failure.empty()) throw std::runtime_error(failure + " (also in 16 load steps)");
   r.deform_seconds = seconds_since(newton_start) / r.frames;
   // What the engine does in a frame: one iteration with the kept factor (at
   // equilibrium already, so the state stays where it is).
@@ -162,9 +189,12 @@ PressResult press_fem(const multibeam::BeamOrgan& organ, const std::vector<ToolS
   r.positions.resize(organ.vertex_count());
   r.normals.resize(organ.vertex_count());
   fem.surface_positions(r.positions.data());
+  r.node_positions.resize(organ.model().volume_vertices.size());
+  fem.node_positions(r.node_positions.data());
   multibeam::compute_vertex_normals(organ, r.positions.data(), r.normals.data(), 0, r.positions.size());
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
     r.tools[i].force = fem.contact_force(i);
+    r.tools[i].action_moved = fem.contact_displacement(i);
     r.tools[i].action_point = fem.contact_point(i);
     r.tools[i].snap_distance = (r.tools[i].action_point - tools[i].point_mm * 1e-3).norm();
     r.tools[i].normal = geometry::triangle_normal(organ.model(), organ.surface_tree().closest_point(r.tools[i].action_point).triangle);
@@ -210,7 +240,10 @@ PressResult press_springs(const multibeam::BeamOrgan& organ, const std::vector<T
     if (!springs->step(1.0 / 60.0, displacements.data(), r.positions.data(), r.normals.data(), contacts.data()))
       throw std::runtime_error("the mass-spring model could not move the organ (a displacement is not finite)");
   r.deform_seconds = r.frame_seconds = seconds_since(deform_start) / std::max(r.frames, 1);
-  r.summary = fmt::format("mass-spring, settled over {} frames of 1/60 s", r.frames);
+  r.node_positions.resize(organ.model().volume_vertices.size());
+  if (!springs->volume_node_positions(r.node_positions.data(), r.node_positions.size())) r.node_positions.clear();
+  r.summary = fmt::format("mass-spring{}, settled over {} frames of 1/60 s",
+                          o.tuning.volume_springs ? " with volume springs" : "", r.frames);
   if (springs->instabilities() > 0)
     warn(o.command, fmt::format("the mass-spring model diverged {} time(s) and was reset to rest", springs->instabilities()));
   std::vector<ContactLaw> laws(tools.size());
@@ -223,6 +256,7 @@ PressResult press_springs(const multibeam::BeamOrgan& organ, const std::vector<T
     r.tools[i].action_point = contacts[i].action_point;
     r.tools[i].snap_distance = (contacts[i].action_point - tools[i].point_mm * 1e-3).norm();
     r.tools[i].normal = contacts[i].normal;
+    r.tools[i].action_moved = displacements[i];  // the held node follows its tool exactly
   }
   return r;
 }
@@ -260,13 +294,15 @@ PressResult press(const std::string& name, const multibeam::BeamOrgan& organ, co
                      : throw std::logic_error("unknown deformation model " + name);
   r.model = name;
   if (kind == realtime::ModelKind::beam)
-    r.summary = fmt::format("{} stations per beam; E {:g} Pa, nu {:g}; {}, {} merge", organ.stations(),
-                            organ.model().material.young_modulus, organ.model().material.poisson_ratio, o.theory,
-                            o.merge);
+    r.summary = fmt::format("{} stations per beam; E {:g} Pa x {:g}, nu {:g}, attenuation {:g} 1/m; {}, {} sections, {} merge",
+                            organ.stations(), organ.model().material.young_modulus,
+                            organ.model().material.beam_stiffness_scale, organ.model().material.poisson_ratio,
+                            organ.attenuation_rate(), o.theory, o.sections, o.merge);
   return r;
 }
 
-Deformation measure(const multibeam::BeamOrgan& organ, const std::vector<model::Point3>& positions) {
+Deformation measure(const multibeam::BeamOrgan& organ, const PressResult& press) {
+  const std::vector<model::Point3>& positions = press.positions;
   const model::OrganModel& model = organ.model();
   Deformation d;
   for (std::size_t v = 0; v < positions.size(); ++v) {
@@ -278,8 +314,20 @@ Deformation measure(const multibeam::BeamOrgan& organ, const std::vector<model::
       d.max_vertex = v;
     }
   }
-  d.rest_volume = geometry::enclosed_volume(model.surface_vertices, model.surface_triangles);
-  d.deformed_volume = geometry::enclosed_volume(positions, model.surface_triangles);
+  d.volume_of_tetrahedra = !press.node_positions.empty();
+  if (!d.volume_of_tetrahedra) {
+    d.rest_volume = geometry::enclosed_volume(model.surface_vertices, model.surface_triangles);
+    d.deformed_volume = geometry::enclosed_volume(positions, model.surface_triangles);
+    return d;
+  }
+  auto at = [](const model::Point3& p) { return Eigen::Vector3d(p[0], p[1], p[2]); };
+  for (const model::Tetrahedron& t : model.tetrahedra) {
+    const auto& rest = model.volume_vertices;
+    const auto& moved = press.node_positions;
+    d.rest_volume += geometry::signed_tetrahedron_volume(at(rest[t[0]]), at(rest[t[1]]), at(rest[t[2]]), at(rest[t[3]]));
+    d.deformed_volume +=
+        geometry::signed_tetrahedron_volume(at(moved[t[0]]), at(moved[t[1]]), at(moved[t[2]]), at(moved[t[3]]));
+  }
   return d;
 }
 
@@ -296,6 +344,45 @@ Difference difference(const PressResult& a, const PressResult& b) {
   return d;
 }
 
+namespace {
+
+Versus versus(const std::vector<model::Point3>& positions, const std::vector<model::Point3>& reference,
+              const Eigen::Vector3d& extent) {
+  Versus v;
+  const double diagonal = extent.norm();
+  for (std::size_t i = 0; i < positions.size(); ++i) {
+    // The rest positions are shared, so the displacements' difference is the positions'.
+    const Eigen::Vector3d delta(positions[i][0] - reference[i][0], positions[i][1] - reference[i][1],
+                                positions[i][2] - reference[i][2]);
+    v.mean += delta.norm() / diagonal;
+    v.max = std::max(v.max, delta.norm() / diagonal);
+    v.per_axis += delta.cwiseAbs().cwiseQuotient(extent);
+  }
+  const double n = static_cast<double>(std::max<std::size_t>(positions.size(), 1));
+  v.mean /= n;
+  v.per_axis /= n;
+  return v;
+}
+
+}  // namespace
+
+Eigen::Vector3d bounding_box_extent(const std::vector<model::Point3>& points) {
+  Eigen::Vector3d low = Eigen::Vector3d::Constant(1e300), high = -low;
+  for (const model::Point3& p : points) {
+    const Eigen::Vector3d x(p[0], p[1], p[2]);
+    low = low.cwiseMin(x);
+    high = high.cwiseMax(x);
+  }
+  return high - low;
+}
+
+Comparison compare_presses(const PressResult& press, const PressResult& reference, const Eigen::Vector3d& extent) {
+  Comparison c;
+  c.surface = versus(press.positions, reference.positions, extent);
+  c.on_nodes = !press.node_positions.empty() && !reference.node_positions.empty();
+  c.measure = c.on_nodes ? versus(press.node_positions, reference.node_positions, extent) : c.surface;
+  return c;
+}
 
 void add_press_options(CLI::App& app, std::vector<std::string>& tools, PressOptions& o) {
   app.add_option("--tool", tools,
@@ -308,6 +395,11 @@ void add_press_options(CLI::App& app, std::vector<std::string>& tools, PressOpti
       ->capture_default_str();
   app.add_option("--theory", o.theory, "Multi-beam: euler-bernoulli or timoshenko")
       ->check(CLI::IsMember({"euler-bernoulli", "timoshenko"}))
+      ->capture_default_str();
+  app.add_option("--sections", o.sections,
+                 "Multi-beam: eccentric (elements through the section centroids, the default) or centred (on the "
+                 "fixed point-action point line)")
+      ->check(CLI::IsMember({"eccentric", "centred"}))
       ->capture_default_str();
   app.add_option("--snap-distance", o.snap_distance_mm, "Farthest a tool point may be from the surface, mm")
       ->check(kNonNegative)

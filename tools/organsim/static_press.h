@@ -32,6 +32,7 @@ struct PressOptions {
   std::string command = "poke";           ///< for warnings
   std::string merge = "influence";        ///< multi-beam: influence or sum
   std::string theory = "euler-bernoulli"; ///< multi-beam: euler-bernoulli or timoshenko
+  std::string sections = "eccentric";     ///< multi-beam: eccentric (through the section centroids) or centred
   double snap_distance_mm = 10.0;         ///< farthest a tool point may be from the surface
   double settle_seconds = 2.0;            ///< mass-spring: how long the press is held before the force is read
   ModelTuning tuning;
@@ -44,6 +45,7 @@ struct ToolResult {
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();
   double beam_length = 0.0;                                ///< m (multi-beam model only)
   Eigen::Vector3d force = Eigen::Vector3d::Zero();         ///< N on the tool
+  Eigen::Vector3d action_moved = Eigen::Vector3d::Zero();  ///< m: how far the organ moved the action point
 };
 
 struct PressResult {
@@ -51,6 +53,10 @@ struct PressResult {
   std::string summary;          ///< one line on how the model was set up and solved
   std::vector<ToolResult> tools;
   std::vector<model::Point3> positions, normals;
+  /// The tetrahedral nodes' positions (m, the model's node order) when the
+  /// model moves them: the multi-beam model (its space distortion of every
+  /// point), the FEM models, the mass-spring model with volume springs; empty otherwise.
+  std::vector<model::Point3> node_positions;
   double attach_seconds = 0.0;  ///< per tool
   double force_seconds = 0.0;   ///< per tool and force evaluation
   double deform_seconds = 0.0;  ///< per deformation frame (FEM: per Newton iteration)
@@ -60,7 +66,7 @@ struct PressResult {
 };
 
 /// Registers --tool (repeatable, required; into `tools`), --merge, --theory,
-/// --snap-distance, the model tuning options and --settle.
+/// --sections, --snap-distance, the model tuning options and --settle.
 void add_press_options(CLI::App& app, std::vector<std::string>& tools, PressOptions& o);
 
 /// The rest-surface point a tool presses: the nearest one, within the snap
@@ -80,10 +86,11 @@ PressResult press(const std::string& model, const multibeam::BeamOrgan& organ, c
 struct Deformation {
   double max_displacement = 0.0;  ///< m
   std::size_t max_vertex = 0;     ///< runtime numbering
-  double rest_volume = 0.0, deformed_volume = 0.0;  ///< m³
+  double rest_volume = 0.0, deformed_volume = 0.0;  ///< m³: of the tetrahedra when the press moved them, else enclosed by the surface
+  bool volume_of_tetrahedra = false;
 };
 
-Deformation measure(const multibeam::BeamOrgan& organ, const std::vector<model::Point3>& positions);
+Deformation measure(const multibeam::BeamOrgan& organ, const PressResult& press);
 
 /// Where two presses of the same organ differ: the surfaces vertex by vertex
 /// (m) and the tools' forces (N).
@@ -93,5 +100,25 @@ struct Difference {
 };
 
 Difference difference(const PressResult& a, const PressResult& b);
+
+/// Paper 004's Table 5 measure of a press against a reference press: nodal
+/// displacement differences |Δu| over the bounding box's diagonal (mean, max)
+/// and |Δu_axis| over its extent along that axis (mean), as fractions (0.01 = 1 %).
+struct Versus {
+  double mean = 0.0, max = 0.0;
+  Eigen::Vector3d per_axis = Eigen::Vector3d::Zero();
+};
+
+/// The measure on the tetrahedral nodes when both presses moved them, else on
+/// the surface vertices (`on_nodes` says which), and always on the surface.
+struct Comparison {
+  Versus measure, surface;
+  bool on_nodes = false;
+};
+
+/// The organ's bounding box extent (m) along x, y, z.
+Eigen::Vector3d bounding_box_extent(const std::vector<model::Point3>& points);
+
+Comparison compare_presses(const PressResult& press, const PressResult& reference, const Eigen::Vector3d& extent);
 
 }  // namespace organsim::cli

@@ -24,6 +24,7 @@
 #include <vtkRenderWindow.h>
 #include <vtkRenderer.h>
 #include <vtkSmartPointer.h>
+#include <vtkStringArray.h>
 #include <vtkTable.h>
 #include <vtkTextProperty.h>
 
@@ -43,11 +44,15 @@ constexpr std::array<std::array<unsigned char, 3>, 10> kColours{{{31, 119, 180},
                                                                   {188, 189, 34},
                                                                   {23, 190, 207}}};
 
+void check_size(const char* function, int width, int height) {
+  if (width < 64 || width > 8192 || height < 64 || height > 8192)
+    throw std::invalid_argument(std::string(function) + ": the picture must be 64 to 8192 pixels wide and high (got " +
+                                std::to_string(width) + "x" + std::to_string(height) + ")");
+}
+
 void check(const std::vector<Series>& series, int width, int height) {
   if (series.empty()) throw std::invalid_argument("write_line_plot_png: no series to plot");
-  if (width < 64 || width > 8192 || height < 64 || height > 8192)
-    throw std::invalid_argument("write_line_plot_png: the picture must be 64 to 8192 pixels wide and high (got " +
-                                std::to_string(width) + "x" + std::to_string(height) + ")");
+  check_size("write_line_plot_png", width, height);
   for (const Series& s : series) {
     if (s.x.size() != s.y.size())
       throw std::invalid_argument("write_line_plot_png: series '" + s.name + "' has " + std::to_string(s.x.size()) +
@@ -68,36 +73,49 @@ void widen_if_flat(vtkAxis* axis, double low, double high) {
   axis->SetRange(low - pad, high + pad);
 }
 
+/// An off-screen white chart with a title, axis titles and (when asked) a legend.
+struct Chart {
+  vtkNew<vtkContextView> view;
+  vtkNew<vtkChartXY> chart;
+  vtkAxis* x_axis = nullptr;
+  vtkAxis* y_axis = nullptr;
+
+  Chart(const std::string& title, const std::string& x_label, const std::string& y_label, int width, int height,
+        bool legend) {
+    vtkRenderWindow* window = view->GetRenderWindow();
+    window->SetOffScreenRendering(1);
+    window->SetSize(width, height);
+    window->SetMultiSamples(0);
+    view->GetRenderer()->SetBackground(1.0, 1.0, 1.0);
+    view->GetScene()->AddItem(chart);
+    chart->SetTitle(title);
+    chart->GetTitleProperties()->SetFontSize(16);
+    chart->GetTitleProperties()->SetBold(true);
+    x_axis = chart->GetAxis(vtkAxis::BOTTOM);
+    y_axis = chart->GetAxis(vtkAxis::LEFT);
+    x_axis->SetTitle(x_label);
+    y_axis->SetTitle(y_label);
+    for (vtkAxis* axis : {x_axis, y_axis}) {
+      axis->GetTitleProperties()->SetFontSize(14);
+      axis->GetTitleProperties()->SetBold(false);
+      axis->GetLabelProperties()->SetFontSize(12);
+    }
+    chart->SetShowLegend(legend);
+    chart->GetLegend()->GetLabelProperties()->SetFontSize(12);
+  }
+  vtkRenderWindow* window() { return view->GetRenderWindow(); }
+};
+
 }  // namespace
 
 void write_line_plot_png(const std::vector<Series>& series, const std::string& title, const std::string& x_label,
                          const std::string& y_label, const std::string& png_path, int width, int height) {
   check(series, width, height);
   require_display(png_path);
-
-  vtkNew<vtkContextView> view;
-  vtkRenderWindow* window = view->GetRenderWindow();
-  window->SetOffScreenRendering(1);
-  window->SetSize(width, height);
-  window->SetMultiSamples(0);
-  view->GetRenderer()->SetBackground(1.0, 1.0, 1.0);
-
-  vtkNew<vtkChartXY> chart;
-  view->GetScene()->AddItem(chart);
-  chart->SetTitle(title);
-  chart->GetTitleProperties()->SetFontSize(16);
-  chart->GetTitleProperties()->SetBold(true);
-  vtkAxis* x_axis = chart->GetAxis(vtkAxis::BOTTOM);
-  vtkAxis* y_axis = chart->GetAxis(vtkAxis::LEFT);
-  x_axis->SetTitle(x_label);
-  y_axis->SetTitle(y_label);
-  for (vtkAxis* axis : {x_axis, y_axis}) {
-    axis->GetTitleProperties()->SetFontSize(14);
-    axis->GetTitleProperties()->SetBold(false);
-    axis->GetLabelProperties()->SetFontSize(12);
-  }
-  chart->SetShowLegend(series.size() > 1);
-  chart->GetLegend()->GetLabelProperties()->SetFontSize(12);
+  Chart plot(title, x_label, y_label, width, height, series.size() > 1);
+  vtkChartXY* chart = plot.chart;
+  vtkAxis* x_axis = plot.x_axis;
+  vtkAxis* y_axis = plot.y_axis;
 
   double x_low = std::numeric_limits<double>::infinity(), x_high = -x_low, y_low = x_low, y_high = -x_low;
   std::vector<vtkSmartPointer<vtkTable>> tables;
@@ -129,7 +147,62 @@ void write_line_plot_png(const std::vector<Series>& series, const std::string& t
   widen_if_flat(x_axis, x_low, x_high);
   widen_if_flat(y_axis, y_low, y_high);
 
-  write_window_png(window, png_path);
+  write_window_png(plot.window(), png_path);
+}
+
+void write_bar_chart_png(const std::vector<std::string>& categories, const std::vector<BarSeries>& series,
+                         const std::string& title, const std::string& y_label, const std::string& png_path, int width,
+                         int height) {
+  if (categories.empty() || series.empty()) throw std::invalid_argument("write_bar_chart_png: nothing to draw");
+  check_size("write_bar_chart_png", width, height);
+  double y_high = 0.0;
+  for (const BarSeries& s : series) {
+    if (s.values.size() != categories.size())
+      throw std::invalid_argument("write_bar_chart_png: series '" + s.name + "' has " +
+                                  std::to_string(s.values.size()) + " values for " +
+                                  std::to_string(categories.size()) + " categories");
+    for (std::size_t i = 0; i < s.values.size(); ++i) {
+      if (!std::isfinite(s.values[i]))
+        throw std::invalid_argument("write_bar_chart_png: series '" + s.name + "' has a non-finite value for '" +
+                                    categories[i] + "'");
+      y_high = std::max(y_high, s.values[i]);
+    }
+  }
+  require_display(png_path);
+  Chart plot(title, "", y_label, width, height, series.size() > 1);
+
+  vtkNew<vtkTable> table;
+  vtkNew<vtkDoubleArray> position;
+  position->SetName("category");
+  position->SetNumberOfValues(static_cast<vtkIdType>(categories.size()));
+  vtkNew<vtkDoubleArray> ticks;
+  vtkNew<vtkStringArray> labels;
+  for (std::size_t i = 0; i < categories.size(); ++i) {
+    position->SetValue(static_cast<vtkIdType>(i), static_cast<double>(i + 1));
+    ticks->InsertNextValue(static_cast<double>(i + 1));
+    labels->InsertNextValue(categories[i]);
+  }
+  table->AddColumn(position);
+  for (const BarSeries& s : series) {
+    vtkNew<vtkDoubleArray> values;
+    values->SetName(s.name.empty() ? "value" : s.name.c_str());
+    values->SetNumberOfValues(static_cast<vtkIdType>(s.values.size()));
+    for (std::size_t i = 0; i < s.values.size(); ++i) values->SetValue(static_cast<vtkIdType>(i), s.values[i]);
+    table->AddColumn(values);
+  }
+  // One bar plot per series: the chart sets them side by side within each category.
+  for (std::size_t k = 0; k < series.size(); ++k) {
+    vtkPlot* bars = plot.chart->AddPlot(vtkChart::BAR);
+    bars->SetInputData(table, 0, static_cast<vtkIdType>(k + 1));
+    const auto& colour = kColours[k % kColours.size()];
+    bars->SetColor(colour[0], colour[1], colour[2], 255);
+  }
+  plot.x_axis->SetCustomTickPositions(ticks, labels);
+  plot.x_axis->SetBehavior(vtkAxis::FIXED);
+  plot.x_axis->SetRange(0.4, categories.size() + 0.6);
+  plot.y_axis->SetBehavior(vtkAxis::FIXED);
+  plot.y_axis->SetRange(0.0, y_high > 0.0 ? 1.1 * y_high : 1.0);
+  write_window_png(plot.window(), png_path);
 }
 
 }  // namespace organsim::plot

@@ -1,5 +1,6 @@
-// Line plots as PNG files (VTK Charts, rendered off screen): the displacement
-// of a point over the steps, forces over time, any y(x) columns. Used by
+// Line plots and bar charts as PNG files (VTK Charts, rendered off screen): the
+// displacement of a point over the steps, forces over time, any y(x) columns;
+// a measure per model. Used by
 // `organsim plot` and the experiment scripts (tools/experiments/).
 //
 // VTK 9.1 as Debian builds it renders off screen through X only: without a
@@ -27,5 +28,18 @@ struct Series {
 /// cannot be written.
 void write_line_plot_png(const std::vector<Series>& series, const std::string& title, const std::string& x_label,
                          const std::string& y_label, const std::string& png_path, int width = 800, int height = 500);
+
+/// One kind of bar, drawn in the legend as `name`: one value per category.
+struct BarSeries {
+  std::string name;
+  std::vector<double> values;
+};
+
+/// Grouped bars: per category (named under the x axis), one bar of each
+/// series side by side. Written like write_line_plot_png, with the same
+/// errors (a series with another count of values than categories too).
+void write_bar_chart_png(const std::vector<std::string>& categories, const std::vector<BarSeries>& series,
+                         const std::string& title, const std::string& y_label, const std::string& png_path,
+                         int width = 800, int height = 500);
 
 }  // namespace organsim::plot

@@ -506,6 +506,13 @@ void OrganFem::surface_positions(model::Point3* positions) const noexcept {
   }
 }
 
+void OrganFem::node_positions(model::Point3* positions) const noexcept {
+  for (std::size_t n = 0; n < node_points_.size(); ++n) {
+    const Eigen::Vector3d x = point(node_points_[n]) + state_.segment<3>(3 * static_cast<Eigen::Index>(n));
+    positions[n] = {x[0], x[1], x[2]};
+  }
+}
+
 Eigen::Ref<const Eigen::VectorXd> OrganFem::displacements() const noexcept {
   return state_.head(static_cast<Eigen::Index>(displacement_dofs_));
 }

@@ -48,6 +48,8 @@ inline constexpr std::uint32_t kMaxMetadataEntries = 4096;
 inline constexpr std::uint32_t kMaxMetadataKeyBytes = 256;
 inline constexpr std::uint32_t kMaxMetadataValueBytes = 65536;
 inline constexpr std::uint32_t kMaterialFieldsV1 = 5;
+/// Format 1.1 added the beam and spring stiffness scales (1 when absent).
+inline constexpr std::uint32_t kMaterialFieldsV1_1 = 7;
 inline constexpr std::uint32_t kBeamFieldsV1 = 7;
 
 enum class Section { Metadata, SurfaceVertices, SurfaceTriangles, SurfaceTexcoords,

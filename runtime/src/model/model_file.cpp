@@ -98,10 +98,10 @@ std::vector<std::uint8_t> encode_section(Section id, const OrganModel& m) {
     case Section::FixedPoints: w.put_array(m.fixed_points); break;
     case Section::Material: {
       const Material& mat = m.material;
-      w.put<std::uint32_t>(format::kMaterialFieldsV1);
+      w.put<std::uint32_t>(format::kMaterialFieldsV1_1);
       w.put<std::uint32_t>(0);
       for (double v : {mat.young_modulus, mat.poisson_ratio, mat.density, mat.attenuation_alpha,
-                       mat.attenuation_beta})
+                       mat.attenuation_beta, mat.beam_stiffness_scale, mat.spring_stiffness_scale})
         w.put<double>(v);
       break;
     }
@@ -239,9 +239,12 @@ void read_material(const std::uint8_t* data, std::size_t size, Material& mat) {
       fields * sizeof(double) != r.remaining())
     fail_section(id, "field count " + std::to_string(fields) + " does not match the payload of " +
                          std::to_string(size) + " bytes; " + kDamagedAdvice);
-  double* targets[] = {&mat.young_modulus, &mat.poisson_ratio, &mat.density, &mat.attenuation_alpha,
-                       &mat.attenuation_beta};
-  for (double* t : targets) r.get(*t);
+  double* targets[] = {&mat.young_modulus,     &mat.poisson_ratio,         &mat.density,
+                       &mat.attenuation_alpha, &mat.attenuation_beta,      &mat.beam_stiffness_scale,
+                       &mat.spring_stiffness_scale};
+  // Fields beyond those known (a newer minor version's) are skipped; known
+  // fields a 1.0 file lacks keep their defaults.
+  for (std::uint32_t f = 0; f < std::min<std::uint32_t>(fields, std::size(targets)); ++f) r.get(*targets[f]);
 }
 
 void read_beams(const std::uint8_t* data, std::size_t size, BeamTables& beams) {

@@ -102,6 +102,9 @@ std::optional<ModelIssue> find_model_issue(const OrganModel& m) {
     return issue(format::Section::Material, "attenuation alpha must be positive");
   if (!(std::isfinite(mat.attenuation_beta) && mat.attenuation_beta >= 0))
     return issue(format::Section::Material, "attenuation beta must be zero or positive (1/m)");
+  if (!(std::isfinite(mat.beam_stiffness_scale) && mat.beam_stiffness_scale > 0 &&
+        std::isfinite(mat.spring_stiffness_scale) && mat.spring_stiffness_scale > 0))
+    return issue(format::Section::Material, "the beam and spring stiffness scales must be positive");
 
   const BeamTables& b = m.beams;
   if (b.empty()) {

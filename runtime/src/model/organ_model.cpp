@@ -21,7 +21,8 @@ Material liver_default_material() {
 bool Material::operator==(const Material& o) const {
   return young_modulus == o.young_modulus && poisson_ratio == o.poisson_ratio &&
          density == o.density && attenuation_alpha == o.attenuation_alpha &&
-         attenuation_beta == o.attenuation_beta;
+         attenuation_beta == o.attenuation_beta && beam_stiffness_scale == o.beam_stiffness_scale &&
+         spring_stiffness_scale == o.spring_stiffness_scale;
 }
 
 bool BeamSection::operator==(const BeamSection& o) const {

@@ -58,7 +58,8 @@ BeamOrgan::BeamOrgan(model::OrganModel model)
       fixed_point_(model_.fixed_points.empty() ? Eigen::Vector3d::Zero()
                                                : Eigen::Vector3d(model_.fixed_points[0][0], model_.fixed_points[0][1],
                                                                  model_.fixed_points[0][2])),
-      elasticity_(BeamElasticity::from(model_.material.young_modulus, model_.material.poisson_ratio)),
+      elasticity_(BeamElasticity::from(model_.material.young_modulus * model_.material.beam_stiffness_scale,
+                                        model_.material.poisson_ratio)),
       attenuation_rate_(model_.material.attenuation_beta * std::log(model_.material.attenuation_alpha)),
       tree_(model_.surface_vertices, model_.surface_triangles) {
   if (model_.beams.empty())

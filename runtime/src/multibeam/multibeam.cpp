@@ -347,6 +347,36 @@ void MultiBeam::distort(std::size_t first, std::size_t last, model::Point3* posi
   }
 }
 
+Eigen::Vector3d MultiBeam::displacement_at(const Eigen::Vector3d& rest) const noexcept {
+  const bool influence = options_.merge == MergeRule::influence;
+  double group_weight[kMaxTools];
+  std::fill(group_weight, group_weight + kMaxTools, 1.0);
+  if (influence && influence_.count() > 1) influence_.weights(rest, group_weight);
+  const Eigen::Vector3d offset = rest - organ_.fixed_point();
+  const std::uint32_t stations = organ_.stations();
+  Eigen::Vector3d total = Eigen::Vector3d::Zero();
+  for (std::uint32_t slot = 0; slot < active_count_; ++slot) {
+    const ToolBeam& beam = tools_[active_tool_[slot]];
+    const Eigen::Vector3d axis = beam.frame.col(0);
+    const double t = std::clamp(offset.dot(axis) / beam.length, 0.0, 1.0);
+    const double tau = t * stations;
+    const std::uint32_t element = std::min(static_cast<std::uint32_t>(tau), stations - 1);
+    const double xi = tau - element;
+    const Eigen::Vector3d q = offset - t * beam.length * axis;
+    const float* c = coefficients(slot, element);
+    Eigen::Vector3d u, theta;
+    for (int k = 0; k < 3; ++k) {
+      u[k] = ((c[9 + k] * xi + c[6 + k]) * xi + c[3 + k]) * xi + c[k];
+      theta[k] = c[12 + k] + xi * c[15 + k];
+    }
+    const Eigen::Vector3d rotated = theta.cross(q);
+    const double weight = std::exp(-organ_.attenuation_rate() * (rest - active_point_[slot]).norm()) *
+                          (influence ? group_share_[slot] * group_weight[active_group_[slot]] : 1.0);
+    total += weight * (u + rotated + 0.5 * theta.cross(rotated));
+  }
+  return total;
+}
+
 void MultiBeam::normals(std::size_t first, std::size_t last, const model::Point3* positions, model::Point3* normals) const noexcept {
   compute_vertex_normals(organ_, positions, normals, first, last);
 }

@@ -124,6 +124,17 @@ class SpringModel final : public DeformationModel {
 
   std::uint64_t instabilities() const noexcept override { return instabilities_; }
 
+  bool volume_node_positions(model::Point3* positions, std::size_t capacity) const noexcept override {
+    // The network's nodes: the surface vertices, then (volume springs) the tetrahedral nodes.
+    const std::size_t surface = organ_.vertex_count(), nodes = organ_.model().volume_vertices.size();
+    if (simulation_.network().rest.size() != surface + nodes || nodes == 0 || capacity < nodes) return false;
+    for (std::size_t i = 0; i < nodes; ++i) {
+      const Eigen::Vector3d& x = simulation_.position(static_cast<std::uint32_t>(surface + i));
+      positions[i] = {x[0], x[1], x[2]};
+    }
+    return true;
+  }
+
   const std::uint32_t* moved_vertices(std::size_t& count) const noexcept override {
     count = moved_all_ ? 0 : moved_count_;
     return moved_all_ ? nullptr : moved_.data();
@@ -228,6 +239,12 @@ class FemModel final : public DeformationModel {
   }
 
   std::uint64_t instabilities() const noexcept override { return instabilities_; }
+
+  bool volume_node_positions(model::Point3* positions, std::size_t capacity) const noexcept override {
+    if (capacity < organ_.model().volume_vertices.size()) return false;
+    fem_.node_positions(positions);
+    return true;
+  }
 
  private:
   static fem::MaterialModel material_of(ModelKind kind) {

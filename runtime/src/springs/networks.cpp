@@ -190,7 +190,7 @@ SpringNetwork make_organ_network(const model::OrganModel& model, const OrganNetw
   const double mean_edge = length_sum / static_cast<double>(edge_count);
   require(mean_edge > 0.0, "the surface edges have zero length");
 
-  const double k = o.stiffness > 0.0 ? o.stiffness : model.material.young_modulus * mean_edge;
+  const double k = o.stiffness > 0.0 ? o.stiffness : model.material.young_modulus * model.material.spring_stiffness_scale * mean_edge;
   require(std::isfinite(k) && k > 0.0, "the structural spring constant is zero: set stiffness or the model's E");
   const double depth = o.anchor_depth > 0.0 ? o.anchor_depth : mean_edge;
 

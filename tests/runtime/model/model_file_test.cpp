@@ -32,6 +32,8 @@ model::OrganModel small_model() {
   m.provenance.input_sha256 = std::string(64, 'a');
   m.provenance.parameters["tet_size_mm"] = "4";
   m.provenance.parameters["label"] = "liver, värde 1";
+  m.material.beam_stiffness_scale = 1.25;
+  m.material.spring_stiffness_scale = 0.8;
   return m;
 }
 
@@ -173,7 +175,7 @@ TEST(ModelFile, FutureMajorVersionIsRefusedWithBothVersions) {
   poke<std::uint16_t>(bytes, 8, 2);
   poke<std::uint16_t>(bytes, 10, 3);
   refresh_checksums(bytes);
-  EXPECT_ERROR(bytes, "format version 2.3 but this organsim reads format 1.0");
+  EXPECT_ERROR(bytes, "format version 2.3 but this organsim reads format 1.1");
 }
 
 TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
@@ -181,9 +183,9 @@ TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
   const auto suvc = find_section(bytes, "SUVC");
   std::memcpy(bytes.data() + suvc.table_entry, "XTRA", 4);
   refresh_checksums(bytes);
-  EXPECT_ERROR(bytes, "section 'XTRA' is unknown in a format 1.0 file");
+  EXPECT_ERROR(bytes, "section 'XTRA' is unknown in a format 1.1 file");
 
-  poke<std::uint16_t>(bytes, 10, 1);
+  poke<std::uint16_t>(bytes, 10, model::kModelFormatVersion.minor + 1);
   refresh_checksums(bytes);
   const model::ModelReadResult r = model::parse_organ_model(bytes.data(), bytes.size(), "x");
   ASSERT_TRUE(r) << r.error;
@@ -191,6 +193,22 @@ TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
   bool skipped = false;
   for (const auto& s : r.file.sections) skipped |= (s.tag == "XTRA" && !s.understood);
   EXPECT_TRUE(skipped);
+}
+
+TEST(ModelFile, FormatOnePointZeroMaterialHasUnitStiffnessScales) {
+  // A 1.0 writer's MATL held five fields: E, nu, rho, alpha, beta.
+  auto bytes = encoded();
+  poke<std::uint16_t>(bytes, 10, 0);
+  const auto material = find_section(bytes, "MATL");
+  poke<std::uint32_t>(bytes, material.offset, 5u);
+  poke<std::uint64_t>(bytes, material.table_entry + 24, material.size - 16);
+  refresh_checksums(bytes);
+  const model::ModelReadResult r = model::parse_organ_model(bytes.data(), bytes.size(), "x");
+  ASSERT_TRUE(r) << r.error;
+  EXPECT_EQ(r.model->material.young_modulus, small_model().material.young_modulus);
+  EXPECT_EQ(r.model->material.attenuation_beta, small_model().material.attenuation_beta);
+  EXPECT_EQ(r.model->material.beam_stiffness_scale, 1.0);
+  EXPECT_EQ(r.model->material.spring_stiffness_scale, 1.0);
 }
 
 TEST(ModelFile, ByteOrderAndScalarSizes) {
@@ -282,13 +300,13 @@ TEST(ModelFile, StructuralDamageToTheTable) {
   EXPECT_ERROR(overlap, "two sections overlap");
 
   auto missing = encoded();
-  poke<std::uint16_t>(missing, 10, 1);
+  poke<std::uint16_t>(missing, 10, model::kModelFormatVersion.minor + 1);
   std::memcpy(missing.data() + find_section(missing, "FIXP").table_entry, "FIXQ", 4);
   refresh_checksums(missing);
   EXPECT_ERROR(missing, "section 'FIXP' (fixed points) is missing but required");
 
   auto orphan_tets = encoded();
-  poke<std::uint16_t>(orphan_tets, 10, 1);
+  poke<std::uint16_t>(orphan_tets, 10, model::kModelFormatVersion.minor + 1);
   std::memcpy(orphan_tets.data() + find_section(orphan_tets, "TVRT").table_entry, "TVRX", 4);
   refresh_checksums(orphan_tets);
   EXPECT_ERROR(orphan_tets, "section 'TETS' (tetrahedra): present without section 'TVRT'");

@@ -149,6 +149,32 @@ TEST_F(CylinderOrgan, TwoToolsPullingApartDragEachOtherOnlyUnderSuperposition) {
   }
 }
 
+TEST_F(CylinderOrgan, DisplacementAtAnyPointIsTheDistortionOfTheSurfaceVertices) {
+  // Three tools, both merge rules: the point-wise field (for interior nodes)
+  // reproduces distort() at every surface vertex, and moves interior points
+  // smoothly (the axis under a tool follows it, attenuated).
+  const Eigen::Vector3d points[3] = {far_cap_centre, {0.0875, spec.radius, 0.0}, {0.1375, 0.0, -spec.radius}};
+  const Eigen::Vector3d tips[3] = {{0.0, 0.004, 0.001}, {-0.002, -0.003, 0.0}, {0.001, 0.0, 0.003}};
+  for (MergeRule rule : {MergeRule::sum, MergeRule::influence}) {
+    MultiBeamOptions options;
+    options.merge = rule;
+    MultiBeam beams(organ, options);
+    for (std::uint32_t i = 0; i < 3; ++i) ASSERT_EQ(beams.attach(i, points[i]), Status::ok);
+    ASSERT_EQ(beams.deform(tips, positions.data(), normals.data(), positions.size()), Status::ok);
+    double largest = 0.0;
+    for (std::size_t v = 0; v < organ.vertex_count(); ++v) {
+      const Eigen::Vector3d rest = vec(organ.model().surface_vertices[v]);
+      const Eigen::Vector3d expected = vec(positions[v]) - rest;
+      largest = std::max(largest, expected.norm());
+      ASSERT_LT((beams.displacement_at(rest) - expected).norm(), distortion_tolerance(expected.norm())) << v;
+    }
+    EXPECT_GT(largest, 0.003);
+    const Eigen::Vector3d inside = beams.displacement_at({0.12, 0.0, 0.0});
+    EXPECT_TRUE(inside.allFinite());
+    EXPECT_GT(inside.norm(), 1e-4);
+  }
+}
+
 TEST_F(CylinderOrgan, CoincidingToolsAreMergedWithoutNaN) {
   MultiBeam beams(organ, {});
   ASSERT_EQ(beams.attach(0, far_cap_centre), Status::ok);

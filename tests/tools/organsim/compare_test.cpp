@@ -6,6 +6,8 @@
 
 #include <vtkDataArray.h>
 #include <vtkNew.h>
+#include <vtkImageData.h>
+#include <vtkPNGReader.h>
 #include <vtkPointData.h>
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLUnstructuredGridReader.h>
@@ -86,6 +88,36 @@ TEST_F(Cli, CompareMeasuresEveryModelAgainstTheReference) {
       EXPECT_GT(largest_difference, 0.0) << name;
     EXPECT_NEAR(displacement->GetRange(2)[0], -5.0, 1.0) << name;  // mm: the press
   }
+}
+
+TEST_F(Cli, CompareDrawsItsPlotsUnderAVirtualDisplay) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const fs::path out = dir_ / "plots";
+  const CommandRun run = run_organsim_with_prefix(
+      "xvfb-run -a -s '-screen 0 1280x1024x24' ",
+      "compare " + model + kPress + " --models beam,linear --sweep 2 --json --out " + out.string(), dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json j = nlohmann::json::parse(run.out);
+  ASSERT_EQ(j["plots"].size(), 2u);
+  for (const char* name : {"differences.png", "force_depth.png"}) {
+    vtkNew<vtkPNGReader> reader;
+    reader->SetFileName((out / name).string().c_str());
+    reader->Update();
+    int size[3] = {};
+    reader->GetOutput()->GetDimensions(size);
+    EXPECT_EQ(size[0], 800) << name;
+    EXPECT_EQ(size[1], 500) << name;
+  }
+  // The tetrahedra of the models that move them, with both fields.
+  for (const char* name : {"beam", "linear", "psh"}) {
+    vtkNew<vtkXMLUnstructuredGridReader> reader;
+    reader->SetFileName((out / (std::string(name) + "_tetrahedra.vtu")).string().c_str());
+    reader->Update();
+    EXPECT_GT(reader->GetOutput()->GetNumberOfCells(), 100) << name;
+    EXPECT_NE(reader->GetOutput()->GetPointData()->GetArray("difference"), nullptr) << name;
+  }
+  EXPECT_EQ(j["models"]["beam"]["compared_on"], "tetrahedral nodes");
 }
 
 TEST_F(Cli, CompareTextTableAndAChosenReference) {

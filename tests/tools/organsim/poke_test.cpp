@@ -87,6 +87,49 @@ TEST_F(Cli, PokeABakedCylinderGivesTheCantileverForces) {
               100.0 * (a["tools"][0]["force_n"][0].get<double>() / expected_axial - 1.0));
 }
 
+TEST_F(Cli, BakedCylinderBeamAndCorotationalFemForcesAgreeWithinBeamTheory) {
+  // The baked cylinder (radius a = 25 mm, L = 150 mm, a/L = 1/6) pressed 5 mm
+  // across at the far cap, by the beam and by the co-rotational FEM with every
+  // node within R = 26 mm of the cap centre clamped. Beam theory's expected
+  // error for this slenderness: Euler-Bernoulli leaves out shear, which adds
+  // 3EI/(kGAL^2) = 2.4 (a/L)^2 = 6.7 % to the compliance (k = 0.90, nu = 0.45);
+  // Timoshenko's beam includes it. And the FEM's clamp is a ball, not the
+  // x = 0 plane: its surface crosses the cylinder between sqrt(R^2 - a^2) =
+  // 7.1 mm (the rim) and R = 26 mm (the axis) from the cap, so the FEM's
+  // cantilever is that much shorter. Each beam's force must lie between the
+  // forces its theory gives for those two lengths, scaled to the beam's own
+  // length: F_beam / F_fem in [k(L) / k(L - 26 mm), k(L) / k(L - 7.1 mm)].
+  const fs::path ct = dir_ / "cylinder_ct.nii.gz", label = dir_ / "cylinder_label.nii.gz";
+  write_cylinder_ct(ct, label);
+  const std::string model = (dir_ / "cylinder.organ").string();
+  const CommandRun bake = run_organsim("bake " + ct.string() + " --label " + label.string() +
+                                           " --fixed-point 0,0,0 --surface-vertices 4000 -o " + model,
+                                       dir_);
+  ASSERT_EQ(bake.exit_code, 0) << bake.err;
+  const double e = 5000.0, nu = 0.45, a = 0.025, length = 0.151, ball = 0.026;
+  const double shear_factor = 6.0 * (1.0 + nu) / (7.0 + 6.0 * nu);  // circular section
+  const double inertia = M_PI * std::pow(a, 4) / 4.0, area = M_PI * a * a, g = e / (2.0 * (1.0 + nu));
+  auto stiffness = [&](const std::string& theory, double l) {
+    const double bending = l * l * l / (3.0 * e * inertia);
+    return 1.0 / (theory == "timoshenko" ? bending + l / (shear_factor * g * area) : bending);
+  };
+  for (const std::string theory : {"euler-bernoulli", "timoshenko"}) {
+    const CommandRun run = run_organsim("compare " + model + " --tool 151,0,0/0,5,0 --models beam,corotational "
+                                            "--reference corotational --fixed-radius 26 --json --theory " + theory,
+                                        dir_);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const nlohmann::json j = nlohmann::json::parse(run.out);
+    const double beam = -j["models"]["beam"]["forces_n"][0][1].get<double>();
+    const double fem = -j["models"]["corotational"]["forces_n"][0][1].get<double>();
+    const double low = stiffness(theory, length) / stiffness(theory, length - ball);
+    const double high = stiffness(theory, length) / stiffness(theory, length - std::sqrt(ball * ball - a * a));
+    std::printf("baked cylinder, %s beam vs co-rotational FEM tip force: %.5f / %.5f N = %.3f (expected %.3f to %.3f)\n",
+                theory.c_str(), beam, fem, beam / fem, low, high);
+    EXPECT_GT(beam / fem, low) << theory;
+    EXPECT_LT(beam / fem, high) << theory;
+  }
+}
+
 TEST_F(Cli, PokeJsonHasTheDocumentedKeysAndWritesTheDeformedSurface) {
   const std::string model = (dir_ / "cylinder.organ").string();
   model::write_organ_model_file(testing::make_cylinder_model({}), model);

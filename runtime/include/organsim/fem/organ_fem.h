@@ -142,6 +142,8 @@ class OrganFem {
 
   /// The surface vertices' positions (m) in the model's vertex order.
   void surface_positions(model::Point3* positions) const noexcept;
+  /// The tetrahedral nodes' positions (m) in the model's node order.
+  void node_positions(model::Point3* positions) const noexcept;
   /// Node displacements (m, 3 per tetrahedral node) and, for psh, pressures (Pa, per tetrahedron).
   Eigen::Ref<const Eigen::VectorXd> displacements() const noexcept;
   Eigen::Ref<const Eigen::VectorXd> pressures() const noexcept;

@@ -27,6 +27,12 @@ struct Material {
   double density = 0.0;             ///< ρ, kg/m³
   double attenuation_alpha = 0.0;   ///< α of s' = s / α^(β d), dimensionless, > 0
   double attenuation_beta = 0.0;    ///< β of s' = s / α^(β d), 1/m, >= 0
+  /// The fast models' stiffness relative to E (> 0; 1 unless `organsim
+  /// calibrate` fitted them to a FEM reference): the multi-beam model's beams
+  /// use E × beam_stiffness_scale, the mass-spring model's springs
+  /// E × spring_stiffness_scale × the mean edge length. The FEM models use E.
+  double beam_stiffness_scale = 1.0;
+  double spring_stiffness_scale = 1.0;
 
   bool operator==(const Material& other) const;
 };

@@ -105,6 +105,16 @@ class MultiBeam {
   void distort(std::size_t first, std::size_t last, model::Point3* positions) noexcept;
   void normals(std::size_t first, std::size_t last, const model::Point3* positions, model::Point3* normals) const noexcept;
 
+  /// The displacement (m) that the space distortion of the last prepare()
+  /// gives any rest point `rest` (m), not only a surface vertex: an interior
+  /// node of the tetrahedral mesh, a point of a plot. The rules of distort()
+  /// (the same beam coefficients), evaluated in double precision one point at a
+  /// time, so at the surface vertices it agrees with distort() to distort()'s
+  /// single-precision tolerance. For offline use (compare, calibrate): each
+  /// call costs a square root and an exponential per tool and the influence
+  /// function's distances.
+  Eigen::Vector3d displacement_at(const Eigen::Vector3d& rest) const noexcept;
+
  private:
   // Per active tool, per element: cubic coefficients of the displacement
   // u(ξ) = c0 + c1 ξ + c2 ξ² + c3 ξ³ (3 components each) and the rotation
@@ -112,6 +122,9 @@ class MultiBeam {
   // precision like the rest of the distortion (see distort()).
   static constexpr int kCoefficients = 18;
   float* coefficients(std::uint32_t slot, std::uint32_t element) noexcept {
+    return coefficient_data_.data() + (static_cast<std::size_t>(slot) * organ_.stations() + element) * kCoefficients;
+  }
+  const float* coefficients(std::uint32_t slot, std::uint32_t element) const noexcept {
     return coefficient_data_.data() + (static_cast<std::size_t>(slot) * organ_.stations() + element) * kCoefficients;
   }
   // Per active tool, per vertex (valid between contact changes): the weight

@@ -85,6 +85,15 @@ class DeformationModel {
     count = 0;
     return nullptr;
   }
+  /// Where the model's tetrahedral nodes are now (m, the model file's node
+  /// order; `capacity` ≥ the model's volume vertices), for a model that moves
+  /// them: the FEM models, the mass-spring model with volume springs. False
+  /// (nothing written) for a model that moves only the surface.
+  virtual bool volume_node_positions(model::Point3* positions, std::size_t capacity) const noexcept {
+    (void)positions;
+    (void)capacity;
+    return false;
+  }
   /// Nodes the last step() integrated (the mass-spring model's active
   /// region); 0 for models that have no such notion.
   virtual std::size_t active_nodes() const noexcept { return 0; }

@@ -1,0 +1,382 @@
+// `organsim calibrate MODEL -o CALIBRATED.organ [--reference psh|corotational]
+// [--presses N]`: presses the organ at N places spread over its surface with
+// the reference FEM model and fits the fast models to it: the multi-beam
+// model's attenuation and stiffness scale, the mass-spring model's stiffness
+// scale. Half the presses fit, the other half measure the error before and
+// after; the fitted values go into a copy of the model with their provenance.
+//
+// Why the fit is so simple (docs/cli.md#calibrate): under a prescribed tool
+// displacement the multi-beam space distortion of a single tool is
+// exp(−κ d) s(x), s independent of the material and κ = β ln α; its force is
+// linear in E. So κ is a one-dimensional minimization of the nodal
+// displacement difference (only β ln α enters: α is kept and β fitted), and
+// each stiffness scale is the least-squares ratio of the forces.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <limits>
+#include <random>
+#include <stdexcept>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "command_line.h"
+#include "organsim/model/model_file.h"
+#include "static_press.h"
+
+namespace organsim::cli {
+namespace {
+
+struct CalibrateOptions {
+  std::string model_path, output_path;
+  std::string reference = "psh";
+  int presses = 16;
+  double depth_mm = 5.0;
+  std::uint32_t seed = 1;
+  bool json = false;
+  PressOptions press = settled_long_enough();
+  /// The mass-spring presses held 6 s (the engine's 2 s settle a unit-scale
+  /// network; a fitted softer one rings longer, and an unsettled press would
+  /// show as a displacement error the fit did not make).
+  static PressOptions settled_long_enough() {
+    PressOptions o;
+    o.settle_seconds = 6.0;
+    return o;
+  }
+};
+
+Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
+
+/// Surface vertices (runtime numbering) to press: spread by farthest-point
+/// sampling from a seeded start, among the vertices far enough from the
+/// clamp that every model can take the press (a quarter of the way from the
+/// clamp ball to the farthest vertex).
+std::vector<std::uint32_t> press_sites(const multibeam::BeamOrgan& organ, int count, std::uint32_t seed,
+                                       double clamp_radius) {
+  const std::vector<model::Point3>& vertices = organ.model().surface_vertices;
+  double farthest = 0.0;
+  for (const model::Point3& v : vertices) farthest = std::max(farthest, (point(v) - organ.fixed_point()).norm());
+  const double nearest_allowed = clamp_radius + 0.25 * (farthest - clamp_radius);
+  std::vector<std::uint32_t> candidates;
+  for (std::uint32_t v = 0; v < vertices.size(); ++v)
+    if ((point(vertices[v]) - organ.fixed_point()).norm() >= nearest_allowed) candidates.push_back(v);
+  if (candidates.size() < static_cast<std::size_t>(count))
+    throw std::runtime_error(fmt::format("the organ has {} surface vertices away from the clamp, fewer than --presses {}",
+                                         candidates.size(), count));
+  std::mt19937 random(seed);
+  std::vector<std::uint32_t> sites{candidates[random() % candidates.size()]};
+  std::vector<double> distance(candidates.size(), std::numeric_limits<double>::infinity());
+  while (sites.size() < static_cast<std::size_t>(count)) {
+    const Eigen::Vector3d last = point(vertices[sites.back()]);
+    std::size_t best = 0;
+    for (std::size_t c = 0; c < candidates.size(); ++c) {
+      distance[c] = std::min(distance[c], (point(vertices[candidates[c]]) - last).norm());
+      if (distance[c] > distance[best]) best = c;
+    }
+    sites.push_back(candidates[best]);
+  }
+  return sites;
+}
+
+/// One press of the calibration: the reference's answer and what the fast
+/// models need to be refitted without pressing again.
+struct Probe {
+  ToolSpec tool;
+  PressResult reference;
+  std::vector<Eigen::Vector3d> unattenuated;  ///< per tetrahedral node: the beam's distortion with κ = 0, m
+  std::vector<double> distance;               ///< per tetrahedral node: from the beam's action point, m
+  Eigen::Vector3d beam_force, spring_force;   ///< N, at stiffness scale 1
+};
+
+/// Mean nodal displacement difference (fraction of the bounding box's
+/// diagonal) of the beam field exp(−κ d) s against the reference.
+double beam_difference(const Probe& p, const multibeam::BeamOrgan& organ, double rate, double diagonal) {
+  const std::vector<model::Point3>& rest = organ.model().volume_vertices;
+  double sum = 0.0;
+  for (std::size_t n = 0; n < rest.size(); ++n) {
+    const Eigen::Vector3d reference = point(p.reference.node_positions[n]) - point(rest[n]);
+    sum += (std::exp(-rate * p.distance[n]) * p.unattenuated[n] - reference).norm();
+  }
+  return sum / (diagonal * static_cast<double>(std::max<std::size_t>(rest.size(), 1)));
+}
+
+double mean_beam_difference(const std::vector<Probe>& probes, const multibeam::BeamOrgan& organ, double rate,
+                            double diagonal) {
+  double sum = 0.0;
+  for (const Probe& p : probes) sum += beam_difference(p, organ, rate, diagonal);
+  return sum / static_cast<double>(probes.size());
+}
+
+/// The attenuation rate κ (1/m) that minimizes the mean difference: a scan
+/// over [0, 400] 1/m, then golden-section search around the best point.
+double fit_attenuation_rate(const std::vector<Probe>& probes, const multibeam::BeamOrgan& organ, double diagonal) {
+  constexpr double kHighest = 400.0, kStep = 10.0;
+  auto cost = [&](double rate) { return mean_beam_difference(probes, organ, rate, diagonal); };
+  double best = 0.0, best_cost = cost(0.0);
+  for (double rate = kStep; rate <= kHighest; rate += kStep)
+    if (const double c = cost(rate); c < best_cost) best = rate, best_cost = c;
+  double low = std::max(0.0, best - kStep), high = best + kStep;
+  const double ratio = (std::sqrt(5.0) - 1.0) / 2.0;
+  double a = high - ratio * (high - low), b = low + ratio * (high - low);
+  double cost_a = cost(a), cost_b = cost(b);
+  for (int i = 0; i < 40; ++i) {
+    if (cost_a < cost_b) {
+      high = b, b = a, cost_b = cost_a;
+      a = high - ratio * (high - low), cost_a = cost(a);
+    } else {
+      low = a, a = b, cost_a = cost_b;
+      b = low + ratio * (high - low), cost_b = cost(b);
+    }
+  }
+  const double refined = 0.5 * (low + high);
+  return cost(refined) < best_cost ? refined : best;
+}
+
+/// The scale s minimizing Σ |s F − F_reference|² over the probes.
+double fit_force_scale(const std::vector<Probe>& probes, Eigen::Vector3d Probe::*force) {
+  double along = 0.0, square = 0.0;
+  for (const Probe& p : probes) {
+    along += (p.*force).dot(p.reference.tools[0].force);
+    square += (p.*force).squaredNorm();
+  }
+  if (!(square > 0.0) || !(along > 0.0))
+    throw std::runtime_error("the presses gave no force to fit a stiffness to: press deeper (--depth)");
+  return along / square;
+}
+
+/// The relative force error sqrt(Σ |s F − F_reference|² / Σ |F_reference|²)
+/// over the probes (what the fit minimizes, relative).
+double force_error(const std::vector<Probe>& probes, Eigen::Vector3d Probe::*force, double scale) {
+  double error = 0.0, size = 0.0;
+  for (const Probe& p : probes) {
+    error += (scale * (p.*force) - p.reference.tools[0].force).squaredNorm();
+    size += p.reference.tools[0].force.squaredNorm();
+  }
+  return std::sqrt(error / size);
+}
+
+/// Held-out errors of the fast models as pressed with `organ`'s material.
+struct HeldOutError {
+  double beam_difference = 0.0, beam_force = 0.0, spring_difference = 0.0, spring_force = 0.0;
+};
+
+HeldOutError measure_held_out(const multibeam::BeamOrgan& organ, const std::vector<Probe>& probes,
+                              const PressOptions& o, const Eigen::Vector3d& extent) {
+  HeldOutError e;
+  double reference_size = 0.0;
+  // A network softened by s rings 1/sqrt(s) times longer: it is held that much
+  // longer (at most 5 times), so that each is measured settled.
+  PressOptions settled = o;
+  settled.settle_seconds *= std::min(5.0, 1.0 / std::sqrt(std::min(1.0, organ.model().material.spring_stiffness_scale)));
+  for (const Probe& p : probes) {
+    const PressResult beam = press("beam", organ, {p.tool}, o);
+    const PressResult springs = press("springs", organ, {p.tool}, settled);
+    const Eigen::Vector3d& reference = p.reference.tools[0].force;
+    e.beam_difference += compare_presses(beam, p.reference, extent).measure.mean;
+    e.spring_difference += compare_presses(springs, p.reference, extent).measure.mean;
+    e.beam_force += (beam.tools[0].force - reference).squaredNorm();
+    e.spring_force += (springs.tools[0].force - reference).squaredNorm();
+    reference_size += reference.squaredNorm();
+  }
+  const double n = static_cast<double>(probes.size());
+  return {e.beam_difference / n, std::sqrt(e.beam_force / reference_size), e.spring_difference / n,
+          std::sqrt(e.spring_force / reference_size)};
+}
+
+model::OrganModel with_material(model::OrganModel model, const model::Material& material) {
+  model.material = material;
+  return model;
+}
+
+int run_calibrate(CalibrateOptions o) {
+  if (o.presses < 4 || o.presses > 256) throw CLI::ValidationError("--presses", "must be 4 to 256 (half fit, half held out)");
+  o.press.command = "calibrate";
+  const model::OrganModel original = load_simulation_model("calibrate", o.model_path);
+  const model::Material& before = original.material;
+  const multibeam::BeamOrgan organ(original);  // its own material: the errors before
+  if (organ.model().volume_vertices.empty())
+    throw std::runtime_error(o.model_path + ": the model has no tetrahedra for the reference FEM model; bake it with "
+                                            "tetrahedra (organsim bake makes them by default)");
+  model::Material unit = before;  // κ = 0 and unit scales: what the fit scales
+  unit.attenuation_beta = 0.0;
+  unit.beam_stiffness_scale = unit.spring_stiffness_scale = 1.0;
+  const multibeam::BeamOrgan unit_organ(with_material(original, unit));
+  const Eigen::Vector3d extent = bounding_box_extent(organ.model().surface_vertices);
+
+  // The presses, alternately to fit and held out.
+  std::vector<model::Point3> normals(organ.vertex_count());
+  multibeam::compute_vertex_normals(organ, organ.model().surface_vertices.data(), normals.data(), 0,
+                                    organ.vertex_count());
+  std::vector<Probe> fit, held_out;
+  const std::vector<std::uint32_t> sites = press_sites(organ, o.presses, o.seed, o.press.tuning.fixed_radius_mm * 1e-3);
+  for (std::size_t k = 0; k < sites.size(); ++k) {
+    const Eigen::Vector3d at = point(organ.model().surface_vertices[sites[k]]) * 1e3;
+    // Straight in, or tilted 45° along one of two tangents in turn: the organ
+    // is pressed and dragged in use, and a fit to one kind would not transfer.
+    const Eigen::Vector3d normal = point(normals[sites[k]]);
+    Eigen::Index least = 0;
+    normal.cwiseAbs().minCoeff(&least);
+    const Eigen::Vector3d tangent = normal.cross(Eigen::Vector3d::Unit(least)).normalized();
+    const Eigen::Vector3d tilts[3] = {Eigen::Vector3d::Zero(), tangent, normal.cross(tangent)};
+    const Eigen::Vector3d by = o.depth_mm * (tilts[k % 3] - normal).normalized();
+    Probe p;
+    p.tool = {fmt::format("{:.2f},{:.2f},{:.2f}/{:.3f},{:.3f},{:.3f}", at[0], at[1], at[2], by[0], by[1], by[2]), at, by};
+    note("calibrate", fmt::format("press {} of {}: {} with {}", k + 1, sites.size(), p.tool.text, o.reference));
+    try {
+      p.reference = press(o.reference, organ, {p.tool}, o.press);
+    } catch (const std::runtime_error& e) {
+      warn("calibrate", fmt::format("press {} ({}) left out: {}", k + 1, p.tool.text, e.what()));
+      continue;
+    }
+    const PressResult beam = press("beam", unit_organ, {p.tool}, o.press);
+    const PressResult springs = press("springs", unit_organ, {p.tool}, o.press);
+    const std::vector<model::Point3>& rest = organ.model().volume_vertices;
+    for (std::size_t n = 0; n < rest.size(); ++n) {
+      p.unattenuated.push_back(point(beam.node_positions[n]) - point(rest[n]));
+      p.distance.push_back((point(rest[n]) - beam.tools[0].action_point).norm());
+    }
+    p.beam_force = beam.tools[0].force;
+    p.spring_force = springs.tools[0].force;
+    detail("calibrate", fmt::format("|F| {} {:.4f} N, beam {:.4f} N, springs {:.4f} N", o.reference,
+                                    p.reference.tools[0].force.norm(), p.beam_force.norm(), p.spring_force.norm()));
+    ((fit.size() + held_out.size()) % 2 == 0 ? fit : held_out).push_back(std::move(p));
+  }
+  if (fit.size() < 2 || held_out.size() < 2)
+    throw std::runtime_error(fmt::format("only {} of {} presses could be solved by {}: press less deep (--depth)",
+                                         fit.size() + held_out.size(), sites.size(), o.reference));
+
+  // The fit, then a guard: a fitted value whose held-out error (computed the
+  // same way) would be larger than the current value's is not taken.
+  const double diagonal = extent.norm();
+  const double alpha = std::abs(std::log(before.attenuation_alpha)) > 1e-12 ? before.attenuation_alpha : std::exp(1.0);
+  const double rate_before = before.attenuation_beta * std::log(before.attenuation_alpha);
+  model::Material after = before;
+  after.attenuation_alpha = alpha;
+  std::vector<std::string> kept;
+  const double rate = fit_attenuation_rate(fit, unit_organ, diagonal);
+  if (mean_beam_difference(held_out, unit_organ, rate, diagonal) <=
+      mean_beam_difference(held_out, unit_organ, rate_before, diagonal))
+    after.attenuation_beta = rate / std::log(alpha);
+  else
+    kept.push_back("attenuation");
+  const double beam_scale = fit_force_scale(fit, &Probe::beam_force);
+  if (force_error(held_out, &Probe::beam_force, beam_scale) <=
+      force_error(held_out, &Probe::beam_force, before.beam_stiffness_scale))
+    after.beam_stiffness_scale = beam_scale;
+  else
+    kept.push_back("beam stiffness");
+  const double spring_scale = fit_force_scale(fit, &Probe::spring_force);
+  if (force_error(held_out, &Probe::spring_force, spring_scale) <=
+      force_error(held_out, &Probe::spring_force, before.spring_stiffness_scale))
+    after.spring_stiffness_scale = spring_scale;
+  else
+    kept.push_back("spring stiffness");
+
+  model::OrganModel calibrated = with_material(original, after);
+  auto& parameters = calibrated.provenance.parameters;
+  parameters["calibration_reference"] = o.reference;
+  parameters["calibration_presses"] = fmt::format("{} fitted, {} held out", fit.size(), held_out.size());
+  parameters["calibration_depth_mm"] = fmt::format("{:g}", o.depth_mm);
+  parameters["calibration_seed"] = std::to_string(o.seed);
+  parameters["calibration_fixed_radius_mm"] = fmt::format("{:g}", o.press.tuning.fixed_radius_mm);
+  parameters["calibration_beam"] = fmt::format("{}, {} sections", o.press.theory, o.press.sections);
+
+  // What the user gets: every held-out press again with both materials.
+  note("calibrate", "measuring the held-out presses before and after");
+  const HeldOutError error_before = measure_held_out(organ, held_out, o.press, extent);
+  const multibeam::BeamOrgan calibrated_organ(calibrated);
+  const HeldOutError error_after = measure_held_out(calibrated_organ, held_out, o.press, extent);
+  parameters["calibration_held_out_beam"] =
+      fmt::format("displacement {:.3g} -> {:.3g} % of the bounding box, force {:.3g} -> {:.3g} %",
+                  100 * error_before.beam_difference, 100 * error_after.beam_difference, 100 * error_before.beam_force,
+                  100 * error_after.beam_force);
+  parameters["calibration_held_out_springs"] =
+      fmt::format("displacement {:.3g} -> {:.3g} % of the bounding box, force {:.3g} -> {:.3g} %",
+                  100 * error_before.spring_difference, 100 * error_after.spring_difference,
+                  100 * error_before.spring_force, 100 * error_after.spring_force);
+  model::write_organ_model_file(calibrated, o.output_path);
+
+  if (o.json) {
+    auto material = [](const model::Material& m) {
+      return nlohmann::json{{"attenuation_alpha", m.attenuation_alpha},
+                            {"attenuation_beta_per_m", m.attenuation_beta},
+                            {"beam_stiffness_scale", m.beam_stiffness_scale},
+                            {"spring_stiffness_scale", m.spring_stiffness_scale}};
+    };
+    auto errors = [](const HeldOutError& e) {
+      return nlohmann::json{{"beam", {{"mean_difference", e.beam_difference}, {"force_error", e.beam_force}}},
+                            {"springs", {{"mean_difference", e.spring_difference}, {"force_error", e.spring_force}}}};
+    };
+    nlohmann::json j = {{"reference", o.reference},
+                        {"model", o.model_path},
+                        {"output", o.output_path},
+                        {"presses_fitted", fit.size()},
+                        {"presses_held_out", held_out.size()},
+                        {"before", material(before)},
+                        {"after", material(after)},
+                        {"kept", kept},
+                        {"held_out_before", errors(error_before)},
+                        {"held_out_after", errors(error_after)}};
+    std::cout << j.dump() << '\n';
+    return 0;
+  }
+  std::cout << fmt::format("{:<14}{} against {}: {} presses of {:g} mm, inward or tilted 45 degrees (seed {}), {} fitted, "
+                           "{} held out\n",
+                           "calibrate", o.model_path, o.reference, fit.size() + held_out.size(), o.depth_mm, o.seed,
+                           fit.size(), held_out.size());
+  std::cout << fmt::format("{:<14}beam: attenuation beta {:g} -> {:g} 1/m (alpha {:g}; only beta ln alpha enters), "
+                           "stiffness E x {:g} -> {:g}; springs: stiffness E x {:g} -> {:g}\n",
+                           "fitted", before.attenuation_beta, after.attenuation_beta, alpha,
+                           before.beam_stiffness_scale, after.beam_stiffness_scale, before.spring_stiffness_scale,
+                           after.spring_stiffness_scale);
+  for (const std::string& k : kept)
+    std::cout << fmt::format("{:<14}{}: the fitted value would raise the held-out error; the model's value is kept\n",
+                             "kept", k);
+  std::cout << fmt::format("\nheld-out presses against {}: mean nodal displacement difference (% of the bounding box "
+                           "diagonal) and force error sqrt(sum |F - F_ref|^2 / sum |F_ref|^2)\n\n",
+                           o.reference);
+  std::cout << "| model   | displacement before | displacement after | force error before | force error after |\n";
+  std::cout << fmt::format("| beam    | {:>18.3f}% | {:>17.3f}% | {:>17.1f}% | {:>16.1f}% |\n",
+                           100 * error_before.beam_difference, 100 * error_after.beam_difference,
+                           100 * error_before.beam_force, 100 * error_after.beam_force);
+  std::cout << fmt::format("| springs | {:>18.3f}% | {:>17.3f}% | {:>17.1f}% | {:>16.1f}% |\n",
+                           100 * error_before.spring_difference, 100 * error_after.spring_difference,
+                           100 * error_before.spring_force, 100 * error_after.spring_force);
+  std::cout << fmt::format("\n{:<14}{}\n", "written", o.output_path);
+  return 0;
+}
+
+}  // namespace
+
+Command add_calibrate_command(CLI::App& app) {
+  auto o = std::make_shared<CalibrateOptions>();
+  app.add_option("model", o->model_path, "Model file (.organ)")->required();
+  app.add_option("-o,--output", o->output_path, "The calibrated model file to write")->required();
+  app.add_option("--reference", o->reference, "The FEM model the fast models are fitted to")
+      ->check(CLI::IsMember({"psh", "corotational"}))
+      ->capture_default_str();
+  app.add_option("--presses", o->presses, "Presses spread over the surface: half to fit, half held out (4-256)")
+      ->capture_default_str();
+  app.add_option("--depth", o->depth_mm,
+                 "How far each press goes (inward along the normal, or tilted 45 degrees along a tangent), mm")
+      ->check(kPositive)
+      ->capture_default_str();
+  app.add_option("--seed", o->seed, "Where the press sites start (the same seed, the same sites)")->capture_default_str();
+  app.add_option("--theory", o->press.theory, "Multi-beam: euler-bernoulli or timoshenko")
+      ->check(CLI::IsMember({"euler-bernoulli", "timoshenko"}))
+      ->capture_default_str();
+  app.add_option("--sections", o->press.sections, "Multi-beam: eccentric or centred sections")
+      ->check(CLI::IsMember({"eccentric", "centred"}))
+      ->capture_default_str();
+  add_model_tuning_options(app, o->press.tuning);
+  app.add_option("--settle", o->press.settle_seconds,
+                 "Mass-spring model: seconds each press is held before the force is read")
+      ->check(kPositive)
+      ->capture_default_str();
+  app.add_flag("--json", o->json, "Print the fitted values and the held-out errors as one JSON object");
+  return [o] { return run_calibrate(*o); };
+}
+
+}  // namespace organsim::cli
