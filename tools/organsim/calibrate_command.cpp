@@ -364,12 +364,7 @@ Command add_calibrate_command(CLI::App& app) {
       ->check(kPositive)
       ->capture_default_str();
   app.add_option("--seed", o->seed, "Where the press sites start (the same seed, the same sites)")->capture_default_str();
-  app.add_option("--theory", o->press.theory, "Multi-beam: euler-bernoulli or timoshenko")
-      ->check(CLI::IsMember({"euler-bernoulli", "timoshenko"}))
-      ->capture_default_str();
-  app.add_option("--sections", o->press.sections, "Multi-beam: eccentric or centred sections")
-      ->check(CLI::IsMember({"eccentric", "centred"}))
-      ->capture_default_str();
+  add_beam_options(app, o->press);
   add_model_tuning_options(app, o->press.tuning);
   app.add_option("--settle", o->press.settle_seconds,
                  "Mass-spring model: seconds each press is held before the force is read")

@@ -384,6 +384,17 @@ Comparison compare_presses(const PressResult& press, const PressResult& referenc
   return c;
 }
 
+void add_beam_options(CLI::App& app, PressOptions& o) {
+  app.add_option("--theory", o.theory, "Multi-beam: euler-bernoulli or timoshenko")
+      ->check(CLI::IsMember({"euler-bernoulli", "timoshenko"}))
+      ->capture_default_str();
+  app.add_option("--sections", o.sections,
+                 "Multi-beam: eccentric (elements through the section centroids, the default) or centred (on the "
+                 "fixed point-action point line)")
+      ->check(CLI::IsMember({"eccentric", "centred"}))
+      ->capture_default_str();
+}
+
 void add_press_options(CLI::App& app, std::vector<std::string>& tools, PressOptions& o) {
   app.add_option("--tool", tools,
                  "A tool: X,Y,Z/DX,DY,DZ, a point on or near the surface and its prescribed displacement "
@@ -393,14 +404,7 @@ void add_press_options(CLI::App& app, std::vector<std::string>& tools, PressOpti
   app.add_option("--merge", o.merge, "Multi-beam: how beams combine, influence (eq. 7) or sum (eq. 5)")
       ->check(CLI::IsMember({"influence", "sum"}))
       ->capture_default_str();
-  app.add_option("--theory", o.theory, "Multi-beam: euler-bernoulli or timoshenko")
-      ->check(CLI::IsMember({"euler-bernoulli", "timoshenko"}))
-      ->capture_default_str();
-  app.add_option("--sections", o.sections,
-                 "Multi-beam: eccentric (elements through the section centroids, the default) or centred (on the "
-                 "fixed point-action point line)")
-      ->check(CLI::IsMember({"eccentric", "centred"}))
-      ->capture_default_str();
+  add_beam_options(app, o);
   app.add_option("--snap-distance", o.snap_distance_mm, "Farthest a tool point may be from the surface, mm")
       ->check(kNonNegative)
       ->capture_default_str();

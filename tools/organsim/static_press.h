@@ -65,6 +65,9 @@ struct PressResult {
   int frames = 1;               ///< deformation frames (FEM: Newton iterations) to equilibrium
 };
 
+/// Registers --theory and --sections (the multi-beam model's beams).
+void add_beam_options(CLI::App& app, PressOptions& o);
+
 /// Registers --tool (repeatable, required; into `tools`), --merge, --theory,
 /// --sections, --snap-distance, the model tuning options and --settle.
 void add_press_options(CLI::App& app, std::vector<std::string>& tools, PressOptions& o);

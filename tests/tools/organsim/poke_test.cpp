@@ -51,16 +51,21 @@ void write_cylinder_ct(const fs::path& ct_path, const fs::path& label_path) {
   pipeline::write_mask_image(*label, label_path.string());
 }
 
+/// The cylinder CT baked into `model`, clamped at the centre of the x = 0 cap.
+CommandRun bake_cylinder(const fs::path& dir, const std::string& model) {
+  const fs::path ct = dir / "cylinder_ct.nii.gz", label = dir / "cylinder_label.nii.gz";
+  write_cylinder_ct(ct, label);
+  return run_organsim("bake " + ct.string() + " --label " + label.string() +
+                          " --fixed-point 0,0,0 --surface-vertices 4000 -o " + model,
+                      dir);
+}
+
 TEST_F(Cli, PokeABakedCylinderGivesTheCantileverForces) {
   // CT → bake (clamped at the centre of the x = 0 cap) → poke the far cap:
   // transverse 3EIδ/L³ and axial EAδ/L of a circular beam, within a few percent
   // (the voxelized, smoothed surface is the only approximation).
-  const fs::path ct = dir_ / "cylinder_ct.nii.gz", label = dir_ / "cylinder_label.nii.gz";
-  write_cylinder_ct(ct, label);
   const std::string model = (dir_ / "cylinder.organ").string();
-  const CommandRun bake = run_organsim("bake " + ct.string() + " --label " + label.string() +
-                                           " --fixed-point 0,0,0 --surface-vertices 4000 -o " + model,
-                                       dir_);
+  const CommandRun bake = bake_cylinder(dir_, model);
   ASSERT_EQ(bake.exit_code, 0) << bake.err;
 
   const double e = 5000.0, radius = 0.025, delta = 0.005;
@@ -99,12 +104,8 @@ TEST_F(Cli, BakedCylinderBeamAndCorotationalFemForcesAgreeWithinBeamTheory) {
   // cantilever is that much shorter. Each beam's force must lie between the
   // forces its theory gives for those two lengths, scaled to the beam's own
   // length: F_beam / F_fem in [k(L) / k(L - 26 mm), k(L) / k(L - 7.1 mm)].
-  const fs::path ct = dir_ / "cylinder_ct.nii.gz", label = dir_ / "cylinder_label.nii.gz";
-  write_cylinder_ct(ct, label);
   const std::string model = (dir_ / "cylinder.organ").string();
-  const CommandRun bake = run_organsim("bake " + ct.string() + " --label " + label.string() +
-                                           " --fixed-point 0,0,0 --surface-vertices 4000 -o " + model,
-                                       dir_);
+  const CommandRun bake = bake_cylinder(dir_, model);
   ASSERT_EQ(bake.exit_code, 0) << bake.err;
   const double e = 5000.0, nu = 0.45, a = 0.025, length = 0.151, ball = 0.026;
   const double shear_factor = 6.0 * (1.0 + nu) / (7.0 + 6.0 * nu);  // circular section
