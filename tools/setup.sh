@@ -16,6 +16,7 @@ packages=(
   libopencv-dev xvfb xauth
   calculix-ccx
   libsuitesparse-dev libmumps-seq-dev libopenblas-dev
+  python3-dev pybind11-dev python3-numpy python3-pytest python3-matplotlib dpkg-dev file
 )
 
 missing=()

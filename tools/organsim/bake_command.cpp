@@ -2,6 +2,7 @@
 // the segmentation options are segment's (segmentation_options.h).
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -10,6 +11,7 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include "bake_command.h"
 #include "command_line.h"
 #include "organsim/model/model_file.h"
 #include "organsim/pipeline/bake.h"
@@ -136,7 +138,8 @@ void print_report(const pipeline::BakeReport& r, const model::OrganModel& model,
   fmt::print("time (s)        {}total {:.2f}\n", stages, r.total_seconds);
 }
 
-int run_bake(BakeCommandOptions& o) {
+/// The pipeline with the command's options; writes the model file.
+pipeline::BakeResult bake_model(BakeCommandOptions& o, const pipeline::BakeProgress& progress) {
   pipeline::BakeOptions& b = o.bake;
   b.seeded = seeded_segmentation_options(o.segmentation);
   b.reference_label_path = o.segmentation.reference_path;
@@ -147,11 +150,14 @@ int run_bake(BakeCommandOptions& o) {
   if (o.closing_radius_mm >= 0.0) b.label_closing_radius_mm = b.seeded.closing_radius_mm = o.closing_radius_mm;
   b.program_version = kProgramVersion;
   b.output_path = o.output_path;
+  return pipeline::bake(b, progress);
+}
 
+int run_bake(BakeCommandOptions& o) {
   ProgressPrinter printer(verbosity() == Verbosity::verbose);
   pipeline::BakeProgress progress;
   if (verbosity() != Verbosity::quiet) progress = [&](const std::string& stage, double fraction) { printer(stage, fraction); };
-  const pipeline::BakeResult result = pipeline::bake(b, progress);
+  const pipeline::BakeResult result = bake_model(o, progress);
   for (const std::string& warning : result.report.segmentation_warnings) warn("bake", warning);
   const std::uintmax_t bytes = std::filesystem::file_size(o.output_path);
   if (o.json)
@@ -161,10 +167,7 @@ int run_bake(BakeCommandOptions& o) {
   return 0;
 }
 
-}  // namespace
-
-Command add_bake_command(CLI::App& app) {
-  auto o = std::make_shared<BakeCommandOptions>();
+void add_bake_options(CLI::App& app, const std::shared_ptr<BakeCommandOptions>& o) {
   pipeline::BakeOptions& b = o->bake;
   app.add_option("ct", b.ct_path, "CT: a DICOM series directory, or a NIfTI, NRRD or MHA/MHD file")->required();
   app.add_option("-o,--output", o->output_path, "Model file to write (.organ)")->required();
@@ -197,7 +200,28 @@ Command add_bake_command(CLI::App& app) {
   app.add_option("--intermediates", b.intermediates_dir,
                  "Also write mask.nii.gz, surface.vtp/.stl and tetrahedra.vtu (LPS, mm) into this directory");
   app.add_flag("--json", o->json, "Print the report as one JSON object on stdout");
+}
+
+}  // namespace
+
+Command add_bake_command(CLI::App& app) {
+  auto o = std::make_shared<BakeCommandOptions>();
+  add_bake_options(app, o);
   return [o] { return run_bake(*o); };
+}
+
+std::string bake_report_for_arguments(std::vector<std::string> arguments) {
+  CLI::App app{"organsim bake"};
+  auto o = std::make_shared<BakeCommandOptions>();
+  add_bake_options(app, o);
+  std::reverse(arguments.begin(), arguments.end());  // CLI11 takes them last first
+  try {
+    app.parse(arguments);
+  } catch (const CLI::ParseError& e) {
+    throw std::invalid_argument(std::string("bake: ") + e.what());
+  }
+  const pipeline::BakeResult result = bake_model(*o, {});
+  return report_json(result.report, result.model, o->output_path, std::filesystem::file_size(o->output_path)).dump();
 }
 
 }  // namespace organsim::cli

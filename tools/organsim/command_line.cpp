@@ -55,6 +55,9 @@ void add_simulation_commands(CLI::App& app, CommandTable& table) {
   add_command(app, table, "compare",
               "Press the organ the same way with every deformation model and measure each against a reference (psh)",
               add_compare_command);
+  add_command(app, table, "export",
+              "Write a model's surface (.vtp/.stl/.obj), tetrahedra (.vtu) or a beam table (.csv) for other programs",
+              add_export_command);
   add_command(app, table, "fem",
               "Solve a static FEM problem file (linear, corotational, stvk, mooney-rivlin): displacements, pressures",
               add_fem_command);

@@ -15,6 +15,7 @@ using Command = std::function<int()>;
 Command add_bake_command(CLI::App& app);
 Command add_calibrate_command(CLI::App& app);
 Command add_compare_command(CLI::App& app);
+Command add_export_command(CLI::App& app);
 Command add_fem_command(CLI::App& app);
 Command add_info_command(CLI::App& app);
 Command add_phantom_command(CLI::App& app);

@@ -120,12 +120,13 @@ BeamOrgan::BeamOrgan(model::OrganModel model)
   }
 }
 
-void compute_vertex_normals(const BeamOrgan& organ, const model::Point3* positions, model::Point3* normals, std::size_t first,
+ORGANSIM_SIMD_KERNEL void compute_vertex_normals(const BeamOrgan& organ, const model::Point3* positions, model::Point3* normals, std::size_t first,
                             std::size_t last) noexcept {
   const std::uint32_t* offsets = organ.ring_offsets().data();
   const std::uint32_t* ring = organ.ring().data();
   const std::uint8_t* closed = organ.ring_closed().data();
-  // Points as one 4-lane vector (x, y, z, 0), and the cross product through
+  const auto last_vertex = static_cast<std::uint32_t>(organ.vertex_count() - 1);
+  // Points as one 4-lane vector (x, y, z, w; lane w ignored), and the cross product through
   // a × b = yzx(a ∘ yzx(b) − yzx(a) ∘ b): the outer yzx is linear, so it is
   // applied once to the sum (when it is stored), and yzx of each neighbour is reused by the next
   // triangle. Neighbours are taken relative to the centre (which cancels in
@@ -139,14 +140,14 @@ void compute_vertex_normals(const BeamOrgan& organ, const model::Point3* positio
     alignas(64) double nx[kBlock], ny[kBlock], nz[kBlock];
     for (std::size_t i = 0; i < count; ++i) {
       const std::size_t v = block + i;
-      const Xyz centre = load_xyz(positions[v]);
+      const Xyz centre = load_xyz(positions, static_cast<std::uint32_t>(v), last_vertex);
       Xyz sum{};
       const std::uint32_t begin = offsets[v], end = offsets[v + 1];
       if (closed[v]) {
-        Xyz a = load_xyz(positions[ring[end - 1]]) - centre;
+        Xyz a = load_xyz(positions, ring[end - 1], last_vertex) - centre;
         Xyz a_yzx = yzx(a);
         for (std::uint32_t k = begin; k < end; ++k) {
-          const Xyz b = load_xyz(positions[ring[k]]) - centre;
+          const Xyz b = load_xyz(positions, ring[k], last_vertex) - centre;
           const Xyz b_yzx = yzx(b);
           sum += a * b_yzx - a_yzx * b;
           a = b;
@@ -154,8 +155,8 @@ void compute_vertex_normals(const BeamOrgan& organ, const model::Point3* positio
         }
       } else {
         for (std::uint32_t k = begin; k < end; k += 2) {
-          const Xyz a = load_xyz(positions[ring[k]]) - centre;
-          const Xyz b = load_xyz(positions[ring[k + 1]]) - centre;
+          const Xyz a = load_xyz(positions, ring[k], last_vertex) - centre;
+          const Xyz b = load_xyz(positions, ring[k + 1], last_vertex) - centre;
           sum += a * yzx(b) - yzx(a) * b;
         }
       }

@@ -205,7 +205,7 @@ Status MultiBeam::prepare(const Eigen::Vector3d* tip_displacements) noexcept {
   return Status::ok;
 }
 
-void MultiBeam::build_vertex_weights(std::size_t first, std::size_t last) noexcept {
+ORGANSIM_SIMD_KERNEL void MultiBeam::build_vertex_weights(std::size_t first, std::size_t last) noexcept {
   const double* rx = organ_.rest_x();
   const double* ry = organ_.rest_y();
   const double* rz = organ_.rest_z();
@@ -260,11 +260,11 @@ void MultiBeam::build_vertex_weights(std::size_t first, std::size_t last) noexce
   }
 }
 
-void MultiBeam::distort(std::size_t first, std::size_t last, model::Point3* positions) noexcept {
+ORGANSIM_SIMD_KERNEL void MultiBeam::distort(std::size_t first, std::size_t last, model::Point3* positions) noexcept {
   if (vertex_weights_stale_) build_vertex_weights(first, last);
   distorted_.store(true, std::memory_order_relaxed);
-  const std::int32_t last_element = static_cast<std::int32_t>(organ_.stations()) - 1;
-  const float scale = static_cast<float>(organ_.stations());
+  const LaneIntegers last_element = splat_integer(static_cast<std::int32_t>(organ_.stations()) - 1);
+  const Lanes scale = splat(static_cast<float>(organ_.stations()));
 
   // Single precision: the displacements (millimetres) come out to about 10⁻⁷
   // of themselves plus a few nanometres, far below what a surface mesh or a
@@ -279,9 +279,12 @@ void MultiBeam::distort(std::size_t first, std::size_t last, model::Point3* posi
 
     for (std::uint32_t slot = 0; slot < active_count_; ++slot) {
       const ToolBeam& beam = tools_[active_tool_[slot]];
-      const float ax = static_cast<float>(beam.frame(0, 0)), ay = static_cast<float>(beam.frame(1, 0)),
-                  az = static_cast<float>(beam.frame(2, 0));
-      const float length = static_cast<float>(beam.length), inverse_length = static_cast<float>(1.0 / beam.length);
+      // Scalars broadcast once here: GCC assembles a scalar operand of a
+      // vector operation lane by lane in the SIMD clones of this function.
+      const Lanes ax = splat(static_cast<float>(beam.frame(0, 0))), ay = splat(static_cast<float>(beam.frame(1, 0))),
+                  az = splat(static_cast<float>(beam.frame(2, 0)));
+      const Lanes length = splat(static_cast<float>(beam.length)),
+                  inverse_length = splat(static_cast<float>(1.0 / beam.length));
       const float* factor = vertex_weight(slot) + begin;
       for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
         // The vertex's place along the beam t in [0, 1], its element and local
@@ -295,13 +298,15 @@ void MultiBeam::distort(std::size_t first, std::size_t last, model::Point3* posi
         t = t > 1.0f ? splat(1.0f) : t;
         const Lanes tau = t * scale;
         LaneIntegers element = __builtin_convertvector(tau, LaneIntegers);
-        element = element > last_element ? splat_integer(last_element) : element;
+        element = element > last_element ? last_element : element;
         const Lanes xi = tau - __builtin_convertvector(element, Lanes);
         const Lanes along = t * length;
         const Lanes qx = fx - along * ax, qy = fy - along * ay, qz = fz - along * az;
 
         const Lanes w = load_lanes(factor + v);
-        auto accumulate = [&](auto c) {  // c(k): coefficient k of each lane's element
+        // Always inlined: out of line it would be compiled for the baseline ISA
+        // whatever the SIMD clone of this function (vector_math.h).
+        auto accumulate = [&](auto c) __attribute__((always_inline)) {  // c(k): coefficient k of each lane's element
           const Lanes ux = ((c(9) * xi + c(6)) * xi + c(3)) * xi + c(0);
           const Lanes uy = ((c(10) * xi + c(7)) * xi + c(4)) * xi + c(1);
           const Lanes uz = ((c(11) * xi + c(8)) * xi + c(5)) * xi + c(2);
@@ -326,14 +331,14 @@ void MultiBeam::distort(std::size_t first, std::size_t last, model::Point3* posi
         const std::int32_t lowest = horizontal_min(element), highest = horizontal_max(element);
         const float* low = coefficients(slot, static_cast<std::uint32_t>(lowest));
         if (highest == lowest + 1) {
-          const LaneIntegers in_low = element == lowest;
+          const LaneIntegers in_low = element == splat_integer(lowest);
           const float* high = low + kCoefficients;
           accumulate([&](int k) { return in_low ? splat(low[k]) : splat(high[k]); });
         } else {
           accumulate([&](int k) {
             Lanes value = splat(low[k]);
             for (std::int32_t e = 1; e <= highest - lowest; ++e)
-              value = element == lowest + e ? splat(low[e * kCoefficients + k]) : value;
+              value = element == splat_integer(lowest + e) ? splat(low[e * kCoefficients + k]) : value;
             return value;
           });
         }

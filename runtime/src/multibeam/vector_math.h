@@ -15,6 +15,18 @@
 #include <immintrin.h>
 #endif
 
+// The per-vertex kernels (distortion, weights, normals) are compiled for three
+// instruction sets, x86-64-v4 (AVX-512), x86-64-v3 (AVX2, FMA) and the
+// baseline, and the widest the CPU has is picked once when the program loads
+// (GCC function multi-versioning: an ifunc resolver). So the portable build
+// runs the AVX-512 or AVX2 code where the CPU has it; a build for one CPU
+// (ORGANSIM_NATIVE, or any -march beyond the baseline) has just its own.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__AVX2__)
+#define ORGANSIM_SIMD_KERNEL __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#else
+#define ORGANSIM_SIMD_KERNEL
+#endif
+
 namespace organsim::multibeam {
 
 constexpr std::size_t kLanes = 8;
@@ -27,19 +39,37 @@ inline Lanes load_lanes(const float* values) noexcept {
   return lanes;
 }
 inline void store_lanes(float* values, Lanes lanes) noexcept { std::memcpy(values, &lanes, sizeof lanes); }
-// Written out rather than `Lanes{} + value`, which costs an addition (0 + x is
-// not x for x = −0).
+// A shuffle of lane 0 rather than `Lanes{} + value` (which costs an
+// addition: 0 + x is not x for x = −0) or `Lanes{v, v, …}` (which GCC
+// assembles lane by lane in the SIMD clones of a function, instead of one
+// broadcast).
 static_assert(kLanes == 8);
-inline Lanes splat(float v) noexcept { return Lanes{v, v, v, v, v, v, v, v}; }
-inline LaneIntegers splat_integer(std::int32_t v) noexcept { return LaneIntegers{v, v, v, v, v, v, v, v}; }
+inline Lanes splat(float v) noexcept {
+  const Lanes first{v};
+  return __builtin_shufflevector(first, first, 0, 0, 0, 0, 0, 0, 0, 0);
+}
+inline LaneIntegers splat_integer(std::int32_t v) noexcept {
+  const LaneIntegers first{v};
+  return __builtin_shufflevector(first, first, 0, 0, 0, 0, 0, 0, 0, 0);
+}
 
-/// A point or vector of R³ in one register: (x, y, z, 0).
+/// A point or vector of R³ in one register: (x, y, z, w), w unspecified.
 using Xyz = double __attribute__((vector_size(4 * sizeof(double))));
-inline Xyz load_xyz(const std::array<double, 3>& p) noexcept {
+/// points[i] in one register. Lane w is 0 with AVX-512; otherwise it is the
+/// next point's x (one 32-byte load instead of three, where a next point
+/// exists: i < last) or 0. Callers ignore lane w.
+inline Xyz load_xyz(const std::array<double, 3>* points, std::uint32_t i, std::uint32_t last) noexcept {
 #if defined(__AVX512VL__)
-  return _mm256_maskz_loadu_pd(0x7, p.data());  // one load; the masked lane is not read (no fault past the end)
+  (void)last;
+  return _mm256_maskz_loadu_pd(0x7, points[i].data());  // one load; the masked lane is not read (no fault past the end)
 #else
-  return Xyz{p[0], p[1], p[2], 0.0};
+  Xyz v;
+  if (i < last) {
+    std::memcpy(&v, points[i].data(), sizeof v);
+  } else {
+    v = Xyz{points[i][0], points[i][1], points[i][2], 0.0};
+  }
+  return v;
 #endif
 }
 /// (y, z, x, 0): a × b = yzx(a ∘ yzx(b) − yzx(a) ∘ b).

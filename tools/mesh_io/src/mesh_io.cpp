@@ -6,6 +6,7 @@
 #include <vtkPointData.h>
 #include <vtkFieldData.h>
 #include <vtkPoints.h>
+#include <vtkOBJWriter.h>
 #include <vtkPolyData.h>
 #include <vtkSTLWriter.h>
 #include <vtkSmartPointer.h>
@@ -88,6 +89,11 @@ void write_surface_stl(const geometry::SurfaceMesh& surface, const std::string& 
   writer->SetFileTypeToBinary();
   writer->SetHeader("organsim surface SPACE=LPS UNITS=mm");
   write_atomically(*writer, to_polydata(surface).Get(), path, ".stl");
+}
+
+void write_surface_obj(const geometry::SurfaceMesh& surface, const std::string& path) {
+  auto writer = Ptr<vtkOBJWriter>::New();
+  write_atomically(*writer, to_polydata(surface).Get(), path, ".obj");
 }
 
 void write_tetrahedra_vtu(const geometry::TetrahedralMesh& mesh, const std::string& path) {

@@ -1,5 +1,5 @@
 // Mesh files for inspection in 3D Slicer and ParaView: surfaces as VTK XML
-// PolyData (.vtp) or binary STL, tetrahedra as VTK XML UnstructuredGrid (.vtu),
+// PolyData (.vtp), binary STL or OBJ, tetrahedra as VTK XML UnstructuredGrid (.vtu),
 // and ParaView collections (.pvd) that index time series of such files.
 //
 // Coordinates are written in millimetres in the LPS patient frame, like the CT,
@@ -27,6 +27,9 @@ namespace organsim::mesh_io {
 void write_surface_vtp(const geometry::SurfaceMesh& surface, const std::string& path);
 /// Binary STL (.stl).
 void write_surface_stl(const geometry::SurfaceMesh& surface, const std::string& path);
+/// Wavefront OBJ (.obj), for Blender and most 3-D tools (mm, LPS; OBJ has no
+/// field for either).
+void write_surface_obj(const geometry::SurfaceMesh& surface, const std::string& path);
 /// VTK XML UnstructuredGrid (.vtu) of VTK_TETRA cells.
 void write_tetrahedra_vtu(const geometry::TetrahedralMesh& mesh, const std::string& path);
 
