@@ -34,12 +34,16 @@ namespace {
 using model::OrganModel;
 using Model = std::shared_ptr<OrganModel>;  // never changed after load(): its arrays are read-only views
 
+/// `array`, made read-only: a model is what its file says.
+py::array read_only(py::array array) {
+  py::detail::array_proxy(array.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+  return array;
+}
+
 /// A read-only numpy view of `rows` × `columns` values at `data`, kept alive by `owner`.
 template <typename T>
 py::array view(const T* data, std::size_t rows, std::size_t columns, const py::object& owner) {
-  py::array array(py::dtype::of<T>(), {rows, columns}, {columns * sizeof(T), sizeof(T)}, data, owner);
-  py::detail::array_proxy(array.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
-  return array;
+  return read_only(py::array(py::dtype::of<T>(), {rows, columns}, {columns * sizeof(T), sizeof(T)}, data, owner));
 }
 
 Model load(const std::string& path) {
@@ -311,10 +315,8 @@ PYBIND11_MODULE(_organsim, m) {
         const std::size_t stations = model.beams.stations_per_beam;
         const std::size_t vertices = stations == 0 ? 0 : model.beams.sections.size() / stations;
         const double* data = model.beams.sections.empty() ? nullptr : &model.beams.sections.front().area;
-        py::array array(py::dtype::of<double>(), {vertices, stations, std::size_t{7}},
-                        {stations * 7 * sizeof(double), 7 * sizeof(double), sizeof(double)}, data, self);
-        py::detail::array_proxy(array.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
-        return array;
+        return read_only(py::array(py::dtype::of<double>(), {vertices, stations, std::size_t{7}},
+                                   {stations * 7 * sizeof(double), 7 * sizeof(double), sizeof(double)}, data, self));
       }, "(N, S, 7) float64: per surface vertex and station: area m², i_yy, i_zz, i_yz m⁴, torsion J m⁴, "
          "centroid y, z m (beam_section_fields)")
       .def_property_readonly("material", [](const OrganModel& model) {
