@@ -1,6 +1,6 @@
 #include "organsim/multibeam/beam_organ.h"
 
-#include "vector_math.h"
+#include "kernels.h"
 
 #include <Eigen/Geometry>
 
@@ -118,58 +118,22 @@ BeamOrgan::BeamOrgan(model::OrganModel model)
       offset_[k][i] = static_cast<float>(rest_[k][i] - fixed_point_[k]);
     }
   }
+  kernels::selected();  // picks the instruction set now, not in the first real-time call
 }
 
-ORGANSIM_SIMD_KERNEL void compute_vertex_normals(const BeamOrgan& organ, const model::Point3* positions, model::Point3* normals, std::size_t first,
+void compute_vertex_normals(const BeamOrgan& organ, const model::Point3* positions, model::Point3* normals, std::size_t first,
                             std::size_t last) noexcept {
-  const std::uint32_t* offsets = organ.ring_offsets().data();
-  const std::uint32_t* ring = organ.ring().data();
-  const std::uint8_t* closed = organ.ring_closed().data();
-  const auto last_vertex = static_cast<std::uint32_t>(organ.vertex_count() - 1);
-  // Points as one 4-lane vector (x, y, z, w; lane w ignored), and the cross product through
-  // a × b = yzx(a ∘ yzx(b) − yzx(a) ∘ b): the outer yzx is linear, so it is
-  // applied once to the sum (when it is stored), and yzx of each neighbour is reused by the next
-  // triangle. Neighbours are taken relative to the centre (which cancels in
-  // exact arithmetic) to keep the products small: edges are millimetres,
-  // coordinates decimetres.
-  // Normalized a block at a time, in a loop that vectorizes: square roots and
-  // divisions one vertex at a time would cost more than the cross products.
-  constexpr std::size_t kBlock = 64;
-  for (std::size_t block = first; block < last; block += kBlock) {
-    const std::size_t count = std::min(kBlock, last - block);
-    alignas(64) double nx[kBlock], ny[kBlock], nz[kBlock];
-    for (std::size_t i = 0; i < count; ++i) {
-      const std::size_t v = block + i;
-      const Xyz centre = load_xyz(positions, static_cast<std::uint32_t>(v), last_vertex);
-      Xyz sum{};
-      const std::uint32_t begin = offsets[v], end = offsets[v + 1];
-      if (closed[v]) {
-        Xyz a = load_xyz(positions, ring[end - 1], last_vertex) - centre;
-        Xyz a_yzx = yzx(a);
-        for (std::uint32_t k = begin; k < end; ++k) {
-          const Xyz b = load_xyz(positions, ring[k], last_vertex) - centre;
-          const Xyz b_yzx = yzx(b);
-          sum += a * b_yzx - a_yzx * b;
-          a = b;
-          a_yzx = b_yzx;
-        }
-      } else {
-        for (std::uint32_t k = begin; k < end; k += 2) {
-          const Xyz a = load_xyz(positions, ring[k], last_vertex) - centre;
-          const Xyz b = load_xyz(positions, ring[k + 1], last_vertex) - centre;
-          sum += a * yzx(b) - yzx(a) * b;
-        }
-      }
-      nx[i] = sum[1];  // yzx(sum)
-      ny[i] = sum[2];
-      nz[i] = sum[0];
-    }
-    for (std::size_t i = 0; i < count; ++i) {
-      const double length = std::sqrt(nx[i] * nx[i] + ny[i] * ny[i] + nz[i] * nz[i]);
-      const double scale = length > 0.0 ? 1.0 / length : 0.0;
-      normals[block + i] = {nx[i] * scale, ny[i] * scale, nz[i] * scale};
-    }
-  }
+  if (first >= last) return;
+  kernels::NormalsJob job;
+  job.ring_offsets = organ.ring_offsets().data();
+  job.ring = organ.ring().data();
+  job.ring_closed = organ.ring_closed().data();
+  job.vertex_count = static_cast<std::uint32_t>(organ.vertex_count());
+  job.positions = positions->data();
+  job.normals = normals->data();
+  kernels::selected().normals(job, first, last);
 }
+
+const char* vertex_kernel_level() noexcept { return kernels::selected().level; }
 
 }  // namespace organsim::multibeam

@@ -5,17 +5,24 @@
 #include <stdexcept>
 
 #include "organsim/model/beam_frame.h"
-#include "vector_math.h"
+#include "kernels.h"
+
+// force() runs in the 1 kHz loop for every tool: in the portable build it is
+// compiled for AVX2/FMA too and picked when the program loads (an ifunc), which
+// saves about a fifth of its 2–3 ns (multibeam_bench BM_ForcePerTool).
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__AVX2__)
+#define ORGANSIM_FORCE_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define ORGANSIM_FORCE_CLONES
+#endif
 
 namespace organsim::multibeam {
 namespace {
 
 Eigen::Vector3d vec(const std::array<double, 3>& p) { return {p[0], p[1], p[2]}; }
 
-// Vertices are distorted in blocks so that per-tool distances and weights live
-// in small stack arrays and the inner loops run over contiguous vertices.
-constexpr std::size_t kBlock = 128;
-static_assert(kLanes == BeamOrgan::kPadding && kBlock % kLanes == 0);
+static_assert(kernels::kMaxBeams == kMaxTools && kernels::kPadding == BeamOrgan::kPadding);
+static_assert(sizeof(model::Point3) == 3 * sizeof(double));  // the kernels see xyz-interleaved arrays
 
 }  // namespace
 
@@ -24,6 +31,7 @@ MultiBeam::MultiBeam(const BeamOrgan& organ, const MultiBeamOptions& options) : 
     throw std::invalid_argument("max_tools must be between 1 and 16");
   if (!(options_.snap_distance >= 0.0) || !(options_.merge_distance >= 0.0) || !(options_.min_beam_length > 0.0))
     throw std::invalid_argument("snap, merge and minimum beam distances must be non-negative (m)");
+  kernels::selected();  // picks the instruction set now, not in the first real-time call
   const std::uint32_t stations = organ_.stations();
   tools_.resize(options_.max_tools);
   solvers_.reserve(options_.max_tools);
@@ -118,13 +126,18 @@ void MultiBeam::detach(std::uint32_t tool) noexcept {
   }
 }
 
-Status MultiBeam::force(std::uint32_t tool, const Eigen::Vector3d& tip_displacement,
+ORGANSIM_FORCE_CLONES Status MultiBeam::force(std::uint32_t tool, const Eigen::Vector3d& tip_displacement,
                         Eigen::Vector3d& force_on_tool) const noexcept {
-  force_on_tool.setZero();
-  if (tool >= options_.max_tools) return Status::too_many_tools;
-  if (!tools_[tool].attached) return Status::no_contact;
-  if (!tip_displacement.allFinite()) return Status::not_finite;
-  force_on_tool.noalias() = -tools_[tool].stiffness * tip_displacement;
+  const Status status = tool >= options_.max_tools ? Status::too_many_tools
+                        : !tools_[tool].attached    ? Status::no_contact
+                        // x·0 is 0 for finite x and NaN otherwise: one test for the three components
+                        : (tip_displacement * 0.0).sum() != 0.0 ? Status::not_finite
+                                                                 : Status::ok;
+  if (status != Status::ok) {
+    force_on_tool.setZero();
+    return status;
+  }
+  force_on_tool.noalias() = -(tools_[tool].stiffness * tip_displacement);
   return Status::ok;
 }
 
@@ -205,151 +218,55 @@ Status MultiBeam::prepare(const Eigen::Vector3d* tip_displacements) noexcept {
   return Status::ok;
 }
 
-ORGANSIM_SIMD_KERNEL void MultiBeam::build_vertex_weights(std::size_t first, std::size_t last) noexcept {
-  const double* rx = organ_.rest_x();
-  const double* ry = organ_.rest_y();
-  const double* rz = organ_.rest_z();
-  const double rate = organ_.attenuation_rate();
+void MultiBeam::build_vertex_weights(std::size_t first, std::size_t last) noexcept {
   const bool influence = options_.merge == MergeRule::influence;
-  const std::uint32_t groups = influence_.count();
-
-  for (std::size_t begin = first; begin < last; begin += kBlock) {
-    const std::size_t n = std::min(kBlock, last - begin);
-    const double* x = rx + begin;
-    const double* y = ry + begin;
-    const double* z = rz + begin;
-    alignas(64) double weight[kMaxTools][kBlock];
-    if (influence && groups > 1) {
-      // f(p) = L⁻¹ l(p) / ‖L⁻¹ l(p)‖₁ per vertex, with l(p) the group distances.
-      alignas(64) double distance[kMaxTools][kBlock];
-      for (std::uint32_t g = 0; g < groups; ++g) {
-        const Eigen::Vector3d& p = influence_.point(g);
-        for (std::size_t v = 0; v < n; ++v) {
-          const double dx = x[v] - p[0], dy = y[v] - p[1], dz = z[v] - p[2];
-          distance[g][v] = std::sqrt(dx * dx + dy * dy + dz * dz);
-        }
-      }
-      const auto& inverse = influence_.inverse_distances();
-      alignas(64) double norm[kBlock];
-      for (std::size_t v = 0; v < n; ++v) norm[v] = 0.0;
-      for (std::uint32_t i = 0; i < groups; ++i) {
-        for (std::size_t v = 0; v < n; ++v) weight[i][v] = 0.0;
-        for (std::uint32_t j = 0; j < groups; ++j) {
-          const double m = inverse(i, j);
-          for (std::size_t v = 0; v < n; ++v) weight[i][v] += m * distance[j][v];
-        }
-        for (std::size_t v = 0; v < n; ++v) norm[v] += std::abs(weight[i][v]);
-      }
-      for (std::size_t v = 0; v < n; ++v) norm[v] = norm[v] > 0.0 ? 1.0 / norm[v] : 0.0;
-      for (std::uint32_t i = 0; i < groups; ++i)
-        for (std::size_t v = 0; v < n; ++v) weight[i][v] *= norm[v];
-    } else {
-      for (std::size_t v = 0; v < n; ++v) weight[0][v] = 1.0;
-    }
-
-    for (std::uint32_t slot = 0; slot < active_count_; ++slot) {
-      const double share = influence ? group_share_[slot] : 1.0;
-      const double* w = weight[influence ? active_group_[slot] : 0];
-      const double px = active_point_[slot][0], py = active_point_[slot][1], pz = active_point_[slot][2];
-      float* factor = vertex_weight(slot) + begin;
-      for (std::size_t v = 0; v < n; ++v) {
-        const double dx = x[v] - px, dy = y[v] - py, dz = z[v] - pz;
-        factor[v] = static_cast<float>(exp_nonpositive(-rate * std::sqrt(dx * dx + dy * dy + dz * dz)) * share * w[v]);
-      }
-    }
+  kernels::WeightJob job;
+  job.rest[0] = organ_.rest_x();
+  job.rest[1] = organ_.rest_y();
+  job.rest[2] = organ_.rest_z();
+  job.attenuation_rate = organ_.attenuation_rate();
+  job.groups = influence ? influence_.count() : 0;
+  double group_points[kMaxTools][3];
+  for (std::uint32_t g = 0; g < job.groups; ++g)
+    for (int k = 0; k < 3; ++k) group_points[g][k] = influence_.point(g)[k];
+  job.group_points = group_points[0];
+  job.inverse = influence_.inverse_distances().data();
+  job.inverse_stride = static_cast<std::size_t>(influence_.inverse_distances().outerStride());
+  job.beams = active_count_;
+  for (std::uint32_t slot = 0; slot < active_count_; ++slot) {
+    kernels::WeightBeam& beam = job.beam[slot];
+    for (int k = 0; k < 3; ++k) beam.point[k] = active_point_[slot][k];
+    beam.share = influence ? group_share_[slot] : 1.0;
+    beam.group = influence ? active_group_[slot] : 0;
+    beam.weights = vertex_weight(slot);
   }
+  kernels::selected().build_weights(job, first, last);
 }
 
-ORGANSIM_SIMD_KERNEL void MultiBeam::distort(std::size_t first, std::size_t last, model::Point3* positions) noexcept {
+void MultiBeam::distort(std::size_t first, std::size_t last, model::Point3* positions) noexcept {
   if (vertex_weights_stale_) build_vertex_weights(first, last);
   distorted_.store(true, std::memory_order_relaxed);
-  const LaneIntegers last_element = splat_integer(static_cast<std::int32_t>(organ_.stations()) - 1);
-  const Lanes scale = splat(static_cast<float>(organ_.stations()));
-
-  // Single precision: the displacements (millimetres) come out to about 10⁻⁷
-  // of themselves plus a few nanometres, far below what a surface mesh or a
-  // screen resolves, and eight lanes fit where four doubles would.
-  for (std::size_t begin = first; begin < last; begin += kBlock) {
-    const std::size_t count = std::min(kBlock, last - begin);
-    const std::size_t chunks = (count + kLanes - 1) / kLanes;  // the vertex arrays are padded
-    const float* x = organ_.offset_x() + begin;
-    const float* y = organ_.offset_y() + begin;
-    const float* z = organ_.offset_z() + begin;
-    alignas(32) float out_x[kBlock] = {}, out_y[kBlock] = {}, out_z[kBlock] = {};
-
-    for (std::uint32_t slot = 0; slot < active_count_; ++slot) {
-      const ToolBeam& beam = tools_[active_tool_[slot]];
-      // Scalars broadcast once here: GCC assembles a scalar operand of a
-      // vector operation lane by lane in the SIMD clones of this function.
-      const Lanes ax = splat(static_cast<float>(beam.frame(0, 0))), ay = splat(static_cast<float>(beam.frame(1, 0))),
-                  az = splat(static_cast<float>(beam.frame(2, 0)));
-      const Lanes length = splat(static_cast<float>(beam.length)),
-                  inverse_length = splat(static_cast<float>(1.0 / beam.length));
-      const float* factor = vertex_weight(slot) + begin;
-      for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
-        // The vertex's place along the beam t in [0, 1], its element and local
-        // coordinate ξ, and its offset from the axis q = x − b(t), b(t) = fixed
-        // + t L axis: recomputed (a few flops) rather than stored, so that a
-        // frame reads one weight per vertex and tool from memory.
-        const std::size_t v = chunk * kLanes;
-        const Lanes fx = load_lanes(x + v), fy = load_lanes(y + v), fz = load_lanes(z + v);
-        Lanes t = (fx * ax + fy * ay + fz * az) * inverse_length;
-        t = t < 0.0f ? splat(0.0f) : t;
-        t = t > 1.0f ? splat(1.0f) : t;
-        const Lanes tau = t * scale;
-        LaneIntegers element = __builtin_convertvector(tau, LaneIntegers);
-        element = element > last_element ? last_element : element;
-        const Lanes xi = tau - __builtin_convertvector(element, Lanes);
-        const Lanes along = t * length;
-        const Lanes qx = fx - along * ax, qy = fy - along * ay, qz = fz - along * az;
-
-        const Lanes w = load_lanes(factor + v);
-        // Always inlined: out of line it would be compiled for the baseline ISA
-        // whatever the SIMD clone of this function (vector_math.h).
-        auto accumulate = [&](auto c) __attribute__((always_inline)) {  // c(k): coefficient k of each lane's element
-          const Lanes ux = ((c(9) * xi + c(6)) * xi + c(3)) * xi + c(0);
-          const Lanes uy = ((c(10) * xi + c(7)) * xi + c(4)) * xi + c(1);
-          const Lanes uz = ((c(11) * xi + c(8)) * xi + c(5)) * xi + c(2);
-          const Lanes tx = c(12) + xi * c(15), ty = c(13) + xi * c(16), tz = c(14) + xi * c(17);
-          const Lanes rx1 = ty * qz - tz * qy, ry1 = tz * qx - tx * qz, rz1 = tx * qy - ty * qx;
-          const Lanes rx2 = ty * rz1 - tz * ry1, ry2 = tz * rx1 - tx * rz1, rz2 = tx * ry1 - ty * rx1;
-          store_lanes(out_x + v, load_lanes(out_x + v) + w * (ux + rx1 + 0.5f * rx2));
-          store_lanes(out_y + v, load_lanes(out_y + v) + w * (uy + ry1 + 0.5f * ry2));
-          store_lanes(out_z + v, load_lanes(out_z + v) + w * (uz + rz1 + 0.5f * rz2));
-        };
-        // The lanes' coefficients: vertices are numbered in Morton order, so a
-        // chunk mostly lies in one element (72 % of the chunks on the 100k-vertex
-        // benchmark sphere), else mostly in two (24 %). One element's
-        // coefficients are broadcast, several elements' blended lane by lane
-        // (gathers are several times slower).
-        const std::int32_t first_lane = element[0];
-        if (all_equal(element, first_lane)) {
-          const float* only = coefficients(slot, static_cast<std::uint32_t>(first_lane));
-          accumulate([&](int k) { return splat(only[k]); });
-          continue;
-        }
-        const std::int32_t lowest = horizontal_min(element), highest = horizontal_max(element);
-        const float* low = coefficients(slot, static_cast<std::uint32_t>(lowest));
-        if (highest == lowest + 1) {
-          const LaneIntegers in_low = element == splat_integer(lowest);
-          const float* high = low + kCoefficients;
-          accumulate([&](int k) { return in_low ? splat(low[k]) : splat(high[k]); });
-        } else {
-          accumulate([&](int k) {
-            Lanes value = splat(low[k]);
-            for (std::int32_t e = 1; e <= highest - lowest; ++e)
-              value = element == splat_integer(lowest + e) ? splat(low[e * kCoefficients + k]) : value;
-            return value;
-          });
-        }
-      }
-    }
-    const double* rest_x = organ_.rest_x() + begin;
-    const double* rest_y = organ_.rest_y() + begin;
-    const double* rest_z = organ_.rest_z() + begin;
-    for (std::size_t v = 0; v < count; ++v)
-      positions[begin + v] = {rest_x[v] + out_x[v], rest_y[v] + out_y[v], rest_z[v] + out_z[v]};
+  static_assert(kCoefficients == kernels::kCoefficients);
+  kernels::DistortionJob job;
+  job.offset[0] = organ_.offset_x();
+  job.offset[1] = organ_.offset_y();
+  job.offset[2] = organ_.offset_z();
+  job.rest[0] = organ_.rest_x();
+  job.rest[1] = organ_.rest_y();
+  job.rest[2] = organ_.rest_z();
+  job.stations = organ_.stations();
+  job.beams = active_count_;
+  for (std::uint32_t slot = 0; slot < active_count_; ++slot) {
+    const ToolBeam& tool = tools_[active_tool_[slot]];
+    kernels::BeamLanes& beam = job.beam[slot];
+    for (int k = 0; k < 3; ++k) beam.axis[k] = static_cast<float>(tool.frame(k, 0));
+    beam.length = static_cast<float>(tool.length);
+    beam.inverse_length = static_cast<float>(1.0 / tool.length);
+    beam.weights = vertex_weight(slot);
+    beam.coefficients = coefficients(slot, 0);
   }
+  job.positions = positions->data();
+  kernels::selected().distort(job, first, last);
 }
 
 Eigen::Vector3d MultiBeam::displacement_at(const Eigen::Vector3d& rest) const noexcept {

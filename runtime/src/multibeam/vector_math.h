@@ -5,8 +5,6 @@
 // two SSE ones, chosen by the compiler for the target).
 #pragma once
 
-#include <algorithm>
-#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -15,19 +13,15 @@
 #include <immintrin.h>
 #endif
 
-// The per-vertex kernels (distortion, weights, normals) are compiled for three
-// instruction sets, x86-64-v4 (AVX-512), x86-64-v3 (AVX2, FMA) and the
-// baseline, and the widest the CPU has is picked once when the program loads
-// (GCC function multi-versioning: an ifunc resolver). So the portable build
-// runs the AVX-512 or AVX2 code where the CPU has it; a build for one CPU
-// (ORGANSIM_NATIVE, or any -march beyond the baseline) has just its own.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__AVX2__)
-#define ORGANSIM_SIMD_KERNEL __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
-#else
-#define ORGANSIM_SIMD_KERNEL
+// Included by kernels.cpp, which is compiled once per instruction set
+// (kernels.h): each compilation names its own namespace, so that the linker
+// never merges one level's copy of these inline functions with another's.
+#ifndef ORGANSIM_KERNEL_LEVEL
+#define ORGANSIM_KERNEL_LEVEL generic
 #endif
 
 namespace organsim::multibeam {
+inline namespace ORGANSIM_KERNEL_LEVEL {
 
 constexpr std::size_t kLanes = 8;
 using Lanes = float __attribute__((vector_size(kLanes * sizeof(float))));
@@ -40,9 +34,7 @@ inline Lanes load_lanes(const float* values) noexcept {
 }
 inline void store_lanes(float* values, Lanes lanes) noexcept { std::memcpy(values, &lanes, sizeof lanes); }
 // A shuffle of lane 0 rather than `Lanes{} + value` (which costs an
-// addition: 0 + x is not x for x = −0) or `Lanes{v, v, …}` (which GCC
-// assembles lane by lane in the SIMD clones of a function, instead of one
-// broadcast).
+// addition: 0 + x is not x for x = −0).
 static_assert(kLanes == 8);
 inline Lanes splat(float v) noexcept {
   const Lanes first{v};
@@ -55,19 +47,20 @@ inline LaneIntegers splat_integer(std::int32_t v) noexcept {
 
 /// A point or vector of R³ in one register: (x, y, z, w), w unspecified.
 using Xyz = double __attribute__((vector_size(4 * sizeof(double))));
-/// points[i] in one register. Lane w is 0 with AVX-512; otherwise it is the
-/// next point's x (one 32-byte load instead of three, where a next point
-/// exists: i < last) or 0. Callers ignore lane w.
-inline Xyz load_xyz(const std::array<double, 3>* points, std::uint32_t i, std::uint32_t last) noexcept {
+/// Point i of an xyz-interleaved array in one register. Lane w is 0 with
+/// AVX-512; otherwise it is the next point's x (one 32-byte load instead of
+/// three, where a next point exists: i < last) or 0. Callers ignore lane w.
+inline Xyz load_xyz(const double* points, std::uint32_t i, std::uint32_t last) noexcept {
+  const double* p = points + 3 * static_cast<std::size_t>(i);
 #if defined(__AVX512VL__)
   (void)last;
-  return _mm256_maskz_loadu_pd(0x7, points[i].data());  // one load; the masked lane is not read (no fault past the end)
+  return _mm256_maskz_loadu_pd(0x7, p);  // one load; the masked lane is not read (no fault past the end)
 #else
   Xyz v;
   if (i < last) {
-    std::memcpy(&v, points[i].data(), sizeof v);
+    std::memcpy(&v, p, sizeof v);
   } else {
-    v = Xyz{points[i][0], points[i][1], points[i][2], 0.0};
+    v = Xyz{p[0], p[1], p[2], 0.0};
   }
   return v;
 #endif
@@ -114,7 +107,7 @@ inline double exp_nonpositive(double y) noexcept {
   // mantissa bits then hold n (two's complement), and subtracting it back gives n.
   constexpr double kShift = 6755399441055744.0;  // 1.5 · 2⁵²
   constexpr std::uint64_t kShiftBits = 0x4338000000000000;
-  y = std::max(y, -700.0);
+  y = y < -700.0 ? -700.0 : y;
   const double shifted = y * kInvLn2 + kShift;
   const double nd = shifted - kShift;
   std::uint64_t shifted_bits;
@@ -140,4 +133,5 @@ inline double exp_nonpositive(double y) noexcept {
   return p * scale;
 }
 
+}  // namespace ORGANSIM_KERNEL_LEVEL
 }  // namespace organsim::multibeam

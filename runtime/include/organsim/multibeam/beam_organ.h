@@ -81,4 +81,9 @@ class BeamOrgan {
 void compute_vertex_normals(const BeamOrgan& organ, const model::Point3* positions, model::Point3* normals, std::size_t first,
                             std::size_t last) noexcept;
 
+/// The instruction set the per-vertex kernels (distortion, normals) run with:
+/// "x86-64-v4" (AVX-512), "x86-64-v3" (AVX2, FMA) or "x86-64" in the portable
+/// build, the widest this CPU has; "native" in a build for one CPU.
+const char* vertex_kernel_level() noexcept;
+
 }  // namespace organsim::multibeam

@@ -120,7 +120,7 @@ class MultiBeam {
   // u(ξ) = c0 + c1 ξ + c2 ξ² + c3 ξ³ (3 components each) and the rotation
   // θ(ξ) = r0 + r1 ξ, world frame; 18 consecutive values per element, single
   // precision like the rest of the distortion (see distort()).
-  static constexpr int kCoefficients = 18;
+  static constexpr int kCoefficients = 18;  // = kernels::kCoefficients (src/multibeam/kernels.h)
   float* coefficients(std::uint32_t slot, std::uint32_t element) noexcept {
     return coefficient_data_.data() + (static_cast<std::size_t>(slot) * organ_.stations() + element) * kCoefficients;
   }

@@ -1,0 +1,51 @@
+// Picks the widest compiled kernel set (kernels.h) that this CPU runs.
+#include "kernels.h"
+
+namespace organsim::multibeam::kernels {
+
+// The levels the build compiled kernels.cpp for: x86-64-v4, v3 and the
+// baseline in the portable x86-64 build (ORGANSIM_KERNELS_PER_LEVEL), else one
+// for the target.
+#define ORGANSIM_DECLARE_LEVEL(level)                                               \
+  namespace level {                                                                \
+  void build_weights(const WeightJob& job, std::size_t first, std::size_t last) noexcept; \
+  void distort(const DistortionJob& job, std::size_t first, std::size_t last) noexcept;   \
+  void normals(const NormalsJob& job, std::size_t first, std::size_t last) noexcept;      \
+  }
+#if defined(ORGANSIM_KERNELS_PER_LEVEL)
+ORGANSIM_DECLARE_LEVEL(x86_64_v4)
+ORGANSIM_DECLARE_LEVEL(x86_64_v3)
+ORGANSIM_DECLARE_LEVEL(x86_64_v1)
+#else
+ORGANSIM_DECLARE_LEVEL(native)
+#endif
+#undef ORGANSIM_DECLARE_LEVEL
+
+RunnableSets runnable() noexcept {
+  RunnableSets sets{};
+#if defined(ORGANSIM_KERNELS_PER_LEVEL)
+  __builtin_cpu_init();
+#if defined(__clang__)
+  const bool v3 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && __builtin_cpu_supports("bmi2");
+  const bool v4 = v3 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                  __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl") &&
+                  __builtin_cpu_supports("avx512cd");
+#else
+  const bool v4 = __builtin_cpu_supports("x86-64-v4");
+  const bool v3 = __builtin_cpu_supports("x86-64-v3");
+#endif
+  if (v4) sets.set[sets.count++] = {"x86-64-v4", x86_64_v4::build_weights, x86_64_v4::distort, x86_64_v4::normals};
+  if (v3) sets.set[sets.count++] = {"x86-64-v3", x86_64_v3::build_weights, x86_64_v3::distort, x86_64_v3::normals};
+  sets.set[sets.count++] = {"x86-64", x86_64_v1::build_weights, x86_64_v1::distort, x86_64_v1::normals};
+#else
+  sets.set[sets.count++] = {"native", native::build_weights, native::distort, native::normals};
+#endif
+  return sets;
+}
+
+const KernelSet& selected() noexcept {
+  static const KernelSet set = runnable().set[0];
+  return set;
+}
+
+}  // namespace organsim::multibeam::kernels

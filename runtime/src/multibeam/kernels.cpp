@@ -1,0 +1,213 @@
+// The per-vertex kernels, compiled once per instruction set (kernels.h): the
+// build passes ORGANSIM_KERNEL_LEVEL (a namespace name) and the -march of the
+// level. Uses only builtins and vector_math.h, which lives in the same
+// per-level namespace, so that no inline code is shared with other objects.
+#include "kernels.h"
+#include "vector_math.h"
+
+namespace organsim::multibeam::kernels {
+namespace ORGANSIM_KERNEL_LEVEL {
+namespace {
+
+// Vertices are processed in blocks so that per-tool distances and weights live
+// in small stack arrays and the inner loops run over contiguous vertices.
+constexpr std::size_t kBlock = 128;
+static_assert(kLanes == kPadding && kBlock % kLanes == 0);
+
+constexpr std::size_t smaller(std::size_t a, std::size_t b) noexcept { return a < b ? a : b; }
+
+}  // namespace
+
+void build_weights(const WeightJob& job, std::size_t first, std::size_t last) noexcept {
+  const double rate = job.attenuation_rate;
+  for (std::size_t begin = first; begin < last; begin += kBlock) {
+    const std::size_t n = smaller(kBlock, last - begin);
+    const double* x = job.rest[0] + begin;
+    const double* y = job.rest[1] + begin;
+    const double* z = job.rest[2] + begin;
+    alignas(64) double weight[kMaxBeams][kBlock];
+    if (job.groups > 1) {
+      // f(p) = L⁻¹ l(p) / ‖L⁻¹ l(p)‖₁ per vertex, with l(p) the group distances.
+      alignas(64) double distance[kMaxBeams][kBlock];
+      for (std::uint32_t g = 0; g < job.groups; ++g) {
+        const double* p = job.group_points + 3 * g;
+        for (std::size_t v = 0; v < n; ++v) {
+          const double dx = x[v] - p[0], dy = y[v] - p[1], dz = z[v] - p[2];
+          distance[g][v] = __builtin_sqrt(dx * dx + dy * dy + dz * dz);
+        }
+      }
+      alignas(64) double norm[kBlock];
+      for (std::size_t v = 0; v < n; ++v) norm[v] = 0.0;
+      for (std::uint32_t i = 0; i < job.groups; ++i) {
+        for (std::size_t v = 0; v < n; ++v) weight[i][v] = 0.0;
+        for (std::uint32_t j = 0; j < job.groups; ++j) {
+          const double m = job.inverse[j * job.inverse_stride + i];
+          for (std::size_t v = 0; v < n; ++v) weight[i][v] += m * distance[j][v];
+        }
+        for (std::size_t v = 0; v < n; ++v) norm[v] += __builtin_fabs(weight[i][v]);
+      }
+      for (std::size_t v = 0; v < n; ++v) norm[v] = norm[v] > 0.0 ? 1.0 / norm[v] : 0.0;
+      for (std::uint32_t i = 0; i < job.groups; ++i)
+        for (std::size_t v = 0; v < n; ++v) weight[i][v] *= norm[v];
+    } else {
+      for (std::size_t v = 0; v < n; ++v) weight[0][v] = 1.0;
+    }
+
+    for (std::uint32_t b = 0; b < job.beams; ++b) {
+      const WeightBeam& beam = job.beam[b];
+      const double* w = weight[job.groups > 1 ? beam.group : 0];
+      const double px = beam.point[0], py = beam.point[1], pz = beam.point[2], share = beam.share;
+      float* factor = beam.weights + begin;
+      for (std::size_t v = 0; v < n; ++v) {
+        const double dx = x[v] - px, dy = y[v] - py, dz = z[v] - pz;
+        factor[v] = static_cast<float>(exp_nonpositive(-rate * __builtin_sqrt(dx * dx + dy * dy + dz * dz)) * share * w[v]);
+      }
+    }
+  }
+}
+
+void distort(const DistortionJob& job, std::size_t first, std::size_t last) noexcept {
+  const LaneIntegers last_element = splat_integer(static_cast<std::int32_t>(job.stations) - 1);
+  const Lanes scale = splat(static_cast<float>(job.stations));
+
+  // Single precision: the displacements (millimetres) come out to about 10⁻⁷
+  // of themselves plus a few nanometres, far below what a surface mesh or a
+  // screen resolves, and eight lanes fit where four doubles would.
+  for (std::size_t begin = first; begin < last; begin += kBlock) {
+    const std::size_t count = smaller(kBlock, last - begin);
+    const std::size_t chunks = (count + kLanes - 1) / kLanes;  // the vertex arrays are padded
+    const float* x = job.offset[0] + begin;
+    const float* y = job.offset[1] + begin;
+    const float* z = job.offset[2] + begin;
+    alignas(32) float out_x[kBlock] = {}, out_y[kBlock] = {}, out_z[kBlock] = {};
+
+    for (std::uint32_t b = 0; b < job.beams; ++b) {
+      const BeamLanes& beam = job.beam[b];
+      const Lanes ax = splat(beam.axis[0]), ay = splat(beam.axis[1]), az = splat(beam.axis[2]);
+      const Lanes length = splat(beam.length), inverse_length = splat(beam.inverse_length);
+      const float* factor = beam.weights + begin;
+      for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
+        // The vertex's place along the beam t in [0, 1], its element and local
+        // coordinate ξ, and its offset from the axis q = x − b(t), b(t) = fixed
+        // + t L axis: recomputed (a few flops) rather than stored, so that a
+        // frame reads one weight per vertex and tool from memory.
+        const std::size_t v = chunk * kLanes;
+        const Lanes fx = load_lanes(x + v), fy = load_lanes(y + v), fz = load_lanes(z + v);
+        Lanes t = (fx * ax + fy * ay + fz * az) * inverse_length;
+        t = t < 0.0f ? splat(0.0f) : t;
+        t = t > 1.0f ? splat(1.0f) : t;
+        const Lanes tau = t * scale;
+        LaneIntegers element = __builtin_convertvector(tau, LaneIntegers);
+        element = element > last_element ? last_element : element;
+        const Lanes xi = tau - __builtin_convertvector(element, Lanes);
+        const Lanes along = t * length;
+        const Lanes qx = fx - along * ax, qy = fy - along * ay, qz = fz - along * az;
+
+        const Lanes w = load_lanes(factor + v);
+        auto accumulate = [&](auto c) {  // c(k): coefficient k of each lane's element
+          const Lanes ux = ((c(9) * xi + c(6)) * xi + c(3)) * xi + c(0);
+          const Lanes uy = ((c(10) * xi + c(7)) * xi + c(4)) * xi + c(1);
+          const Lanes uz = ((c(11) * xi + c(8)) * xi + c(5)) * xi + c(2);
+          const Lanes tx = c(12) + xi * c(15), ty = c(13) + xi * c(16), tz = c(14) + xi * c(17);
+          const Lanes rx1 = ty * qz - tz * qy, ry1 = tz * qx - tx * qz, rz1 = tx * qy - ty * qx;
+          const Lanes rx2 = ty * rz1 - tz * ry1, ry2 = tz * rx1 - tx * rz1, rz2 = tx * ry1 - ty * rx1;
+          store_lanes(out_x + v, load_lanes(out_x + v) + w * (ux + rx1 + 0.5f * rx2));
+          store_lanes(out_y + v, load_lanes(out_y + v) + w * (uy + ry1 + 0.5f * ry2));
+          store_lanes(out_z + v, load_lanes(out_z + v) + w * (uz + rz1 + 0.5f * rz2));
+        };
+        // The lanes' coefficients: vertices are numbered in Morton order, so a
+        // chunk mostly lies in one element (72 % of the chunks on the 100k-vertex
+        // benchmark sphere), else mostly in two (24 %). One element's
+        // coefficients are broadcast, several elements' blended lane by lane
+        // (gathers are several times slower).
+        const std::int32_t first_lane = element[0];
+        if (all_equal(element, first_lane)) {
+          const float* only = beam.coefficients + static_cast<std::size_t>(first_lane) * kCoefficients;
+          accumulate([&](int k) { return splat(only[k]); });
+          continue;
+        }
+        const std::int32_t lowest = horizontal_min(element), highest = horizontal_max(element);
+        const float* low = beam.coefficients + static_cast<std::size_t>(lowest) * kCoefficients;
+        if (highest == lowest + 1) {
+          const LaneIntegers in_low = element == splat_integer(lowest);
+          const float* high = low + kCoefficients;
+          accumulate([&](int k) { return in_low ? splat(low[k]) : splat(high[k]); });
+        } else {
+          accumulate([&](int k) {
+            Lanes value = splat(low[k]);
+            for (std::int32_t e = 1; e <= highest - lowest; ++e)
+              value = element == splat_integer(lowest + e) ? splat(low[e * kCoefficients + k]) : value;
+            return value;
+          });
+        }
+      }
+    }
+    const double* rest_x = job.rest[0] + begin;
+    const double* rest_y = job.rest[1] + begin;
+    const double* rest_z = job.rest[2] + begin;
+    double* out = job.positions + 3 * begin;
+    for (std::size_t v = 0; v < count; ++v) {
+      out[3 * v] = rest_x[v] + out_x[v];
+      out[3 * v + 1] = rest_y[v] + out_y[v];
+      out[3 * v + 2] = rest_z[v] + out_z[v];
+    }
+  }
+}
+
+void normals(const NormalsJob& job, std::size_t first, std::size_t last) noexcept {
+  const std::uint32_t* offsets = job.ring_offsets;
+  const std::uint32_t* ring = job.ring;
+  const std::uint8_t* closed = job.ring_closed;
+  const double* positions = job.positions;
+  const std::uint32_t last_vertex = job.vertex_count - 1;
+  // Points as one 4-lane vector (x, y, z, w; lane w ignored), and the cross product through
+  // a × b = yzx(a ∘ yzx(b) − yzx(a) ∘ b): the outer yzx is linear, so it is
+  // applied once to the sum (when it is stored), and yzx of each neighbour is reused by the next
+  // triangle. Neighbours are taken relative to the centre (which cancels in
+  // exact arithmetic) to keep the products small: edges are millimetres,
+  // coordinates decimetres.
+  // Normalized a block at a time, in a loop that vectorizes: square roots and
+  // divisions one vertex at a time would cost more than the cross products.
+  constexpr std::size_t kNormalBlock = 64;
+  for (std::size_t block = first; block < last; block += kNormalBlock) {
+    const std::size_t count = smaller(kNormalBlock, last - block);
+    alignas(64) double nx[kNormalBlock], ny[kNormalBlock], nz[kNormalBlock];
+    for (std::size_t i = 0; i < count; ++i) {
+      const std::size_t v = block + i;
+      const Xyz centre = load_xyz(positions, static_cast<std::uint32_t>(v), last_vertex);
+      Xyz sum{};
+      const std::uint32_t begin = offsets[v], end = offsets[v + 1];
+      if (closed[v]) {
+        Xyz a = load_xyz(positions, ring[end - 1], last_vertex) - centre;
+        Xyz a_yzx = yzx(a);
+        for (std::uint32_t k = begin; k < end; ++k) {
+          const Xyz b = load_xyz(positions, ring[k], last_vertex) - centre;
+          const Xyz b_yzx = yzx(b);
+          sum += a * b_yzx - a_yzx * b;
+          a = b;
+          a_yzx = b_yzx;
+        }
+      } else {
+        for (std::uint32_t k = begin; k < end; k += 2) {
+          const Xyz a = load_xyz(positions, ring[k], last_vertex) - centre;
+          const Xyz b = load_xyz(positions, ring[k + 1], last_vertex) - centre;
+          sum += a * yzx(b) - yzx(a) * b;
+        }
+      }
+      nx[i] = sum[1];  // yzx(sum)
+      ny[i] = sum[2];
+      nz[i] = sum[0];
+    }
+    double* out = job.normals + 3 * block;
+    for (std::size_t i = 0; i < count; ++i) {
+      const double length = __builtin_sqrt(nx[i] * nx[i] + ny[i] * ny[i] + nz[i] * nz[i]);
+      const double scale = length > 0.0 ? 1.0 / length : 0.0;
+      out[3 * i] = nx[i] * scale;
+      out[3 * i + 1] = ny[i] * scale;
+      out[3 * i + 2] = nz[i] * scale;
+    }
+  }
+}
+
+}  // namespace ORGANSIM_KERNEL_LEVEL
+}  // namespace organsim::multibeam::kernels

@@ -1,0 +1,124 @@
+// Every instruction-set level of the per-vertex kernels that this CPU runs
+// computes the same vertices (the levels differ only in rounding: FMA, lane
+// order).
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "multibeam/kernels.h"
+#include "organsim/multibeam/beam_organ.h"
+#include "test_models.h"
+
+namespace organsim::multibeam {
+namespace {
+
+double largest_difference(const std::vector<double>& a, const std::vector<double>& b) {
+  double worst = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) worst = std::max(worst, std::abs(a[i] - b[i]));
+  return worst;
+}
+
+TEST(MultiBeamKernels, TheSelectedLevelIsTheWidestThisCpuRuns) {
+  const kernels::RunnableSets sets = kernels::runnable();
+  ASSERT_GE(sets.count, 1u);
+  EXPECT_STREQ(kernels::selected().level, sets.set[0].level);
+  EXPECT_EQ(kernels::selected().distort, sets.set[0].distort);
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__AVX2__)
+  // The portable build: the baseline is always compiled and always runs.
+  EXPECT_STREQ(sets.set[sets.count - 1].level, "x86-64");
+  if (__builtin_cpu_supports("x86-64-v4")) {
+    EXPECT_STREQ(sets.set[0].level, "x86-64-v4");
+  }
+#endif
+}
+
+TEST(MultiBeamKernels, EveryLevelComputesTheSameWeightsDistortionAndNormals) {
+  const BeamOrgan sphere(testing::make_sphere_model(2400, 20));
+  const std::size_t n = sphere.vertex_count();
+  const std::size_t padded = n + kernels::kPadding;
+  const std::uint32_t stations = sphere.stations();
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+
+  constexpr std::uint32_t kBeams = 3;
+  std::vector<std::vector<float>> coefficients(kBeams, std::vector<float>(stations * kernels::kCoefficients));
+  for (auto& beam : coefficients)
+    for (float& c : beam) c = static_cast<float>(1e-3 * unit(random));  // metres and radians of a 1 mm press
+  const double group_points[kBeams][3] = {{0.08, 0.0, 0.0}, {0.0, 0.0, 0.08}, {0.0, 0.08, 0.0}};
+  // L⁻¹ for the three points (column-major, stride 3), as the influence function holds it.
+  Eigen::Matrix3d distances;
+  for (std::uint32_t i = 0; i < kBeams; ++i)
+    for (std::uint32_t j = 0; j < kBeams; ++j)
+      distances(i, j) = (Eigen::Vector3d(group_points[i]) - Eigen::Vector3d(group_points[j])).norm();
+  const Eigen::Matrix3d inverse = distances.inverse();
+
+  const kernels::RunnableSets sets = kernels::runnable();
+  std::vector<std::vector<double>> weights_of(sets.count), positions_of(sets.count), normals_of(sets.count);
+  for (std::size_t s = 0; s < sets.count; ++s) {
+    const kernels::KernelSet& set = sets.set[s];
+    SCOPED_TRACE(set.level);
+    std::vector<std::vector<float>> weights(kBeams, std::vector<float>(padded, 0.0f));
+    kernels::WeightJob weight_job{};
+    weight_job.rest[0] = sphere.rest_x();
+    weight_job.rest[1] = sphere.rest_y();
+    weight_job.rest[2] = sphere.rest_z();
+    weight_job.attenuation_rate = 20.0;
+    weight_job.groups = kBeams;
+    weight_job.group_points = group_points[0];
+    weight_job.inverse = inverse.data();
+    weight_job.inverse_stride = 3;
+    weight_job.beams = kBeams;
+    for (std::uint32_t b = 0; b < kBeams; ++b)
+      weight_job.beam[b] = {{group_points[b][0], group_points[b][1], group_points[b][2]}, 1.0, b, weights[b].data()};
+    set.build_weights(weight_job, 0, n);
+
+    std::vector<model::Point3> positions(n), normals(n);
+    kernels::DistortionJob job{};
+    job.offset[0] = sphere.offset_x();
+    job.offset[1] = sphere.offset_y();
+    job.offset[2] = sphere.offset_z();
+    job.rest[0] = sphere.rest_x();
+    job.rest[1] = sphere.rest_y();
+    job.rest[2] = sphere.rest_z();
+    job.stations = stations;
+    job.beams = kBeams;
+    for (std::uint32_t b = 0; b < kBeams; ++b) {
+      const Eigen::Vector3f axis = Eigen::Vector3f(static_cast<float>(-group_points[b][0]), 0.3f,
+                                                   static_cast<float>(group_points[b][2])).normalized();
+      job.beam[b] = {{axis[0], axis[1], axis[2]}, 0.09f, 1.0f / 0.09f, weights[b].data(), coefficients[b].data()};
+    }
+    job.positions = positions[0].data();
+    const std::size_t half = n / 2 / kernels::kPadding * kernels::kPadding;  // two ranges, as two threads would
+    set.distort(job, 0, half);
+    set.distort(job, half, n);
+
+    // On the same positions for every level (each level's distortion rounds differently).
+    kernels::NormalsJob normals_job{sphere.ring_offsets().data(), sphere.ring().data(), sphere.ring_closed().data(),
+                                    static_cast<std::uint32_t>(n), sphere.model().surface_vertices[0].data(),
+                                    normals[0].data()};
+    set.normals(normals_job, 0, n);
+
+    for (const auto& beam : weights) weights_of[s].insert(weights_of[s].end(), beam.begin(), beam.begin() + n);
+    positions_of[s].assign(positions[0].data(), positions[0].data() + 3 * n);
+    normals_of[s].assign(normals[0].data(), normals[0].data() + 3 * n);
+
+    // The kernels did work: weights in (0, 1] at the action points' side, vertices moved.
+    double moved = 0.0;
+    for (std::size_t v = 0; v < n; ++v)
+      moved = std::max(moved, (Eigen::Vector3d(positions[v].data()) - Eigen::Vector3d(sphere.model().surface_vertices[v].data())).norm());
+    EXPECT_GT(moved, 1e-4);
+    for (std::size_t v = 0; v < n; ++v) ASSERT_NEAR(Eigen::Vector3d(normals[v].data()).norm(), 1.0, 1e-12) << v;
+  }
+  for (std::size_t s = 1; s < sets.count; ++s) {
+    SCOPED_TRACE(std::string(sets.set[s].level) + " against " + sets.set[0].level);
+    EXPECT_LT(largest_difference(weights_of[s], weights_of[0]), 1e-6);     // single-precision weights in [−1, 1]
+    EXPECT_LT(largest_difference(positions_of[s], positions_of[0]), 1e-8);  // m: float rounding of mm displacements
+    EXPECT_LT(largest_difference(normals_of[s], normals_of[0]), 1e-14);
+  }
+}
+
+}  // namespace
+}  // namespace organsim::multibeam
