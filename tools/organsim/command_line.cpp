@@ -1,6 +1,7 @@
 #include "command_line.h"
 
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -81,6 +82,10 @@ void add_simulation_commands(CLI::App& app, CommandTable& table) {
 }
 
 int run_program(CLI::App& app, const CommandTable& table, int argc, char** argv) {
+  // Past a file-size limit (ulimit -f) write() then fails with EFBIG, which the
+  // writers report in one line and clean up after, instead of SIGXFSZ killing
+  // the program with a temporary file left half written.
+  std::signal(SIGXFSZ, SIG_IGN);
   app.set_version_flag("--version", std::string("organsim ") + kProgramVersion);
   app.require_subcommand(1);
   try {

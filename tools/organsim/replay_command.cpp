@@ -1,8 +1,12 @@
 // `organsim replay MODEL SESSION`: a recorded multi-tool session through the
 // real engine, with scripted devices: forces, contacts and loop timings.
+#include <unistd.h>
+
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
 #include <sstream>
@@ -13,6 +17,7 @@
 
 #include "command_line.h"
 #include "model_tuning.h"
+#include "session_limits.h"
 #include "organsim/devices/scripted_device.h"
 #include "organsim/io/atomic_file.h"
 #include "organsim/mesh_io/mesh_io.h"
@@ -36,40 +41,146 @@ struct ReplayOptions {
   std::string frames_dir;
   bool fast = false;
   bool json = false;
+  bool long_session = false;
+  double repeat_for = 0.0;  // s; 0: play the session once
+  double progress = 0.0;    // s between progress lines; 0: none
   double max_force = SafetyLimits{}.max_force;
   double max_stiffness = SafetyLimits{}.max_stiffness;
 };
 
 // Writes each published deformation frame as VTP (LPS, mm; the model file's
-// vertex order) and, at the end, a ParaView collection (.pvd) indexing them.
+// vertex order) and a ParaView collection (.pvd) indexing them, written as the
+// frames come (published complete by finish()) so that memory stays bounded.
 class FrameWriter {
  public:
   FrameWriter(const std::string& directory, const multibeam::BeamOrgan& organ, std::vector<model::Triangle> triangles)
       : directory_(directory), organ_(organ), triangles_(std::move(triangles)) {
     if (directory_.empty()) return;
     fs::create_directories(directory_);
+    index_ = std::make_unique<io::AtomicStream>((fs::path(directory_) / "frames.pvd").string());
+    index_->append("<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n  <Collection>\n");
   }
   void take(TripleBuffer<SurfaceFrame>& frames) {
     if (directory_.empty() || !frames.update()) return;
     const SurfaceFrame& frame = frames.read();
-    std::vector<model::Point3> in_file_order(frame.positions.size());
+    in_file_order_.resize(frame.positions.size());
     for (std::size_t v = 0; v < frame.positions.size(); ++v)
-      in_file_order[organ_.file_vertex_index()[v]] = frame.positions[v];
+      in_file_order_[organ_.file_vertex_index()[v]] = frame.positions[v];
     const std::string name = fmt::format("frame_{:05d}.vtp", frame.frame);
-    mesh_io::write_surface_vtp({in_file_order, triangles_}, (fs::path(directory_) / name).string());
-    index_.emplace_back(frame.time, name);
+    mesh_io::write_surface_vtp({in_file_order_, triangles_}, (fs::path(directory_) / name).string());
+    index_->append(fmt::format("    <DataSet timestep=\"{:.6f}\" file=\"{}\"/>\n", frame.time, name));
+    ++count_;
   }
-  void finish() const {
+  void finish() {
     if (directory_.empty()) return;
-    mesh_io::write_collection_pvd(index_, (fs::path(directory_) / "frames.pvd").string());
+    index_->append("  </Collection>\n</VTKFile>\n");
+    index_->commit();
   }
-  std::size_t count() const { return index_.size(); }
+  std::size_t count() const { return count_; }
 
  private:
   std::string directory_;
   const multibeam::BeamOrgan& organ_;
   std::vector<model::Triangle> triangles_;
-  std::vector<mesh_io::TimeStep> index_;
+  std::vector<model::Point3> in_file_order_;
+  std::unique_ptr<io::AtomicStream> index_;
+  std::size_t count_ = 0;
+};
+
+// The forces the devices received, taken out of their rings while the loops
+// run and appended to the CSV file (published complete at the end), one row
+// per tool and tick in time order.
+class ForceWriter {
+ public:
+  explicit ForceWriter(const std::string& path) {
+    if (path.empty()) return;
+    csv_ = std::make_unique<io::AtomicStream>(path);
+    csv_->append("t_s,tool,fx_n,fy_n,fz_n,in_contact\n");
+  }
+  /// Writes the ticks every device has recorded; at the end (`all`), whatever is left.
+  void take(const std::vector<std::unique_ptr<ScriptedDevice>>& devices, bool all = false) {
+    if (!csv_) return;
+    ForceRecord record;
+    while (true) {
+      bool any = false;
+      for (const auto& device : devices) any = any || device->record_count() > 0;
+      bool every = true;
+      for (const auto& device : devices) every = every && device->record_count() > 0;
+      if (!(every || (all && any))) return;
+      for (std::size_t i = 0; i < devices.size(); ++i) {
+        if (!devices[i]->take_record(record)) continue;
+        const int length = std::snprintf(line_, sizeof line_, "%.6f,%zu,%.9g,%.9g,%.9g,%d\n", record.time, i + 1,
+                                         record.force[0], record.force[1], record.force[2], record.in_contact ? 1 : 0);
+        csv_->append(line_, static_cast<std::size_t>(length));
+      }
+    }
+  }
+  void finish() {
+    if (csv_) csv_->commit();
+  }
+
+ private:
+  std::unique_ptr<io::AtomicStream> csv_;
+  char line_[160];
+};
+
+// Resident memory of this process (MiB), from /proc/self/statm.
+double resident_mib() {
+  std::ifstream statm("/proc/self/statm");
+  std::size_t size = 0, resident = 0;
+  statm >> size >> resident;
+  return static_cast<double>(resident) * static_cast<double>(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
+}
+
+// A line every `interval` seconds of wall time while a model runs: elapsed
+// time, resident memory and the loops' statistics over the interval (stderr;
+// JSON with --json), for long runs and soaks (tools/soak.sh).
+class ProgressReporter {
+ public:
+  ProgressReporter(double interval, const std::string& model, bool json)
+      : interval_(interval), model_(model), json_(json), start_(std::chrono::steady_clock::now()), next_(interval) {}
+  void poll(const RunTimings& timings) {
+    if (interval_ <= 0.0) return;
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    if (elapsed < next_) return;
+    next_ += interval_;
+    const DurationHistogram period = timings.force_periods.since(last_.force_periods);
+    const DurationHistogram compute = timings.force_computes.since(last_.force_computes);
+    const DurationHistogram frames = timings.deformation_computes.since(last_.deformation_computes);
+    last_ = timings;
+    const double memory = resident_mib();
+    if (json_) {
+      std::cerr << nlohmann::json{{"progress_s", elapsed},
+                                  {"model", model_},
+                                  {"resident_mib", memory},
+                                  {"force_ticks", compute.count()},
+                                  {"force_period", timing_json(period.percentiles())},
+                                  {"force_compute", timing_json(compute.percentiles())},
+                                  {"deadline_misses", period.above_threshold()},
+                                  {"frames", frames.count()},
+                                  {"deformation_compute", timing_json(frames.percentiles())}}
+                       .dump()
+                << std::endl;
+      return;
+    }
+    std::cerr << fmt::format(
+                     "replay: {:.0f} s, {}: resident {:.1f} MiB; force loop {} ticks, period p50 {:.3f} ms, p99 {:.3f} "
+                     "ms, max {:.3f} ms, {} misses; {} frames, compute p99 {:.2f} ms",
+                     elapsed, model_, memory, compute.count(), period.quantile(0.5) * 1e3, period.quantile(0.99) * 1e3,
+                     period.max() * 1e3, period.above_threshold(), frames.count(), frames.quantile(0.99) * 1e3)
+              << std::endl;
+  }
+
+ private:
+  static nlohmann::json timing_json(const Percentiles& p) {
+    return {{"p50_ms", p.p50 * 1e3}, {"p99_ms", p.p99 * 1e3}, {"max_ms", p.max * 1e3}};
+  }
+  double interval_;
+  std::string model_;
+  bool json_;
+  std::chrono::steady_clock::time_point start_;
+  double next_;
+  RunTimings last_;
 };
 
 nlohmann::json timing_json(const Percentiles& p) {
@@ -86,8 +197,12 @@ struct ModelRun {
   std::uint64_t refused = 0, instabilities = 0;
 };
 
+// Records each device's ring holds: 8 s of force ticks, far more than the
+// writer lets accumulate between two takes (2 ms in real time, one frame fast).
+constexpr std::size_t kRingRecords = 8192;
+
 ModelRun run_model(const ReplayOptions& o, const std::string& name, const multibeam::BeamOrgan& organ,
-                   const Session& session, FrameWriter& frames) {
+                   const Session& session, FrameWriter& frames, ForceWriter& forces) {
   SafetyLimits limits;
   limits.max_force = o.max_force;
   limits.max_stiffness = o.max_stiffness;
@@ -95,20 +210,32 @@ ModelRun run_model(const ReplayOptions& o, const std::string& name, const multib
   parse_model_kind(name, options.model);
   apply_model_tuning(o.tuning, options.fem, options.springs);
   options.beams.merge = o.merge == "sum" ? multibeam::MergeRule::sum : multibeam::MergeRule::influence;
-  const auto records = static_cast<std::size_t>(session.duration / options.force_period) + 16;
   ModelRun run;
   run.name = name;
   std::vector<HapticDevice*> device_pointers;
+  const double repeat_period = o.repeat_for > 0.0 ? session.duration : 0.0;
   for (const Trajectory& t : session.tools) {
-    run.devices.push_back(std::make_unique<ScriptedDevice>(t, limits, records));
+    run.devices.push_back(std::make_unique<ScriptedDevice>(t, limits, kRingRecords, repeat_period));
     device_pointers.push_back(run.devices.back().get());
   }
   Engine engine(organ, device_pointers, options);
-  run.timings = o.fast ? run_fast(engine, session.duration, [&] { frames.take(engine.surfaces()); })
-                       : run_realtime(engine, session.duration, [&] {
-                           frames.take(engine.surfaces());
-                           return true;
-                         });
+  const double duration = o.repeat_for > 0.0 ? o.repeat_for : session.duration;
+  ProgressReporter progress(o.progress, name, o.json);
+  if (o.fast) {
+    run.timings = run_fast(engine, duration, [&](const RunTimings& so_far) {
+      frames.take(engine.surfaces());
+      forces.take(run.devices);
+      progress.poll(so_far);
+    });
+  } else {
+    run.timings = run_realtime(engine, duration, [&](const RunTimings& so_far) {
+      frames.take(engine.surfaces());
+      forces.take(run.devices);
+      progress.poll(so_far);
+      return true;
+    });
+  }
+  forces.take(run.devices, true);
   if (!run.timings.priority_warning.empty() && !o.fast) warn("replay", run.timings.priority_warning);
   for (std::size_t i = 0; i < run.devices.size(); ++i) {
     run.telemetry.push_back(engine.telemetry(i));
@@ -129,27 +256,15 @@ ModelRun run_model(const ReplayOptions& o, const std::string& name, const multib
   return run;
 }
 
-void write_forces_csv(const ModelRun& run, const std::string& path) {
-  std::ostringstream csv;
-  csv << "t_s,tool,fx_n,fy_n,fz_n,in_contact\n";
-  for (std::size_t i = 0; i < run.devices.size(); ++i)
-    for (std::size_t r = 0; r < run.devices[i]->record_count(); ++r) {
-      const ForceRecord& f = run.devices[i]->record(r);
-      csv << fmt::format("{:.6f},{},{:.9g},{:.9g},{:.9g},{}\n", f.time, i + 1, f.force[0], f.force[1], f.force[2],
-                         f.in_contact ? 1 : 0);
-    }
-  io::write_file_atomically(path, csv.str());
-}
-
 void print_json(const ReplayOptions& o, const Session& session, const ModelRun& run, const FrameWriter& frames) {
   const RunTimings& timings = run.timings;
-  const Percentiles period = percentiles(timings.force_periods), compute = percentiles(timings.force_computes);
+  const Percentiles period = timings.force_periods.percentiles(), compute = timings.force_computes.percentiles();
   nlohmann::json j;
   j["model"] = o.model_path;
   j["session"] = o.session_path;
   j["mode"] = o.fast ? "fast" : "realtime";
   j["merge"] = o.merge;
-  j["duration_s"] = session.duration;
+  j["duration_s"] = o.repeat_for > 0.0 ? o.repeat_for : session.duration;
   j["wall_s"] = timings.wall_seconds;
   nlohmann::json tools = nlohmann::json::array();
   for (std::size_t i = 0; i < run.devices.size(); ++i)
@@ -160,13 +275,13 @@ void print_json(const ReplayOptions& o, const Session& session, const ModelRun& 
                      {"watchdog_ticks", run.watchdog[i]},
                      {"non_finite_forces", run.non_finite[i]}});
   j["tools"] = tools;
-  j["force_loop"] = {{"ticks", timings.force_computes.size()},
+  j["force_loop"] = {{"ticks", timings.force_computes.count()},
                      {"period", o.fast ? nlohmann::json(nullptr) : timing_json(period)},
                      {"compute", timing_json(compute)},
                      {"deadline_misses", timings.force_deadline_misses},
                      {"realtime_priority", timings.realtime_priority}};
-  j["deformation_loop"] = {{"frames", timings.deformation_computes.size()},
-                           {"compute", timing_json(percentiles(timings.deformation_computes))}};
+  j["deformation_loop"] = {{"frames", timings.deformation_computes.count()},
+                           {"compute", timing_json(timings.deformation_computes.percentiles())}};
   j["refused_contacts"] = run.refused;
   j["deformation_model"] = run.name;
   j["instabilities"] = run.instabilities;
@@ -182,7 +297,8 @@ void print_text(const ReplayOptions& o, const Session& session, const std::vecto
   std::string names;
   for (const ModelRun& run : runs) names += (names.empty() ? "" : ", ") + run.name;
   std::cout << fmt::format("{:<16}{} with {} ({} model{}, {} tools, {:.2f} s, {} mode{})\n", "replay", o.session_path,
-                           o.model_path, names, single ? "" : "s", session.tools.size(), session.duration,
+                           o.model_path, names, single ? "" : "s", session.tools.size(),
+                           o.repeat_for > 0.0 ? o.repeat_for : session.duration,
                            o.fast ? "fast" : "real-time",
                            runs.front().name == "beam" || !single ? ", " + o.merge + " merge" : std::string());
   auto row = [&](const std::string& label, auto&& cell) {
@@ -201,28 +317,28 @@ void print_text(const ReplayOptions& o, const Session& session, const std::vecto
                                             : std::string());
     });
   row("force loop", [&](const ModelRun& run) {
-    const Percentiles compute = percentiles(run.timings.force_computes);
+    const Percentiles compute = run.timings.force_computes.percentiles();
     if (o.fast || !single)
-      return fmt::format("{} ticks, compute p50 {:.2f} us, p99 {:.2f} us{}", run.timings.force_computes.size(),
+      return fmt::format("{} ticks, compute p50 {:.2f} us, p99 {:.2f} us{}", run.timings.force_computes.count(),
                          compute.p50 * 1e6, compute.p99 * 1e6,
                          single ? fmt::format(", max {:.2f} us", compute.max * 1e6) : std::string());
-    const Percentiles period = percentiles(run.timings.force_periods);
+    const Percentiles period = run.timings.force_periods.percentiles();
     return fmt::format(
         "{} ticks, period p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms; compute p50 {:.2f} us, p99 {:.2f} us, "
         "max {:.2f} us; {} deadline misses (> 2 ms){}",
-        run.timings.force_computes.size(), period.p50 * 1e3, period.p99 * 1e3, period.max * 1e3, compute.p50 * 1e6,
+        run.timings.force_computes.count(), period.p50 * 1e3, period.p99 * 1e3, period.max * 1e3, compute.p50 * 1e6,
         compute.p99 * 1e6, compute.max * 1e6, run.timings.force_deadline_misses,
         run.timings.realtime_priority ? ", real-time priority" : "");
   });
   if (!o.fast && !single)
     row("force period", [&](const ModelRun& run) {
-      const Percentiles period = percentiles(run.timings.force_periods);
+      const Percentiles period = run.timings.force_periods.percentiles();
       return fmt::format("p50 {:.3f}, p99 {:.3f}, max {:.3f} ms; {} misses", period.p50 * 1e3, period.p99 * 1e3,
                          period.max * 1e3, run.timings.force_deadline_misses);
     });
   row("deformation", [&](const ModelRun& run) {
-    const Percentiles deform = percentiles(run.timings.deformation_computes);
-    return fmt::format("{} frames, compute p50 {:.3f} ms, p99 {:.3f} ms", run.timings.deformation_computes.size(),
+    const Percentiles deform = run.timings.deformation_computes.percentiles();
+    return fmt::format("{} frames, compute p50 {:.3f} ms, p99 {:.3f} ms", run.timings.deformation_computes.count(),
                        deform.p50 * 1e3, deform.p99 * 1e3);
   });
   if (!o.forces_path.empty()) std::cout << fmt::format("{:<16}{}\n", "forces", o.forces_path);
@@ -235,16 +351,21 @@ int run_replay(const ReplayOptions& o) {
     throw CLI::ValidationError("--model", "--json, --forces and --frames take one model; give one --model");
   if (!o.frames_dir.empty() && fs::exists(o.frames_dir) && !fs::is_directory(o.frames_dir))
     throw std::runtime_error("--frames " + o.frames_dir + " is a file; give a directory");
+  if (o.repeat_for > SessionLimits{}.max_duration && !o.long_session)
+    throw CLI::ValidationError("--repeat-for", "longer than a day; pass --long-session to run it on purpose");
   model::OrganModel loaded = load_simulation_model("replay", o.model_path);
-  const Session session = read_session(o.session_path);
+  const Session session = read_session(o.session_path, session_limits(loaded, o.long_session));
+  if (o.repeat_for > 0.0 && !(session.duration > 0.0))
+    throw CLI::ValidationError("--repeat-for", "the session lasts 0 s; it needs samples at two times to repeat");
   const std::vector<model::Triangle> file_triangles = loaded.surface_triangles;
   const multibeam::BeamOrgan organ(std::move(loaded));
 
   FrameWriter frames(o.frames_dir, organ, file_triangles);
+  ForceWriter forces(o.forces_path);
   std::vector<ModelRun> runs;
-  for (const std::string& name : o.models) runs.push_back(run_model(o, name, organ, session, frames));
+  for (const std::string& name : o.models) runs.push_back(run_model(o, name, organ, session, frames, forces));
   frames.finish();
-  if (!o.forces_path.empty()) write_forces_csv(runs.front(), o.forces_path);
+  forces.finish();
   if (o.json)
     print_json(o, session, runs.front(), frames);
   else
@@ -272,7 +393,13 @@ Command add_replay_command(CLI::App& app) {
   app.add_option("--forces", o->forces_path, "Write every force sent to the devices (CSV: t_s,tool,fx_n,fy_n,fz_n,in_contact)");
   app.add_option("--frames", o->frames_dir, "Write the deformed surface of every frame (VTP + frames.pvd) into this directory");
   app.add_flag("--fast", o->fast, "Step the loops deterministically as fast as possible (bit-identical forces)");
-  app.add_flag("--json", o->json, "Print the summary as one JSON object on stdout");
+  app.add_flag("--json", o->json, "Print the summary as one JSON object on stdout (and progress lines as JSON)");
+  app.add_option("--repeat-for", o->repeat_for, "Play the session over and over for this long, s (soak tests)")
+      ->check(kPositive);
+  app.add_option("--progress", o->progress,
+                 "Every this many seconds, print resident memory and the loops' statistics to stderr")
+      ->check(kPositive);
+  app.add_flag("--long-session", o->long_session, "Allow sessions (or --repeat-for) longer than 24 h");
   app.add_option("--max-force", o->max_force, "Device force limit, N")->check(kPositive)->capture_default_str();
   app.add_option("--max-stiffness", o->max_stiffness, "Device stiffness limit, N/m")
       ->check(kPositive)

@@ -20,6 +20,7 @@
 #include "command_line.h"
 #include "model_tuning.h"
 #include "haptic_rig_options.h"
+#include "session_limits.h"
 #include "organsim/devices/mouse_tool.h"
 #include "organsim/devices/scripted_device.h"
 #include "organsim/model/model_file.h"
@@ -42,6 +43,7 @@ constexpr std::size_t kMouseTools = 4;
 struct ViewOptions {
   std::string model_path;
   std::string session_path;
+  bool long_session = false;
   std::string background_path;
   std::string texture_path;
   std::string screenshot_path;
@@ -111,7 +113,7 @@ void view_session(const multibeam::BeamOrgan& organ, const Session& session, Vie
   std::vector<Eigen::Vector3d> forces(scripted.size());
   const std::vector<bool> present(scripted.size(), true);
   bool stop = false;
-  run_fast(engine, session.duration, [&] {
+  run_fast(engine, session.duration, [&](const RunTimings&) {
     if (stop) return;
     engine.surfaces().update();
     const SurfaceFrame& surface = engine.surfaces().read();
@@ -193,7 +195,7 @@ void view_mouse(const multibeam::BeamOrgan& organ, ViewRun& run) {
   interactor->Initialize();
   std::vector<Eigen::Vector3d> forces(kMouseTools);
   const auto start = std::chrono::steady_clock::now();
-  run_realtime(engine, o.seconds, [&] {
+  run_realtime(engine, o.seconds, [&](const RunTimings&) {
     interactor->ProcessEvents();
     if (interactor->GetDone() || run.frame_limit_reached()) return false;
     if (!engine.surfaces().update()) return true;
@@ -256,7 +258,7 @@ int run_view(const ViewOptions& o) {
   }
 
   Session session;
-  if (!o.session_path.empty()) session = read_session(o.session_path);
+  if (!o.session_path.empty()) session = read_session(o.session_path, session_limits(organ.model(), o.long_session));
   HapticRig rig;
   if (o.phantom) rig = open_haptic_rig(o.rig, organ.model());
   const std::size_t tool_count =
@@ -286,6 +288,7 @@ Command add_view_command(CLI::App& app) {
   auto o = std::make_shared<ViewOptions>();
   app.add_option("model", o->model_path, "Model file (.organ)")->required();
   app.add_option("--session", o->session_path, "Replay this session with scripted tools (default: mouse tools)");
+  app.add_flag("--long-session", o->long_session, "Allow sessions longer than 24 h");
   app.add_option("--background", o->background_path, "Laparoscopic background: an image or a video (looped)");
   app.add_option("--texture", o->texture_path, "Organ texture image (default: a procedural liver texture)");
   app.add_option("--screenshot", o->screenshot_path, "Write a PNG of the last frame");

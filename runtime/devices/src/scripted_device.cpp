@@ -4,12 +4,17 @@
 
 namespace organsim::devices {
 
-ScriptedDevice::ScriptedDevice(Trajectory trajectory, const SafetyLimits& limits, std::size_t max_records)
-    : trajectory_(std::move(trajectory)), limits_(limits), records_(max_records) {}
+ScriptedDevice::ScriptedDevice(Trajectory trajectory, const SafetyLimits& limits, std::size_t capacity,
+                               double repeat_period)
+    : trajectory_(std::move(trajectory)),
+      limits_(limits),
+      repeat_period_(repeat_period > 0.0 ? repeat_period : 0.0),
+      records_(capacity) {}
 
 bool ScriptedDevice::read_pose(double time, ToolPose& pose) noexcept {
   const auto& times = trajectory_.times;
   if (times.empty() || !std::isfinite(time)) return false;
+  if (repeat_period_ > 0.0) time = std::fmod(time, repeat_period_);
   if (cursor_ > 0 && times[cursor_ - 1] > time) cursor_ = 0;  // time went back
   while (cursor_ < times.size() && times[cursor_] <= time) ++cursor_;
   const bool has_shaft = !trajectory_.shafts.empty();
@@ -30,11 +35,21 @@ bool ScriptedDevice::read_pose(double time, ToolPose& pose) noexcept {
 }
 
 void ScriptedDevice::write_force(double time, const Eigen::Vector3d& force, bool in_contact) noexcept {
-  if (count_ == records_.size()) {
-    ++dropped_;
+  const std::size_t head = head_.load(std::memory_order_relaxed);
+  if (records_.empty() || head - tail_.load(std::memory_order_acquire) == records_.size()) {
+    dropped_.store(dropped_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
     return;
   }
-  records_[count_++] = {time, force, in_contact};
+  records_[head % records_.size()] = {time, force, in_contact};
+  head_.store(head + 1, std::memory_order_release);
+}
+
+bool ScriptedDevice::take_record(ForceRecord& out) noexcept {
+  const std::size_t tail = tail_.load(std::memory_order_relaxed);
+  if (tail == head_.load(std::memory_order_acquire)) return false;
+  out = records_[tail % records_.size()];
+  tail_.store(tail + 1, std::memory_order_release);
+  return true;
 }
 
 }  // namespace organsim::devices

@@ -16,9 +16,22 @@ namespace {
   throw std::runtime_error(path + ":" + std::to_string(line) + ": " + what);
 }
 
+std::string fmt(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", value);
+  return text;
+}
+
+// Without overflow for coordinates near the largest doubles (AlignedBox's
+// exteriorDistance squares them).
+double distance_outside(const Eigen::AlignedBox3d& box, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d excess = (box.min() - p).cwiseMax(p - box.max()).cwiseMax(0.0);
+  return excess.stableNorm();
+}
+
 }  // namespace
 
-Session read_session(const std::string& path) {
+Session read_session(const std::string& path, const SessionLimits& limits) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open the session file; check the path");
   Session session;
@@ -57,12 +70,22 @@ Session read_session(const std::string& path) {
     if (tool >= session.tools.size()) session.tools.resize(tool + 1);
     Trajectory& t = session.tools[tool];
     if (values[0] < 0.0) fail(path, line_number, "times start at 0 s");
+    if (values[0] > limits.max_duration)
+      fail(path, line_number,
+           fmt(values[0]) + " s is later than a session may last (" + fmt(limits.max_duration / 3600.0) +
+               " h); check that times are in seconds, or pass --long-session to run it on purpose");
     if (!t.times.empty() && values[0] <= t.times.back())
       fail(path, line_number, "times of a tool must increase");
     if (!t.times.empty() && t.shafts.empty() != (fields == 5))
       fail(path, line_number, "a tool's samples must all have a shaft direction or all have none");
+    const Eigen::Vector3d tip(values[2] * 1e-3, values[3] * 1e-3, values[4] * 1e-3);
+    if (!limits.organ_box.isEmpty() && distance_outside(limits.organ_box, tip) > limits.max_distance)
+      fail(path, line_number,
+           "tool " + std::to_string(tool + 1) + " is " + fmt(distance_outside(limits.organ_box, tip)) +
+               " m from the organ (at most " + fmt(limits.max_distance) +
+               " m); check that positions are in millimetres in the model's frame");
     t.times.push_back(values[0]);
-    t.positions.emplace_back(values[2] * 1e-3, values[3] * 1e-3, values[4] * 1e-3);
+    t.positions.push_back(tip);
     if (fields == 8) {
       const Eigen::Vector3d shaft(values[5], values[6], values[7]);
       if (!(shaft.norm() > 0.0)) fail(path, line_number, "the shaft direction is zero");

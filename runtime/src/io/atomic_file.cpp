@@ -49,6 +49,22 @@ void publish(const std::string& temp, const std::string& path) {
   sync_directory_of(path);
 }
 
+/// Writes all of [data, data + size) to fd; false (errno set) on failure.
+bool write_all(int fd, const char* data, std::size_t size) {
+  std::size_t written = 0;
+  while (written < size) {
+    const ssize_t n = ::write(fd, data + written, size - written);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return false;
+    }
+    written += static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
+constexpr std::size_t kStreamBuffer = 1 << 16;
+
 }  // namespace
 
 void sync_path(const std::string& path) {
@@ -61,22 +77,13 @@ void write_file_atomically(const std::string& path, const void* bytes, std::size
   std::string temp = temp_pattern(path, "");
   const int fd = ::mkstemp(temp.data());
   if (fd < 0) throw failure(path, "cannot create a temporary file next to it", errno);
-  const auto* data = static_cast<const unsigned char*>(bytes);
-  std::size_t written = 0;
   auto abandon = [&](const char* step) {
     const int error = errno;
     ::close(fd);
     ::unlink(temp.c_str());
     return failure(path, step, error);
   };
-  while (written < size) {
-    const ssize_t n = ::write(fd, data + written, size - written);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      throw abandon("write failed");
-    }
-    written += static_cast<std::size_t>(n);
-  }
+  if (!write_all(fd, static_cast<const char*>(bytes), size)) throw abandon("write failed");
   // mkstemp creates 0600; outputs are ordinary readable files.
   if (::fchmod(fd, 0644) != 0 || ::fsync(fd) != 0) throw abandon("flush failed");
   ::close(fd);
@@ -107,6 +114,48 @@ AtomicFile::~AtomicFile() {
 
 void AtomicFile::commit() {
   sync_path(temp_);
+  publish(temp_, path_);
+  temp_.clear();
+}
+
+AtomicStream::AtomicStream(const std::string& path) : path_(path), buffer_(kStreamBuffer, '\0') {
+  std::string temp = temp_pattern(path, "");
+  fd_ = ::mkstemp(temp.data());
+  if (fd_ < 0) throw failure(path, "cannot create a temporary file next to it", errno);
+  ::fchmod(fd_, 0644);
+  temp_ = temp;
+}
+
+AtomicStream::~AtomicStream() {
+  if (fd_ >= 0) ::close(fd_);
+  if (!temp_.empty()) ::unlink(temp_.c_str());
+}
+
+void AtomicStream::flush_buffer() {
+  if (temp_.empty()) throw std::runtime_error("cannot write '" + path_ + "': it was already published");
+  if (!write_all(fd_, buffer_.data(), buffered_)) throw failure(path_, "write failed", errno);
+  written_ += buffered_;
+  buffered_ = 0;
+}
+
+void AtomicStream::append(const char* bytes, std::size_t size) {
+  if (buffered_ + size > buffer_.size()) {
+    flush_buffer();
+    if (size > buffer_.size()) {
+      if (!write_all(fd_, bytes, size)) throw failure(path_, "write failed", errno);
+      written_ += size;
+      return;
+    }
+  }
+  std::memcpy(buffer_.data() + buffered_, bytes, size);
+  buffered_ += size;
+}
+
+void AtomicStream::commit() {
+  flush_buffer();
+  if (::fsync(fd_) != 0) throw failure(path_, "flush failed", errno);
+  ::close(fd_);
+  fd_ = -1;
   publish(temp_, path_);
   temp_.clear();
 }

@@ -16,7 +16,6 @@
 namespace organsim::realtime {
 namespace {
 
-constexpr double kDeadline = 2e-3;  // s: a force period longer than this is a miss
 // s: wake this early and spin to the deadline. A sleeping (virtual) CPU wakes
 // late now and then, by milliseconds on a VM whose host deschedules it; the
 // short sleep left (0.1 ms of 1 ms) keeps the thread under the kernel's 95 %
@@ -44,14 +43,11 @@ std::size_t ticks_for(double duration, double period) {
 
 // Runs `body(time)` every `period` until `count` ticks have run or `stop` is
 // set, sleeping to absolute deadlines so that lateness does not accumulate.
-// The samples arrays are sized (and so touched: no page faults) beforehand
-// and trimmed to what was recorded afterwards.
 template <typename Body>
-void periodic(double period, std::size_t count, const timespec& start, std::vector<double>& periods,
-              std::vector<double>& computes, std::atomic<bool>& stop, Body body) {
+void periodic(double period, std::size_t count, const timespec& start, DurationHistogram& periods,
+              DurationHistogram& computes, std::atomic<bool>& stop, Body body) {
   timespec next = start;
   double previous = -1.0;
-  std::size_t recorded_periods = 0, recorded = 0;
   for (std::size_t k = 0; k < count && !stop.load(std::memory_order_relaxed); ++k) {
     timespec early = next;
     advance(early, -kSpinAhead);
@@ -62,13 +58,11 @@ void periodic(double period, std::size_t count, const timespec& start, std::vect
     const double time = seconds(begin) - seconds(start);
     body(time);
     const timespec end = now_monotonic();
-    if (previous >= 0.0) periods[recorded_periods++] = time - previous;
-    computes[recorded++] = seconds(end) - seconds(begin);
+    if (previous >= 0.0) periods.record(time - previous);
+    computes.record(seconds(end) - seconds(begin));
     previous = time;
     advance(next, period);
   }
-  periods.resize(recorded_periods);
-  computes.resize(recorded);
 }
 
 
@@ -88,12 +82,10 @@ Percentiles percentiles(std::vector<double> samples) {
   return p;
 }
 
-RunTimings run_fast(Engine& engine, double duration, const std::function<void()>& after_frame) {
+RunTimings run_fast(Engine& engine, double duration, const std::function<void(const RunTimings&)>& after_frame) {
   RunTimings timings;
   const EngineOptions& o = engine.options();
   const std::size_t ticks = ticks_for(duration, o.force_period);
-  timings.force_computes.reserve(ticks);
-  timings.deformation_computes.reserve(ticks_for(duration, o.deformation_period) + 1);
   const auto wall_start = std::chrono::steady_clock::now();
   std::size_t next_frame = 0;  // index of the next deformation frame
   for (std::size_t k = 0; k < ticks; ++k) {
@@ -102,28 +94,23 @@ RunTimings run_fast(Engine& engine, double duration, const std::function<void()>
     if (time + 1e-12 >= static_cast<double>(next_frame) * o.deformation_period) {
       const auto begin = std::chrono::steady_clock::now();
       engine.deformation_step(time);
-      timings.deformation_computes.push_back(
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
+      timings.deformation_computes.record(std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
       ++next_frame;
-      if (after_frame) after_frame();
+      if (after_frame) after_frame(timings);
     }
     const auto begin = std::chrono::steady_clock::now();
     engine.force_tick(time);
-    timings.force_computes.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
+    timings.force_computes.record(std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
   }
   timings.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return timings;
 }
 
-RunTimings run_realtime(Engine& engine, double duration, const std::function<bool()>& poll) {
+RunTimings run_realtime(Engine& engine, double duration, const std::function<bool(const RunTimings&)>& poll) {
   RunTimings timings;
   const EngineOptions& o = engine.options();
   const std::size_t force_ticks = ticks_for(duration, o.force_period);
   const std::size_t frames = ticks_for(duration, o.deformation_period);
-  timings.force_periods.assign(force_ticks, 0.0);
-  timings.force_computes.assign(force_ticks, 0.0);
-  timings.deformation_periods.assign(frames, 0.0);
-  timings.deformation_computes.assign(frames, 0.0);
   // Keep every page resident: a page fault in the force loop costs a deadline.
   const bool locked = mlockall(MCL_CURRENT | MCL_FUTURE) == 0;
 
@@ -157,7 +144,7 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
   std::exception_ptr failure;
   while (!force_done.load() || !deformation_done.load()) {
     try {
-      if (poll && !failure && !poll()) stop.store(true);
+      if (poll && !failure && !poll(timings)) stop.store(true);
     } catch (...) {  // stop and join the loops before reporting it
       failure = std::current_exception();
       stop.store(true);
@@ -168,15 +155,14 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
   deformation.join();
   if (locked) munlockall();
   if (failure) std::rethrow_exception(failure);
-  if (poll) poll();
+  if (poll) poll(timings);
   timings.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   const int error = priority_error.load() != 0 ? priority_error.load() : deformation_priority_error.load();
   timings.realtime_priority = error == 0;
   if (error != 0)
     timings.priority_warning = std::string("the loops run without real-time priority (SCHED_FIFO: ") +
                                std::strerror(error) + "); run as root or grant CAP_SYS_NICE for steadier timing";
-  for (double p : timings.force_periods)
-    if (p > kDeadline) ++timings.force_deadline_misses;
+  timings.force_deadline_misses = timings.force_periods.above_threshold();
   return timings;
 }
 

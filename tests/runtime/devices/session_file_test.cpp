@@ -12,6 +12,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <thread>
+
 #include <gtest/gtest.h>
 
 #include "organsim/devices/scripted_device.h"
@@ -50,10 +52,11 @@ class SessionFile : public ::testing::Test {
 
   // Expects read_session to throw std::runtime_error whose message begins with
   // "<path>:<line>: " and contains `phrase`.
-  void expect_error(const std::string& text, std::size_t line, const std::string& phrase) const {
+  void expect_error(const std::string& text, std::size_t line, const std::string& phrase,
+                    const SessionLimits& limits = {}) const {
     const std::string path = write(text);
     try {
-      read_session(path);
+      read_session(path, limits);
       ADD_FAILURE() << "no error for:\n" << text;
     } catch (const std::runtime_error& e) {
       const std::string message = e.what();
@@ -392,6 +395,59 @@ TEST(ScriptedDevice, TimeMayGoBack) {
     ASSERT_TRUE(fresh.read_pose(time, b));
     EXPECT_EQ(a.tip, b.tip) << time;
   }
+}
+
+TEST_F(SessionFile, SessionsLongerThanADayOrFarFromTheOrganAreRefusedNamingTheLine) {
+  expect_error(std::string(kHeader) + "0,1,0,0,0\n99999999,1,1,0,0\n", 3, "later than a session may last (24 h)");
+  expect_error(std::string(kHeader) + "0,1,0,0,0\n86400.5,1,1,0,0\n", 3, "check that times are in seconds");
+  SessionLimits organ;
+  organ.organ_box = Eigen::AlignedBox3d(Eigen::Vector3d(-0.1, -0.1, -0.1), Eigen::Vector3d(0.1, 0.1, 0.1));
+  expect_error(std::string(kHeader) + "0,1,0,0,0\n1,2,1e308,0,0\n", 3, "tool 2 is 1e+305 m from the organ", organ);
+  expect_error(std::string(kHeader) + "0,1,0,0,-10200\n", 2, "tool 1 is 10.1 m from the organ (at most 10 m)", organ);
+  // At the limits: a day, and 10 m from the organ's box.
+  const Session day = read_session(write(std::string(kHeader) + "0,1,0,0,10100\n86400,1,0,0,0\n"), organ);
+  EXPECT_EQ(day.duration, 86400.0);
+  // Without an organ box, any finite position; with --long-session, any length.
+  SessionLimits any;
+  any.max_duration = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(read_session(write(std::string(kHeader) + "0,1,1e308,0,0\n99999999,1,0,0,0\n"), any).duration, 99999999.0);
+}
+
+TEST(ScriptedDevice, RepeatsItsTrajectoryEveryRepeatPeriod) {
+  ScriptedDevice device(three_samples(), {}, 0, 2.0);
+  ToolPose first, again;
+  for (const double t : {0.75, 1.5}) {
+    ASSERT_TRUE(device.read_pose(t, first));
+    ASSERT_TRUE(device.read_pose(t + 2.0, again));
+    EXPECT_EQ(first.tip, again.tip) << t;
+    ASSERT_TRUE(device.read_pose(t + 2000.0, again));
+    EXPECT_EQ(first.tip, again.tip) << t;
+  }
+}
+
+// The force loop writes while another thread takes the records out: every
+// record arrives once, in order, through a ring much smaller than the run.
+TEST(ScriptedDevice, StreamsRecordsThroughItsRingToAReaderThread) {
+  ScriptedDevice device(three_samples(), {}, 64);
+  constexpr int kRecords = 200000;
+  std::thread loop([&] {
+    for (int k = 0; k < kRecords; ++k) {
+      while (device.record_count() == 64) std::this_thread::yield();  // a real loop drops instead (counted)
+      device.write_force(k * 1e-3, Eigen::Vector3d(k, 0, 0), true);
+    }
+  });
+  int expected = 0;
+  bool in_order = true;
+  ForceRecord record;
+  while (expected < kRecords) {
+    if (!device.take_record(record)) continue;
+    in_order = in_order && record.force[0] == expected && record.time == expected * 1e-3;
+    ++expected;
+  }
+  loop.join();
+  EXPECT_TRUE(in_order);
+  EXPECT_EQ(device.dropped_records(), 0u);
+  EXPECT_FALSE(device.take_record(record));
 }
 
 TEST(ScriptedDevice, NoPoseForANonFiniteTimeOrAnEmptyTrajectory) {

@@ -6,7 +6,12 @@
 #include <stdexcept>
 #include <string>
 
+#include <csignal>
+
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include "organsim/io/atomic_file.h"
 #include "temp_directory.h"
@@ -67,6 +72,63 @@ TEST_F(AtomicOutput, ACommittedFileReplacesTheTarget) {
   output.commit();
   EXPECT_EQ(read(target), "voxels");
   EXPECT_EQ(entries(), 1);
+}
+
+TEST_F(AtomicOutput, AStreamAppearsWholeAtCommitAndNotBefore) {
+  const fs::path target = dir_ / "forces.csv";
+  write_file_atomically(target.string(), "old");
+  {
+    AtomicStream stream(target.string());
+    std::string expected;
+    for (int i = 0; i < 20000; ++i) {  // several buffers' worth
+      const std::string line = std::to_string(i) + ",0.125,-3.5\n";
+      stream.append(line);
+      expected += line;
+    }
+    stream.append(std::string(100000, 'x'));  // larger than the buffer
+    expected += std::string(100000, 'x');
+    EXPECT_EQ(read(target), "old");  // unchanged until commit
+    EXPECT_EQ(stream.size(), expected.size());
+    stream.commit();
+    EXPECT_EQ(read(target), expected);
+  }
+  EXPECT_EQ(entries(), 1);
+  {
+    AtomicStream abandoned(target.string());
+    abandoned.append("partial");
+  }
+  EXPECT_EQ(entries(), 1);  // the temporary file is gone, the target kept
+  EXPECT_NE(read(target), "partial");
+}
+
+// The disk fills (here: the process's file-size limit, RLIMIT_FSIZE, in a
+// child process): the append that fails throws one line naming the path, and
+// nothing is left behind.
+TEST_F(AtomicOutput, AFullDiskIsAOneLineErrorAndLeavesNoFile) {
+  const fs::path target = dir_ / "forces.csv";
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    std::signal(SIGXFSZ, SIG_IGN);
+    const rlimit limit{200000, 200000};
+    setrlimit(RLIMIT_FSIZE, &limit);
+    try {
+      AtomicStream stream(target.string());
+      for (int i = 0; i < 100000; ++i) stream.append("0.001000,1,0.5,0.25,-0.125,1\n");
+      stream.commit();
+      _exit(2);  // the limit did not stop it
+    } catch (const std::runtime_error& e) {
+      const std::string message = e.what();
+      const bool named = message.find(target.string()) != std::string::npos &&
+                         message.find("File too large") != std::string::npos && message.find('\n') == std::string::npos;
+      _exit(named ? 0 : 3);
+    }
+  }
+  int status = 0;
+  waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status)) << status;
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  EXPECT_EQ(entries(), 0);
 }
 
 TEST_F(AtomicOutput, ADirectoryAppearsWholeOrNotAtAll) {

@@ -131,19 +131,19 @@ TEST(RunFast, TicksTheForceLoopEveryPeriodAndTheFrameCallbackOncePerDeformationP
   ScriptedDevice device(press(), {}, 1000);
   Engine engine(cylinder(), {&device}, {});  // 1 ms force period, 1/60 s deformation period
   int frames = 0;
-  const RunTimings t = run_fast(engine, 0.5, [&] { ++frames; });
+  const RunTimings t = run_fast(engine, 0.5, [&](const RunTimings&) { ++frames; });
   // Ticks at 0, 1, …, 500 ms (both ends included): 501.
-  EXPECT_EQ(t.force_computes.size(), 501u);
+  EXPECT_EQ(t.force_computes.count(), 501u);
   EXPECT_EQ(device.record_count(), 501u);
   EXPECT_EQ(device.dropped_records(), 0u);
   // Frames at the boundaries 0, 1/60, …, 30/60 s: 31, and one callback after each.
-  EXPECT_EQ(t.deformation_computes.size(), 31u);
+  EXPECT_EQ(t.deformation_computes.count(), 31u);
   EXPECT_EQ(frames, 31);
   // Periods are measured in real time only; computes are durations.
-  EXPECT_TRUE(t.force_periods.empty());
-  EXPECT_TRUE(t.deformation_periods.empty());
-  for (double c : t.force_computes) EXPECT_GE(c, 0.0);
-  for (double c : t.deformation_computes) EXPECT_GE(c, 0.0);
+  EXPECT_EQ(t.force_periods.count(), 0u);
+  EXPECT_EQ(t.deformation_periods.count(), 0u);
+  EXPECT_GE(t.force_computes.max(), 0.0);
+  EXPECT_GE(t.deformation_computes.max(), 0.0);
   EXPECT_GT(t.wall_seconds, 0.0);
   EXPECT_EQ(t.force_deadline_misses, 0u);
   // The session times come from integers (k × period), not from a running sum:
@@ -162,9 +162,9 @@ TEST(RunFast, TickCountIsDurationOverPeriodPlusOne) {
     ScriptedDevice device(beside(), {}, 1000);
     Engine engine(cylinder(), {&device}, {});
     const RunTimings t = run_fast(engine, duration);
-    EXPECT_EQ(t.force_computes.size(), ticks) << duration;
+    EXPECT_EQ(t.force_computes.count(), ticks) << duration;
     EXPECT_EQ(device.record_count(), ticks) << duration;
-    EXPECT_GE(t.deformation_computes.size(), 1u) << duration;  // a frame at time 0 always
+    EXPECT_GE(t.deformation_computes.count(), 1u) << duration;  // a frame at time 0 always
   }
 }
 
@@ -179,7 +179,7 @@ TEST(RunFast, EachFrameIsSteppedAtTheFirstTickThatReachesItsBoundaryBeforeThatTi
   Engine engine(cylinder(), {&device}, options);
   std::vector<double> frame_times;
   std::vector<std::size_t> ticks_before, frame_numbers;
-  const RunTimings t = run_fast(engine, 0.02, [&] {
+  const RunTimings t = run_fast(engine, 0.02, [&](const RunTimings&) {
     // The callback runs after the step: the new surface is published.
     ASSERT_TRUE(engine.surfaces().update());
     frame_times.push_back(engine.surfaces().read().time);
@@ -188,13 +188,13 @@ TEST(RunFast, EachFrameIsSteppedAtTheFirstTickThatReachesItsBoundaryBeforeThatTi
   });
   const std::vector<int> expected_ms = {0, 3, 5, 8, 10, 13, 15, 18, 20};
   ASSERT_EQ(frame_times.size(), expected_ms.size());
-  EXPECT_EQ(t.deformation_computes.size(), expected_ms.size());
+  EXPECT_EQ(t.deformation_computes.count(), expected_ms.size());
   for (std::size_t j = 0; j < expected_ms.size(); ++j) {
     EXPECT_EQ(frame_times[j], expected_ms[j] * 1e-3) << j;
     EXPECT_EQ(ticks_before[j], static_cast<std::size_t>(expected_ms[j])) << j;  // the tick at that time is still to come
     EXPECT_EQ(frame_numbers[j], j + 1) << j;
   }
-  EXPECT_EQ(t.force_computes.size(), 21u);
+  EXPECT_EQ(t.force_computes.count(), 21u);
 }
 
 TEST(RunFast, OtherPeriodsAreHonoured) {
@@ -206,10 +206,10 @@ TEST(RunFast, OtherPeriodsAreHonoured) {
   ScriptedDevice device(press(), {}, 1000);
   Engine engine(cylinder(), {&device}, options);
   int frames = 0;
-  const RunTimings t = run_fast(engine, 0.1, [&] { ++frames; });
-  EXPECT_EQ(t.force_computes.size(), 51u);
+  const RunTimings t = run_fast(engine, 0.1, [&](const RunTimings&) { ++frames; });
+  EXPECT_EQ(t.force_computes.count(), 51u);
   EXPECT_EQ(device.record_count(), 51u);
-  EXPECT_EQ(t.deformation_computes.size(), 11u);
+  EXPECT_EQ(t.deformation_computes.count(), 11u);
   EXPECT_EQ(frames, 11);
   EXPECT_EQ(device.record(50).time, 50 * 2e-3);
 }
@@ -223,7 +223,7 @@ TEST(RunFast, TwoRunsGiveBitIdenticalForcesAndSurfaces) {
     ScriptedDevice b(side, {}, 1000);
     Engine engine(cylinder(), {&a, &b}, {});
     std::vector<model::Point3> last_surface;
-    run_fast(engine, 0.45, [&] {
+    run_fast(engine, 0.45, [&](const RunTimings&) {
       if (engine.surfaces().update()) last_surface = engine.surfaces().read().positions;
     });
     std::vector<double> values;
@@ -251,32 +251,32 @@ TEST(RunRealtime, AShortRunRecordsEveryTickAndPollsUntilAfterTheLoopsStop) {
   int polls = 0;
   std::uint64_t latest_frame = 0;
   // The poll thread is the surfaces' one reader.
-  const RunTimings t = run_realtime(engine, 0.2, [&] {
+  std::uint64_t ticks_seen = 0;
+  const RunTimings t = run_realtime(engine, 0.2, [&](const RunTimings& so_far) {
     ++polls;
+    EXPECT_GE(so_far.force_computes.count(), ticks_seen);  // the live timings only grow
+    ticks_seen = so_far.force_computes.count();
     if (engine.surfaces().update()) latest_frame = engine.surfaces().read().frame;
     return true;
   });
   // Not stopped early: every tick ran (0..200 ms: 201 force ticks; 0..12/60 s:
   // 13 frames), each with its compute time and, after the first, its period.
-  ASSERT_EQ(t.force_computes.size(), 201u);
-  ASSERT_EQ(t.force_periods.size(), 200u);
-  ASSERT_EQ(t.deformation_computes.size(), 13u);
-  ASSERT_EQ(t.deformation_periods.size(), 12u);
+  ASSERT_EQ(t.force_computes.count(), 201u);
+  ASSERT_EQ(t.force_periods.count(), 200u);
+  ASSERT_EQ(t.deformation_computes.count(), 13u);
+  ASSERT_EQ(t.deformation_periods.count(), 12u);
   EXPECT_EQ(device.record_count(), 201u);
   for (std::size_t k = 1; k < device.record_count(); ++k)
     EXPECT_GT(device.record(k).time, device.record(k - 1).time) << k;  // session time moves forward
-  for (double p : t.force_periods) EXPECT_GT(p, 0.0);
-  for (double p : t.deformation_periods) EXPECT_GT(p, 0.0);
-  for (double c : t.force_computes) EXPECT_GE(c, 0.0);
+  EXPECT_EQ(ticks_seen, 201u);  // the last poll saw every tick
   // The summary is consistent with the samples it summarizes.
-  const Percentiles period = percentiles(t.force_periods);
+  const Percentiles period = t.force_periods.percentiles();
   EXPECT_GT(period.p50, 0.0);
   EXPECT_LE(period.p50, period.p99);
   EXPECT_LE(period.p99, period.max);
   EXPECT_LT(period.p50, 0.1);  // 100 × the period: only a machine frozen for seconds would fail
-  EXPECT_EQ(t.force_deadline_misses,
-            static_cast<std::uint64_t>(std::count_if(t.force_periods.begin(), t.force_periods.end(),
-                                                     [](double p) { return p > 2e-3; })));
+  EXPECT_EQ(t.force_deadline_misses, t.force_periods.above_threshold());
+  EXPECT_EQ(t.force_deadline_misses > 0, t.force_periods.max() > 2e-3);
   ::testing::Test::RecordProperty("force_period_p50_us", static_cast<int>(period.p50 * 1e6));
   // The loops start 10 ms after the call and the last tick is due 200 ms after
   // that; allow the calling thread a generous delay in reading its clock.
@@ -289,16 +289,16 @@ TEST(RunRealtime, AShortRunRecordsEveryTickAndPollsUntilAfterTheLoopsStop) {
   // Polled repeatedly, and once more after the loops stopped: that last poll
   // saw the last frame published.
   EXPECT_GE(polls, 2);
-  EXPECT_EQ(latest_frame, t.deformation_computes.size());
+  EXPECT_EQ(latest_frame, t.deformation_computes.count());
 }
 
 TEST(RunRealtime, RunsWithoutAPoll) {
   ScriptedDevice device(beside(), {}, 1000);
   Engine engine(cylinder(), {&device}, {});
   const RunTimings t = run_realtime(engine, 0.05);
-  EXPECT_EQ(t.force_computes.size(), 51u);
-  EXPECT_EQ(t.force_periods.size(), 50u);
-  EXPECT_EQ(t.deformation_computes.size(), 4u);  // 0, 1/60, 2/60, 3/60 s
+  EXPECT_EQ(t.force_computes.count(), 51u);
+  EXPECT_EQ(t.force_periods.count(), 50u);
+  EXPECT_EQ(t.deformation_computes.count(), 4u);  // 0, 1/60, 2/60, 3/60 s
   EXPECT_EQ(device.record_count(), 51u);
 }
 
@@ -306,18 +306,18 @@ TEST(RunRealtime, APollReturningFalseStopsTheLoopsEarly) {
   ScriptedDevice device(beside(), {}, 1000);
   Engine engine(cylinder(), {&device}, {});
   int polls = 0;
-  const RunTimings t = run_realtime(engine, 0.3, [&] {
+  const RunTimings t = run_realtime(engine, 0.3, [&](const RunTimings&) {
     ++polls;
     return false;  // stop at once
   });
   // 301 ticks and 19 frames would be a full run; the loops check the stop flag
   // before each tick, so they end long before that.
-  EXPECT_LT(t.force_computes.size(), 301u);
-  EXPECT_LT(t.deformation_computes.size(), 19u);
-  EXPECT_EQ(device.record_count(), t.force_computes.size());
-  // The arrays are trimmed to what was recorded.
-  EXPECT_EQ(t.force_periods.size(), t.force_computes.empty() ? 0u : t.force_computes.size() - 1);
-  EXPECT_EQ(t.deformation_periods.size(), t.deformation_computes.empty() ? 0u : t.deformation_computes.size() - 1);
+  EXPECT_LT(t.force_computes.count(), 301u);
+  EXPECT_LT(t.deformation_computes.count(), 19u);
+  EXPECT_EQ(device.record_count(), t.force_computes.count());
+  // Each tick after the first has its period.
+  EXPECT_EQ(t.force_periods.count(), t.force_computes.count() == 0 ? 0u : t.force_computes.count() - 1);
+  EXPECT_EQ(t.deformation_periods.count(), t.deformation_computes.count() == 0 ? 0u : t.deformation_computes.count() - 1);
   EXPECT_GE(polls, 2);  // the stopping call, and the one after the loops ended
 }
 
@@ -329,7 +329,7 @@ TEST(RunRealtime, APollThatThrowsStopsTheLoopsAndTheErrorReachesTheCaller) {
   Engine engine(cylinder(), {&device}, {});
   int polls = 0;
   EXPECT_THROW(run_realtime(engine, 0.3,
-                            [&]() -> bool {
+                            [&](const RunTimings&) -> bool {
                               if (++polls == 3) throw std::runtime_error("viewer closed");
                               return true;
                             }),

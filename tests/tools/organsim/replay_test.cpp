@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -256,6 +257,73 @@ TEST_F(Cli, ReplayBadInputsFailWithOneLine) {
     EXPECT_NE(run.err.find(message), std::string::npos) << run.err;
     EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
   }
+}
+
+
+// Hostile or mistyped sessions: a time stamp of 99999999 s or a tool at 1e308
+// mm is refused with the line named, before anything is sized from it.
+TEST_F(Cli, ReplayRefusesSessionsLongerThanADayOrFarFromTheOrgan) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  auto session = [&](const std::string& name, const std::string& samples) {
+    const fs::path path = dir_ / name;
+    std::ofstream(path) << "# organsim session 1\n" << samples;
+    return path.string();
+  };
+  const std::string long_session = session("long.session", "0,1,160,0,0\n99999999,1,150,0,0\n");
+  const std::string far = session("far.session", "0,1,160,0,0\n1,1,1e308,0,0\n");
+  const std::string day_and_more = session("day.session", "0,1,160,0,0\n90000,1,150,0,0\n");
+  for (const auto& [path, message] : {std::pair{long_session, "long.session:3: 1e+08 s is later than a session may last"},
+                                      std::pair{far, "far.session:3: tool 1 is 1e+305 m from the organ"},
+                                      std::pair{day_and_more, "day.session:3: 90000 s is later"}}) {
+    const CommandRun run = run_organsim("replay " + model + " " + path + " --fast", dir_);
+    EXPECT_EQ(run.exit_code, 1) << path;
+    EXPECT_NE(run.err.find(message), std::string::npos) << run.err;
+    EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+  }
+  // On purpose: --long-session reads it (here, its first half second, repeated).
+  const CommandRun allowed =
+      run_organsim("replay " + model + " " + day_and_more + " --fast --long-session --repeat-for 0.5 --json", dir_);
+  ASSERT_EQ(allowed.exit_code, 0) << allowed.err;
+  EXPECT_EQ(nlohmann::json::parse(allowed.out)["force_loop"]["ticks"], 501);
+}
+
+// Memory does not grow with the session: a 300 s replay (twice 300,001 force
+// rows streamed to the CSV file) holds the resident size of its first second.
+TEST_F(Cli, ReplayMemoryStaysFlatOverALongSession) {
+  const auto [model, session] = write_cylinder_and_two_tool_press(dir_);
+  const fs::path forces = dir_ / "forces.csv";
+  const CommandRun run = run_organsim("replay " + model + " " + session.string() +
+                                          " --fast --json --repeat-for 300 --progress 0.05 --forces " + forces.string(),
+                                      dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  std::vector<double> resident;
+  std::istringstream lines(run.err);
+  for (std::string line; std::getline(lines, line);) resident.push_back(nlohmann::json::parse(line)["resident_mib"]);
+  ASSERT_GE(resident.size(), 3u) << run.err;
+  // A leak of one force row per tick would add 2 × 300,000 × ~60 bytes = 34 MiB.
+  EXPECT_LT(resident.back() - resident.front(), 1.0) << run.err;
+  std::ifstream csv(forces);
+  std::size_t rows = 0;
+  for (std::string line; std::getline(csv, line);) ++rows;
+  EXPECT_EQ(rows, 1 + 2 * 300001u);
+  EXPECT_EQ(nlohmann::json::parse(run.out)["force_loop"]["ticks"], 300001);
+}
+
+// The disk fills while the forces are written (a file-size limit stands in):
+// one line naming the file and the reason, and no forces file, whole or partial.
+TEST_F(Cli, ReplayOnAFullDiskFailsWithOneLineAndLeavesNoForcesFile) {
+  const auto [model, session] = write_cylinder_and_two_tool_press(dir_);
+  const fs::path forces = dir_ / "forces.csv";
+  const CommandRun run = run_organsim_with_prefix(
+      "ulimit -f 64; ", "replay " + model + " " + session.string() + " --fast --repeat-for 20 --forces " + forces.string(),
+      dir_);
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("cannot write '" + forces.string() + "'"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("File too large"), std::string::npos) << run.err;
+  EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+  EXPECT_FALSE(fs::exists(forces));
+  EXPECT_EQ(files_in_dir(), 2u);  // the model and the session: no temporary file left
 }
 
 }  // namespace

@@ -49,6 +49,35 @@ class AtomicFile {
   std::string temp_;
 };
 
+/// For outputs written as they are produced (forces, frame indexes of a long
+/// session), so that memory stays bounded: appends go to a temporary file next
+/// to `path` through a fixed buffer, and commit() publishes it. A failed write
+/// (disk full, file size limit) throws std::runtime_error at once, naming the
+/// path and the reason; the destructor removes an uncommitted temporary file.
+class AtomicStream {
+ public:
+  explicit AtomicStream(const std::string& path);
+  AtomicStream(const AtomicStream&) = delete;
+  AtomicStream& operator=(const AtomicStream&) = delete;
+  ~AtomicStream();
+
+  void append(const char* bytes, std::size_t size);
+  void append(const std::string& text) { append(text.data(), text.size()); }
+  /// Bytes appended so far.
+  std::size_t size() const noexcept { return written_ + buffered_; }
+  const std::string& path() const noexcept { return path_; }
+  /// Writes what is buffered, flushes the file and renames it over `path`.
+  void commit();
+
+ private:
+  void flush_buffer();
+  std::string path_;
+  std::string temp_;
+  int fd_ = -1;
+  std::string buffer_;
+  std::size_t buffered_ = 0, written_ = 0;
+};
+
 /// The same for a whole directory (a DICOM series, a bake's intermediates): a
 /// unique, empty temporary directory next to `path`, filled by the caller, and
 /// renamed over `path` by commit(), which must then be missing or empty. The

@@ -3,6 +3,7 @@
 // what `organsim replay` drives the engine with.
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <vector>
 
@@ -22,26 +23,42 @@ struct ForceRecord {
 };
 
 /// Plays a trajectory (linear between samples, the shaft direction normalized
-/// after interpolation; held before the first and after the last sample) and
-/// records every force written, up to `max_records`.
+/// after interpolation; held before the first and after the last sample, or
+/// started again every `repeat_period` seconds when that is positive) and keeps
+/// the forces written to it in a ring of `capacity` records.
+///
+/// The force loop writes records without allocating or locking; another thread
+/// may take them out while it runs (take_record: one writer, one reader,
+/// wait-free), so that a session of any length streams its forces through a
+/// fixed buffer. A record that finds the ring full is dropped and counted.
+/// Without a reader, the first `capacity` records stay in order (record(i)).
 class ScriptedDevice final : public HapticDevice {
  public:
-  ScriptedDevice(Trajectory trajectory, const SafetyLimits& limits, std::size_t max_records);
+  ScriptedDevice(Trajectory trajectory, const SafetyLimits& limits, std::size_t capacity, double repeat_period = 0.0);
 
   const SafetyLimits& limits() const noexcept override { return limits_; }
   bool read_pose(double time, ToolPose& pose) noexcept override;
   void write_force(double time, const Eigen::Vector3d& force, bool in_contact) noexcept override;
 
-  std::size_t record_count() const noexcept { return count_; }
-  const ForceRecord& record(std::size_t i) const noexcept { return records_[i]; }
-  std::size_t dropped_records() const noexcept { return dropped_; }
+  /// Records held (written and not yet taken).
+  std::size_t record_count() const noexcept {
+    return head_.load(std::memory_order_acquire) - tail_.load(std::memory_order_relaxed);
+  }
+  /// The i-th oldest record held, i < record_count() (the reader's thread).
+  const ForceRecord& record(std::size_t i) const noexcept {
+    return records_[(tail_.load(std::memory_order_relaxed) + i) % records_.size()];
+  }
+  /// Moves the oldest record held into `out`; false when none is held.
+  bool take_record(ForceRecord& out) noexcept;
+  std::size_t dropped_records() const noexcept { return dropped_.load(std::memory_order_relaxed); }
 
  private:
   Trajectory trajectory_;
   SafetyLimits limits_;
+  double repeat_period_;
   std::size_t cursor_ = 0;
   std::vector<ForceRecord, Eigen::aligned_allocator<ForceRecord>> records_;
-  std::size_t count_ = 0, dropped_ = 0;
+  std::atomic<std::size_t> head_{0}, tail_{0}, dropped_{0};
 };
 
 }  // namespace organsim::devices

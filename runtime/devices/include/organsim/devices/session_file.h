@@ -5,7 +5,10 @@
 #include <string>
 #include <vector>
 
+#include <limits>
+
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <Eigen/StdVector>
 
 namespace organsim::devices {
@@ -23,9 +26,19 @@ struct Session {
   double duration = 0.0;          ///< s, the last time stamp of any tool
 };
 
+/// What a session may hold. A session longer than a day, or a tool far from
+/// the organ, is almost always a mistake (a time in milliseconds, coordinates
+/// in micrometres or another frame) and would run for days or never touch it.
+struct SessionLimits {
+  double max_duration = 86400.0;   ///< s; infinity allows any length (replay --long-session)
+  Eigen::AlignedBox3d organ_box;   ///< m; empty: tools are not checked against the organ
+  double max_distance = 10.0;      ///< m, the farthest a tool tip may be from organ_box
+};
+
 /// Reads a session file. Throws std::runtime_error naming the file, the line and
-/// what is wrong (syntax, non-finite values, times going back, missing tools).
-Session read_session(const std::string& path);
+/// what is wrong (syntax, non-finite values, times going back, missing tools,
+/// beyond `limits`).
+Session read_session(const std::string& path, const SessionLimits& limits = {});
 
 /// Writes a session file (for tools that make sessions).
 void write_session(const Session& session, const std::string& path);
