@@ -6,6 +6,8 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <thread>
 #include <vector>
 
@@ -20,6 +22,7 @@ struct Device {
   double seconds = 1.0;
   bool force_output = false;
   bool in_frame = false;
+  std::atomic<unsigned> error{0};  // set by fakehd_fail: every hdGetError reports it, as for a lost device
   std::vector<std::array<double, 3>> forces;
 };
 
@@ -37,6 +40,24 @@ void* callback_data = nullptr;
 std::atomic<std::uint64_t> ticks{0};
 std::atomic<int> frame_errors{0};
 std::chrono::steady_clock::time_point start;
+
+// FAKEHD_FAIL="DEVICE:FROM_S:TO_S:CODE" (for tests of the organsim program):
+// device DEVICE reports CODE from FROM_S to TO_S after the scheduler started.
+unsigned scheduled_error(HHD device) {
+  static const char* plan = std::getenv("FAKEHD_FAIL");
+  if (plan == nullptr) return 0;
+  unsigned which = 0, code = 0;
+  double from = 0.0, to = 0.0;
+  if (std::sscanf(plan, "%u:%lf:%lf:%u", &which, &from, &to, &code) != 4 || which != device) return 0;
+  const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return running.load() && t >= from && t < to ? code : 0;
+}
+
+unsigned error_of(HHD device) {
+  if (device >= kDevices) return 0;
+  const unsigned set = devices[device].error.load();
+  return set != 0 ? set : scheduled_error(device);
+}
 
 }  // namespace
 
@@ -60,6 +81,7 @@ void hdEnable(HDenum capability) {
 
 void hdGetDoublev(HDenum what, double* values) {
   const Device& d = devices[current];
+  if (error_of(current) != 0) return;  // nothing read from a lost device
   switch (what) {
     case kCurrentPosition:
     case kCurrentTransform: {  // identity rotation (stylus along −z), translation
@@ -109,7 +131,10 @@ HDSchedulerHandle hdScheduleAsynchronous(HDSchedulerCallback function, void* dat
   return 1;
 }
 void hdUnschedule(HDSchedulerHandle) { callback = nullptr; }
-HDErrorInfo hdGetError() { return {0, 0, 0}; }
+HDErrorInfo hdGetError() {
+  const unsigned code = error_of(current);
+  return {code, 0, code != 0 ? current : 0};
+}
 
 // --- test controls ---
 void fakehd_set_path(HHD device, const double* from_mm, const double* to_mm, double seconds) {
@@ -119,6 +144,9 @@ void fakehd_set_path(HHD device, const double* from_mm, const double* to_mm, dou
   }
   devices[device].seconds = seconds;
 }
+// The device fails (code ≠ 0: its pose freezes and every call reports the
+// error, as a disconnected device does) or recovers (code 0).
+void fakehd_fail(HHD device, unsigned code) { devices[device].error.store(code); }
 std::uint64_t fakehd_ticks() { return ticks.load(); }
 int fakehd_frame_errors() { return frame_errors.load(); }
 std::size_t fakehd_force_count(HHD device) { return devices[device].forces.size(); }

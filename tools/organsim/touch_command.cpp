@@ -27,6 +27,23 @@ struct TouchOptions {
   bool json = false;
 };
 
+// Says once when a device starts reporting HD errors (its force fades to zero
+// in the servo loop) and once when it is back; called at the frame rate.
+void report_device_faults(const std::vector<std::unique_ptr<devices::OpenHapticsDevice>>& owned, double now,
+                          std::vector<std::uint64_t>& errors_seen, std::vector<bool>& failing) {
+  for (std::size_t i = 0; i < owned.size(); ++i) {
+    const std::uint64_t errors = owned[i]->error_ticks();
+    if (errors > errors_seen[i] && !failing[i])
+      warn("touch", fmt::format("device {} reported HD error 0x{:04x} at {:.2f} s; its force fades to zero and the "
+                                "other devices go on",
+                                i + 1, owned[i]->last_error(), now));
+    else if (errors == errors_seen[i] && failing[i])
+      note("touch", fmt::format("device {} is back at {:.2f} s", i + 1, now));
+    failing[i] = errors > errors_seen[i];
+    errors_seen[i] = errors;
+  }
+}
+
 int run_touch(const TouchOptions& o) {
   model::OrganModel loaded = load_simulation_model("touch", o.model_path);
   const multibeam::BeamOrgan organ(std::move(loaded));
@@ -44,9 +61,13 @@ int run_touch(const TouchOptions& o) {
   servo.start();
   auto next = begin;
   std::uint64_t frames = 0;
+  std::vector<std::uint64_t> errors_seen(owned.size(), 0);
+  std::vector<bool> failing(owned.size(), false);
   while (std::chrono::steady_clock::now() - begin < std::chrono::duration<double>(o.seconds)) {
-    engine.deformation_step(std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
+    const double now = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+    engine.deformation_step(now);
     ++frames;
+    report_device_faults(owned, now, errors_seen, failing);
     next += std::chrono::microseconds(16667);
     std::this_thread::sleep_until(next);
   }
@@ -59,7 +80,10 @@ int run_touch(const TouchOptions& o) {
       tools_json.push_back({{"tool", i + 1},
                             {"contacts", engine.telemetry(i).contacts},
                             {"peak_force_n", engine.telemetry(i).peak_force},
-                            {"max_force_n", owned[i]->limits().max_force}});
+                            {"max_force_n", owned[i]->limits().max_force},
+                            {"hd_error_ticks", owned[i]->error_ticks()},
+                            {"last_hd_error", owned[i]->last_error()},
+                            {"pose_faults", engine.telemetry(i).pose_faults}});
     std::cout << nlohmann::json{{"model", o.model_path},
                                 {"seconds", seconds},
                                 {"servo_ticks", servo.ticks()},
@@ -73,9 +97,14 @@ int run_touch(const TouchOptions& o) {
   std::cout << fmt::format("{:<14}{:.1f} s, servo {:.0f} Hz ({} ticks), {} deformation frames\n", "touch", seconds,
                            servo.ticks() / seconds, servo.ticks(), frames);
   for (std::size_t i = 0; i < owned.size(); ++i)
-    std::cout << fmt::format("{:<14}{} contact(s), peak force {:.3f} N (device limit {:.2f} N)\n",
+    std::cout << fmt::format("{:<14}{} contact(s), peak force {:.3f} N (device limit {:.2f} N){}\n",
                              fmt::format("device {}", i + 1), engine.telemetry(i).contacts,
-                             engine.telemetry(i).peak_force, owned[i]->limits().max_force);
+                             engine.telemetry(i).peak_force, owned[i]->limits().max_force,
+                             owned[i]->error_ticks() == 0
+                                 ? std::string()
+                                 : fmt::format("; HD errors in {} servo ticks (last 0x{:04x}), {} time(s) without a pose",
+                                               owned[i]->error_ticks(), owned[i]->last_error(),
+                                               engine.telemetry(i).pose_faults));
   return 0;
 }
 

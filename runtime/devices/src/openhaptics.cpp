@@ -101,6 +101,12 @@ bool OpenHapticsDevice::read_pose(double, ToolPose& pose) noexcept {
   double transform[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   hd.make_current_device(handle_);
   hd.get_doublev(kCurrentTransform, transform);
+  error_this_tick_ = false;
+  if (note_error()) {
+    seen_.write_slot().valid = false;
+    seen_.publish();
+    return false;
+  }
   const Eigen::Vector3d device(transform[12] * 1e-3, transform[13] * 1e-3, transform[14] * 1e-3);
   const Eigen::Vector3d stylus_z(transform[8], transform[9], transform[10]);
   pose.tip = placement_.offset + placement_.scale * (placement_.rotation * device);
@@ -132,6 +138,17 @@ void OpenHapticsDevice::write_force(double, const Eigen::Vector3d& force, bool) 
   const HdLibrary::Api& hd = library_.api();
   hd.make_current_device(handle_);
   hd.set_doublev(kCurrentForce, newtons);
+  note_error();
+}
+
+// Reads the HD error stack; counts the tick once, however many errors it held.
+bool OpenHapticsDevice::note_error() noexcept {
+  const HDErrorInfo error = library_.api().get_error();
+  if (error.errorCode == 0) return false;
+  last_error_.store(error.errorCode, std::memory_order_relaxed);
+  if (!error_this_tick_) error_ticks_.store(error_ticks_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+  error_this_tick_ = true;
+  return true;
 }
 
 OpenHapticsServo::OpenHapticsServo(const HdLibrary& library, std::vector<OpenHapticsDevice*> devices,

@@ -58,6 +58,8 @@ Engine::Engine(const multibeam::BeamOrgan& organ, const std::vector<devices::Hap
     if (d == nullptr) throw std::invalid_argument("a haptic device is missing");
   for (std::size_t i = 0; i < devices.size(); ++i) safety_[i] = ForceSafety(devices[i]->limits());
   for (auto& d : displacement_) d.setZero();
+  fault_start_.fill(-1.0);
+  for (auto& f : fault_force_) f.setZero();
 }
 
 void Engine::publish_linearization(std::size_t tool) noexcept {
@@ -111,6 +113,21 @@ void Engine::force_tick(double now) noexcept {
           touching = true;
         }
       }
+    }
+    if (!valid) {
+      // The device lost its pose (an error, a disconnection): fade what the
+      // hand last felt rather than drop it at once, and resume through the
+      // onset ramp when the pose comes back.
+      if (fault_start_[i] < 0.0) {
+        fault_start_[i] = now;
+        fault_force_[i] = telemetry_[i].last_force;
+        ++telemetry_[i].pose_faults;
+      }
+      const double ramp = devices_[i]->limits().ramp_down_time;
+      const double remaining = ramp > 0.0 ? std::clamp(1.0 - (now - fault_start_[i]) / ramp, 0.0, 1.0) : 0.0;
+      force = remaining * fault_force_[i];
+    } else {
+      fault_start_[i] = -1.0;
     }
     out.released[i] = released_[i];
     const Eigen::Vector3d safe = safety_[i].filter(force, now, last_frame, dt);

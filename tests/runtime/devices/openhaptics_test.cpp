@@ -75,6 +75,86 @@ TEST(OpenHaptics, ServoDrivesTheForceLoopWithinTheDeviceLimits) {
   EXPECT_NEAR(last[1], 0.0, 1e-6);
 }
 
+// A device reports errors mid-session (a lost USB/FireWire link): its force
+// fades from what the hand felt to zero over ramp_down_time, never jumping up,
+// the other device keeps its force, the event is counted, and after the device
+// comes back its force returns through the onset ramp.
+TEST(OpenHaptics, ADeviceThatFailsMidSessionFadesItsForceWhileTheOtherGoesOn) {
+  const HdLibrary library(FAKE_HD_LIBRARY);
+  const multibeam::BeamOrgan organ(testing::make_cylinder_model({}));
+  OpenHapticsDevice lost(library, "", DevicePlacement{}, devices::SafetyLimits{});
+  OpenHapticsDevice steady(library, "", DevicePlacement{}, devices::SafetyLimits{});
+  // Both press in within 0.2 s and hold: the far cap along −x, the side along −y.
+  const double cap_from[3] = {160.0, 0.0, 0.0}, cap_to[3] = {146.0, 0.0, 0.0};
+  const double side_from[3] = {80.0, 40.0, 0.0}, side_to[3] = {80.0, 27.0, 0.0};
+  const auto set_path = control<void (*)(unsigned, const double*, const double*, double)>("fakehd_set_path");
+  set_path(lost.handle(), cap_from, cap_to, 0.2);
+  set_path(steady.handle(), side_from, side_to, 0.2);
+  const auto fail = control<void (*)(unsigned, unsigned)>("fakehd_fail");
+  const auto force_count = control<std::size_t (*)(unsigned)>("fakehd_force_count");
+  auto force = [&](const OpenHapticsDevice& d, std::size_t i) {
+    Eigen::Vector3d f;
+    control<void (*)(unsigned, std::size_t, double*)>("fakehd_force")(d.handle(), i, f.data());
+    return f.norm();
+  };
+
+  realtime::Engine engine(organ, {&lost, &steady}, {});
+  OpenHapticsServo servo(library, {&lost, &steady}, engine);
+  const auto begin = std::chrono::steady_clock::now();
+  std::size_t failed_at = 0, recovered_at = 0;
+  servo.start();
+  auto next = begin;
+  while (true) {
+    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+    if (t > 1.6) break;
+    if (failed_at == 0 && t > 0.6) {
+      failed_at = force_count(lost.handle());
+      fail(lost.handle(), 0x0302);  // HD_COMM_ERROR
+    }
+    if (recovered_at == 0 && t > 1.0) {
+      recovered_at = force_count(lost.handle());
+      fail(lost.handle(), 0);
+    }
+    engine.deformation_step(t);
+    next += std::chrono::microseconds(16667);
+    std::this_thread::sleep_until(next);
+  }
+  servo.stop();
+
+  const double held = force(lost, failed_at - 1);
+  ASSERT_GT(held, 0.3);  // pressing when it failed
+  // While failed (0.4 s, longer than the 0.2 s ramp): never above the held
+  // force, non-increasing, zero by the end of the ramp (plus the servo's jitter).
+  double previous = held;
+  std::size_t zero_from = recovered_at;
+  for (std::size_t i = failed_at; i < recovered_at; ++i) {
+    EXPECT_LE(force(lost, i), previous + 1e-12) << i;
+    previous = force(lost, i);
+    if (previous == 0.0 && zero_from == recovered_at) zero_from = i;
+  }
+  EXPECT_EQ(previous, 0.0);
+  EXPECT_GT(zero_from - failed_at, 100u);  // faded, not dropped: more than 0.1 s of ticks
+  EXPECT_LT(zero_from - failed_at, 300u);
+  EXPECT_GT(force(lost, failed_at + 20), 0.5 * held);  // 20 ms in: most of it still there
+  // The other device kept pressing, its force steady (the lost tool's contact,
+  // still held in the deformation model, changes it only a little).
+  const double steady_held = force(steady, failed_at - 1);
+  ASSERT_GT(steady_held, 0.05);
+  for (std::size_t i = failed_at; i < recovered_at; ++i)
+    ASSERT_NEAR(force(steady, i), steady_held, 0.2 * steady_held) << i;
+  // Reported: error ticks and the code on the device, one fault on the engine's telemetry.
+  EXPECT_GT(lost.error_ticks(), 300u);
+  EXPECT_EQ(lost.last_error(), 0x0302u);
+  EXPECT_EQ(steady.error_ticks(), 0u);
+  EXPECT_EQ(engine.telemetry(0).pose_faults, 1u);
+  EXPECT_EQ(engine.telemetry(1).pose_faults, 0u);
+  // Back: the force returns, rising no faster than the onset rate (40 N/s).
+  const std::size_t end = force_count(lost.handle());
+  EXPECT_GT(force(lost, end - 1), 0.5 * held);
+  for (std::size_t i = recovered_at + 1; i < end; ++i)
+    ASSERT_LE(force(lost, i) - force(lost, i - 1), 40.0 * 0.004) << i;  // ≤ 4 ms of onset per tick, with jitter
+}
+
 TEST(OpenHaptics, MissingLibraryIsAClearError) {
   try {
     HdLibrary library("/nonexistent/libHD.so");

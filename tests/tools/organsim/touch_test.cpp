@@ -31,5 +31,26 @@ TEST_F(Cli, TouchRunsOpenHapticsDevicesFromALibraryLoadedAtRunTime) {
   EXPECT_EQ(std::count(missing.err.begin(), missing.err.end(), '\n'), 1) << missing.err;
 }
 
+// A device lost mid-session: the user is told when it fails and when it is
+// back, and the summary counts it; the program goes on with the other device.
+TEST_F(Cli, TouchReportsADeviceThatFailsMidSession) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const CommandRun run = run_organsim_with_prefix(
+      "FAKEHD_FAIL=1:0.2:0.5:770 ",
+      "touch " + model + " --hd-library " + std::string(FAKE_HD_LIBRARY) + " --device a --device b --seconds 0.8 --json",
+      dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("device 2 reported HD error 0x0302 at 0."), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("its force fades to zero and the other devices go on"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("device 2 is back at"), std::string::npos) << run.err;
+  const nlohmann::json j = nlohmann::json::parse(run.out);
+  EXPECT_EQ(j["tools"][0]["hd_error_ticks"], 0);
+  EXPECT_GT(j["tools"][1]["hd_error_ticks"].get<int>(), 150);  // 0.3 s of 1 kHz ticks, with CI's jitter
+  EXPECT_EQ(j["tools"][1]["last_hd_error"], 770);
+  EXPECT_EQ(j["tools"][1]["pose_faults"], 1);
+  EXPECT_GE(j["deformation_frames"].get<int>(), 40);  // the program went on
+}
+
 }  // namespace
 }  // namespace organsim

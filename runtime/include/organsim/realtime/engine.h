@@ -91,6 +91,11 @@ struct SurfaceFrame {
 /// What the force loop saw of one tool (read after the loops have stopped).
 struct ToolTelemetry {
   std::uint32_t contacts = 0;   ///< contacts begun
+  /// Times the device stopped giving a valid pose (an error, a disconnected
+  /// device): its force then fades from the last one sent to zero over the
+  /// device's ramp_down_time, and comes back through the onset ramp when
+  /// the pose does. The other tools go on.
+  std::uint32_t pose_faults = 0;
   double peak_force = 0.0;      ///< N, after safety
   bool in_contact = false;
   Eigen::Vector3d last_force = Eigen::Vector3d::Zero();
@@ -131,6 +136,8 @@ class Engine {
   std::array<std::uint32_t, kMaxTools> released_{};
   std::array<ToolTelemetry, kMaxTools> telemetry_{};
   std::array<std::uint32_t, kMaxTools> seen_generation_{};
+  std::array<double, kMaxTools> fault_start_{};      // s, when the pose went invalid; < 0 while valid
+  std::array<Eigen::Vector3d, kMaxTools> fault_force_{};  // N, the force sent just before
   double previous_tick_ = -1.0;
 
   // Deformation loop only.

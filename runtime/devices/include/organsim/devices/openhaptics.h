@@ -71,6 +71,14 @@ class OpenHapticsDevice final : public HapticDevice {
   bool last_pose(ToolPose& pose);
   Eigen::Vector3d last_force();
 
+  /// Servo ticks in which the HD library reported an error for this device
+  /// (hdGetError after reading the pose or sending the force: a communication
+  /// error, a disconnected or faulted device), and the latest error code; from
+  /// any thread. A tick with an error gives no pose, so the engine fades this
+  /// tool's force to zero (ToolTelemetry::pose_faults).
+  std::uint64_t error_ticks() const noexcept { return error_ticks_.load(std::memory_order_relaxed); }
+  unsigned last_error() const noexcept { return last_error_.load(std::memory_order_relaxed); }
+
  private:
   struct Seen {
     bool valid = false;
@@ -82,6 +90,10 @@ class OpenHapticsDevice final : public HapticDevice {
   SafetyLimits limits_;
   realtime::TripleBuffer<Seen> seen_;
   realtime::TripleBuffer<Eigen::Vector3d> sent_{Eigen::Vector3d::Zero()};
+  std::atomic<std::uint64_t> error_ticks_{0};
+  std::atomic<unsigned> last_error_{0};
+  bool error_this_tick_ = false;  // servo thread only
+  bool note_error() noexcept;
 };
 
 /// Runs the engine's force loop in the HD servo scheduler (≈ 1 kHz) for the
