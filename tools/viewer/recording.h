@@ -2,6 +2,7 @@
 // and PNG screenshots, both published atomically (organsim/io/atomic_file.h).
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -14,7 +15,10 @@ namespace organsim::viewer {
 
 /// Records frames into a Motion-JPEG AVI at 60 frames per second. The file
 /// appears at `path` only when finish() is called; until then the frames go to
-/// a temporary file that is removed if the recording is abandoned.
+/// a temporary file that is removed if the recording is abandoned. OpenCV's
+/// writer does not report failed writes, so the recorder checks that the file
+/// keeps growing and, at finish(), that every frame reached it: a full disk
+/// or a file-size limit is an error naming the path, and nothing is published.
 class Recorder {
  public:
   /// An empty `path` makes a recorder that records nothing. Throws
@@ -25,9 +29,11 @@ class Recorder {
   Recorder& operator=(const Recorder&) = delete;
 
   bool active() const;
-  /// Adds one BGR frame of the constructor's size.
+  /// Adds one BGR frame of the constructor's size. Throws std::runtime_error
+  /// when the file has stopped growing (the disk is full).
   void add(const cv::Mat& frame);
-  /// Closes the video and publishes it at `path`.
+  /// Closes the video, checks that it holds every frame and publishes it at
+  /// `path`. Throws std::runtime_error otherwise.
   void finish();
   long count() const { return count_; }
 
@@ -35,6 +41,7 @@ class Recorder {
   std::unique_ptr<io::AtomicFile> output_;
   std::unique_ptr<cv::VideoWriter> writer_;
   long count_ = 0;
+  std::uintmax_t checked_size_ = 0;  // the temporary file's size at the last check
 };
 
 /// Writes a BGR image as a PNG file, atomically. Throws std::runtime_error

@@ -5,12 +5,14 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdlib>
 #include <fstream>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "cli_fixture.h"
+#include "organsim/model/model_file.h"
 #include "organsim/pipeline/image_io.h"
 #include "organsim/pipeline/phantom.h"
 
@@ -80,6 +82,53 @@ TEST_F(Cli, NoPatientTagReachesTheModelTheReportOrTheLog) {
     EXPECT_EQ(bytes.find("DOE"), std::string::npos) << entry.path();
     EXPECT_EQ(bytes.find("4711"), std::string::npos) << entry.path();
   }
+}
+
+// The disk fills while the model is written (a file-size limit stands in):
+// one line naming the model file and the reason, and nothing left behind.
+TEST_F(Cli, BakeOnAFullDiskFailsWithOneLineAndLeavesNothing) {
+  const fs::path model = dir_ / "model.organ";
+  const CommandRun run = run_organsim_with_prefix("ulimit -f 100; ", "bake --quiet " + quick_phantom_bake(model), dir_);
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("cannot write '" + model.string() + "'"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("File too large"), std::string::npos) << run.err;
+  EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+  EXPECT_FALSE(fs::exists(model));
+  EXPECT_EQ(files_in_dir(), 0u);
+}
+
+// Killed (SIGKILL: no handler runs) at several stages of a bake: nothing ever
+// appears at the output path, since the model is written to a temporary file
+// and renamed into place only once complete.
+TEST_F(Cli, BakeKilledAtAnyStageLeavesNothingAtTheOutputPath) {
+  const fs::path model = dir_ / "model.organ", log = dir_ / "bake.log";
+  const std::string bake = std::string(ORGANSIM_EXECUTABLE) + " bake " + (kSamples / "phantom_ct.nii.gz").string() +
+                           " --seed -65,5,0 --fixed-point -29.76,16.10,-70.96 --verbose -o " + model.string() +
+                           " 2>" + log.string();
+  std::vector<std::string> interrupted;
+  for (const double delay : {0.3, 0.9, 1.6, 2.4, 3.0}) {
+    const std::string command =
+        "sh -c '" + bake + " & sleep " + std::to_string(delay) + "; kill -KILL $! 2>/dev/null; wait $!'";
+    const int status = std::system(command.c_str());
+    (void)status;
+    std::ifstream in(log);
+    std::string line, stage;
+    for (std::string text; std::getline(in, text);)
+      if (text.size() > 4 && text.compare(text.size() - 4, 4, " ...") == 0) stage = text;
+    const bool finished = fs::exists(model);
+    if (finished) {  // a fast machine finished first: then the model is whole
+      const model::ModelReadResult read = model::read_organ_model_file(model.string());
+      EXPECT_TRUE(read) << read.error;
+      fs::remove(model);
+      continue;
+    }
+    interrupted.push_back(stage);
+    EXPECT_FALSE(fs::exists(model)) << delay << " s, " << stage;
+  }
+  std::sort(interrupted.begin(), interrupted.end());
+  interrupted.erase(std::unique(interrupted.begin(), interrupted.end()), interrupted.end());
+  EXPECT_GE(interrupted.size(), 2u);  // killed in different stages (segment, tetrahedra, beam tables on this machine)
+  for (const std::string& stage : interrupted) ::testing::Test::RecordProperty("killed_in", stage);
 }
 
 TEST_F(Cli, BakeBadInputsFailWithOneLineAndLeaveNoModel) {

@@ -84,6 +84,24 @@ TEST_F(Cli, ViewScreenshotShowsTheOrganMovedWhereTheToolsPushed) {
   }
 }
 
+// The disk fills during the recording (a file-size limit stands in; OpenCV's
+// writer does not report it): one line naming the recording, and no video.
+TEST_F(Cli, ViewRecordingOnAFullDiskFailsWithOneLineAndLeavesNoVideo) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const std::string session = write_press_session(dir_).string();
+  const fs::path video = dir_ / "session.avi";
+  const CommandRun run = run_organsim_with_prefix(
+      "ulimit -f 200; xvfb-run -a -s '-screen 0 1280x1024x24' ",
+      "view " + model + " --session " + session + " --offscreen --record " + video.string(), dir_);
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("cannot write the recording '" + video.string() + "'"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("frames reached the file"), std::string::npos) << run.err;
+  EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+  EXPECT_FALSE(fs::exists(video));
+  EXPECT_EQ(files_in_dir(), 2u);  // the model and the session
+}
+
 TEST_F(Cli, ViewRecordsEveryFrameAndStartsWithoutABrokenBackground) {
   const std::string model = (dir_ / "cylinder.organ").string();
   model::write_organ_model_file(testing::make_cylinder_model({}), model);
