@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Builds one fuzz target (the model-file reader or the FEM problem reader) with
+# Builds one fuzz target (the model-file, FEM problem or session reader) with
 # clang-14 + libFuzzer + ASan/UBSan and fuzzes it for a bounded time, starting
 # from its saved corpus (a folder of tests/fuzz/).
 # Usage: run_fuzz.sh SOURCE_DIR BUILD_DIR SECONDS [TARGET CORPUS]

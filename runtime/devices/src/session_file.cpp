@@ -34,6 +34,10 @@ double distance_outside(const Eigen::AlignedBox3d& box, const Eigen::Vector3d& p
 Session read_session(const std::string& path, const SessionLimits& limits) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open the session file; check the path");
+  return parse_session(in, path, limits);
+}
+
+Session parse_session(std::istream& in, const std::string& path, const SessionLimits& limits) {
   Session session;
   std::string text;
   std::size_t line_number = 0;

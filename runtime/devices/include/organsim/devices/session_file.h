@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include <iosfwd>
 #include <limits>
 
 #include <Eigen/Core>
@@ -39,6 +40,9 @@ struct SessionLimits {
 /// what is wrong (syntax, non-finite values, times going back, missing tools,
 /// beyond `limits`).
 Session read_session(const std::string& path, const SessionLimits& limits = {});
+
+/// The same from a stream; `name` (the file's path) starts each error message.
+Session parse_session(std::istream& in, const std::string& name, const SessionLimits& limits = {});
 
 /// Writes a session file (for tools that make sessions).
 void write_session(const Session& session, const std::string& path);
