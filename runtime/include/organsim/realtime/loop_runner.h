@@ -40,7 +40,9 @@ RunTimings run_fast(Engine& engine, double duration, const std::function<void(co
 
 /// Runs the loops on two threads at their rates for `duration` (s) of wall
 /// time, with real-time priority where the OS permits (the force thread above
-/// the deformation thread).
+/// the deformation thread). A deformation model slower than the frame rate
+/// drops the frames whose time passed while it worked; the force loop runs
+/// every tick.
 /// `poll` (may be empty) runs every 2 ms on the calling thread meanwhile (for
 /// example to save published frames and recorded forces, or to report the
 /// timings so far, which it receives; returning false stops the loops early),
