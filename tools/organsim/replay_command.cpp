@@ -48,6 +48,10 @@ struct ReplayOptions {
   double max_stiffness = SafetyLimits{}.max_stiffness;
 };
 
+nlohmann::json timing_json(const Percentiles& p) {
+  return {{"p50_ms", p.p50 * 1e3}, {"p99_ms", p.p99 * 1e3}, {"max_ms", p.max * 1e3}};
+}
+
 // Writes each published deformation frame as VTP (LPS, mm; the model file's
 // vertex order) and a ParaView collection (.pvd) indexing them, written as the
 // frames come (published complete by finish()) so that memory stays bounded.
@@ -172,9 +176,6 @@ class ProgressReporter {
   }
 
  private:
-  static nlohmann::json timing_json(const Percentiles& p) {
-    return {{"p50_ms", p.p50 * 1e3}, {"p99_ms", p.p99 * 1e3}, {"max_ms", p.max * 1e3}};
-  }
   double interval_;
   std::string model_;
   bool json_;
@@ -182,10 +183,6 @@ class ProgressReporter {
   double next_;
   RunTimings last_;
 };
-
-nlohmann::json timing_json(const Percentiles& p) {
-  return {{"p50_ms", p.p50 * 1e3}, {"p99_ms", p.p99 * 1e3}, {"max_ms", p.max * 1e3}};
-}
 
 /// One model's run of the session.
 struct ModelRun {
