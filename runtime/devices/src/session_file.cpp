@@ -92,8 +92,9 @@ Session parse_session(std::istream& in, const std::string& path, const SessionLi
     t.positions.push_back(tip);
     if (fields == 8) {
       const Eigen::Vector3d shaft(values[5], values[6], values[7]);
-      if (!(shaft.norm() > 0.0)) fail(path, line_number, "the shaft direction is zero");
-      t.shafts.push_back(shaft.normalized());
+      const double length = shaft.stableNorm();  // no overflow for components near the largest doubles
+      if (!(length > 0.0)) fail(path, line_number, "the shaft direction is zero");
+      t.shafts.push_back(shaft / length);
     }
     session.duration = std::max(session.duration, values[0]);
   }

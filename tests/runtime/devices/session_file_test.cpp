@@ -413,6 +413,13 @@ TEST_F(SessionFile, SessionsLongerThanADayOrFarFromTheOrganAreRefusedNamingTheLi
   EXPECT_EQ(read_session(write(std::string(kHeader) + "0,1,1e308,0,0\n99999999,1,0,0,0\n"), any).duration, 99999999.0);
 }
 
+TEST_F(SessionFile, AShaftWithHugeComponentsIsNormalizedNotLost) {
+  // Found by the fuzzer: squaring 1e200 overflowed, and the shaft became zero.
+  const Session s = read_session(write(std::string(kHeader) + "0,1,0,0,0,1e200,0,1e200\n1,1,0,0,0,1e308,0,0\n"));
+  EXPECT_NEAR((s.tools[0].shafts[0] - Eigen::Vector3d(std::sqrt(0.5), 0.0, std::sqrt(0.5))).norm(), 0.0, 1e-15);
+  EXPECT_NEAR((s.tools[0].shafts[1] - Eigen::Vector3d(1.0, 0.0, 0.0)).norm(), 0.0, 1e-15);
+}
+
 TEST(ScriptedDevice, RepeatsItsTrajectoryEveryRepeatPeriod) {
   ScriptedDevice device(three_samples(), {}, 0, 2.0);
   ToolPose first, again;

@@ -92,7 +92,8 @@ TEST_F(Cli, ViewRecordingOnAFullDiskFailsWithOneLineAndLeavesNoVideo) {
   const std::string session = write_press_session(dir_).string();
   const fs::path video = dir_ / "session.avi";
   const CommandRun run = run_organsim_with_prefix(
-      "ulimit -f 200; xvfb-run -a -s '-screen 0 1280x1024x24' ",
+      // The limit on organsim alone: xvfb-run's own files stay unlimited.
+      "xvfb-run -a -s '-screen 0 1280x1024x24' sh -c 'ulimit -f 200; exec \"$0\" \"$@\"' ",
       "view " + model + " --session " + session + " --offscreen --record " + video.string(), dir_);
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("cannot write the recording '" + video.string() + "'"), std::string::npos) << run.err;
