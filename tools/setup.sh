@@ -14,7 +14,7 @@ packages=(
   libgtest-dev libbenchmark-dev
   clang-14 libclang-rt-14-dev
   libopencv-dev xvfb xauth
-  calculix-ccx
+  calculix-ccx libopenigtlink-dev snakemake
   libsuitesparse-dev libmumps-seq-dev libopenblas-dev
   python3-dev pybind11-dev python3-numpy python3-pytest python3-matplotlib dpkg-dev file
 )

@@ -25,7 +25,7 @@ using CommandTable = std::map<const CLI::App*, Command>;
 void add_command(CLI::App& app, CommandTable& table, const char* name, const char* description,
                  Command (*add_subcommand)(CLI::App&));
 
-/// fem, info, plot, poke, replay, springs, touch, view: the commands that load a
+/// fem, info, plot, poke, replay, serve, springs, touch, view: the commands that load a
 /// model and simulate it (and plot what they wrote). They link the runtime,
 /// never the offline pipeline.
 void add_simulation_commands(CLI::App& app, CommandTable& table);

@@ -23,6 +23,7 @@ Command add_plot_command(CLI::App& app);
 Command add_poke_command(CLI::App& app);
 Command add_replay_command(CLI::App& app);
 Command add_segment_command(CLI::App& app);
+Command add_serve_command(CLI::App& app);
 Command add_springs_command(CLI::App& app);
 Command add_touch_command(CLI::App& app);
 Command add_view_command(CLI::App& app);

@@ -21,7 +21,7 @@
 #include "model_tuning.h"
 #include "haptic_rig_options.h"
 #include "session_limits.h"
-#include "organsim/devices/mouse_tool.h"
+#include "organsim/devices/streamed_tool.h"
 #include "organsim/devices/scripted_device.h"
 #include "organsim/model/model_file.h"
 #include "organsim/realtime/loop_runner.h"
@@ -183,9 +183,9 @@ void view_phantom(const multibeam::BeamOrgan& organ, const HapticRig& rig, ViewR
 /// Mouse and keyboard tools, with the engine's loops on their threads in real time.
 void view_mouse(const multibeam::BeamOrgan& organ, ViewRun& run) {
   const ViewOptions& o = run.options;
-  std::vector<MouseTool> tools(kMouseTools);
+  std::vector<StreamedTool> tools(kMouseTools);
   std::vector<HapticDevice*> pointers;
-  for (MouseTool& t : tools) pointers.push_back(&t);
+  for (StreamedTool& t : tools) pointers.push_back(&t);
   Engine engine(organ, pointers, engine_options(o));
   vtkNew<vtkRenderWindowInteractor> interactor;
   vtkNew<viewer::ToolStyle> style;

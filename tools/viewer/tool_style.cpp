@@ -14,7 +14,7 @@ namespace organsim::viewer {
 
 vtkStandardNewMacro(ToolStyle);
 
-void ToolStyle::attach(std::vector<devices::MouseTool>& tools, OrganScene& scene) {
+void ToolStyle::attach(std::vector<devices::StreamedTool>& tools, OrganScene& scene) {
   tools_ = &tools;
   scene_ = &scene;
   poses_.assign(tools.size(), devices::ToolPose{});

@@ -9,7 +9,7 @@
 
 #include <vtkInteractorStyleTrackballCamera.h>
 
-#include "organsim/devices/mouse_tool.h"
+#include "organsim/devices/streamed_tool.h"
 #include "scene.h"
 
 namespace organsim::viewer {
@@ -21,7 +21,7 @@ class ToolStyle : public vtkInteractorStyleTrackballCamera {
 
   /// The tools it moves and the scene it picks in; `poses` and `present` say
   /// where each tool is and whether it is placed (read by the drawing).
-  void attach(std::vector<devices::MouseTool>& tools, OrganScene& scene);
+  void attach(std::vector<devices::StreamedTool>& tools, OrganScene& scene);
   const std::vector<devices::ToolPose>& poses() const { return poses_; }
   const std::vector<bool>& present() const { return present_; }
 
@@ -36,7 +36,7 @@ class ToolStyle : public vtkInteractorStyleTrackballCamera {
   void depth(double metres);
   void add_tool();
 
-  std::vector<devices::MouseTool>* tools_ = nullptr;
+  std::vector<devices::StreamedTool>* tools_ = nullptr;
   OrganScene* scene_ = nullptr;
   std::vector<devices::ToolPose> poses_;
   std::vector<bool> present_;

@@ -1,5 +1,7 @@
-// A tool moved with the mouse and keyboard (the viewer): a HapticDevice whose
-// pose the user interface thread sets and the force loop reads, both wait-free.
+// A tool whose pose another thread pushes: the viewer's mouse and keyboard, or
+// poses arriving over the network (`organsim serve`, OpenIGTLink). A
+// HapticDevice whose pose one thread sets and the force loop reads, and whose
+// force the force loop sends and that thread reads back, both wait-free.
 #pragma once
 
 #include <atomic>
@@ -9,13 +11,17 @@
 
 namespace organsim::devices {
 
-class MouseTool final : public HapticDevice {
+class StreamedTool final : public HapticDevice {
  public:
-  // --- user interface thread ---
+  explicit StreamedTool(const SafetyLimits& limits = {}) : limits_(limits) {}
+
+  // --- the thread that pushes poses (one) ---
+  /// Makes `pose` (model frame, m) the tool's pose from the next force tick on.
   void place(const ToolPose& pose) {
     poses_.write_slot() = {true, pose};
     poses_.publish();
   }
+  /// The tool has no pose any more (removed, or its source is gone): its force fades to zero.
   void remove() {
     poses_.write_slot() = {false, {}};
     poses_.publish();

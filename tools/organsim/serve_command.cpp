@@ -1,0 +1,197 @@
+// `organsim serve MODEL --igtl-port P`: the real-time engine driven over
+// OpenIGTLink (3D Slicer, PLUS, robot controllers): tool poses in, the deformed
+// organ and the tools' forces out (tools/igtlink/igtl_server.h, docs/slicer.md).
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <iostream>
+#include <memory>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "command_line.h"
+#include "igtlink/igtl_server.h"
+#include "model_tuning.h"
+#include "organsim/model/model_file.h"
+#include "organsim/realtime/loop_runner.h"
+
+namespace organsim::cli {
+namespace {
+
+struct ServeOptions {
+  std::string model_path;
+  igtlink::ServerOptions server;
+  std::size_t tools = 2;
+  std::string deformation = "beam";
+  ModelTuning tuning;
+  double seconds = 0.0;  // 0: until interrupted
+  double max_force = devices::SafetyLimits{}.max_force;
+  double max_stiffness = devices::SafetyLimits{}.max_stiffness;
+  bool no_shaft = false;
+  bool json = false;
+};
+
+std::atomic<bool> stop_requested{false};
+static_assert(std::atomic<bool>::is_always_lock_free, "set from a signal handler");
+extern "C" void request_stop(int) { stop_requested.store(true, std::memory_order_relaxed); }
+
+// SIGINT and SIGTERM end the run cleanly (summary printed) while it lasts.
+class StopOnSignals {
+ public:
+  StopOnSignals() {
+    stop_requested.store(false);
+    struct sigaction action {};
+    action.sa_handler = request_stop;
+    sigemptyset(&action.sa_mask);
+    ::sigaction(SIGINT, &action, &previous_int_);
+    ::sigaction(SIGTERM, &action, &previous_term_);
+  }
+  ~StopOnSignals() {
+    ::sigaction(SIGINT, &previous_int_, nullptr);
+    ::sigaction(SIGTERM, &previous_term_, nullptr);
+  }
+  StopOnSignals(const StopOnSignals&) = delete;
+  StopOnSignals& operator=(const StopOnSignals&) = delete;
+
+ private:
+  struct sigaction previous_int_ {};
+  struct sigaction previous_term_ {};
+};
+
+nlohmann::json milliseconds(const realtime::Percentiles& p) {
+  return {{"p50_ms", p.p50 * 1e3}, {"p99_ms", p.p99 * 1e3}, {"max_ms", p.max * 1e3}};
+}
+
+int run_serve(const ServeOptions& o) {
+  model::OrganModel loaded = load_simulation_model("serve", o.model_path);
+  std::vector<model::Triangle> file_triangles = loaded.surface_triangles;
+  const multibeam::BeamOrgan organ(std::move(loaded));
+
+  devices::SafetyLimits limits;
+  limits.max_force = o.max_force;
+  limits.max_stiffness = o.max_stiffness;
+  std::vector<std::unique_ptr<devices::StreamedTool>> tools;
+  std::vector<devices::HapticDevice*> devices;
+  std::vector<devices::StreamedTool*> streamed;
+  for (std::size_t k = 0; k < o.tools; ++k) {
+    tools.push_back(std::make_unique<devices::StreamedTool>(limits));
+    devices.push_back(tools.back().get());
+    streamed.push_back(tools.back().get());
+  }
+  realtime::EngineOptions options;
+  realtime::parse_model_kind(o.deformation, options.model);
+  apply_model_tuning(o.tuning, options.fem, options.springs);
+  realtime::Engine engine(organ, devices, options);
+
+  igtlink::ServerOptions server_options = o.server;
+  server_options.shaft_from_rotation = !o.no_shaft;
+  igtlink::IgtlServer server(
+      server_options, organ, std::move(file_triangles), streamed, engine.surfaces(),
+      [](const std::string& message) { warn("serve", message); },
+      [](const std::string& message) { note("serve", message); });
+  note("serve", fmt::format("{} ({} model, {} tool(s)) on {}:{} ({} frame): TRANSFORM tool1…tool{} in, POLYDATA organ "
+                            "and TRANSFORM toolK_force out at {:.0f} Hz; {}",
+                            o.model_path, o.deformation, o.tools, o.server.bind_address, server.port(),
+                            o.server.ras ? "RAS" : "LPS model", o.tools, 1.0 / o.server.frame_period,
+                            o.seconds > 0.0 ? fmt::format("for {:g} s", o.seconds) : std::string("Ctrl-C stops")));
+
+  const StopOnSignals signals;
+  const auto begin = std::chrono::steady_clock::now();
+  const double duration = o.seconds > 0.0 ? o.seconds : 1e9;
+  const realtime::RunTimings timings = realtime::run_realtime(engine, duration, [&](const realtime::RunTimings&) {
+    server.step(std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
+    return !stop_requested.load(std::memory_order_relaxed);
+  });
+  if (!timings.priority_warning.empty()) warn("serve", timings.priority_warning);
+
+  const igtlink::ServerCounters& c = server.counters();
+  const realtime::Percentiles period = timings.force_periods.percentiles();
+  if (o.json) {
+    nlohmann::json dropped;
+    for (std::size_t p = 0; p < igtlink::kProblemKinds; ++p)
+      dropped[igtlink::name(static_cast<igtlink::Problem>(p))] = c.dropped[p];
+    nlohmann::json tools_json = nlohmann::json::array();
+    for (std::size_t k = 0; k < o.tools; ++k)
+      tools_json.push_back({{"tool", k + 1},
+                            {"contacts", engine.telemetry(k).contacts},
+                            {"peak_force_n", engine.telemetry(k).peak_force},
+                            {"pose_faults", engine.telemetry(k).pose_faults}});
+    std::cout << nlohmann::json{{"model", o.model_path},
+                                {"port", server.port()},
+                                {"seconds", timings.wall_seconds},
+                                {"clients_accepted", c.clients_accepted},
+                                {"clients_refused", c.clients_refused},
+                                {"poses", c.poses},
+                                {"frames_sent", c.frames},
+                                {"surfaces_sent", c.surfaces},
+                                {"frames_missed", c.frames_missed},
+                                {"bytes_sent", c.bytes_sent},
+                                {"dropped", dropped},
+                                {"tools", tools_json},
+                                {"force_loop",
+                                 {{"ticks", timings.force_computes.count()},
+                                  {"period", milliseconds(period)},
+                                  {"deadline_misses", timings.force_deadline_misses}}},
+                                {"deformation_loop",
+                                 {{"frames", timings.deformation_computes.count()},
+                                  {"compute", milliseconds(timings.deformation_computes.percentiles())}}}}
+                     .dump()
+              << '\n';
+    return 0;
+  }
+  std::string dropped;
+  for (std::size_t p = 0; p < igtlink::kProblemKinds; ++p)
+    if (c.dropped[p] > 0)
+      dropped += fmt::format("{}{} {}", dropped.empty() ? "" : ", ", c.dropped[p],
+                             igtlink::name(static_cast<igtlink::Problem>(p)));
+  std::cout << fmt::format("{:<14}{:.1f} s on port {}: {} client(s), {} poses in, {} frames out ({} with the surface, "
+                           "{} missed by slow clients), {:.1f} MB sent\n",
+                           "serve", timings.wall_seconds, server.port(), c.clients_accepted, c.poses, c.frames,
+                           c.surfaces, c.frames_missed, static_cast<double>(c.bytes_sent) / 1e6);
+  std::cout << fmt::format("{:<14}{}\n", "dropped", dropped.empty() ? std::string("none") : dropped);
+  for (std::size_t k = 0; k < o.tools; ++k)
+    std::cout << fmt::format("{:<14}{} contact(s), peak force {:.3f} N\n", fmt::format("tool {}", k + 1),
+                             engine.telemetry(k).contacts, engine.telemetry(k).peak_force);
+  std::cout << fmt::format("{:<14}{} ticks, period p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms; {} deadline misses "
+                           "(> 2 ms)\n",
+                           "force loop", timings.force_computes.count(), period.p50 * 1e3, period.p99 * 1e3,
+                           period.max * 1e3, timings.force_deadline_misses);
+  const realtime::Percentiles frames = timings.deformation_computes.percentiles();
+  std::cout << fmt::format("{:<14}{} frames, compute p50 {:.3f} ms, p99 {:.3f} ms\n", "deformation",
+                           timings.deformation_computes.count(), frames.p50 * 1e3, frames.p99 * 1e3);
+  return 0;
+}
+
+}  // namespace
+
+Command add_serve_command(CLI::App& app) {
+  auto o = std::make_shared<ServeOptions>();
+  app.add_option("model", o->model_path, "Model file (.organ)")->required();
+  app.add_option("--igtl-port", o->server.port, "OpenIGTLink port to listen on (0 picks a free one and says which)")
+      ->check(CLI::Range(0, 65535))
+      ->capture_default_str();
+  app.add_option("--bind", o->server.bind_address,
+                 "Address to listen on: 127.0.0.1 (this machine) or 0.0.0.0 (every network it is on)")
+      ->check(CLI::ValidIPV4)
+      ->capture_default_str();
+  app.add_option("--tools", o->tools, "Tools served: TRANSFORM messages tool1 … toolN move them")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{realtime::kMaxTools}))
+      ->capture_default_str();
+  add_deformation_model_option(app, o->deformation);
+  add_model_tuning_options(app, o->tuning);
+  app.add_flag("--ras", o->server.ras,
+               "Clients speak RAS (3D Slicer's frame): x and y change sign on the way in and out");
+  app.add_flag("--no-shaft", o->no_shaft,
+               "Poses give the tip only (the rotation is ignored: contacts are found from the tip's path)");
+  app.add_option("--seconds", o->seconds, "Stop after this long (default: run until Ctrl-C or SIGTERM)")
+      ->check(kPositive);
+  app.add_option("--max-force", o->max_force, "Force limit per tool, N")->check(kPositive)->capture_default_str();
+  app.add_option("--max-stiffness", o->max_stiffness, "Stiffness limit per tool, N/m")
+      ->check(kPositive)
+      ->capture_default_str();
+  app.add_flag("--json", o->json, "Print the summary as one JSON object on stdout");
+  return [o] { return run_serve(*o); };
+}
+
+}  // namespace organsim::cli
