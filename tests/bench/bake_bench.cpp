@@ -3,6 +3,8 @@
 // with the time of every stage as a counter, plus writing the model file.
 #include <benchmark/benchmark.h>
 
+#include "machine_limits.h"
+
 #include <chrono>
 #include <filesystem>
 
@@ -68,4 +70,4 @@ BENCHMARK(BM_BakePhantom512x512x200)->Unit(benchmark::kSecond)->Iterations(2)->U
 
 }  // namespace
 
-BENCHMARK_MAIN();
+ORGANSIM_BENCHMARK_MAIN();

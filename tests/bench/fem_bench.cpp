@@ -16,6 +16,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include "machine_limits.h"
+
 #include "organsim/fem/elasticity_system.h"
 #include "organsim/fem/factorization.h"
 #include "organsim/fem/tet_mesh.h"
@@ -190,4 +192,4 @@ BENCHMARK(NewtonIteration)->Apply(SolverArguments)->Iterations(3);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+ORGANSIM_BENCHMARK_MAIN();

@@ -9,6 +9,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include "machine_limits.h"
+
 #include "organsim/multibeam/multibeam.h"
 #include "test_models.h"
 
@@ -70,6 +72,8 @@ void BM_ForcePerTool(benchmark::State& state) {
       benchmark::DoNotOptimize(force);
     }
   state.SetItemsProcessed(state.iterations() * tools);  // items = tool forces
+  // F = -K d: a 3×3 matrix times a vector, 15 flops per tool.
+  state.counters["x_arithmetic_limit"] = organsim::bench::times_arithmetic_limit(15.0 * tools);
 }
 BENCHMARK(BM_ForcePerTool)->Arg(1)->Arg(4)->Arg(8)->Unit(benchmark::kNanosecond);
 
@@ -85,6 +89,12 @@ void BM_Normals(benchmark::State& state) {
     compute_vertex_normals(o, o.model().surface_vertices.data(), normals.data(), 0, o.vertex_count());
     benchmark::ClobberMemory();
   }
+  // At least: each vertex's position, ring (six neighbours) and offset in, its
+  // normal out (77 bytes); six edge cross products, their sum and a
+  // normalization (about 100 flops).
+  const auto n = static_cast<double>(o.vertex_count());
+  state.counters["x_memory_limit"] = organsim::bench::times_memory_limit(77.0 * n);
+  state.counters["x_arithmetic_limit"] = organsim::bench::times_arithmetic_limit(100.0 * n);
 }
 BENCHMARK(BM_Normals)->Arg(2400)->Arg(100000)->Unit(benchmark::kMicrosecond)->ComputeStatistics("min", minimum);
 
@@ -158,6 +168,10 @@ void BM_Deformation(benchmark::State& state) {
     }
   }
   state.counters["vertices"] = static_cast<double>(n);
+  // At least: rest position in, deformed position out, each tool's weight in,
+  // and the normals pass (77 bytes) per vertex.
+  state.counters["x_memory_limit"] =
+      organsim::bench::times_memory_limit((125.0 + 8.0 * tools) * static_cast<double>(n));
   state.counters["ns_per_vertex_per_tool"] = benchmark::Counter(
       static_cast<double>(n) * tools * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
@@ -170,11 +184,4 @@ BENCHMARK(BM_Deformation)
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  benchmark::AddCustomContext("vertex_kernels", organsim::multibeam::vertex_kernel_level());
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+ORGANSIM_BENCHMARK_MAIN();

@@ -9,6 +9,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include "machine_limits.h"
+
 #include "organsim/realtime/engine.h"
 #include "organsim/devices/scripted_device.h"
 #include "organsim/geometry/closest_point.h"
@@ -99,4 +101,4 @@ BENCHMARK(BM_ContactTreeRefit)
 
 }  // namespace
 
-BENCHMARK_MAIN();
+ORGANSIM_BENCHMARK_MAIN();

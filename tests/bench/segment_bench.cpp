@@ -4,6 +4,8 @@
 // 512×512×200 volume on the 2-core CI machine.
 #include <benchmark/benchmark.h>
 
+#include "machine_limits.h"
+
 #include <filesystem>
 #include <map>
 #include <string>
@@ -58,4 +60,4 @@ BENCHMARK(BM_SegmentPhantom512x512x200)->Unit(benchmark::kSecond)->Iterations(2)
 
 }  // namespace
 
-BENCHMARK_MAIN();
+ORGANSIM_BENCHMARK_MAIN();

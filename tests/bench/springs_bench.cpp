@@ -11,6 +11,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include "machine_limits.h"
+
 #include "organsim/devices/scripted_device.h"
 #include "organsim/model/model_file.h"
 #include "organsim/multibeam/beam_organ.h"
@@ -119,4 +121,4 @@ BENCHMARK(BM_EngineForceTickSprings)->Arg(1)->Arg(4)->Unit(benchmark::kNanosecon
 
 }  // namespace
 
-BENCHMARK_MAIN();
+ORGANSIM_BENCHMARK_MAIN();

@@ -181,6 +181,18 @@ struct ParseError {
   fail(format::section_label(id) + ": " + problem);
 }
 
+// Room for `count` items in memory the kernel may back with 2 MiB pages: a
+// 100 MB table then faults in 50 times instead of 25,000.
+template <typename T>
+void reserve_in_huge_pages(std::vector<T>& items, std::size_t count) {
+  items.reserve(count);
+  constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
+  const auto begin = reinterpret_cast<std::uintptr_t>(items.data());
+  const std::uintptr_t first = (begin + kHuge - 1) & ~(kHuge - 1);
+  const std::uintptr_t last = (begin + count * sizeof(T)) & ~(kHuge - 1);
+  if (last > first) ::madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE);
+}
+
 template <typename T, std::size_t N>
 std::vector<std::array<T, N>> read_array(Section id, const std::uint8_t* data, std::size_t size) {
   PayloadReader r(data, size);
@@ -193,7 +205,9 @@ std::vector<std::array<T, N>> read_array(Section id, const std::uint8_t* data, s
     fail_section(id, "item count " + std::to_string(count) + " does not match the payload of " +
                          std::to_string(size) + " bytes (" + std::to_string(item_bytes) +
                          " bytes per item); " + kDamagedAdvice);
-  std::vector<std::array<T, N>> items(static_cast<std::size_t>(count));
+  std::vector<std::array<T, N>> items;
+  reserve_in_huge_pages(items, static_cast<std::size_t>(count));
+  items.resize(static_cast<std::size_t>(count));
   if (count > 0) std::memcpy(items.data(), r.here(), static_cast<std::size_t>(count) * item_bytes);
   return items;
 }
@@ -266,6 +280,7 @@ void read_beams(const std::uint8_t* data, std::size_t size, BeamTables& beams) {
                          " stations does not match the payload of " + std::to_string(size) + " bytes; " +
                          kDamagedAdvice);
   beams.stations_per_beam = stations;
+  reserve_in_huge_pages(beams.sections, static_cast<std::size_t>(vertices * stations));
   beams.sections.resize(static_cast<std::size_t>(vertices * stations));
   if (fields == format::kBeamFieldsV1) {
     static_assert(sizeof(BeamSection) == format::kBeamFieldsV1 * sizeof(double));
@@ -409,15 +424,18 @@ OrganModel parse(const std::uint8_t* data, std::size_t size, ModelFileSummary& s
     if (extents[i].first < extents[i - 1].first + extents[i - 1].second)
       fail(std::string("two sections overlap in the file; ") + kDamagedAdvice);
 
-  for (const TableEntry& e : table)
-    if (checksum(data + e.offset, static_cast<std::size_t>(e.size)) != e.checksum) {
-      const auto* known = find_known_section(e.tag);
-      fail((known ? section_label(known->id) : "section '" + printable_tag(e.tag) + "'") +
-           ": checksum mismatch; " + kDamagedAdvice);
-    }
-  if (load<std::uint64_t>(data + kOffFileChecksum) != checksum(data + kHeaderBytes, size - kHeaderBytes))
+  // One pass in the common case: the whole-file checksum covers every payload.
+  // Only when it fails are the sections hashed one by one, to name the damaged one.
+  if (load<std::uint64_t>(data + kOffFileChecksum) != checksum(data + kHeaderBytes, size - kHeaderBytes)) {
+    for (const TableEntry& e : table)
+      if (checksum(data + e.offset, static_cast<std::size_t>(e.size)) != e.checksum) {
+        const auto* known = find_known_section(e.tag);
+        fail((known ? section_label(known->id) : "section '" + printable_tag(e.tag) + "'") +
+             ": checksum mismatch; " + kDamagedAdvice);
+      }
     fail(std::string("whole-file checksum mismatch (damage outside every section's payload); ") +
          kDamagedAdvice);
+  }
 
   for (const auto& d : kSections)
     if (d.required && !found[static_cast<std::size_t>(d.id)])

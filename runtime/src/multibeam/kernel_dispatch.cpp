@@ -1,6 +1,9 @@
 // Picks the widest compiled kernel set (kernels.h) that this CPU runs.
 #include "kernels.h"
 
+#include <cstdlib>
+#include <cstring>
+
 namespace organsim::multibeam::kernels {
 
 // The levels the build compiled kernels.cpp for: x86-64-v4, v3 and the
@@ -44,7 +47,15 @@ RunnableSets runnable() noexcept {
 }
 
 const KernelSet& selected() noexcept {
-  static const KernelSet set = runnable().set[0];
+  // ORGANSIM_SIMD=x86-64-v3 (or x86-64) caps the level, so that a machine
+  // with AVX-512 measures what one with AVX2 only (or SSE2) gets.
+  static const KernelSet set = [] {
+    const RunnableSets sets = runnable();
+    const char* cap = std::getenv("ORGANSIM_SIMD");
+    for (std::size_t i = 0; cap != nullptr && i < sets.count; ++i)
+      if (std::strcmp(sets.set[i].level, cap) == 0) return sets.set[i];
+    return sets.set[0];
+  }();
   return set;
 }
 
