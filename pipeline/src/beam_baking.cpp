@@ -105,6 +105,22 @@ double MaskSampler::value_at(const Index& index) const {
     fraction[r] = index[r] - f;
   }
   const std::uint8_t* v = mask_.GetBufferPointer();
+  if (base[0] >= 0 && base[1] >= 0 && base[2] >= 0 && base[0] + 1 < size_[0] && base[1] + 1 < size_[1] &&
+      base[2] + 1 < size_[2]) {
+    // All eight corners inside the volume (nearly every sample): no checks,
+    // the same sum in the same order as below.
+    const long row = size_[0], slice = size_[0] * size_[1];
+    const std::uint8_t* p = v + (base[2] * size_[1] + base[1]) * size_[0] + base[0];
+    const long step[8] = {0, 1, row, row + 1, slice, slice + 1, slice + row, slice + row + 1};
+    double sum = 0.0;
+    for (int corner = 0; corner < 8; ++corner) {
+      const double weight = ((corner & 1) ? fraction[0] : 1.0 - fraction[0]) *
+                            ((corner & 2) ? fraction[1] : 1.0 - fraction[1]) *
+                            ((corner & 4) ? fraction[2] : 1.0 - fraction[2]);
+      if (weight != 0.0) sum += weight * p[step[corner]];
+    }
+    return sum;
+  }
   double sum = 0.0;
   for (int corner = 0; corner < 8; ++corner) {
     long at[3];
@@ -165,33 +181,41 @@ model::BeamSection organ_section(const MaskSampler& sampler, const model::Point3
   if (hi_i < 0) return section;
   lo_i = std::max(0L, lo_i - static_cast<long>(kCoarseStep)), hi_i = std::min(n - 1L, hi_i + static_cast<long>(kCoarseStep));
   lo_j = std::max(0L, lo_j - static_cast<long>(kCoarseStep)), hi_j = std::min(n - 1L, hi_j + static_cast<long>(kCoarseStep));
-  std::vector<std::uint8_t> inside(static_cast<std::size_t>(n) * n, 0);
-  for (long j = lo_j; j <= hi_j; ++j)
-    for (long i = lo_i; i <= hi_i; ++i)
-      inside[static_cast<std::size_t>(j) * n + i] = inside_at(static_cast<unsigned>(i), static_cast<unsigned>(j));
+  // The fine pass covers the coarse extent only; samples outside it count as
+  // outside. Buffers are reused per thread: a bake calls this 100,000 times.
+  const std::size_t width = static_cast<std::size_t>(hi_i - lo_i + 1), height = static_cast<std::size_t>(hi_j - lo_j + 1);
+  thread_local std::vector<std::uint8_t> inside;
+  thread_local std::vector<std::size_t> stack;
+  inside.assign(width * height, 0);
+  for (std::size_t j = 0; j < height; ++j)
+    for (std::size_t i = 0; i < width; ++i)
+      inside[j * width + i] = inside_at(static_cast<unsigned>(lo_i + static_cast<long>(i)),
+                                        static_cast<unsigned>(lo_j + static_cast<long>(j)));
   // The connected piece containing the axis point, or the piece nearest to it.
   std::size_t start = inside.size();
   double nearest = std::numeric_limits<double>::infinity();
-  for (unsigned j = 0; j < n; ++j)
-    for (unsigned i = 0; i < n; ++i)
-      if (inside[j * n + i]) {
-        const auto [y, z] = local(i, j);
+  for (std::size_t j = 0; j < height; ++j)
+    for (std::size_t i = 0; i < width; ++i)
+      if (inside[j * width + i]) {
+        const auto [y, z] = local(static_cast<unsigned>(lo_i + static_cast<long>(i)),
+                                  static_cast<unsigned>(lo_j + static_cast<long>(j)));
         const double d = y * y + z * z;
-        if (d < nearest) nearest = d, start = j * n + i;
+        if (d < nearest) nearest = d, start = j * width + i;
       }
   if (start == inside.size()) return section;
-  std::vector<std::size_t> stack{start};
+  stack.assign(1, start);
   inside[start] = 2;
   double count = 0, sy = 0, sz = 0, syy = 0, szz = 0, syz = 0;
   while (!stack.empty()) {
     const std::size_t at = stack.back();
     stack.pop_back();
-    const unsigned i = static_cast<unsigned>(at % n), j = static_cast<unsigned>(at / n);
-    const auto [y, z] = local(i, j);
+    const std::size_t i = at % width, j = at / width;
+    const auto [y, z] = local(static_cast<unsigned>(lo_i + static_cast<long>(i)),
+                              static_cast<unsigned>(lo_j + static_cast<long>(j)));
     count += 1;
     sy += y, sz += z, syy += y * y, szz += z * z, syz += y * z;
-    const std::size_t neighbours[4] = {i > 0 ? at - 1 : at, i + 1 < n ? at + 1 : at, j > 0 ? at - n : at,
-                                       j + 1 < n ? at + n : at};
+    const std::size_t neighbours[4] = {i > 0 ? at - 1 : at, i + 1 < width ? at + 1 : at, j > 0 ? at - width : at,
+                                       j + 1 < height ? at + width : at};
     for (std::size_t next : neighbours)
       if (inside[next] == 1) inside[next] = 2, stack.push_back(next);
   }

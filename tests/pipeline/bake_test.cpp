@@ -157,7 +157,9 @@ TEST_F(Bake, RealCtWithItsLiverLabelNifti) {
   EXPECT_EQ(r.fixed_point_source, "deepest interior point");
   EXPECT_GT(r.fixed_point_depth_mm, 20.0);
   EXPECT_EQ(model::validate_organ_model(result.model), "");
+  EXPECT_GE(r.tetrahedra.min_dihedral_deg, 10.0) << "no slivers on a real liver";
   RecordProperty("tet_volume_error", std::to_string(r.tetrahedra_volume_ml / r.mask_volume_ml - 1));
+  RecordProperty("min_dihedral_deg", std::to_string(r.tetrahedra.min_dihedral_deg));
 }
 
 TEST_F(Bake, RealCtDicomSeriesWithAFlippedLabelMap) {
@@ -170,6 +172,7 @@ TEST_F(Bake, RealCtDicomSeriesWithAFlippedLabelMap) {
   EXPECT_EQ(r.image_size, (std::array<std::size_t, 3>{512, 512, 20}));
   EXPECT_NEAR(r.mask_volume_ml, 699.0, 10.0);
   EXPECT_LT(relative_difference(r.tetrahedra_volume_ml, r.mask_volume_ml), 0.03);
+  EXPECT_GE(r.tetrahedra.min_dihedral_deg, 10.0) << "no slivers on a real liver";
   RecordProperty("tet_volume_error", std::to_string(r.tetrahedra_volume_ml / r.mask_volume_ml - 1));
 }
 

@@ -1,8 +1,12 @@
 #include <gtest/gtest.h>
 
+#include <map>
 #include <string>
 
+#include <Eigen/Geometry>
+
 #include "organsim/pipeline/surface.h"
+#include "organsim/pipeline/sliver_removal.h"
 #include "organsim/pipeline/tetrahedra.h"
 #include "synthetic_volumes.h"
 
@@ -70,6 +74,74 @@ TEST(Tetrahedra, QualityOfARegularTetrahedron) {
   EXPECT_NEAR(q.max_dihedral_deg, dihedral, 1e-9);
   EXPECT_NEAR(q.max_radius_edge_ratio, std::sqrt(6.0) / 4.0, 1e-12);
   EXPECT_NEAR(std::abs(q.total_volume_m3), 8.0 / 3.0, 1e-12);
+}
+
+// Every tetrahedron positive, every face in one or two tetrahedra, every
+// boundary edge in exactly two boundary faces: a closed 2-manifold boundary.
+void expect_valid_with_manifold_boundary(const geometry::TetrahedralMesh& mesh) {
+  std::map<std::array<std::uint32_t, 3>, int> faces;
+  for (const model::Tetrahedron& t : mesh.tetrahedra) {
+    const auto& v = mesh.vertices;
+    auto e = [&](int i) { return Eigen::Vector3d(v[t[i]][0], v[t[i]][1], v[t[i]][2]); };
+    ASSERT_GT((e(1) - e(0)).cross(e(2) - e(0)).dot(e(3) - e(0)), 0.0);
+    for (const auto& f : {std::array<std::uint32_t, 3>{t[1], t[2], t[3]}, {t[0], t[2], t[3]}, {t[0], t[1], t[3]},
+                          {t[0], t[1], t[2]}}) {
+      auto key = f;
+      std::sort(key.begin(), key.end());
+      ++faces[key];
+    }
+  }
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> boundary_edges;
+  for (const auto& [f, uses] : faces) {
+    ASSERT_LE(uses, 2);
+    if (uses == 1)
+      for (const auto& [a, b] : {std::pair{f[0], f[1]}, {f[1], f[2]}, {f[0], f[2]}}) ++boundary_edges[{a, b}];
+  }
+  for (const auto& [edge, uses] : boundary_edges) ASSERT_EQ(uses, 2);
+}
+
+TEST(SliverRemoval, PeelsBoundarySliversAndMovesInteriorVerticesKeepingTheBoundaryManifold) {
+  // Mesh_3 without its own optimization leaves slivers of both kinds.
+  TetrahedraOptions raw;
+  raw.optimize = false;
+  geometry::TetrahedralMesh mesh = make_tetrahedra(ellipsoid_surface(), raw);
+  const double volume_before = measure_quality(mesh).total_volume_m3;
+  const SliverRemovalReport r = remove_slivers(mesh);
+  EXPECT_LT(r.min_dihedral_before_deg, 5.0);
+  EXPECT_GT(r.slivers_before, 10u);
+  EXPECT_GT(r.peeled, 0u);
+  EXPECT_GT(r.moves, 0u);
+  EXPECT_LT(r.slivers_after, r.slivers_before / 4);
+  EXPECT_GT(r.min_dihedral_after_deg, r.min_dihedral_before_deg + 3.0);
+  EXPECT_NEAR(measure_quality(mesh).min_dihedral_deg, r.min_dihedral_after_deg, 1e-9);
+  EXPECT_LT(std::abs(measure_quality(mesh).total_volume_m3 / volume_before - 1.0), 0.005);
+  expect_valid_with_manifold_boundary(mesh);
+  RecordProperty("min_dihedral_after_deg", std::to_string(r.min_dihedral_after_deg));
+}
+
+TEST(SliverRemoval, AnInteriorVertexPressedOntoAFaceIsMovedBack) {
+  // A tetrahedron cut into four by an inner vertex that sits 1 % of the height above face ABC.
+  geometry::TetrahedralMesh mesh;
+  mesh.vertices = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
+  const Eigen::Vector3d face_centre = (Eigen::Vector3d(1, 1, 1) + Eigen::Vector3d(1, -1, -1) + Eigen::Vector3d(-1, 1, -1)) / 3;
+  const Eigen::Vector3d inner = face_centre + 0.01 * (Eigen::Vector3d(-1, -1, 1) - face_centre);
+  mesh.vertices.push_back({inner[0], inner[1], inner[2]});
+  for (const model::Tetrahedron& t : {model::Tetrahedron{0, 1, 2, 4}, {0, 1, 4, 3}, {0, 4, 2, 3}, {4, 1, 2, 3}}) {
+    model::Tetrahedron oriented = t;
+    const auto& v = mesh.vertices;
+    auto e = [&](int i) { return Eigen::Vector3d(v[oriented[i]][0], v[oriented[i]][1], v[oriented[i]][2]); };
+    if ((e(1) - e(0)).cross(e(2) - e(0)).dot(e(3) - e(0)) < 0) std::swap(oriented[2], oriented[3]);
+    mesh.tetrahedra.push_back(oriented);
+  }
+  const SliverRemovalReport r = remove_slivers(mesh);
+  EXPECT_LT(r.min_dihedral_before_deg, 3.0);
+  EXPECT_EQ(r.peeled, 0u);
+  EXPECT_GE(r.min_dihedral_after_deg, 15.0);
+  EXPECT_EQ(r.slivers_after, 0u);
+  // The corners are boundary vertices at sharp corners: they stay.
+  EXPECT_EQ(mesh.vertices[0], (model::Point3{1, 1, 1}));
+  EXPECT_EQ(mesh.vertices[3], (model::Point3{-1, -1, 1}));
+  expect_valid_with_manifold_boundary(mesh);
 }
 
 TEST(Tetrahedra, UnusableOptionsAreErrors) {

@@ -15,7 +15,7 @@ struct TetrahedraOptions {
   double facet_distance_mm = 0.4;        ///< largest distance of a boundary facet from the surface, mm
   double facet_angle_deg = 25.0;         ///< smallest boundary-facet angle (Mesh_3's facet_angle)
   double radius_edge_ratio = 3.0;        ///< largest circumradius / shortest edge of a tetrahedron
-  bool optimize = true;                  ///< Lloyd smoothing and sliver exudation after refinement
+  bool optimize = true;                  ///< Lloyd smoothing, sliver exudation and sliver removal after refinement
 };
 
 struct TetrahedralQuality {

@@ -1,0 +1,45 @@
+// Slivers out of a tetrahedral mesh: flat tetrahedra whose smallest dihedral
+// angle is near zero make the FEM models' stiffness matrices ill-conditioned.
+// Mesh_3's sliver exudation leaves two kinds behind on an organ: flat
+// tetrahedra lying on the boundary (two faces on it) and tetrahedra spanning a
+// boundary edge with two interior vertices. The first kind is peeled off, the
+// second is repaired by moving its vertices. Deterministic: the same
+// mesh gives the same result.
+#pragma once
+
+#include <cstddef>
+
+#include "organsim/geometry/meshes.h"
+
+namespace organsim::pipeline {
+
+struct SliverRemovalOptions {
+  double min_dihedral_deg = 10.0;  ///< tetrahedra with a smaller dihedral angle are slivers
+  int passes = 20;                 ///< most passes of vertex moves over the slivers left
+};
+
+struct SliverRemovalReport {
+  double min_dihedral_before_deg = 0.0;
+  double min_dihedral_after_deg = 0.0;
+  std::size_t slivers_before = 0;  ///< tetrahedra below the bound
+  std::size_t slivers_after = 0;
+  std::size_t peeled = 0;          ///< boundary slivers removed
+  std::size_t moves = 0;           ///< interior vertex moves made
+};
+
+/// Removes every sliver with two faces on the boundary whose removal keeps the
+/// boundary a closed 2-manifold (its two other faces become boundary; the
+/// volume drops by the sliver's, a few cubic millimetres at most), then moves
+/// the interior vertices of the slivers left, each to the candidate position
+/// (towards the centroid of its neighbours, or away from the opposite face)
+/// that most raises the smallest dihedral angle of the tetrahedra around it,
+/// never lowering it and never inverting a tetrahedron. Only when that is not
+/// enough does a boundary vertex move: it slides in its tangent plane by at most
+/// a quarter of its edges, and only where the boundary is smooth (no corner or
+/// crease), so the boundary keeps its shape to second order.
+SliverRemovalReport remove_slivers(geometry::TetrahedralMesh& mesh, const SliverRemovalOptions& options = {});
+
+/// The smallest dihedral angle of one tetrahedron, degrees (0 when degenerate).
+double min_dihedral_deg(const model::Point3& a, const model::Point3& b, const model::Point3& c, const model::Point3& d);
+
+}  // namespace organsim::pipeline
