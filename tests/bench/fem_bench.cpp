@@ -141,8 +141,10 @@ void Solve(benchmark::State& state) {
     factorization->solve(rhs, x);
     benchmark::DoNotOptimize(x.data());
   }
+  // The factor is read twice (forward and backward), value and index per entry.
   const double bytes = 16.0 * 2.0 * static_cast<double>(factorization->factor_nonzeros());
   state.counters["GB/s"] = benchmark::Counter(bytes, benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["x_memory_limit"] = organsim::bench::times_memory_limit(bytes);
 }
 
 /// One full Newton iteration: gradient and tangent, factorization, solve.

@@ -49,6 +49,8 @@ void run_steps(benchmark::State& state, SpringNetwork network, double dt) {
   s.integrator = kIntegrators[which];
   s.dt = dt;
   const std::size_t springs = network.springs.size();
+  // Per spring: two node indices, rest length, stiffness, damping (32 bytes).
+  const double spring_bytes = 32.0 * static_cast<double>(springs);
   MassSpring simulation(std::move(network), s);
   simulation.set_external_force(static_cast<std::uint32_t>(simulation.network().surface_nodes / 2),
                                 Eigen::Vector3d(0, 0, -0.05));
@@ -63,6 +65,8 @@ void run_steps(benchmark::State& state, SpringNetwork network, double dt) {
   state.SetLabel(kNames[which]);
   state.counters["blowups"] = blowups;
   state.counters["springs"] = static_cast<double>(springs);
+  // At least the spring list, streamed once per force evaluation.
+  state.counters["x_memory_limit"] = organsim::bench::times_memory_limit(spring_bytes * kEvaluations[which]);
   state.counters["ns_per_spring_evaluation"] = benchmark::Counter(
       static_cast<double>(springs * kEvaluations[which]), benchmark::Counter::kIsIterationInvariantRate |
                                                               benchmark::Counter::kInvert);
