@@ -15,6 +15,7 @@
 #include "organsim/io/atomic_file.h"
 #include "organsim/mesh_io/mesh_io.h"
 #include "organsim/model/model_file.h"
+#include "organsim/multibeam/beam_organ.h"
 #include "organsim/pipeline/ct_input.h"
 #include "organsim/pipeline/fixed_point.h"
 #include "organsim/pipeline/image_io.h"
@@ -23,6 +24,22 @@
 
 namespace organsim::pipeline {
 namespace {
+
+// The surface in the order the runtime keeps it (multibeam::morton_order), so
+// that loading the model renumbers and copies nothing.
+geometry::SurfaceMesh in_runtime_order(geometry::SurfaceMesh mesh) {
+  const std::vector<std::uint32_t> order = multibeam::morton_order(mesh.vertices);
+  std::vector<std::uint32_t> new_index(order.size());
+  std::vector<model::Point3> vertices(order.size());
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    new_index[order[i]] = static_cast<std::uint32_t>(i);
+    vertices[i] = mesh.vertices[order[i]];
+  }
+  mesh.vertices = std::move(vertices);
+  for (model::Triangle& t : mesh.triangles)
+    for (std::uint32_t& v : t) v = new_index[v];
+  return mesh;
+}
 
 constexpr double kMetresPerMillimetre = 1e-3;
 constexpr double kMillilitresPerCubicMetre = 1e6;
@@ -231,7 +248,7 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
   report.fixed_point_depth_mm = fixed_point.depth_mm;
   report.fixed_point_outside_mm = fixed_point.outside_mm;
   const geometry::SurfaceMesh surface = clock.run("surface", [&] {
-    geometry::SurfaceMesh extracted = extract_surface(*mask, o.surface);
+    geometry::SurfaceMesh extracted = in_runtime_order(extract_surface(*mask, o.surface));
     if (intermediates.wanted()) {
       mesh_io::write_surface_vtp(extracted, intermediates.stage("surface.vtp", ".vtp"));
       mesh_io::write_surface_stl(extracted, intermediates.stage("surface.stl", ".stl"));

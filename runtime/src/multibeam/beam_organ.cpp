@@ -9,39 +9,32 @@
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
+#include <type_traits>
 
 namespace organsim::multibeam {
 namespace {
 
-// The model with its surface vertices renumbered along a Morton curve (21 bits
-// per axis over the bounding box, interleaved); file_index[new] = old.
+// The model with its surface vertices renumbered along the Morton curve;
+// file_index[new] = old. A model baked in that order (organsim bake writes it)
+// is taken as it is: its 100 MB of beam tables are not copied.
 model::OrganModel surface_in_morton_order(model::OrganModel model, std::vector<std::uint32_t>& file_index) {
   const std::size_t n = model.surface_vertices.size();
-  Eigen::AlignedBox3d box;
-  for (const model::Point3& p : model.surface_vertices) box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
-  const Eigen::Vector3d extent = n > 0 ? Eigen::Vector3d(box.sizes().cwiseMax(1e-12)) : Eigen::Vector3d::Ones();
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> keys(n);
-  for (std::size_t v = 0; v < n; ++v) {
-    std::uint64_t key = 0;
-    for (int k = 0; k < 3; ++k) {
-      const double unit = (model.surface_vertices[v][k] - box.min()[k]) / extent[k];
-      const auto cell = static_cast<std::uint64_t>(std::clamp(unit, 0.0, 1.0) * ((1u << 21) - 1));
-      for (int bit = 0; bit < 21; ++bit) key |= ((cell >> bit) & 1u) << (3 * bit + k);
-    }
-    keys[v] = {key, static_cast<std::uint32_t>(v)};
-  }
-  std::sort(keys.begin(), keys.end());
-  file_index.resize(n);
+  file_index = morton_order(model.surface_vertices);
+  bool identity = true;
+  for (std::size_t i = 0; i < n && identity; ++i) identity = file_index[i] == i;
+  if (identity) return model;
   std::vector<std::uint32_t> new_index(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    file_index[i] = keys[i].second;
-    new_index[keys[i].second] = static_cast<std::uint32_t>(i);
-  }
+  for (std::size_t i = 0; i < n; ++i) new_index[file_index[i]] = static_cast<std::uint32_t>(i);
+  // One gather into new storage per array.
   auto permute = [&](auto& values, std::size_t per_vertex) {
     if (values.size() != n * per_vertex) return;
-    auto copy = values;
-    for (std::size_t i = 0; i < n; ++i)
-      std::copy_n(copy.begin() + file_index[i] * per_vertex, per_vertex, values.begin() + i * per_vertex);
+    std::remove_reference_t<decltype(values)> gathered;
+    gathered.reserve(values.size());
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto from = values.begin() + static_cast<std::ptrdiff_t>(file_index[i] * per_vertex);
+      gathered.insert(gathered.end(), from, from + static_cast<std::ptrdiff_t>(per_vertex));
+    }
+    values = std::move(gathered);
   };
   permute(model.surface_vertices, 1);
   permute(model.surface_texcoords, 1);
@@ -52,6 +45,27 @@ model::OrganModel surface_in_morton_order(model::OrganModel model, std::vector<s
 }
 
 }  // namespace
+
+std::vector<std::uint32_t> morton_order(const std::vector<model::Point3>& vertices) {
+  const std::size_t n = vertices.size();
+  Eigen::AlignedBox3d box;
+  for (const model::Point3& p : vertices) box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
+  const Eigen::Vector3d extent = n > 0 ? Eigen::Vector3d(box.sizes().cwiseMax(1e-12)) : Eigen::Vector3d::Ones();
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keys(n);
+  for (std::size_t v = 0; v < n; ++v) {
+    std::uint64_t key = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double unit = (vertices[v][k] - box.min()[k]) / extent[k];
+      const auto cell = static_cast<std::uint64_t>(std::clamp(unit, 0.0, 1.0) * ((1u << 21) - 1));
+      for (int bit = 0; bit < 21; ++bit) key |= ((cell >> bit) & 1u) << (3 * bit + k);
+    }
+    keys[v] = {key, static_cast<std::uint32_t>(v)};
+  }
+  std::sort(keys.begin(), keys.end());
+  std::vector<std::uint32_t> order(n);
+  for (std::size_t i = 0; i < n; ++i) order[i] = keys[i].second;
+  return order;
+}
 
 BeamOrgan::BeamOrgan(model::OrganModel model)
     : model_(surface_in_morton_order(std::move(model), file_index_)),

@@ -15,6 +15,12 @@
 
 namespace organsim::multibeam {
 
+/// The order BeamOrgan gives surface vertices: along a Morton (Z-order) curve
+/// over their bounding box (21 bits per axis, ties by index); order[new] = old.
+/// organsim bake writes models in this order, so that loading one renumbers
+/// (and copies) nothing.
+std::vector<std::uint32_t> morton_order(const std::vector<model::Point3>& vertices);
+
 class BeamOrgan {
  public:
   /// Takes a valid model (see validate_organ_model). Throws std::invalid_argument
