@@ -261,7 +261,9 @@ void read_material(const std::uint8_t* data, std::size_t size, Material& mat) {
   for (std::uint32_t f = 0; f < std::min<std::uint32_t>(fields, std::size(targets)); ++f) r.get(*targets[f]);
 }
 
-void read_beams(const std::uint8_t* data, std::size_t size, BeamTables& beams) {
+// Returns whether every value is plausible (checked chunk by chunk as it is
+// copied, while the chunk is in cache).
+bool read_beams(const std::uint8_t* data, std::size_t size, BeamTables& beams) {
   const Section id = Section::BeamTables;
   PayloadReader r(data, size);
   std::uint32_t stations = 0, fields = 0;
@@ -284,14 +286,21 @@ void read_beams(const std::uint8_t* data, std::size_t size, BeamTables& beams) {
   beams.sections.resize(static_cast<std::size_t>(vertices * stations));
   if (fields == format::kBeamFieldsV1) {
     static_assert(sizeof(BeamSection) == format::kBeamFieldsV1 * sizeof(double));
-    std::memcpy(beams.sections.data(), r.here(), beams.sections.size() * sizeof(BeamSection));
-    return;
+    constexpr std::size_t kChunk = 4096;  // sections: 224 KiB, in cache when checked
+    bool plausible = true;
+    for (std::size_t first = 0; first < beams.sections.size(); first += kChunk) {
+      const std::size_t count = std::min(kChunk, beams.sections.size() - first);
+      std::memcpy(beams.sections.data() + first, r.here() + first * sizeof(BeamSection), count * sizeof(BeamSection));
+      plausible &= beam_values_plausible(beams.sections.data() + first, count);
+    }
+    return plausible;
   }
   for (BeamSection& s : beams.sections) {
     double* targets[] = {&s.area, &s.i_yy, &s.i_zz, &s.i_yz, &s.torsion_j, &s.centroid_y, &s.centroid_z};
     for (double* t : targets) r.get(*t);
     r.skip((fields - format::kBeamFieldsV1) * sizeof(double));
   }
+  return false;  // not checked here
 }
 
 const format::SectionDescription* find_known_section(const char* tag) {
@@ -466,15 +475,16 @@ OrganModel parse(const std::uint8_t* data, std::size_t size, ModelFileSummary& s
   m.fixed_points =
       read_array<double, 3>(Section::FixedPoints, payload(Section::FixedPoints), bytes(Section::FixedPoints));
   read_material(payload(Section::Material), bytes(Section::Material), m.material);
+  bool beams_plausible = false;
   if (has(Section::BeamTables)) {
-    read_beams(payload(Section::BeamTables), bytes(Section::BeamTables), m.beams);
+    beams_plausible = read_beams(payload(Section::BeamTables), bytes(Section::BeamTables), m.beams);
     if (m.beams.sections.size() / m.beams.stations_per_beam != m.surface_vertices.size())
       fail_section(Section::BeamTables,
                    "tables for " + std::to_string(m.beams.sections.size() / m.beams.stations_per_beam) +
                        " vertices but the surface has " + std::to_string(m.surface_vertices.size()) + "; " +
                        kDamagedAdvice);
   }
-  if (const auto issue = find_model_issue(m))
+  if (const auto issue = find_model_issue(m, beams_plausible))
     fail_section(issue->section, issue->message + "; " + kDamagedAdvice);
   return m;
 }

@@ -32,14 +32,22 @@ std::string first_bad_index(const std::vector<std::array<std::uint32_t, N>>& cel
 /// Fast path for millions of beam sections: true when every value is finite and
 /// no area, second moment or torsion constant is negative. Branch-free so that
 /// the compiler vectorizes it; the slow loop then finds the culprit.
-// One pass over millions of values with no chain of dependent additions (a
-// running sum of x - x, the obvious finiteness test, runs at the adder's
-// latency): no value NaN or infinite (exponent bits all ones), none of the
-// magnitudes negative.
-bool beam_values_plausible(const std::vector<BeamSection>& sections) {
+bool is_lower_hex(const std::string& s) {
+  for (char c : s)
+    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
+  return true;
+}
+
+}  // namespace
+
+// One pass with no chain of dependent additions (a running sum of x - x, the
+// obvious finiteness test, runs at the adder's latency): exponent bits all
+// ones means NaN or infinite.
+bool beam_values_plausible(const BeamSection* sections, std::size_t count) noexcept {
   constexpr std::uint64_t kExponent = 0x7ff0000000000000u;
   bool non_finite = false, negative = false;
-  for (const BeamSection& s : sections) {
+  for (std::size_t i = 0; i < count; ++i) {
+    const BeamSection& s = sections[i];
     const double v[] = {s.area, s.i_yy, s.i_zz, s.i_yz, s.torsion_j, s.centroid_y, s.centroid_z};
     for (double x : v) {
       std::uint64_t bits;
@@ -51,15 +59,7 @@ bool beam_values_plausible(const std::vector<BeamSection>& sections) {
   return !non_finite && !negative;
 }
 
-bool is_lower_hex(const std::string& s) {
-  for (char c : s)
-    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
-  return true;
-}
-
-}  // namespace
-
-std::optional<ModelIssue> find_model_issue(const OrganModel& m) {
+std::optional<ModelIssue> find_model_issue(const OrganModel& m, bool beam_values_plausible_already) {
   auto issue = [](format::Section s, std::string message) {
     return std::optional<ModelIssue>(ModelIssue{s, std::move(message)});
   };
@@ -124,7 +124,7 @@ std::optional<ModelIssue> find_model_issue(const OrganModel& m) {
       return issue(format::Section::BeamTables, "beam tables hold " + std::to_string(b.sections.size()) + " sections, expected " +
              std::to_string(m.surface_vertices.size()) + " vertices x " +
              std::to_string(b.stations_per_beam) + " stations");
-    if (beam_values_plausible(b.sections)) return std::nullopt;
+    if (beam_values_plausible_already || beam_values_plausible(b.sections.data(), b.sections.size())) return std::nullopt;
     for (std::size_t i = 0; i < b.sections.size(); ++i) {
       const BeamSection& s = b.sections[i];
       const double v[] = {s.area, s.i_yy, s.i_zz, s.i_yz, s.torsion_j, s.centroid_y, s.centroid_z};

@@ -16,6 +16,12 @@ struct ModelIssue {
 };
 
 /// The first violated invariant of `model`, or nothing when it is valid.
-std::optional<ModelIssue> find_model_issue(const OrganModel& model);
+/// `beam_values_plausible_already`: the reader found every beam value finite and
+/// the magnitudes non-negative while it copied them (beam_values_plausible), so
+/// the 100 MB are not read again.
+std::optional<ModelIssue> find_model_issue(const OrganModel& model, bool beam_values_plausible_already = false);
+
+/// No beam value NaN or infinite, no area, second moment or torsion constant negative.
+bool beam_values_plausible(const BeamSection* sections, std::size_t count) noexcept;
 
 }  // namespace organsim::model
