@@ -8,6 +8,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <memory>
+#include <optional>
 #include <stdexcept>
 
 #include <fcntl.h>
@@ -263,7 +265,9 @@ void read_material(const std::uint8_t* data, std::size_t size, Material& mat) {
 
 // Returns whether every value is plausible (checked chunk by chunk as it is
 // copied, while the chunk is in cache).
-bool read_beams(const std::uint8_t* data, std::size_t size, BeamTables& beams) {
+// `checked`: whether the values are plausible, when the hash pass found out.
+bool read_beams(const std::uint8_t* data, std::size_t size, BeamTables& beams,
+                const std::shared_ptr<const void>& mapping, std::optional<bool> checked) {
   const Section id = Section::BeamTables;
   PayloadReader r(data, size);
   std::uint32_t stations = 0, fields = 0;
@@ -282,20 +286,30 @@ bool read_beams(const std::uint8_t* data, std::size_t size, BeamTables& beams) {
                          " stations does not match the payload of " + std::to_string(size) + " bytes; " +
                          kDamagedAdvice);
   beams.stations_per_beam = stations;
-  reserve_in_huge_pages(beams.sections, static_cast<std::size_t>(vertices * stations));
-  beams.sections.resize(static_cast<std::size_t>(vertices * stations));
+  const auto count = static_cast<std::size_t>(vertices * stations);
+  static_assert(sizeof(BeamSection) == format::kBeamFieldsV1 * sizeof(double));
+  if (fields == format::kBeamFieldsV1 && mapping &&
+      reinterpret_cast<std::uintptr_t>(r.here()) % alignof(BeamSection) == 0) {
+    // The file's layout is BeamSection's: the mapped file itself is the table.
+    const auto* sections = reinterpret_cast<const BeamSection*>(r.here());
+    beams.sections = SectionTable::view(sections, count, mapping);
+    return checked ? *checked : beam_values_plausible(sections, count);
+  }
+  std::vector<BeamSection>& owned = beams.sections.owned();
+  reserve_in_huge_pages(owned, count);
+  owned.resize(count);
+  beams.sections.sync();
   if (fields == format::kBeamFieldsV1) {
-    static_assert(sizeof(BeamSection) == format::kBeamFieldsV1 * sizeof(double));
     constexpr std::size_t kChunk = 4096;  // sections: 224 KiB, in cache when checked
     bool plausible = true;
-    for (std::size_t first = 0; first < beams.sections.size(); first += kChunk) {
-      const std::size_t count = std::min(kChunk, beams.sections.size() - first);
-      std::memcpy(beams.sections.data() + first, r.here() + first * sizeof(BeamSection), count * sizeof(BeamSection));
-      plausible &= beam_values_plausible(beams.sections.data() + first, count);
+    for (std::size_t first = 0; first < count; first += kChunk) {
+      const std::size_t n = std::min(kChunk, count - first);
+      std::memcpy(owned.data() + first, r.here() + first * sizeof(BeamSection), n * sizeof(BeamSection));
+      if (!checked) plausible &= beam_values_plausible(owned.data() + first, n);
     }
-    return plausible;
+    return checked ? *checked : plausible;
   }
-  for (BeamSection& s : beams.sections) {
+  for (BeamSection& s : owned) {
     double* targets[] = {&s.area, &s.i_yy, &s.i_zz, &s.i_yz, &s.torsion_j, &s.centroid_y, &s.centroid_z};
     for (double* t : targets) r.get(*t);
     r.skip((fields - format::kBeamFieldsV1) * sizeof(double));
@@ -353,7 +367,54 @@ std::string describe_cut(const std::uint8_t* data, std::size_t actual, std::uint
   return "in the padding after the last section";
 }
 
-OrganModel parse(const std::uint8_t* data, std::size_t size, ModelFileSummary& summary) {
+// The beam values of a payload whose layout is BeamSection's (format v1's
+// seven fields, aligned), checked piece by piece as the whole-file hash reads
+// them; `plausible` is known once the hash has passed their end.
+struct BeamValueCheck {
+  const std::uint8_t* begin = nullptr;  // the first section; null: nothing to check here
+  std::size_t count = 0;
+  std::size_t checked = 0;
+  bool plausible = true;
+
+  BeamValueCheck(const TableEntry* entry, const std::uint8_t* data) {
+    constexpr std::size_t kHeader = 16;  // stations (4), fields (4), vertices (8)
+    if (entry == nullptr || entry->size < kHeader) return;
+    const std::uint8_t* payload = data + entry->offset;
+    if (load<std::uint32_t>(payload + 4) != format::kBeamFieldsV1 ||
+        (entry->size - kHeader) % sizeof(BeamSection) != 0 ||
+        reinterpret_cast<std::uintptr_t>(payload + kHeader) % alignof(BeamSection) != 0)
+      return;
+    begin = payload + kHeader;
+    count = static_cast<std::size_t>((entry->size - kHeader) / sizeof(BeamSection));
+  }
+  /// The bytes up to `end` have been read: check the sections that lie before it.
+  void read_up_to(const std::uint8_t* end) noexcept {
+    if (begin == nullptr || end <= begin) return;
+    const std::size_t upto =
+        std::min(count, static_cast<std::size_t>(end - begin) / sizeof(BeamSection));
+    if (upto <= checked) return;
+    plausible &= beam_values_plausible(reinterpret_cast<const BeamSection*>(begin) + checked, upto - checked);
+    checked = upto;
+  }
+  bool done() const noexcept { return begin != nullptr && checked == count; }
+};
+
+// XXH3 of `size` bytes (the same value as checksum()), read in cache-sized
+// pieces, each handed to `beams` while it is in cache.
+std::uint64_t checksum_checking(const std::uint8_t* data, std::size_t size, BeamValueCheck& beams) {
+  constexpr std::size_t kPiece = std::size_t{256} << 10;
+  XXH3_state_t state;
+  XXH3_64bits_reset(&state);
+  for (std::size_t at = 0; at < size; at += kPiece) {
+    const std::size_t piece = std::min(kPiece, size - at);
+    XXH3_64bits_update(&state, data + at, piece);
+    beams.read_up_to(data + at + piece);
+  }
+  return XXH3_64bits_digest(&state);
+}
+
+OrganModel parse(const std::uint8_t* data, std::size_t size, ModelFileSummary& summary,
+                 const std::shared_ptr<const void>& mapping) {
   using namespace format;
   const std::size_t magic_bytes = std::min<std::size_t>(size, sizeof kMagic);
   if (size == 0) fail("the file is empty; pass a .organ model file written by 'organsim bake'");
@@ -435,7 +496,10 @@ OrganModel parse(const std::uint8_t* data, std::size_t size, ModelFileSummary& s
 
   // One pass in the common case: the whole-file checksum covers every payload.
   // Only when it fails are the sections hashed one by one, to name the damaged one.
-  if (load<std::uint64_t>(data + kOffFileChecksum) != checksum(data + kHeaderBytes, size - kHeaderBytes)) {
+  // The same pass checks the beam values a view will keep, while each piece
+  // of the file is in cache (BeamValueCheck).
+  BeamValueCheck beam_check(found[static_cast<std::size_t>(Section::BeamTables)], data);
+  if (load<std::uint64_t>(data + kOffFileChecksum) != checksum_checking(data + kHeaderBytes, size - kHeaderBytes, beam_check)) {
     for (const TableEntry& e : table)
       if (checksum(data + e.offset, static_cast<std::size_t>(e.size)) != e.checksum) {
         const auto* known = find_known_section(e.tag);
@@ -477,7 +541,8 @@ OrganModel parse(const std::uint8_t* data, std::size_t size, ModelFileSummary& s
   read_material(payload(Section::Material), bytes(Section::Material), m.material);
   bool beams_plausible = false;
   if (has(Section::BeamTables)) {
-    beams_plausible = read_beams(payload(Section::BeamTables), bytes(Section::BeamTables), m.beams);
+    beams_plausible = read_beams(payload(Section::BeamTables), bytes(Section::BeamTables), m.beams, mapping,
+                                 beam_check.done() ? std::optional<bool>(beam_check.plausible) : std::nullopt);
     if (m.beams.sections.size() / m.beams.stations_per_beam != m.surface_vertices.size())
       fail_section(Section::BeamTables,
                    "tables for " + std::to_string(m.beams.sections.size() / m.beams.stations_per_beam) +
@@ -489,18 +554,24 @@ OrganModel parse(const std::uint8_t* data, std::size_t size, ModelFileSummary& s
   return m;
 }
 
-}  // namespace
-
-ModelReadResult parse_organ_model(const std::uint8_t* data, std::size_t size, const std::string& source_name) {
+// `mapping` (may be null) keeps `data` valid: the beam tables may then view it.
+ModelReadResult parse_kept(const std::uint8_t* data, std::size_t size, const std::string& source_name,
+                           const std::shared_ptr<const void>& mapping) {
   ModelReadResult result;
   try {
-    result.model = parse(data, size, result.file);
+    result.model = parse(data, size, result.file, mapping);
   } catch (const ParseError& e) {
     result.error = source_name + ": " + e.message;
   } catch (const std::bad_alloc&) {
     result.error = source_name + ": not enough memory to load the model";
   }
   return result;
+}
+
+}  // namespace
+
+ModelReadResult parse_organ_model(const std::uint8_t* data, std::size_t size, const std::string& source_name) {
+  return parse_kept(data, size, source_name, nullptr);
 }
 
 ModelReadResult read_organ_model_file(const std::string& path) {
@@ -530,9 +601,9 @@ ModelReadResult read_organ_model_file(const std::string& path) {
     result.error = path + ": cannot read (" + std::strerror(errno) + "); check the disk and permissions";
     return result;
   }
-  result = parse_organ_model(static_cast<const std::uint8_t*>(mapped), size, path);
-  ::munmap(mapped, size);
-  return result;
+  // The mapping lives as long as the model's beam tables view it.
+  const std::shared_ptr<const void> mapping(mapped, [size](const void* at) { ::munmap(const_cast<void*>(at), size); });
+  return parse_kept(static_cast<const std::uint8_t*>(mapped), size, path, mapping);
 }
 
 std::vector<std::uint8_t> serialize_organ_model(const OrganModel& model) {

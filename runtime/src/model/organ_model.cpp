@@ -1,5 +1,7 @@
 #include "organsim/model/organ_model.h"
 
+#include <algorithm>
+
 #include <cmath>
 
 #include "model_validation.h"
@@ -28,6 +30,55 @@ bool Material::operator==(const Material& o) const {
 bool BeamSection::operator==(const BeamSection& o) const {
   return area == o.area && i_yy == o.i_yy && i_zz == o.i_zz && i_yz == o.i_yz &&
          torsion_j == o.torsion_j && centroid_y == o.centroid_y && centroid_z == o.centroid_z;
+}
+
+SectionTable SectionTable::view(const BeamSection* data, std::size_t count, std::shared_ptr<const void> keep_alive) {
+  SectionTable table;
+  table.data_ = data;
+  table.size_ = count;
+  table.mapping_ = std::move(keep_alive);
+  return table;
+}
+
+SectionTable::SectionTable(const SectionTable& other) : owned_(other.owned_), mapping_(other.mapping_) {
+  if (mapping_) {
+    data_ = other.data_;
+    size_ = other.size_;
+  } else {
+    sync();
+  }
+}
+
+SectionTable& SectionTable::operator=(const SectionTable& other) {
+  if (this != &other) *this = SectionTable(other);
+  return *this;
+}
+
+SectionTable::SectionTable(SectionTable&& other) noexcept
+    : owned_(std::move(other.owned_)), data_(other.data_), size_(other.size_), mapping_(std::move(other.mapping_)) {
+  other.sync();
+}
+
+SectionTable& SectionTable::operator=(SectionTable&& other) noexcept {
+  owned_ = std::move(other.owned_);
+  data_ = other.data_;
+  size_ = other.size_;
+  mapping_ = std::move(other.mapping_);
+  other.sync();
+  return *this;
+}
+
+std::vector<BeamSection>& SectionTable::owned() {
+  if (mapping_) {
+    owned_.assign(data_, data_ + size_);
+    mapping_.reset();
+    sync();
+  }
+  return owned_;
+}
+
+bool SectionTable::operator==(const SectionTable& o) const {
+  return size_ == o.size_ && std::equal(begin(), end(), o.begin());
 }
 
 bool BeamTables::operator==(const BeamTables& o) const {

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <type_traits>
+#include <utility>
 
 namespace organsim::multibeam {
 namespace {
@@ -25,20 +26,23 @@ model::OrganModel surface_in_morton_order(model::OrganModel model, std::vector<s
   if (identity) return model;
   std::vector<std::uint32_t> new_index(n);
   for (std::size_t i = 0; i < n; ++i) new_index[file_index[i]] = static_cast<std::uint32_t>(i);
-  // One gather into new storage per array.
-  auto permute = [&](auto& values, std::size_t per_vertex) {
-    if (values.size() != n * per_vertex) return;
-    std::remove_reference_t<decltype(values)> gathered;
-    gathered.reserve(values.size());
+  // One gather into new storage per array (read through const: a view of
+  // the file is read, not copied first).
+  auto gathered = [&](const auto& values, std::size_t per_vertex) {
+    std::vector<std::remove_cv_t<std::remove_reference_t<decltype(*values.data())>>> out;
+    if (values.size() != n * per_vertex) return out;
+    out.reserve(values.size());
     for (std::size_t i = 0; i < n; ++i) {
-      const auto from = values.begin() + static_cast<std::ptrdiff_t>(file_index[i] * per_vertex);
-      gathered.insert(gathered.end(), from, from + static_cast<std::ptrdiff_t>(per_vertex));
+      const auto* from = values.data() + file_index[i] * per_vertex;
+      out.insert(out.end(), from, from + per_vertex);
     }
-    values = std::move(gathered);
+    return out;
   };
-  permute(model.surface_vertices, 1);
-  permute(model.surface_texcoords, 1);
-  permute(model.beams.sections, model.beams.stations_per_beam);
+  if (model.surface_vertices.size() == n) model.surface_vertices = gathered(model.surface_vertices, 1);
+  if (model.surface_texcoords.size() == n) model.surface_texcoords = gathered(model.surface_texcoords, 1);
+  const std::size_t stations = model.beams.stations_per_beam;
+  if (stations > 0 && model.beams.sections.size() == n * stations)
+    model.beams.sections = model::SectionTable(gathered(std::as_const(model.beams.sections), stations));
   for (model::Triangle& t : model.surface_triangles)
     for (std::uint32_t& v : t) v = new_index[v];
   return model;

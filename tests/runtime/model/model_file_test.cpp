@@ -2,6 +2,8 @@
 // kind of damage.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -39,11 +41,23 @@ model::OrganModel small_model() {
 
 std::vector<std::uint8_t> encoded() { return model::serialize_organ_model(small_model()); }
 
+// The error for damaged bytes, parsed in memory and read from a file (which
+// maps it and keeps the beam tables as a view): the same message either way.
 std::string error_of(const std::vector<std::uint8_t>& bytes) {
   const model::ModelReadResult r = model::parse_organ_model(bytes.data(), bytes.size(), "liver.organ");
   EXPECT_FALSE(r) << "damaged file was accepted";
   EXPECT_EQ(r.error.find('\n'), std::string::npos) << "error must be one line: " << r.error;
   EXPECT_EQ(r.error.rfind("liver.organ: ", 0), 0u) << "error must name the file: " << r.error;
+  const std::filesystem::path path =
+      std::filesystem::temp_directory_path() / ("organsim_error_of_" + std::to_string(::getpid()) + ".organ");
+  {
+    std::ofstream out(path, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  }
+  const model::ModelReadResult from_file = model::read_organ_model_file(path.string());
+  std::filesystem::remove(path);
+  EXPECT_FALSE(from_file) << "damaged file was accepted when read from disk";
+  EXPECT_EQ(from_file.error, path.string() + r.error.substr(std::string("liver.organ").size()));
   return r.error;
 }
 
@@ -102,6 +116,27 @@ TEST(ModelFile, FileRoundTripIsAtomicAndLeavesNothingElse) {
   EXPECT_THROW(model::write_organ_model_file(small_model(), (dir / "missing" / "m.organ").string()), std::runtime_error);
   EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), {}), 1);
   std::filesystem::remove_all(dir);
+}
+
+TEST(ModelFile, BeamTablesAreAViewOfTheMappedFileThatOutlivesTheFileAndCopiesOnWrite) {
+  const std::filesystem::path path =
+      std::filesystem::temp_directory_path() / ("organsim_view_" + std::to_string(::getpid()) + ".organ");
+  model::write_organ_model_file(small_model(), path.string());
+  model::ModelReadResult r = model::read_organ_model_file(path.string());
+  ASSERT_TRUE(r) << r.error;
+  std::filesystem::remove(path);  // the mapping keeps the data
+  const model::SectionTable& sections = r.model->beams.sections;
+  EXPECT_TRUE(sections.is_view());
+  EXPECT_TRUE(*r.model == small_model());
+  model::OrganModel copy = *r.model;  // shares the mapping
+  EXPECT_TRUE(copy.beams.sections.is_view());
+  const model::BeamSection before = sections[3];
+  copy.beams.sections[3].area = 42.0;  // copies into owned storage first
+  EXPECT_FALSE(copy.beams.sections.is_view());
+  EXPECT_EQ(copy.beams.sections[3].area, 42.0);
+  EXPECT_TRUE(sections[3] == before) << "the view is read-only: a write never reaches the mapped file";
+  r.model.reset();  // the last view goes: the file is unmapped
+  EXPECT_EQ(copy.beams.sections.size(), small_model().beams.sections.size());
 }
 
 TEST(ModelFile, MissingFileAndDirectoryAreReported) {

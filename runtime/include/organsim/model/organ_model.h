@@ -10,6 +10,7 @@
 #include <array>
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -56,13 +57,65 @@ struct BeamSection {
   bool operator==(const BeamSection& other) const;
 };
 
+/// The beam sections of a model: owned, or a read-only view into the mapped
+/// model file they were loaded from (read_organ_model_file: a 100k-vertex
+/// model's 112 MB are then never copied; the file stays mapped while any table
+/// refers to it). Reads like a std::vector. The first change through a
+/// non-const accessor copies a view into owned storage, so read through a
+/// const reference: a non-const one copies on its first use.
+class SectionTable {
+ public:
+  SectionTable() = default;
+  explicit SectionTable(std::size_t count, const BeamSection& value = {}) : owned_(count, value) { sync(); }
+  explicit SectionTable(std::vector<BeamSection> sections) : owned_(std::move(sections)) { sync(); }
+  /// A view of `count` sections at `data`, valid while `keep_alive` is held.
+  static SectionTable view(const BeamSection* data, std::size_t count, std::shared_ptr<const void> keep_alive);
+
+  SectionTable(const SectionTable& other);
+  SectionTable& operator=(const SectionTable& other);
+  SectionTable(SectionTable&& other) noexcept;
+  SectionTable& operator=(SectionTable&& other) noexcept;
+
+  std::size_t size() const noexcept { return size_; }
+  bool empty() const noexcept { return size_ == 0; }
+  bool is_view() const noexcept { return mapping_ != nullptr; }
+  const BeamSection* data() const noexcept { return data_; }
+  const BeamSection& operator[](std::size_t i) const noexcept { return data_[i]; }
+  const BeamSection* begin() const noexcept { return data_; }
+  const BeamSection* end() const noexcept { return data_ + size_; }
+  const BeamSection& front() const noexcept { return data_[0]; }
+  const BeamSection& back() const noexcept { return data_[size_ - 1]; }
+
+  BeamSection* data() { return owned().data(); }
+  BeamSection& operator[](std::size_t i) { return owned()[i]; }
+  BeamSection* begin() { return owned().data(); }
+  BeamSection* end() { return owned().data() + size_; }
+  void resize(std::size_t count) { owned().resize(count); sync(); }
+  void reserve(std::size_t count) { owned().reserve(count); sync(); }
+  void assign(std::size_t count, const BeamSection& value) { owned().assign(count, value); sync(); }
+  void push_back(const BeamSection& value) { owned().push_back(value); sync(); }
+  void pop_back() { owned().pop_back(); sync(); }
+  /// The owned storage (a view is copied into it first), for bulk writes; call
+  /// sync() after changing its size.
+  std::vector<BeamSection>& owned();
+  void sync() noexcept { data_ = owned_.data(); size_ = owned_.size(); }
+
+  bool operator==(const SectionTable& other) const;
+
+ private:
+  std::vector<BeamSection> owned_;
+  const BeamSection* data_ = nullptr;
+  std::size_t size_ = 0;
+  std::shared_ptr<const void> mapping_;  // set for a view
+};
+
 /// Beam tables: for each surface vertex v, `stations_per_beam` sections of the
 /// organ along the beam from the (first) fixed point to v. Station s lies at the
 /// beam parameter t = (s + 0.5) / stations_per_beam, the midpoint of element s
 /// when the beam is cut into `stations_per_beam` equal elements.
 struct BeamTables {
   std::uint32_t stations_per_beam = 0;  ///< 0 when the model has no beam tables
-  std::vector<BeamSection> sections;    ///< (surface vertices × stations_per_beam), vertex-major
+  SectionTable sections;                ///< (surface vertices × stations_per_beam), vertex-major
 
   const BeamSection& at(std::size_t vertex, std::size_t station) const {
     return sections[vertex * stations_per_beam + station];
