@@ -28,16 +28,7 @@ namespace {
 // The surface in the order the runtime keeps it (multibeam::morton_order), so
 // that loading the model renumbers and copies nothing.
 geometry::SurfaceMesh in_runtime_order(geometry::SurfaceMesh mesh) {
-  const std::vector<std::uint32_t> order = multibeam::morton_order(mesh.vertices);
-  std::vector<std::uint32_t> new_index(order.size());
-  std::vector<model::Point3> vertices(order.size());
-  for (std::size_t i = 0; i < order.size(); ++i) {
-    new_index[order[i]] = static_cast<std::uint32_t>(i);
-    vertices[i] = mesh.vertices[order[i]];
-  }
-  mesh.vertices = std::move(vertices);
-  for (model::Triangle& t : mesh.triangles)
-    for (std::uint32_t& v : t) v = new_index[v];
+  multibeam::renumber_in_morton_order(mesh.vertices, mesh.triangles);
   return mesh;
 }
 

@@ -170,16 +170,7 @@ model::OrganModel make_sphere_model(std::size_t vertex_count, std::uint32_t stat
       m.surface_triangles.push_back({at(r, s), at(r + 1, s + 1), at(r, s + 1)});
     }
   // In the order organsim bake writes (the runtime's), like a baked model.
-  const std::vector<std::uint32_t> order = multibeam::morton_order(m.surface_vertices);
-  std::vector<std::uint32_t> new_index(order.size());
-  std::vector<model::Point3> ordered(order.size());
-  for (std::size_t i = 0; i < order.size(); ++i) {
-    new_index[order[i]] = static_cast<std::uint32_t>(i);
-    ordered[i] = m.surface_vertices[order[i]];
-  }
-  m.surface_vertices = std::move(ordered);
-  for (model::Triangle& t : m.surface_triangles)
-    for (std::uint32_t& v : t) v = new_index[v];
+  multibeam::renumber_in_morton_order(m.surface_vertices, m.surface_triangles);
   m.volume_vertices = m.surface_vertices;
   m.volume_vertices.push_back({0.0, 0.0, 0.0});
   const auto centre = static_cast<std::uint32_t>(m.volume_vertices.size() - 1);

@@ -71,6 +71,19 @@ std::vector<std::uint32_t> morton_order(const std::vector<model::Point3>& vertic
   return order;
 }
 
+void renumber_in_morton_order(std::vector<model::Point3>& vertices, std::vector<model::Triangle>& triangles) {
+  const std::vector<std::uint32_t> order = morton_order(vertices);
+  std::vector<std::uint32_t> new_index(order.size());
+  std::vector<model::Point3> ordered(order.size());
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    new_index[order[i]] = static_cast<std::uint32_t>(i);
+    ordered[i] = vertices[order[i]];
+  }
+  vertices = std::move(ordered);
+  for (model::Triangle& t : triangles)
+    for (std::uint32_t& v : t) v = new_index[v];
+}
+
 BeamOrgan::BeamOrgan(model::OrganModel model)
     : model_(surface_in_morton_order(std::move(model), file_index_)),
       fixed_point_(model_.fixed_points.empty() ? Eigen::Vector3d::Zero()

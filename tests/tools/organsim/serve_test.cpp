@@ -149,12 +149,6 @@ class IgtlClient {
   bool connected_ = false;
 };
 
-std::vector<double> numbers(const nlohmann::json& array) {
-  std::vector<double> v;
-  for (const auto& x : array) v.push_back(x.get<double>());
-  return v;
-}
-
 TEST_F(Cli, ServePressedOverOpenIgtLinkSendsTheDeformedOrganAndPokesForce) {
   const std::string model = (dir_ / "cylinder.organ").string();
   model::write_organ_model_file(testing::make_cylinder_model({}), model);
@@ -163,14 +157,14 @@ TEST_F(Cli, ServePressedOverOpenIgtLinkSendsTheDeformedOrganAndPokesForce) {
   const CommandRun probe = run_organsim("poke " + model + " --tool 80,30,0/0,0,0 --json", dir_);
   ASSERT_EQ(probe.exit_code, 0) << probe.err;
   const nlohmann::json at = nlohmann::json::parse(probe.out)["tools"][0];
-  const std::vector<double> a = numbers(at["action_point_mm"]), n = numbers(at["normal"]);
+  const auto a = at["action_point_mm"].get<std::vector<double>>(), n = at["normal"].get<std::vector<double>>();
   const Eigen::Vector3d action(a[0], a[1], a[2]), normal(n[0], n[1], n[2]);
   const CommandRun poke =
       run_organsim(fmt::format("poke {} --tool {:.9f},{:.9f},{:.9f}/{:.9f},{:.9f},{:.9f} --json", model, action[0],
                                action[1], action[2], -5 * normal[0], -5 * normal[1], -5 * normal[2]),
                    dir_);
   ASSERT_EQ(poke.exit_code, 0) << poke.err;
-  const std::vector<double> f = numbers(nlohmann::json::parse(poke.out)["tools"][0]["force_n"]);
+  const auto f = nlohmann::json::parse(poke.out)["tools"][0]["force_n"].get<std::vector<double>>();
   const Eigen::Vector3d expected(f[0], f[1], f[2]);
   ASSERT_GT(expected.norm(), 1e-2);
 

@@ -21,6 +21,10 @@ namespace organsim::multibeam {
 /// (and copies) nothing.
 std::vector<std::uint32_t> morton_order(const std::vector<model::Point3>& vertices);
 
+/// Renumbers a surface into morton_order (the triangles follow), as organsim
+/// bake writes it.
+void renumber_in_morton_order(std::vector<model::Point3>& vertices, std::vector<model::Triangle>& triangles);
+
 class BeamOrgan {
  public:
   /// Takes a valid model (see validate_organ_model). Throws std::invalid_argument
