@@ -29,6 +29,17 @@ COLUMNS = ["case", "ct", "label", "seed", "fixed_point"]
 CASE_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 
 
+def case_options(label, seed, fixed_point):
+    """A row's segmentation and clamp as options that both organsim bake and
+    cohort.py bake take (--seed=… so that a negative coordinate is not an option)."""
+    words = ["--label", label] if label else []
+    if seed:
+        words.append("--seed=" + seed)
+    if fixed_point:
+        words.append("--fixed-point=" + fixed_point)
+    return words
+
+
 class Case:
     """One row of the cases table; paths resolved against the table's folder."""
 
@@ -47,13 +58,7 @@ class Case:
 
     def arguments(self):
         """The row as cohort.py bake arguments, shell-quoted."""
-        words = ["--ct", self.ct]
-        if self.label:
-            words += ["--label", self.label]
-        if self.seed:
-            words.append("--seed=" + self.seed)
-        if self.fixed_point:
-            words.append("--fixed-point=" + self.fixed_point)
+        words = ["--ct", self.ct, *case_options(self.label, self.seed, self.fixed_point)]
         return " ".join(shlex.quote(w) for w in words)
 
 
@@ -110,14 +115,8 @@ def bake(a):
     out = pathlib.Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     model = out / f"{a.case}.organ"
-    command = [a.organsim, "bake", a.ct, "-o", str(model), "--json", "--threads", str(a.threads)]
-    if a.label:
-        command += ["--label", a.label]
-    if a.seed:
-        command.append("--seed=" + a.seed)
-    if a.fixed_point:
-        command.append("--fixed-point=" + a.fixed_point)
-    command += shlex.split(a.bake_args)
+    command = [a.organsim, "bake", a.ct, "-o", str(model), "--json", "--threads", str(a.threads),
+               *case_options(a.label, a.seed, a.fixed_point), *shlex.split(a.bake_args)]
     print("$", " ".join(shlex.quote(c) for c in command), flush=True)
     start = time.monotonic()
     try:
