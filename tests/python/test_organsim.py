@@ -71,7 +71,7 @@ def test_multibeam_force_and_deformation(phantom):
     nearest = np.argmin(np.linalg.norm(model.surface_vertices - beam.action_point(0), axis=1))
     moved = positions[nearest] - model.surface_vertices[nearest]
     assert moved[2] == pytest.approx(-0.005, abs=0.001)  # the press point follows the tool
-    np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, rtol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, rtol=1e-6)  # normalized in single precision
     with pytest.raises(IndexError):
         beam.attach(2, top)
     with pytest.raises(organsim.Error, match="no beam"):

@@ -110,9 +110,10 @@ BeamOrgan::BeamOrgan(model::OrganModel model)
   for (const model::Triangle& t : model_.surface_triangles)
     for (int k = 0; k < 3; ++k) edges[fill[t[k]]++] = {t[(k + 1) % 3], t[(k + 2) % 3]};
 
-  ring_offsets_.assign(n + 1, 0);
-  ring_closed_.assign(n, 0);
-  ring_.reserve(edges.size() * 2);
+  // Each vertex's cyclic sequence (see ring_rows()), as vertex indices.
+  std::vector<std::uint32_t> sequence_offsets(n + 1, 0);
+  std::vector<std::uint32_t> sequences;
+  sequences.reserve(edges.size() * 2);
   for (std::size_t v = 0; v < n; ++v) {
     const std::uint32_t first = edge_offsets[v], count = edge_offsets[v + 1] - first;
     std::vector<std::uint32_t> cycle;
@@ -133,12 +134,38 @@ BeamOrgan::BeamOrgan(model::OrganModel model)
       if (current != cycle.front() || cycle.size() != count) cycle.clear();
     }
     if (!cycle.empty()) {
-      ring_closed_[v] = 1;
-      ring_.insert(ring_.end(), cycle.begin(), cycle.end());
-    } else {
-      for (std::uint32_t e = first; e < first + count; ++e) ring_.insert(ring_.end(), {edges[e][0], edges[e][1]});
+      sequences.insert(sequences.end(), cycle.begin(), cycle.end());
+    } else {  // a border or non-manifold vertex: each triangle on its own, v between them
+      for (std::uint32_t e = first; e < first + count; ++e)
+        sequences.insert(sequences.end(), {edges[e][0], edges[e][1], static_cast<std::uint32_t>(v)});
     }
-    ring_offsets_[v + 1] = static_cast<std::uint32_t>(ring_.size());
+    sequence_offsets[v + 1] = static_cast<std::uint32_t>(sequences.size());
+  }
+
+  // Entries are 32-bit byte offsets of 16-byte points.
+  if (n > static_cast<std::size_t>(UINT32_MAX / 16))
+    throw std::invalid_argument("the surface has more vertices than the runtime handles (268 million)");
+  const std::size_t groups = (n + kPadding - 1) / kPadding;
+  ring_row_offsets_.assign(groups + 1, 0);
+  ring_rows_.clear();
+  for (std::size_t g = 0; g < groups; ++g) {
+    auto vertex_of_lane = [&](std::size_t lane) { return std::min(g * kPadding + lane, n - 1); };
+    std::uint32_t longest = 1;  // at least one row: the kernels read the last row first
+    for (std::size_t lane = 0; lane < kPadding; ++lane) {
+      const std::size_t v = vertex_of_lane(lane);
+      longest = std::max(longest, sequence_offsets[v + 1] - sequence_offsets[v]);
+    }
+    const std::size_t row0 = ring_rows_.size();
+    ring_rows_.resize(row0 + kPadding * longest);
+    for (std::size_t lane = 0; lane < kPadding; ++lane) {
+      const std::size_t v = vertex_of_lane(lane);
+      const std::uint32_t begin = sequence_offsets[v], length = sequence_offsets[v + 1] - begin;
+      for (std::uint32_t r = 0; r < longest; ++r) {
+        const std::size_t neighbour = length == 0 ? v : sequences[begin + std::min(r, length - 1)];
+        ring_rows_[row0 + kPadding * r + lane] = static_cast<std::uint32_t>(16 * neighbour);
+      }
+    }
+    ring_row_offsets_[g + 1] = static_cast<std::uint32_t>(ring_rows_.size() / kPadding);
   }
 
   for (int k = 0; k < 3; ++k) {
@@ -156,10 +183,9 @@ void compute_vertex_normals(const BeamOrgan& organ, const model::Point3* positio
                             std::size_t last) noexcept {
   if (first >= last) return;
   kernels::NormalsJob job;
-  job.ring_offsets = organ.ring_offsets().data();
-  job.ring = organ.ring().data();
-  job.ring_closed = organ.ring_closed().data();
-  job.vertex_count = static_cast<std::uint32_t>(organ.vertex_count());
+  job.row_offsets = organ.ring_row_offsets().data();
+  job.rows = organ.ring_rows().data();
+  job.vertex_count = organ.vertex_count();
   job.positions = positions->data();
   job.normals = normals->data();
   kernels::selected().normals(job, first, last);

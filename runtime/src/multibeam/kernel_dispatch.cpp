@@ -14,6 +14,7 @@ namespace organsim::multibeam::kernels {
   void build_weights(const WeightJob& job, std::size_t first, std::size_t last) noexcept; \
   void distort(const DistortionJob& job, std::size_t first, std::size_t last) noexcept;   \
   void normals(const NormalsJob& job, std::size_t first, std::size_t last) noexcept;      \
+  void packed_normals(const PackedNormalsJob& job, std::size_t first, std::size_t last) noexcept; \
   }
 #if defined(ORGANSIM_KERNELS_PER_LEVEL)
 ORGANSIM_DECLARE_LEVEL(x86_64_v4)
@@ -37,11 +38,15 @@ RunnableSets runnable() noexcept {
   const bool v4 = __builtin_cpu_supports("x86-64-v4");
   const bool v3 = __builtin_cpu_supports("x86-64-v3");
 #endif
-  if (v4) sets.set[sets.count++] = {"x86-64-v4", x86_64_v4::build_weights, x86_64_v4::distort, x86_64_v4::normals};
-  if (v3) sets.set[sets.count++] = {"x86-64-v3", x86_64_v3::build_weights, x86_64_v3::distort, x86_64_v3::normals};
-  sets.set[sets.count++] = {"x86-64", x86_64_v1::build_weights, x86_64_v1::distort, x86_64_v1::normals};
+  if (v4) sets.set[sets.count++] = {"x86-64-v4", x86_64_v4::build_weights, x86_64_v4::distort, x86_64_v4::normals,
+                              x86_64_v4::packed_normals};
+  if (v3) sets.set[sets.count++] = {"x86-64-v3", x86_64_v3::build_weights, x86_64_v3::distort, x86_64_v3::normals,
+                              x86_64_v3::packed_normals};
+  sets.set[sets.count++] = {"x86-64", x86_64_v1::build_weights, x86_64_v1::distort, x86_64_v1::normals,
+                              x86_64_v1::packed_normals};
 #else
-  sets.set[sets.count++] = {"native", native::build_weights, native::distort, native::normals};
+  sets.set[sets.count++] = {"native", native::build_weights, native::distort, native::normals,
+                              native::packed_normals};
 #endif
   return sets;
 }

@@ -146,65 +146,107 @@ void distort(const DistortionJob& job, std::size_t first, std::size_t last) noex
     const double* rest_y = job.rest[1] + begin;
     const double* rest_z = job.rest[2] + begin;
     double* out = job.positions + 3 * begin;
+    float* packed = job.packed + 4 * begin;
     for (std::size_t v = 0; v < count; ++v) {
       out[3 * v] = rest_x[v] + out_x[v];
       out[3 * v + 1] = rest_y[v] + out_y[v];
       out[3 * v + 2] = rest_z[v] + out_z[v];
+      packed[4 * v] = x[v] + out_x[v];
+      packed[4 * v + 1] = y[v] + out_y[v];
+      packed[4 * v + 2] = z[v] + out_z[v];
+      packed[4 * v + 3] = 0.0f;
     }
   }
 }
 
 void normals(const NormalsJob& job, std::size_t first, std::size_t last) noexcept {
-  const std::uint32_t* offsets = job.ring_offsets;
-  const std::uint32_t* ring = job.ring;
-  const std::uint8_t* closed = job.ring_closed;
-  const double* positions = job.positions;
-  const std::uint32_t last_vertex = job.vertex_count - 1;
-  // Points as one 4-lane vector (x, y, z, w; lane w ignored), and the cross product through
-  // a × b = yzx(a ∘ yzx(b) − yzx(a) ∘ b): the outer yzx is linear, so it is
-  // applied once to the sum (when it is stored), and yzx of each neighbour is reused by the next
-  // triangle. Neighbours are taken relative to the centre (which cancels in
+  // Eight vertices at a time, one per lane (BeamOrgan::ring_rows), in slices
+  // of as many as a register holds: each row gathers one neighbour per
+  // vertex. Neighbours are taken relative to the centre (which cancels in
   // exact arithmetic) to keep the products small: edges are millimetres,
   // coordinates decimetres.
-  // Normalized a block at a time, in a loop that vectorizes: square roots and
-  // divisions one vertex at a time would cost more than the cross products.
-  constexpr std::size_t kNormalBlock = 64;
-  for (std::size_t block = first; block < last; block += kNormalBlock) {
-    const std::size_t count = smaller(kNormalBlock, last - block);
-    alignas(64) double nx[kNormalBlock], ny[kNormalBlock], nz[kNormalBlock];
-    for (std::size_t i = 0; i < count; ++i) {
-      const std::size_t v = block + i;
-      const Xyz centre = load_xyz(positions, static_cast<std::uint32_t>(v), last_vertex);
-      Xyz sum{};
-      const std::uint32_t begin = offsets[v], end = offsets[v + 1];
-      if (closed[v]) {
-        Xyz a = load_xyz(positions, ring[end - 1], last_vertex) - centre;
-        Xyz a_yzx = yzx(a);
-        for (std::uint32_t k = begin; k < end; ++k) {
-          const Xyz b = load_xyz(positions, ring[k], last_vertex) - centre;
-          const Xyz b_yzx = yzx(b);
-          sum += a * b_yzx - a_yzx * b;
-          a = b;
-          a_yzx = b_yzx;
-        }
-      } else {
-        for (std::uint32_t k = begin; k < end; k += 2) {
-          const Xyz a = load_xyz(positions, ring[k], last_vertex) - centre;
-          const Xyz b = load_xyz(positions, ring[k + 1], last_vertex) - centre;
-          sum += a * yzx(b) - yzx(a) * b;
-        }
+  const double* x = job.positions;
+  const double* y = job.positions + 1;
+  const double* z = job.positions + 2;
+  for (std::size_t group = first / kLanes; group * kLanes < last; ++group) {
+    const std::uint32_t* rows = job.rows + kLanes * job.row_offsets[group];
+    const std::uint32_t* end = job.rows + kLanes * job.row_offsets[group + 1];
+    for (std::size_t slice = 0; slice < kLanes; slice += kDoubleLanes) {
+      const std::size_t base = group * kLanes + slice;
+      if (base + kDoubleLanes <= first || base >= last) continue;
+      std::uint32_t centre[kDoubleLanes];  // the last group's missing vertices: the last vertex
+      for (std::size_t l = 0; l < kDoubleLanes; ++l)
+        centre[l] = static_cast<std::uint32_t>(16 * smaller(base + l, job.vertex_count - 1));
+      const DoubleLanes cx = gather(x, centre), cy = gather(y, centre), cz = gather(z, centre);
+      const std::uint32_t* previous = end - kLanes + slice;
+      DoubleLanes ax = gather(x, previous) - cx, ay = gather(y, previous) - cy, az = gather(z, previous) - cz;
+      DoubleLanes sx{}, sy{}, sz{};
+      for (const std::uint32_t* row = rows + slice; row < end; row += kLanes) {
+        const DoubleLanes bx = gather(x, row) - cx, by = gather(y, row) - cy, bz = gather(z, row) - cz;
+        sx += ay * bz - az * by;
+        sy += az * bx - ax * bz;
+        sz += ax * by - ay * bx;
+        ax = bx;
+        ay = by;
+        az = bz;
       }
-      nx[i] = sum[1];  // yzx(sum)
-      ny[i] = sum[2];
-      nz[i] = sum[0];
+      const DoubleLanes squared = sx * sx + sy * sy + sz * sz;
+      const DoubleLanes inverse = 1.0 / square_root(squared);  // ∞ where 0: not taken
+      const DoubleLanes scale = squared > 0.0 ? inverse : DoubleLanes{};
+      const DoubleLanes nx = sx * scale, ny = sy * scale, nz = sz * scale;
+
+      const std::size_t from = first > base ? first - base : 0;
+      const std::size_t to = smaller(kDoubleLanes, last - base);
+      double* out = job.normals + 3 * base;
+      for (std::size_t l = from; l < to; ++l) {
+        out[3 * l] = nx[l];
+        out[3 * l + 1] = ny[l];
+        out[3 * l + 2] = nz[l];
+      }
     }
-    double* out = job.normals + 3 * block;
-    for (std::size_t i = 0; i < count; ++i) {
-      const double length = __builtin_sqrt(nx[i] * nx[i] + ny[i] * ny[i] + nz[i] * nz[i]);
-      const double scale = length > 0.0 ? 1.0 / length : 0.0;
-      out[3 * i] = nx[i] * scale;
-      out[3 * i + 1] = ny[i] * scale;
-      out[3 * i + 2] = nz[i] * scale;
+  }
+}
+
+void packed_normals(const PackedNormalsJob& job, std::size_t first, std::size_t last) noexcept {
+  // As normals(), on single-precision points of 16 bytes: one load per
+  // neighbour, several vertices per register (kPackedVertices), the cross
+  // product of whole points through yzx. Two sums (a ∘ yzx(b) and
+  // yzx(a) ∘ b) so that each term is one fused multiply-add.
+  const float* packed = job.packed;
+  for (std::size_t group = first / kLanes; group * kLanes < last; ++group) {
+    const std::uint32_t* rows = job.rows + kLanes * job.row_offsets[group];
+    const std::uint32_t* end = job.rows + kLanes * job.row_offsets[group + 1];
+    PackedGroup normal;  // per vertex: yzx of twice its normal, then its unit normal
+    for (std::size_t slice = 0; slice < kPackedSlices; ++slice) {
+      // The last group's missing vertices read the padding: their lanes are not written.
+      const PackedLanes centre = load_packed_run(packed + 4 * (group * kLanes + slice * kPackedVertices));
+      PackedLanes a = load_packed(packed, end - kLanes + slice * kPackedVertices) - centre;
+      PackedLanes a_yzx = yzx(a);
+      PackedLanes plus{}, minus{};
+      for (const std::uint32_t* row = rows + slice * kPackedVertices; row < end; row += kLanes) {
+        const PackedLanes b = load_packed(packed, row) - centre;
+        const PackedLanes b_yzx = yzx(b);
+        plus += a * b_yzx;
+        minus += a_yzx * b;
+        a = b;
+        a_yzx = b_yzx;
+      }
+      normal[slice] = yzx(plus - minus);
+    }
+    normalize(normal);
+
+    const std::size_t base = group * kLanes;
+    double* out = job.normals + 3 * base;
+    if (base >= first && base + kLanes < last) {  // the whole group, and the vertex after it
+      for (std::size_t slice = 0; slice < kPackedSlices; ++slice)
+        store_as_doubles(out + 3 * kPackedVertices * slice, normal[slice]);
+      continue;
+    }
+    const std::size_t from = first > base ? first - base : 0;
+    const std::size_t to = smaller(kLanes, last - base);
+    for (std::size_t l = from; l < to; ++l) {
+      const Quad unit = packed_vertex(normal[l / kPackedVertices], l % kPackedVertices);
+      for (std::size_t c = 0; c < 3; ++c) out[3 * l + c] = unit[c];
     }
   }
 }

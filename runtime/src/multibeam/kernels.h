@@ -38,6 +38,7 @@ struct DistortionJob {
   std::uint32_t beams;     ///< active tools
   BeamLanes beam[kMaxBeams];
   double* positions;       ///< out: xyz per vertex (m), interleaved
+  float* packed;           ///< out: x, y, z, 0 per vertex relative to the fixed point (m)
 };
 
 struct WeightBeam {
@@ -59,12 +60,18 @@ struct WeightJob {
 };
 
 struct NormalsJob {
-  const std::uint32_t* ring_offsets;  ///< BeamOrgan::ring_offsets()
-  const std::uint32_t* ring;          ///< BeamOrgan::ring()
-  const std::uint8_t* ring_closed;    ///< BeamOrgan::ring_closed()
-  std::uint32_t vertex_count;
-  const double* positions;  ///< xyz per vertex (m)
-  double* normals;          ///< out: unit xyz per vertex
+  const std::uint32_t* row_offsets;  ///< BeamOrgan::ring_row_offsets()
+  const std::uint32_t* rows;         ///< BeamOrgan::ring_rows()
+  std::size_t vertex_count;
+  const double* positions;           ///< xyz per vertex (m)
+  double* normals;                   ///< out: unit xyz per vertex
+};
+
+struct PackedNormalsJob {
+  const std::uint32_t* row_offsets;  ///< BeamOrgan::ring_row_offsets()
+  const std::uint32_t* rows;         ///< BeamOrgan::ring_rows()
+  const float* packed;               ///< x, y, z, 0 per vertex (m, any origin), vertex_count + kPadding of them
+  double* normals;                   ///< out: unit xyz per vertex
 };
 
 /// One instruction set's kernels. Each processes vertices [first, last),
@@ -74,6 +81,7 @@ struct KernelSet {
   void (*build_weights)(const WeightJob& job, std::size_t first, std::size_t last) noexcept;
   void (*distort)(const DistortionJob& job, std::size_t first, std::size_t last) noexcept;
   void (*normals)(const NormalsJob& job, std::size_t first, std::size_t last) noexcept;
+  void (*packed_normals)(const PackedNormalsJob& job, std::size_t first, std::size_t last) noexcept;
 };
 
 /// The widest set this CPU runs, chosen on the first call (call it once

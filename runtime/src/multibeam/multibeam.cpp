@@ -40,6 +40,12 @@ MultiBeam::MultiBeam(const BeamOrgan& organ, const MultiBeamOptions& options) : 
   coefficient_data_.assign(static_cast<std::size_t>(options_.max_tools) * kCoefficients * stations, 0.0);
   vertex_stride_ = organ_.vertex_count() + BeamOrgan::kPadding;
   vertex_weights_.assign(static_cast<std::size_t>(options_.max_tools) * vertex_stride_, 0.0);
+  packed_positions_.assign(4 * vertex_stride_, 0.0f);
+  for (std::size_t v = 0; v < organ_.vertex_count(); ++v) {  // the rest shape until the first distort()
+    packed_positions_[4 * v] = organ_.offset_x()[v];
+    packed_positions_[4 * v + 1] = organ_.offset_y()[v];
+    packed_positions_[4 * v + 2] = organ_.offset_z()[v];
+  }
 }
 
 Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point) noexcept {
@@ -266,6 +272,7 @@ void MultiBeam::distort(std::size_t first, std::size_t last, model::Point3* posi
     beam.coefficients = coefficients(slot, 0);
   }
   job.positions = positions->data();
+  job.packed = packed_positions_.data();
   kernels::selected().distort(job, first, last);
 }
 
@@ -299,8 +306,14 @@ Eigen::Vector3d MultiBeam::displacement_at(const Eigen::Vector3d& rest) const no
   return total;
 }
 
-void MultiBeam::normals(std::size_t first, std::size_t last, const model::Point3* positions, model::Point3* normals) const noexcept {
-  compute_vertex_normals(organ_, positions, normals, first, last);
+void MultiBeam::normals(std::size_t first, std::size_t last, model::Point3* normals) const noexcept {
+  if (first >= last) return;
+  kernels::PackedNormalsJob job;
+  job.row_offsets = organ_.ring_row_offsets().data();
+  job.rows = organ_.ring_rows().data();
+  job.packed = packed_positions_.data();
+  job.normals = normals->data();
+  kernels::selected().packed_normals(job, first, last);
 }
 
 Status MultiBeam::deform(const Eigen::Vector3d* tip_displacements, model::Point3* positions, model::Point3* normals_out,
@@ -310,7 +323,7 @@ Status MultiBeam::deform(const Eigen::Vector3d* tip_displacements, model::Point3
   const Status status = prepare(tip_displacements);
   if (status != Status::ok) return status;
   distort(0, n, positions);
-  normals(0, n, positions, normals_out);
+  normals(0, n, normals_out);
   return Status::ok;
 }
 

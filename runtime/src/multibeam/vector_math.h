@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <cstring>
 
-#if defined(__AVX512VL__)
+#if defined(__SSE2__)
 #include <immintrin.h>
 #endif
 
@@ -45,28 +45,163 @@ inline LaneIntegers splat_integer(std::int32_t v) noexcept {
   return __builtin_shufflevector(first, first, 0, 0, 0, 0, 0, 0, 0, 0);
 }
 
-/// A point or vector of R³ in one register: (x, y, z, w), w unspecified.
-using Xyz = double __attribute__((vector_size(4 * sizeof(double))));
-/// Point i of an xyz-interleaved array in one register. Lane w is 0 with
-/// AVX-512; otherwise it is the next point's x (one 32-byte load instead of
-/// three, where a next point exists: i < last) or 0. Callers ignore lane w.
-inline Xyz load_xyz(const double* points, std::uint32_t i, std::uint32_t last) noexcept {
-  const double* p = points + 3 * static_cast<std::size_t>(i);
-#if defined(__AVX512VL__)
-  (void)last;
-  return _mm256_maskz_loadu_pd(0x7, p);  // one load; the masked lane is not read (no fault past the end)
+/// Doubles as many as one register holds, so that the normals kernel's
+/// dozen live vectors stay in registers (8 with AVX-512's 32 registers; 4
+/// with AVX2's 16; 2 with SSE2).
+#if defined(__AVX512F__)
+constexpr std::size_t kDoubleLanes = 8;
+#elif defined(__AVX2__)
+constexpr std::size_t kDoubleLanes = 4;
 #else
-  Xyz v;
-  if (i < last) {
-    std::memcpy(&v, p, sizeof v);
-  } else {
-    v = Xyz{p[0], p[1], p[2], 0.0};
-  }
-  return v;
+constexpr std::size_t kDoubleLanes = 2;
+#endif
+using DoubleLanes = double __attribute__((vector_size(kDoubleLanes * sizeof(double))));
+static_assert(kLanes % kDoubleLanes == 0);
+
+/// The x (or, from values + 1, y; values + 2, z) of the points
+/// offset[l] / 16 of an xyz array in lane l, for kDoubleLanes offsets (as
+/// BeamOrgan::ring_rows holds them). AVX2's gather instruction is not used:
+/// on the development machine (Sapphire Rapids class) it made the normals
+/// kernel 25 % slower than four loads.
+inline DoubleLanes gather(const double* values, const std::uint32_t* offset) noexcept {
+#if defined(__AVX512F__)
+  LaneIntegers lanes;
+  std::memcpy(&lanes, offset, sizeof lanes);
+  lanes = (lanes >> 4) * 3;  // offsets < 2³², so the shift's sign bit is 0
+  // The masked form with every lane on: the plain one merges into an
+  // "undefined" register that GCC 12 warns about.
+  return __builtin_bit_cast(DoubleLanes, _mm512_mask_i32gather_pd(_mm512_setzero_pd(), 0xff,
+                                                                  __builtin_bit_cast(__m256i, lanes), values, 8));
+#else
+  DoubleLanes lanes;
+  for (std::size_t l = 0; l < kDoubleLanes; ++l) lanes[l] = values[3 * static_cast<std::size_t>(offset[l] >> 4)];
+  return lanes;
 #endif
 }
-/// (y, z, x, 0): a × b = yzx(a ∘ yzx(b) − yzx(a) ∘ b).
-inline Xyz yzx(Xyz v) noexcept { return __builtin_shufflevector(v, v, 1, 2, 0, 3); }
+
+inline Lanes square_root(Lanes v) noexcept {
+#if defined(__AVX__)
+  return __builtin_bit_cast(Lanes, _mm256_sqrt_ps(__builtin_bit_cast(__m256, v)));
+#elif defined(__SSE2__)
+  const __m128 low = _mm_sqrt_ps(__builtin_shufflevector(v, v, 0, 1, 2, 3));
+  const __m128 high = _mm_sqrt_ps(__builtin_shufflevector(v, v, 4, 5, 6, 7));
+  return __builtin_shufflevector(low, high, 0, 1, 2, 3, 4, 5, 6, 7);
+#else
+  Lanes root;
+  for (std::size_t l = 0; l < kLanes; ++l) root[l] = __builtin_sqrtf(v[l]);
+  return root;
+#endif
+}
+
+inline DoubleLanes square_root(DoubleLanes v) noexcept {
+#if defined(__AVX512F__)
+  return __builtin_bit_cast(DoubleLanes, _mm512_maskz_sqrt_pd(0xff, __builtin_bit_cast(__m512d, v)));  // maskz: see gather()
+#elif defined(__AVX2__)
+  return __builtin_bit_cast(DoubleLanes, _mm256_sqrt_pd(__builtin_bit_cast(__m256d, v)));
+#elif defined(__SSE2__)
+  return __builtin_bit_cast(DoubleLanes, _mm_sqrt_pd(__builtin_bit_cast(__m128d, v)));
+#else
+  return DoubleLanes{__builtin_sqrt(v[0]), __builtin_sqrt(v[1])};
+#endif
+}
+
+/// Vertices packed as x, y, z, 0 in single precision (16 bytes each, one
+/// load), two to a register with AVX, AVX-512 included (the normals kernel is
+/// bound by its loads, not by the register's width), else one.
+#if defined(__AVX__)
+constexpr std::size_t kPackedVertices = 2;
+#else
+constexpr std::size_t kPackedVertices = 1;
+#endif
+using PackedLanes = float __attribute__((vector_size(kPackedVertices * 4 * sizeof(float))));
+using Quad = float __attribute__((vector_size(4 * sizeof(float))));           ///< one packed vertex
+static_assert(kLanes % kPackedVertices == 0);
+
+/// The packed points at byte offsets offset[0 .. kPackedVertices) of `packed`.
+inline PackedLanes load_packed(const float* packed, const std::uint32_t* offset) noexcept {
+  Quad q[kPackedVertices];
+  for (std::size_t k = 0; k < kPackedVertices; ++k)
+    std::memcpy(&q[k], reinterpret_cast<const char*>(packed) + offset[k], sizeof q[k]);
+#if defined(__AVX__)
+  return __builtin_shufflevector(q[0], q[1], 0, 1, 2, 3, 4, 5, 6, 7);
+#else
+  return q[0];
+#endif
+}
+
+/// kPackedVertices consecutive packed points from `first` on.
+inline PackedLanes load_packed_run(const float* first) noexcept {
+  PackedLanes lanes;
+  std::memcpy(&lanes, first, sizeof lanes);
+  return lanes;
+}
+
+/// Each vertex's (y, z, x, 0): a × b = yzx(a ∘ yzx(b) − yzx(a) ∘ b).
+inline PackedLanes yzx(PackedLanes v) noexcept {
+#if defined(__AVX__)
+  return __builtin_shufflevector(v, v, 1, 2, 0, 3, 5, 6, 4, 7);
+#else
+  return __builtin_shufflevector(v, v, 1, 2, 0, 3);
+#endif
+}
+
+/// The packed vertices of kLanes consecutive vertices.
+constexpr std::size_t kPackedSlices = kLanes / kPackedVertices;
+using PackedGroup = PackedLanes[kPackedSlices];
+
+/// Scales each packed vertex of the group to unit length (a zero vector
+/// stays zero): the squared lengths are gathered into one register, so that
+/// the group costs one square root and one division.
+inline void normalize(PackedGroup& group) noexcept {
+  PackedLanes squared_in[kPackedSlices];  // each vertex's squared length in its lanes 0–2
+  for (std::size_t k = 0; k < kPackedSlices; ++k) {
+    const PackedLanes t = group[k] * group[k];
+    squared_in[k] = t + yzx(t) + yzx(yzx(t));
+  }
+#if defined(__AVX__)
+  const Quad low = __builtin_shufflevector(squared_in[0], squared_in[1], 0, 4, 8, 12);
+  const Quad high = __builtin_shufflevector(squared_in[2], squared_in[3], 0, 4, 8, 12);
+  const Lanes squared = __builtin_shufflevector(low, high, 0, 1, 2, 3, 4, 5, 6, 7);
+#else
+  Lanes squared;
+  for (std::size_t k = 0; k < kPackedSlices; ++k) squared[k] = squared_in[k][0];
+#endif
+  const Lanes inverse = 1.0f / square_root(squared);  // ∞ where 0: not taken
+  const Lanes scale = squared > 0.0f ? inverse : Lanes{};
+#if defined(__AVX__)
+  group[0] *= __builtin_shufflevector(scale, scale, 0, 0, 0, 0, 1, 1, 1, 1);
+  group[1] *= __builtin_shufflevector(scale, scale, 2, 2, 2, 2, 3, 3, 3, 3);
+  group[2] *= __builtin_shufflevector(scale, scale, 4, 4, 4, 4, 5, 5, 5, 5);
+  group[3] *= __builtin_shufflevector(scale, scale, 6, 6, 6, 6, 7, 7, 7, 7);
+#else
+  for (std::size_t k = 0; k < kPackedSlices; ++k) group[k] *= scale[k];
+#endif
+}
+
+/// The vertex k of v (its x, y, z, 0).
+inline Quad packed_vertex(PackedLanes v, std::size_t k) noexcept {
+  Quad quad;
+  std::memcpy(&quad, reinterpret_cast<const char*>(&v) + sizeof quad * k, sizeof quad);
+  return quad;
+}
+
+/// Stores the packed points of v as x, y, z doubles from `out` on, 3 per
+/// point, plus a fourth double after the last point's z (the caller
+/// overwrites it with the next point, or out has room).
+inline void store_as_doubles(double* out, PackedLanes v) noexcept {
+#if defined(__AVX__)
+  const __m256 both = __builtin_bit_cast(__m256, v);
+  _mm256_storeu_pd(out, _mm256_cvtps_pd(_mm256_castps256_ps128(both)));
+  _mm256_storeu_pd(out + 3, _mm256_cvtps_pd(_mm256_extractf128_ps(both, 1)));
+#elif defined(__SSE2__)
+  const __m128 point = __builtin_bit_cast(__m128, v);
+  _mm_storeu_pd(out, _mm_cvtps_pd(point));
+  _mm_storeu_pd(out + 2, _mm_cvtps_pd(_mm_movehl_ps(point, point)));
+#else
+  for (std::size_t k = 0; k < kPackedVertices; ++k)
+    for (std::size_t c = 0; c < 4; ++c) out[3 * k + c] = v[4 * k + c];
+#endif
+}
 
 /// Whether every lane of v equals value.
 inline bool all_equal(LaneIntegers v, std::int32_t value) noexcept {

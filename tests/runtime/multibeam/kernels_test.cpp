@@ -56,7 +56,8 @@ TEST(MultiBeamKernels, EveryLevelComputesTheSameWeightsDistortionAndNormals) {
   const Eigen::Matrix3d inverse = distances.inverse();
 
   const kernels::RunnableSets sets = kernels::runnable();
-  std::vector<std::vector<double>> weights_of(sets.count), positions_of(sets.count), normals_of(sets.count);
+  std::vector<std::vector<double>> weights_of(sets.count), positions_of(sets.count), normals_of(sets.count),
+      packed_normals_of(sets.count);
   for (std::size_t s = 0; s < sets.count; ++s) {
     const kernels::KernelSet& set = sets.set[s];
     SCOPED_TRACE(set.level);
@@ -91,15 +92,34 @@ TEST(MultiBeamKernels, EveryLevelComputesTheSameWeightsDistortionAndNormals) {
       job.beam[b] = {{axis[0], axis[1], axis[2]}, 0.09f, 1.0f / 0.09f, weights[b].data(), coefficients[b].data()};
     }
     job.positions = positions[0].data();
+    std::vector<float> packed(4 * padded);
+    job.packed = packed.data();
     const std::size_t half = n / 2 / kernels::kPadding * kernels::kPadding;  // two ranges, as two threads would
     set.distort(job, 0, half);
     set.distort(job, half, n);
 
     // On the same positions for every level (each level's distortion rounds differently).
-    kernels::NormalsJob normals_job{sphere.ring_offsets().data(), sphere.ring().data(), sphere.ring_closed().data(),
-                                    static_cast<std::uint32_t>(n), sphere.model().surface_vertices[0].data(),
-                                    normals[0].data()};
+    kernels::NormalsJob normals_job{sphere.ring_row_offsets().data(), sphere.ring_rows().data(), n,
+                                    sphere.model().surface_vertices[0].data(), normals[0].data()};
     set.normals(normals_job, 0, n);
+    // The packed points distort() wrote: its positions relative to the fixed point, in single precision.
+    for (std::size_t v = 0; v < n; ++v)
+      for (int k = 0; k < 3; ++k)
+        ASSERT_NEAR(packed[4 * v + k], positions[v][k] - sphere.fixed_point()[k], 1e-8) << v;
+    // Packed normals of the rest shape (the same points for every level), in two ranges.
+    std::vector<float> rest_packed(4 * padded, 0.0f);
+    for (std::size_t v = 0; v < n; ++v)
+      for (int k = 0; k < 3; ++k) rest_packed[4 * v + k] = static_cast<float>(sphere.model().surface_vertices[v][k]);
+    std::vector<model::Point3> from_packed(n);
+    kernels::PackedNormalsJob packed_job{sphere.ring_row_offsets().data(), sphere.ring_rows().data(), rest_packed.data(),
+                                         from_packed[0].data()};
+    set.packed_normals(packed_job, 0, n / 3);
+    set.packed_normals(packed_job, n / 3, n);
+    for (std::size_t v = 0; v < n; ++v) {
+      ASSERT_NEAR(Eigen::Vector3d(from_packed[v].data()).norm(), 1.0, 1e-6) << v;
+      ASSERT_LT((Eigen::Vector3d(from_packed[v].data()) - Eigen::Vector3d(normals[v].data())).norm(), 1e-5) << v;
+    }
+    packed_normals_of[s].assign(from_packed[0].data(), from_packed[0].data() + 3 * n);
 
     for (const auto& beam : weights) weights_of[s].insert(weights_of[s].end(), beam.begin(), beam.begin() + n);
     positions_of[s].assign(positions[0].data(), positions[0].data() + 3 * n);
@@ -117,6 +137,7 @@ TEST(MultiBeamKernels, EveryLevelComputesTheSameWeightsDistortionAndNormals) {
     EXPECT_LT(largest_difference(weights_of[s], weights_of[0]), 1e-6);     // single-precision weights in [−1, 1]
     EXPECT_LT(largest_difference(positions_of[s], positions_of[0]), 1e-8);  // m: float rounding of mm displacements
     EXPECT_LT(largest_difference(normals_of[s], normals_of[0]), 1e-14);
+    EXPECT_LT(largest_difference(packed_normals_of[s], packed_normals_of[0]), 1e-5);  // float, FMA or not
   }
 }
 

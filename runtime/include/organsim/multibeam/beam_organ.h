@@ -46,13 +46,19 @@ class BeamOrgan {
   double attenuation_rate() const noexcept { return attenuation_rate_; }
   const geometry::SurfaceBvh& surface_tree() const noexcept { return tree_; }
 
-  /// The one-ring of vertex v: ring()[ring_offsets()[v] .. ring_offsets()[v + 1]).
-  /// When ring_closed()[v], the neighbours in counter-clockwise order (seen from
-  /// outside) around v; otherwise (a vertex on a border or a non-manifold
-  /// vertex) the pairs (a, b) of its triangles (v, a, b).
-  const std::vector<std::uint32_t>& ring_offsets() const noexcept { return ring_offsets_; }
-  const std::vector<std::uint32_t>& ring() const noexcept { return ring_; }
-  const std::vector<std::uint8_t>& ring_closed() const noexcept { return ring_closed_; }
+  /// The one-rings in the layout the normals kernels read. Vertices go in
+  /// groups of kPadding (the last group padded with the last vertex); group g
+  /// is the rows ring_rows()[kPadding r .. kPadding (r + 1)) for r in
+  /// [ring_row_offsets()[g], ring_row_offsets()[g + 1]), one entry per vertex
+  /// of the group, each 16 × a vertex index (the byte offset of its point in
+  /// an array of x, y, z, w floats). Vertex v's column is a cyclic sequence
+  /// p_1 .. p_D with Σ_j (p_j − v) × (p_j+1 − v) (indices mod D) twice v's
+  /// area-weighted normal: the neighbours counter-clockwise seen from outside
+  /// where v's ring is closed, else a, b, v for each of its triangles
+  /// (v, a, b); padded to the group's longest sequence with its last entry
+  /// (terms that are zero).
+  const std::vector<std::uint32_t>& ring_row_offsets() const noexcept { return ring_row_offsets_; }
+  const std::vector<std::uint32_t>& ring_rows() const noexcept { return ring_rows_; }
   /// file_vertex_index()[v]: the model file's index of surface vertex v.
   const std::vector<std::uint32_t>& file_vertex_index() const noexcept { return file_index_; }
   /// Rest positions (m) as three coordinate arrays, padded with kPadding
@@ -75,9 +81,8 @@ class BeamOrgan {
   BeamElasticity elasticity_;
   double attenuation_rate_;
   geometry::SurfaceBvh tree_;
-  std::vector<std::uint32_t> ring_offsets_;
-  std::vector<std::uint32_t> ring_;
-  std::vector<std::uint8_t> ring_closed_;
+  std::vector<std::uint32_t> ring_row_offsets_;
+  std::vector<std::uint32_t> ring_rows_;
   std::vector<double> rest_[3];
   std::vector<float> offset_[3];
 };
@@ -86,7 +91,7 @@ class BeamOrgan {
 /// surface with vertex positions `positions` for vertices [first, last): the
 /// normalized sum of the incident triangles' cross products, which around a
 /// closed ring n_0..n_k−1 is Σ n_j × n_j+1 (the centre cancels), so each
-/// neighbour is read once.
+/// neighbour is read once. Eight vertices at a time (BeamOrgan::ring_rows).
 /// Allocates nothing; ranges may run on different threads.
 void compute_vertex_normals(const BeamOrgan& organ, const model::Point3* positions, model::Point3* normals, std::size_t first,
                             std::size_t last) noexcept;

@@ -91,7 +91,13 @@ class MultiBeam {
 
   /// The steps of deform(), for callers that split the vertices over threads:
   /// prepare() once, then distort() on disjoint ranges, then (after all
-  /// distort() calls have finished) normals() on disjoint ranges. Vertex
+  /// distort() calls have finished) normals() on disjoint ranges: the normals
+  /// of the surface the distort() calls left, from a single-precision copy of
+  /// its points that distort() keeps (16 bytes a vertex: one load each):
+  /// unit to 10⁻⁷, and off compute_vertex_normals() on the double positions
+  /// by about float's 4 nm at a decimetre over the vertex's shortest edge
+  /// (4·10⁻⁶ rad for 2 mm; docs/multibeam.md). Before any distort(), those of
+  /// the rest shape. Vertex
   /// indices are the BeamOrgan's (see BeamOrgan::file_vertex_index); range
   /// bounds other than 0 and vertex_count() must be multiples of
   /// BeamOrgan::kPadding (vector loops read whole registers).
@@ -103,7 +109,7 @@ class MultiBeam {
   /// 10⁻⁷ of themselves plus a few nanometres (docs/multibeam.md).
   Status prepare(const Eigen::Vector3d* tip_displacements) noexcept;
   void distort(std::size_t first, std::size_t last, model::Point3* positions) noexcept;
-  void normals(std::size_t first, std::size_t last, const model::Point3* positions, model::Point3* normals) const noexcept;
+  void normals(std::size_t first, std::size_t last, model::Point3* normals) const noexcept;
 
   /// The displacement (m) that the space distortion of the last prepare()
   /// gives any rest point `rest` (m), not only a surface vertex: an interior
@@ -156,6 +162,7 @@ class MultiBeam {
   std::atomic<bool> distorted_{false};  // a distort() ran since the last prepare() (any thread)
   std::size_t vertex_stride_ = 0;
   std::vector<float> vertex_weights_;
+  std::vector<float> packed_positions_;  // x, y, z, 0 per vertex, relative to the fixed point (m): distort()'s, for normals()
 };
 
 }  // namespace organsim::multibeam
