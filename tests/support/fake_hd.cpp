@@ -1,6 +1,7 @@
 // A stand-in for the OpenHaptics HD library (libHD.so) for tests: the same C
 // entry points, a servo scheduler thread at 1 kHz, devices whose tip follows a
-// straight path set by the test, and a record of every force commanded.
+// straight path set by the test, and a record of every force commanded (with
+// its frame's time and whether the frame reported an error).
 // Positions are millimetres, forces newtons, as in the real library.
 #include <array>
 #include <atomic>
@@ -17,13 +18,21 @@ namespace {
 
 using namespace organsim::devices::hd;
 
+struct ForceSample {
+  std::array<double, 3> newtons;
+  double frame_time;  // s after the scheduler started, taken when the frame began
+  bool frame_failed;  // hdGetError reported an error in this frame before the force was set
+};
+
 struct Device {
   std::array<double, 3> from{}, to{};
   double seconds = 1.0;
   bool force_output = false;
   bool in_frame = false;
+  double frame_time = 0.0;
+  bool frame_failed = false;
   std::atomic<unsigned> error{0};  // set by fakehd_fail: every hdGetError reports it, as for a lost device
-  std::vector<std::array<double, 3>> forces;
+  std::vector<ForceSample> forces;
 };
 
 constexpr int kDevices = 4;
@@ -41,6 +50,10 @@ std::atomic<std::uint64_t> ticks{0};
 std::atomic<int> frame_errors{0};
 std::chrono::steady_clock::time_point start;
 
+double seconds_since_start() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 // FAKEHD_FAIL="DEVICE:FROM_S:TO_S:CODE" (for tests of the organsim program):
 // device DEVICE reports CODE from FROM_S to TO_S after the scheduler started.
 unsigned scheduled_error(HHD device) {
@@ -49,7 +62,7 @@ unsigned scheduled_error(HHD device) {
   unsigned which = 0, code = 0;
   double from = 0.0, to = 0.0;
   if (std::sscanf(plan, "%u:%lf:%lf:%u", &which, &from, &to, &code) != 4 || which != device) return 0;
-  const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double t = seconds_since_start();
   return running.load() && t >= from && t < to ? code : 0;
 }
 
@@ -71,7 +84,10 @@ HHD hdInitDevice(const char*) {
 void hdDisableDevice(HHD) {}
 void hdMakeCurrentDevice(HHD device) { current = device; }
 void hdBeginFrame(HHD device) {
-  devices[device].in_frame = true;
+  Device& d = devices[device];
+  d.in_frame = true;
+  d.frame_time = seconds_since_start();
+  d.frame_failed = false;
   current = device;
 }
 void hdEndFrame(HHD device) { devices[device].in_frame = false; }
@@ -85,7 +101,7 @@ void hdGetDoublev(HDenum what, double* values) {
   switch (what) {
     case kCurrentPosition:
     case kCurrentTransform: {  // identity rotation (stylus along −z), translation
-      const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const double t = seconds_since_start();
       const double s = t < 0.0 ? 0.0 : (t > d.seconds ? 1.0 : t / d.seconds);
       double* position = values;
       if (what == kCurrentTransform) {
@@ -105,7 +121,7 @@ void hdSetDoublev(HDenum what, const double* values) {
   Device& d = devices[current];
   if (what != kCurrentForce) return;
   if (!d.in_frame || !d.force_output) frame_errors.fetch_add(1);
-  d.forces.push_back({values[0], values[1], values[2]});
+  d.forces.push_back({{values[0], values[1], values[2]}, d.frame_time, d.frame_failed});
 }
 
 void hdStartScheduler() {
@@ -133,6 +149,7 @@ HDSchedulerHandle hdScheduleAsynchronous(HDSchedulerCallback function, void* dat
 void hdUnschedule(HDSchedulerHandle) { callback = nullptr; }
 HDErrorInfo hdGetError() {
   const unsigned code = error_of(current);
+  if (code != 0 && current < kDevices && devices[current].in_frame) devices[current].frame_failed = true;
   return {code, 0, code != 0 ? current : 0};
 }
 
@@ -151,7 +168,9 @@ std::uint64_t fakehd_ticks() { return ticks.load(); }
 int fakehd_frame_errors() { return frame_errors.load(); }
 std::size_t fakehd_force_count(HHD device) { return devices[device].forces.size(); }
 void fakehd_force(HHD device, std::size_t i, double* newtons) {
-  for (int k = 0; k < 3; ++k) newtons[k] = devices[device].forces[i][k];
+  for (int k = 0; k < 3; ++k) newtons[k] = devices[device].forces[i].newtons[k];
 }
+double fakehd_force_frame_time(HHD device, std::size_t i) { return devices[device].forces[i].frame_time; }
+int fakehd_force_frame_failed(HHD device, std::size_t i) { return devices[device].forces[i].frame_failed ? 1 : 0; }
 
 }  // extern "C"
