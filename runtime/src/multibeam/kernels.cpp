@@ -12,14 +12,44 @@ namespace {
 // Vertices are processed in blocks so that per-tool distances and weights live
 // in small stack arrays and the inner loops run over contiguous vertices.
 constexpr std::size_t kBlock = 128;
-static_assert(kLanes == kPadding && kBlock % kLanes == 0);
+static_assert(kLanes == kPadding && kLanes == kChunk && kBlock % kLanes == 0);
 
 constexpr std::size_t smaller(std::size_t a, std::size_t b) noexcept { return a < b ? a : b; }
+
+// Where eight vertices (offsets from the fixed point) lie along a beam, in
+// elements: τ in [0, stations]. The one expression for build_weights' chunk
+// elements and distort().
+inline Lanes place_in_elements(const BeamAxis& beam, float stations, Lanes fx, Lanes fy, Lanes fz) noexcept {
+  return clamp_lanes(fx * beam.to_elements[0] + fy * beam.to_elements[1] + fz * beam.to_elements[2], 0.0f, stations);
+}
+
+// u/2 and a = θ/2 (kernels.h) at eight places along a beam.
+struct BeamValues {
+  Lanes ux, uy, uz, ax, ay, az;
+};
+
+// A chunk over more than two elements (kept out of distort()'s loop, whose
+// registers it would otherwise take): each lane's own element's coefficients.
+__attribute__((noinline, cold)) BeamValues values_per_lane(const float* lowest_record, std::int32_t lowest,
+                                                          std::int32_t last_element, Lanes tau) noexcept {
+  LaneIntegers element = __builtin_convertvector(tau, LaneIntegers);
+  element = element > splat_integer(last_element) ? splat_integer(last_element) : element;
+  const Lanes xi = tau - __builtin_convertvector(element, Lanes);
+  auto c = [&](int k) {
+    Lanes value = splat(lowest_record[k]);
+    for (std::int32_t e = lowest + 1; e <= last_element && any_lane(element >= e); ++e)
+      value = element == e ? splat(lowest_record[(e - lowest) * kCoefficients + k]) : value;
+    return value;
+  };
+  return {((c(9) * xi + c(6)) * xi + c(3)) * xi + c(0), ((c(10) * xi + c(7)) * xi + c(4)) * xi + c(1),
+          ((c(11) * xi + c(8)) * xi + c(5)) * xi + c(2), c(12) + xi * c(15), c(13) + xi * c(16), c(14) + xi * c(17)};
+}
 
 }  // namespace
 
 void build_weights(const WeightJob& job, std::size_t first, std::size_t last) noexcept {
   const double rate = job.attenuation_rate;
+  const LaneIntegers last_element = splat_integer(static_cast<std::int32_t>(job.stations) - 1);
   for (std::size_t begin = first; begin < last; begin += kBlock) {
     const std::size_t n = smaller(kBlock, last - begin);
     const double* x = job.rest[0] + begin;
@@ -62,13 +92,31 @@ void build_weights(const WeightJob& job, std::size_t first, std::size_t last) no
         const double dx = x[v] - px, dy = y[v] - py, dz = z[v] - pz;
         factor[v] = static_cast<float>(exp_nonpositive(-rate * __builtin_sqrt(dx * dx + dy * dy + dz * dz)) * share * w[v]);
       }
+      // Each chunk's elements, from the same single-precision place along the
+      // beam that distort() computes; the padding after the last vertex is
+      // left out.
+      for (std::size_t v = 0; v < n; v += kLanes) {
+        const std::size_t vertex = begin + v;
+        const Lanes tau = place_in_elements(beam.axis, static_cast<float>(job.stations), load_lanes(job.offset[0] + vertex),
+                                            load_lanes(job.offset[1] + vertex), load_lanes(job.offset[2] + vertex));
+        LaneIntegers element = __builtin_convertvector(tau, LaneIntegers);
+        element = element > last_element ? last_element : element;
+        const std::size_t present = smaller(kLanes, job.vertex_count - vertex);
+        std::int32_t lowest = element[0], highest = element[0];
+        for (std::size_t lane = 1; lane < present; ++lane) {
+          lowest = element[lane] < lowest ? element[lane] : lowest;
+          highest = element[lane] > highest ? element[lane] : highest;
+        }
+        const std::int32_t knots = highest - lowest < 2 ? highest - lowest : 2;
+        beam.chunk_elements[vertex / kLanes] = static_cast<std::uint16_t>(lowest | knots << kElementBits);
+      }
     }
   }
 }
 
 void distort(const DistortionJob& job, std::size_t first, std::size_t last) noexcept {
-  const LaneIntegers last_element = splat_integer(static_cast<std::int32_t>(job.stations) - 1);
-  const Lanes scale = splat(static_cast<float>(job.stations));
+  const float stations = static_cast<float>(job.stations);
+  const std::int32_t last_element = static_cast<std::int32_t>(job.stations) - 1;
 
   // Single precision: the displacements (millimetres) come out to about 10⁻⁷
   // of themselves plus a few nanometres, far below what a surface mesh or a
@@ -83,63 +131,62 @@ void distort(const DistortionJob& job, std::size_t first, std::size_t last) noex
 
     for (std::uint32_t b = 0; b < job.beams; ++b) {
       const BeamLanes& beam = job.beam[b];
-      const Lanes ax = splat(beam.axis[0]), ay = splat(beam.axis[1]), az = splat(beam.axis[2]);
-      const Lanes length = splat(beam.length), inverse_length = splat(beam.inverse_length);
+      const float* step = beam.axis.element_step;
       const float* factor = beam.weights + begin;
+      const std::uint16_t* chunk_elements = beam.chunk_elements + begin / kLanes;
       for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
-        // The vertex's place along the beam t in [0, 1], its element and local
-        // coordinate ξ, and its offset from the axis q = x − b(t), b(t) = fixed
-        // + t L axis: recomputed (a few flops) rather than stored, so that a
-        // frame reads one weight per vertex and tool from memory.
+        // The vertex's place along the beam τ (in elements) and its offset
+        // from the axis q: recomputed (a few flops) rather than stored, so
+        // that a frame reads one weight per vertex and tool from memory.
         const std::size_t v = chunk * kLanes;
         const Lanes fx = load_lanes(x + v), fy = load_lanes(y + v), fz = load_lanes(z + v);
-        Lanes t = (fx * ax + fy * ay + fz * az) * inverse_length;
-        t = t < 0.0f ? splat(0.0f) : t;
-        t = t > 1.0f ? splat(1.0f) : t;
-        const Lanes tau = t * scale;
-        LaneIntegers element = __builtin_convertvector(tau, LaneIntegers);
-        element = element > last_element ? last_element : element;
-        const Lanes xi = tau - __builtin_convertvector(element, Lanes);
-        const Lanes along = t * length;
-        const Lanes qx = fx - along * ax, qy = fy - along * ay, qz = fz - along * az;
+        const Lanes tau = place_in_elements(beam.axis, stations, fx, fy, fz);
+        const Lanes qx = fx - tau * step[0], qy = fy - tau * step[1], qz = fz - tau * step[2];
 
-        const Lanes w = load_lanes(factor + v);
-        auto accumulate = [&](auto c) {  // c(k): coefficient k of each lane's element
-          const Lanes ux = ((c(9) * xi + c(6)) * xi + c(3)) * xi + c(0);
-          const Lanes uy = ((c(10) * xi + c(7)) * xi + c(4)) * xi + c(1);
-          const Lanes uz = ((c(11) * xi + c(8)) * xi + c(5)) * xi + c(2);
-          const Lanes tx = c(12) + xi * c(15), ty = c(13) + xi * c(16), tz = c(14) + xi * c(17);
-          const Lanes rx1 = ty * qz - tz * qy, ry1 = tz * qx - tx * qz, rz1 = tx * qy - ty * qx;
-          const Lanes rx2 = ty * rz1 - tz * ry1, ry2 = tz * rx1 - tx * rz1, rz2 = tx * ry1 - ty * rx1;
-          store_lanes(out_x + v, load_lanes(out_x + v) + w * (ux + rx1 + 0.5f * rx2));
-          store_lanes(out_y + v, load_lanes(out_y + v) + w * (uy + ry1 + 0.5f * ry2));
-          store_lanes(out_z + v, load_lanes(out_z + v) + w * (uz + rz1 + 0.5f * rz2));
-        };
-        // The lanes' coefficients: vertices are numbered in Morton order, so a
-        // chunk mostly lies in one element (72 % of the chunks on the 100k-vertex
-        // benchmark sphere), else mostly in two (24 %). One element's
-        // coefficients are broadcast, several elements' blended lane by lane
-        // (gathers are several times slower).
-        const std::int32_t first_lane = element[0];
-        if (all_equal(element, first_lane)) {
-          const float* only = beam.coefficients + static_cast<std::size_t>(first_lane) * kCoefficients;
-          accumulate([&](int k) { return splat(only[k]); });
-          continue;
-        }
-        const std::int32_t lowest = horizontal_min(element), highest = horizontal_max(element);
-        const float* low = beam.coefficients + static_cast<std::size_t>(lowest) * kCoefficients;
-        if (highest == lowest + 1) {
-          const LaneIntegers in_low = element == splat_integer(lowest);
-          const float* high = low + kCoefficients;
-          accumulate([&](int k) { return in_low ? splat(low[k]) : splat(high[k]); });
+        // A chunk mostly lies in one element (vertices are numbered in Morton
+        // order: 72 % of the chunks on the 100k-vertex benchmark sphere), else
+        // mostly in two (24 %). build_weights recorded which, so the branch is
+        // decided as soon as the entry is read. In two, every lane is
+        // evaluated with the record of the lower element, ξ counted from its
+        // start, plus the terms of the knot after it, which vanish before the
+        // knot. A chunk over more elements (coarse meshes) takes each lane's
+        // own element's coefficients: continuing a cubic over several elements
+        // would lose the precision that single precision leaves.
+        const std::uint32_t entry = chunk_elements[chunk];
+        const std::int32_t lowest = static_cast<std::int32_t>(entry & (kMaxStations - 1));
+        const std::uint32_t knots = entry >> kElementBits;
+        const float* c = beam.coefficients + static_cast<std::size_t>(lowest) * kCoefficients;
+        const Lanes xi = tau - static_cast<float>(lowest);
+        BeamValues at;
+        if (__builtin_expect(knots < 2, 1)) {
+          at.ux = ((splat(c[9]) * xi + c[6]) * xi + c[3]) * xi + c[0];
+          at.uy = ((splat(c[10]) * xi + c[7]) * xi + c[4]) * xi + c[1];
+          at.uz = ((splat(c[11]) * xi + c[8]) * xi + c[5]) * xi + c[2];
+          at.ax = c[12] + xi * c[15];
+          at.ay = c[13] + xi * c[16];
+          at.az = c[14] + xi * c[17];
+          if (knots == 1) {
+            const float* knot = c + kPolynomialCoefficients;
+            const Lanes s = positive_part(xi - 1.0f);
+            at.ux += s * ((s * knot[6] + knot[3]) * s + knot[0]);
+            at.uy += s * ((s * knot[7] + knot[4]) * s + knot[1]);
+            at.uz += s * ((s * knot[8] + knot[5]) * s + knot[2]);
+            at.ax += s * knot[9];
+            at.ay += s * knot[10];
+            at.az += s * knot[11];
+          }
         } else {
-          accumulate([&](int k) {
-            Lanes value = splat(low[k]);
-            for (std::int32_t e = 1; e <= highest - lowest; ++e)
-              value = element == splat_integer(lowest + e) ? splat(low[e * kCoefficients + k]) : value;
-            return value;
-          });
+          at = values_per_lane(c, lowest, last_element, tau);
         }
+        const Lanes ux = at.ux, uy = at.uy, uz = at.uz, ax = at.ax, ay = at.ay, az = at.az;
+
+        // u + θ × q + ½ θ × (θ × q) = 2 (u/2 + a × m), m = q + a × q.
+        const Lanes mx = qx + ay * qz - az * qy, my = qy + az * qx - ax * qz, mz = qz + ax * qy - ay * qx;
+        const Lanes w = load_lanes(factor + v);
+        const Lanes twice_w = w + w;
+        store_lanes(out_x + v, load_lanes(out_x + v) + twice_w * (ux + ay * mz - az * my));
+        store_lanes(out_y + v, load_lanes(out_y + v) + twice_w * (uy + az * mx - ax * mz));
+        store_lanes(out_z + v, load_lanes(out_z + v) + twice_w * (uz + ax * my - ay * mx));
       }
     }
     const double* rest_x = job.rest[0] + begin;

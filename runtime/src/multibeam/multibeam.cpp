@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 #include "organsim/model/beam_frame.h"
 #include "kernels.h"
@@ -21,6 +22,15 @@ namespace {
 
 Eigen::Vector3d vec(const std::array<double, 3>& p) { return {p[0], p[1], p[2]}; }
 
+kernels::BeamAxis beam_axis(const ToolBeam& tool, std::uint32_t stations) noexcept {
+  kernels::BeamAxis axis;
+  for (int k = 0; k < 3; ++k) {
+    axis.to_elements[k] = static_cast<float>(tool.frame(k, 0) * stations / tool.length);
+    axis.element_step[k] = static_cast<float>(tool.frame(k, 0) * tool.length / stations);
+  }
+  return axis;
+}
+
 static_assert(kernels::kMaxBeams == kMaxTools && kernels::kPadding == BeamOrgan::kPadding);
 static_assert(sizeof(model::Point3) == 3 * sizeof(double));  // the kernels see xyz-interleaved arrays
 
@@ -33,6 +43,9 @@ MultiBeam::MultiBeam(const BeamOrgan& organ, const MultiBeamOptions& options) : 
     throw std::invalid_argument("snap, merge and minimum beam distances must be non-negative (m)");
   kernels::selected();  // picks the instruction set now, not in the first real-time call
   const std::uint32_t stations = organ_.stations();
+  if (stations > kernels::kMaxStations)
+    throw std::invalid_argument("the multi-beam model takes at most " + std::to_string(kernels::kMaxStations) +
+                                " stations per beam");
   tools_.resize(options_.max_tools);
   solvers_.reserve(options_.max_tools);
   for (std::uint32_t i = 0; i < options_.max_tools; ++i) solvers_.emplace_back(stations);
@@ -40,6 +53,9 @@ MultiBeam::MultiBeam(const BeamOrgan& organ, const MultiBeamOptions& options) : 
   coefficient_data_.assign(static_cast<std::size_t>(options_.max_tools) * kCoefficients * stations, 0.0);
   vertex_stride_ = organ_.vertex_count() + BeamOrgan::kPadding;
   vertex_weights_.assign(static_cast<std::size_t>(options_.max_tools) * vertex_stride_, 0.0);
+  static_assert(kernels::kChunk == BeamOrgan::kPadding);
+  chunk_stride_ = vertex_stride_ / kernels::kChunk;
+  chunk_elements_.assign(static_cast<std::size_t>(options_.max_tools) * chunk_stride_, 0);
   packed_positions_.assign(4 * vertex_stride_, 0.0f);
   for (std::size_t v = 0; v < organ_.vertex_count(); ++v) {  // the rest shape until the first distort()
     packed_positions_[4 * v] = organ_.offset_x()[v];
@@ -196,18 +212,19 @@ Status MultiBeam::prepare(const Eigen::Vector3d* tip_displacements) noexcept {
       const Eigen::Vector3d c2 = -3.0 * ut_a - 2.0 * slope_a + 3.0 * ut_b - slope_b;
       const Eigen::Vector3d c3 = 2.0 * ut_a + slope_a - 2.0 * ut_b + slope_b;
       const Eigen::Vector3d r1 = theta_b - theta_a;
-      float* c = coefficients(slot, e);
+      float* c = coefficients(slot, e);  // halves (kernels.h)
       for (int k = 0; k < 3; ++k) {
-        c[k] = static_cast<float>(u_a[k]);
-        c[3 + k] = static_cast<float>(c1[k]);
-        c[6 + k] = static_cast<float>(c2[k]);
-        c[9 + k] = static_cast<float>(c3[k]);
-        c[12 + k] = static_cast<float>(theta_a[k]);
-        c[15 + k] = static_cast<float>(r1[k]);
+        c[k] = static_cast<float>(0.5 * u_a[k]);
+        c[3 + k] = static_cast<float>(0.5 * c1[k]);
+        c[6 + k] = static_cast<float>(0.5 * c2[k]);
+        c[9 + k] = static_cast<float>(0.5 * c3[k]);
+        c[12 + k] = static_cast<float>(0.5 * theta_a[k]);
+        c[15 + k] = static_cast<float>(0.5 * r1[k]);
       }
       u_a = u_b;
       theta_a = theta_b;
     }
+    kernels::add_knot_terms(coefficients(slot, 0), stations);
   }
   for (std::uint32_t slot = 0; slot < active_count_; ++slot)
     group_share_[slot] = 1.0 / group_members[active_group_[slot]];
@@ -230,6 +247,11 @@ void MultiBeam::build_vertex_weights(std::size_t first, std::size_t last) noexce
   job.rest[0] = organ_.rest_x();
   job.rest[1] = organ_.rest_y();
   job.rest[2] = organ_.rest_z();
+  job.offset[0] = organ_.offset_x();
+  job.offset[1] = organ_.offset_y();
+  job.offset[2] = organ_.offset_z();
+  job.stations = organ_.stations();
+  job.vertex_count = organ_.vertex_count();
   job.attenuation_rate = organ_.attenuation_rate();
   job.groups = influence ? influence_.count() : 0;
   double group_points[kMaxTools][3];
@@ -244,7 +266,9 @@ void MultiBeam::build_vertex_weights(std::size_t first, std::size_t last) noexce
     for (int k = 0; k < 3; ++k) beam.point[k] = active_point_[slot][k];
     beam.share = influence ? group_share_[slot] : 1.0;
     beam.group = influence ? active_group_[slot] : 0;
+    beam.axis = beam_axis(tools_[active_tool_[slot]], organ_.stations());
     beam.weights = vertex_weight(slot);
+    beam.chunk_elements = chunk_elements(slot);
   }
   kernels::selected().build_weights(job, first, last);
 }
@@ -263,12 +287,10 @@ void MultiBeam::distort(std::size_t first, std::size_t last, model::Point3* posi
   job.stations = organ_.stations();
   job.beams = active_count_;
   for (std::uint32_t slot = 0; slot < active_count_; ++slot) {
-    const ToolBeam& tool = tools_[active_tool_[slot]];
     kernels::BeamLanes& beam = job.beam[slot];
-    for (int k = 0; k < 3; ++k) beam.axis[k] = static_cast<float>(tool.frame(k, 0));
-    beam.length = static_cast<float>(tool.length);
-    beam.inverse_length = static_cast<float>(1.0 / tool.length);
+    beam.axis = beam_axis(tools_[active_tool_[slot]], organ_.stations());
     beam.weights = vertex_weight(slot);
+    beam.chunk_elements = chunk_elements(slot);
     beam.coefficients = coefficients(slot, 0);
   }
   job.positions = positions->data();
@@ -294,9 +316,9 @@ Eigen::Vector3d MultiBeam::displacement_at(const Eigen::Vector3d& rest) const no
     const Eigen::Vector3d q = offset - t * beam.length * axis;
     const float* c = coefficients(slot, element);
     Eigen::Vector3d u, theta;
-    for (int k = 0; k < 3; ++k) {
-      u[k] = ((c[9 + k] * xi + c[6 + k]) * xi + c[3 + k]) * xi + c[k];
-      theta[k] = c[12 + k] + xi * c[15 + k];
+    for (int k = 0; k < 3; ++k) {  // the records hold halves
+      u[k] = 2.0 * (((c[9 + k] * xi + c[6 + k]) * xi + c[3 + k]) * xi + c[k]);
+      theta[k] = 2.0 * (c[12 + k] + xi * c[15 + k]);
     }
     const Eigen::Vector3d rotated = theta.cross(q);
     const double weight = std::exp(-organ_.attenuation_rate() * (rest - active_point_[slot]).norm()) *

@@ -93,6 +93,37 @@ inline Lanes square_root(Lanes v) noexcept {
 #endif
 }
 
+/// Each lane of v clamped to [low, high] (one instruction each way; the
+/// comparisons the vector extensions offer cost a blend too).
+inline Lanes clamp_lanes(Lanes v, float low, float high) noexcept {
+#if defined(__AVX__)
+  const __m256 above = _mm256_max_ps(__builtin_bit_cast(__m256, v), _mm256_set1_ps(low));
+  return __builtin_bit_cast(Lanes, _mm256_min_ps(above, _mm256_set1_ps(high)));
+#elif defined(__SSE2__)
+  const __m128 low_half = _mm_min_ps(_mm_max_ps(__builtin_shufflevector(v, v, 0, 1, 2, 3), _mm_set1_ps(low)), _mm_set1_ps(high));
+  const __m128 high_half = _mm_min_ps(_mm_max_ps(__builtin_shufflevector(v, v, 4, 5, 6, 7), _mm_set1_ps(low)), _mm_set1_ps(high));
+  return __builtin_shufflevector(low_half, high_half, 0, 1, 2, 3, 4, 5, 6, 7);
+#else
+  Lanes clamped;
+  for (std::size_t l = 0; l < kLanes; ++l) clamped[l] = v[l] < low ? low : (v[l] > high ? high : v[l]);
+  return clamped;
+#endif
+}
+/// Each lane of v, or 0 where it is negative.
+inline Lanes positive_part(Lanes v) noexcept {
+#if defined(__AVX__)
+  return __builtin_bit_cast(Lanes, _mm256_max_ps(__builtin_bit_cast(__m256, v), _mm256_setzero_ps()));
+#elif defined(__SSE2__)
+  const __m128 low_half = _mm_max_ps(__builtin_shufflevector(v, v, 0, 1, 2, 3), _mm_setzero_ps());
+  const __m128 high_half = _mm_max_ps(__builtin_shufflevector(v, v, 4, 5, 6, 7), _mm_setzero_ps());
+  return __builtin_shufflevector(low_half, high_half, 0, 1, 2, 3, 4, 5, 6, 7);
+#else
+  Lanes part;
+  for (std::size_t l = 0; l < kLanes; ++l) part[l] = v[l] > 0.0f ? v[l] : 0.0f;
+  return part;
+#endif
+}
+
 inline DoubleLanes square_root(DoubleLanes v) noexcept {
 #if defined(__AVX512F__)
   return __builtin_bit_cast(DoubleLanes, _mm512_maskz_sqrt_pd(0xff, __builtin_bit_cast(__m512d, v)));  // maskz: see gather()
@@ -203,31 +234,22 @@ inline void store_as_doubles(double* out, PackedLanes v) noexcept {
 #endif
 }
 
-/// Whether every lane of v equals value.
-inline bool all_equal(LaneIntegers v, std::int32_t value) noexcept {
-  const LaneIntegers differs = v != splat_integer(value);
-  std::uint64_t halves[4];
-  std::memcpy(halves, &differs, sizeof halves);
-  return (halves[0] | halves[1] | halves[2] | halves[3]) == 0;
-}
-
-inline std::int32_t horizontal_min(LaneIntegers v) noexcept {
-  LaneIntegers w = __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3);
-  v = w < v ? w : v;
-  w = __builtin_shufflevector(v, v, 2, 3, 0, 1, 6, 7, 4, 5);
-  v = w < v ? w : v;
-  w = __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6);
-  v = w < v ? w : v;
-  return v[0];
-}
-inline std::int32_t horizontal_max(LaneIntegers v) noexcept {
-  LaneIntegers w = __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3);
-  v = w > v ? w : v;
-  w = __builtin_shufflevector(v, v, 2, 3, 0, 1, 6, 7, 4, 5);
-  v = w > v ? w : v;
-  w = __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6);
-  v = w > v ? w : v;
-  return v[0];
+/// Whether any lane of a comparison's result (all bits set or none per lane) is set.
+inline bool any_lane(LaneIntegers mask) noexcept {
+#if defined(__AVX__)
+  __m256i bits;
+  std::memcpy(&bits, &mask, sizeof bits);
+  return _mm256_testz_si256(bits, bits) == 0;
+#elif defined(__SSE2__)
+  __m128i low, high;
+  std::memcpy(&low, &mask, sizeof low);
+  std::memcpy(&high, reinterpret_cast<const char*>(&mask) + sizeof low, sizeof high);
+  return _mm_movemask_epi8(_mm_or_si128(low, high)) != 0;
+#else
+  std::uint64_t quarters[4];
+  std::memcpy(quarters, &mask, sizeof quarters);
+  return (quarters[0] | quarters[1] | quarters[2] | quarters[3]) != 0;
+#endif
 }
 
 /// e^y for y ≤ 0, relative error below 2·10⁻¹⁵; exactly 1 at y = 0; y below

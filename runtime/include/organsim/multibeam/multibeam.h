@@ -122,11 +122,12 @@ class MultiBeam {
   Eigen::Vector3d displacement_at(const Eigen::Vector3d& rest) const noexcept;
 
  private:
-  // Per active tool, per element: cubic coefficients of the displacement
-  // u(ξ) = c0 + c1 ξ + c2 ξ² + c3 ξ³ (3 components each) and the rotation
-  // θ(ξ) = r0 + r1 ξ, world frame; 18 consecutive values per element, single
-  // precision like the rest of the distortion (see distort()).
-  static constexpr int kCoefficients = 18;  // = kernels::kCoefficients (src/multibeam/kernels.h)
+  // Per active tool, per element: cubic coefficients of half the displacement
+  // u(ξ)/2 = c0 + c1 ξ + c2 ξ² + c3 ξ³ (3 components each) and of half the
+  // rotation θ(ξ)/2 = r0 + r1 ξ, world frame, then the terms that continue
+  // them into the next element (src/multibeam/kernels.h); 30 consecutive
+  // values per element, single precision like the rest of the distortion.
+  static constexpr int kCoefficients = 30;  // = kernels::kCoefficients
   float* coefficients(std::uint32_t slot, std::uint32_t element) noexcept {
     return coefficient_data_.data() + (static_cast<std::size_t>(slot) * organ_.stations() + element) * kCoefficients;
   }
@@ -139,6 +140,11 @@ class MultiBeam {
   // function's distances) than to read.
   float* vertex_weight(std::uint32_t slot) noexcept {
     return vertex_weights_.data() + static_cast<std::size_t>(slot) * vertex_stride_;
+  }
+  // Per active tool, per chunk of eight vertices (valid between contact
+  // changes): the beam elements the chunk's vertices lie in (kernels.h).
+  std::uint16_t* chunk_elements(std::uint32_t slot) noexcept {
+    return chunk_elements_.data() + static_cast<std::size_t>(slot) * chunk_stride_;
   }
   void build_vertex_weights(std::size_t first, std::size_t last) noexcept;
 
@@ -162,6 +168,8 @@ class MultiBeam {
   std::atomic<bool> distorted_{false};  // a distort() ran since the last prepare() (any thread)
   std::size_t vertex_stride_ = 0;
   std::vector<float> vertex_weights_;
+  std::size_t chunk_stride_ = 0;
+  std::vector<std::uint16_t> chunk_elements_;
   std::vector<float> packed_positions_;  // x, y, z, 0 per vertex, relative to the fixed point (m): distort()'s, for normals()
 };
 
