@@ -20,6 +20,34 @@ bool non_negative(double value) { return std::isfinite(value) && value >= 0.0; }
 
 constexpr double kCgTolerance = 1e-10;  // preconditioned residual norm, relative to the first
 
+// The springs' arithmetic (a square root and a division each) is most of a
+// step: in the portable build it is compiled for AVX2/FMA too and picked when
+// the program loads (an ifunc). Plain arrays and builtins only, so that no
+// inline function is compiled for one target and linked into another.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__AVX2__)
+#define ORGANSIM_SPRING_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define ORGANSIM_SPRING_CLONES
+#endif
+
+// Per spring of a block, f = (k (l − l⁰) + c û·Δv) û with û = d / l, as a
+// multiple of d: d (the ends' difference a − b, m) becomes the force on b (N).
+ORGANSIM_SPRING_CLONES void spring_forces(std::size_t count, double* __restrict__ dx, double* __restrict__ dy,
+                                          double* __restrict__ dz, const double* __restrict__ dvx,
+                                          const double* __restrict__ dvy, const double* __restrict__ dvz,
+                                          const double* __restrict__ rest, const double* __restrict__ stiffness,
+                                          const double* __restrict__ damping) noexcept {
+  for (std::size_t j = 0; j < count; ++j) {
+    const double squared = dx[j] * dx[j] + dy[j] * dy[j] + dz[j] * dz[j];
+    const double closing = dx[j] * dvx[j] + dy[j] * dvy[j] + dz[j] * dvz[j];
+    const double l2 = squared > 0.0 ? squared : 1.0;
+    const double inverse_length = 1.0 / __builtin_sqrt(l2);
+    const double m = (stiffness[j] * (l2 * inverse_length - rest[j]) + damping[j] * closing * inverse_length) * inverse_length;
+    const double magnitude = squared > 0.0 ? m : 0.0;
+    dx[j] *= magnitude, dy[j] *= magnitude, dz[j] *= magnitude;
+  }
+}
+
 }  // namespace
 
 MassSpring::MassSpring(SpringNetwork network, const SimulationOptions& options)
@@ -348,20 +376,8 @@ void MassSpring::accelerations(const Points& x, const Points& v, Points& a) noex
       dx[j] = d.x(), dy[j] = d.y(), dz[j] = d.z();
       dvx[j] = dv.x(), dvy[j] = dv.y(), dvz[j] = dv.z();
     }
-    const double* rest = force_rest_.data() + first;
-    const double* stiffness = force_stiffness_.data() + first;
-    const double* damping = force_damping_.data() + first;
-    for (std::size_t j = 0; j < count; ++j) {
-      // f = (k (l − l⁰) + c û·Δv) û with û = d / l, as a multiple m of d.
-      const double squared = dx[j] * dx[j] + dy[j] * dy[j] + dz[j] * dz[j];
-      const double closing = dx[j] * dvx[j] + dy[j] * dvy[j] + dz[j] * dvz[j];
-      const double l2 = squared > 0.0 ? squared : 1.0;
-      const double inverse_length = 1.0 / std::sqrt(l2);
-      const double m =
-          (stiffness[j] * (l2 * inverse_length - rest[j]) + damping[j] * closing * inverse_length) * inverse_length;
-      const double magnitude = squared > 0.0 ? m : 0.0;
-      dx[j] *= magnitude, dy[j] *= magnitude, dz[j] *= magnitude;  // now the force on b
-    }
+    spring_forces(count, dx, dy, dz, dvx, dvy, dvz, force_rest_.data() + first, force_stiffness_.data() + first,
+                  force_damping_.data() + first);
     for (std::size_t j = 0; j < count; ++j) {
       const std::uint32_t ia = ends_a[first + j];
       if (ia != current) {
