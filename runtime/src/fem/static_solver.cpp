@@ -12,6 +12,9 @@ namespace organsim::fem {
 
 namespace {
 
+/// The share of the Newton tolerance a step's linear solve may leave in the next residual.
+constexpr double kLinearShareOfTolerance = 0.1;
+
 std::string node_name(std::int32_t node) { return "node " + std::to_string(node); }
 
 void require(bool condition, const std::string& message) {
@@ -152,7 +155,12 @@ class NewtonSolver {
       }
       start = std::chrono::steady_clock::now();
       residual_ = -residual_;
-      const bool factorized = tangent_solver_.solve(system_.tangent_free(), residual_, step_);
+      // A step solved to relative accuracy η leaves about η × norm of this
+      // residual in the next one: η = 0.1 tolerance × first / norm keeps that
+      // under a tenth of what the criterion accepts, so Newton needs no more
+      // iterations, and the last iteration of an increment stops GMRES early.
+      const double sufficient_accuracy = kLinearShareOfTolerance * problem_.tolerance * first / norm;
+      const bool factorized = tangent_solver_.solve(system_.tangent_free(), residual_, step_, sufficient_accuracy);
       out_.solve_seconds += seconds_since(start);
       out_.factorizations = tangent_solver_.factorizations();
       out_.krylov_solves = tangent_solver_.krylov_solves();

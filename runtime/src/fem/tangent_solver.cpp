@@ -1,5 +1,6 @@
 #include "organsim/fem/tangent_solver.h"
 
+#include <algorithm>
 #include <chrono>
 #include <utility>
 
@@ -42,13 +43,25 @@ class KeptFactorization {
 TangentSolver::TangentSolver(std::unique_ptr<Factorization> factorization, const TangentSolverOptions& options)
     : factorization_(std::move(factorization)), options_(options) {}
 
-bool TangentSolver::krylov_solve(const SparseMatrix& tangent, const Eigen::VectorXd& rhs, Eigen::VectorXd& solution) {
-  Eigen::GMRES<SparseMatrix, KeptFactorization> gmres;
+bool TangentSolver::krylov_solve(const SparseMatrix& tangent, const Eigen::VectorXd& rhs, Eigen::VectorXd& solution,
+                                 double tolerance) {
+  if (!tangent.isCompressed()) {
+    SparseMatrix compressed = tangent;
+    compressed.makeCompressed();
+    return krylov_solve(compressed, rhs, solution, tolerance);
+  }
+  // The tangent is symmetric with both triangles stored, so its compressed
+  // columns are also its compressed rows: GMRES multiplies by rows, a dot
+  // product per row, instead of scattering each column into the result.
+  using RowMajorMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor, int>;
+  const Eigen::Map<const RowMajorMatrix> by_rows(tangent.rows(), tangent.cols(), tangent.nonZeros(),
+                                                 tangent.outerIndexPtr(), tangent.innerIndexPtr(), tangent.valuePtr());
+  Eigen::GMRES<RowMajorMatrix, KeptFactorization> gmres;
   gmres.preconditioner().use(factorization_.get());
   gmres.setMaxIterations(options_.max_krylov_iterations);
   gmres.set_restart(options_.max_krylov_iterations);
-  gmres.setTolerance(options_.krylov_tolerance);
-  gmres.compute(tangent);
+  gmres.setTolerance(tolerance);
+  gmres.compute(by_rows);
   solution = gmres.solve(rhs);
   krylov_iterations_ += static_cast<int>(gmres.iterations());
   if (gmres.info() != Eigen::Success || !solution.allFinite()) return false;
@@ -57,8 +70,10 @@ bool TangentSolver::krylov_solve(const SparseMatrix& tangent, const Eigen::Vecto
   return true;
 }
 
-bool TangentSolver::solve(const SparseMatrix& tangent, const Eigen::VectorXd& rhs, Eigen::VectorXd& solution) {
-  if (factorized_ && !refactorize_next_ && options_.max_krylov_iterations > 0 && krylov_solve(tangent, rhs, solution))
+bool TangentSolver::solve(const SparseMatrix& tangent, const Eigen::VectorXd& rhs, Eigen::VectorXd& solution,
+                          double sufficient_accuracy) {
+  if (factorized_ && !refactorize_next_ && options_.max_krylov_iterations > 0 &&
+      krylov_solve(tangent, rhs, solution, std::max(sufficient_accuracy, options_.krylov_tolerance)))
     return true;
   refactorize_next_ = false;
   if (!analyzed_) {

@@ -1,19 +1,27 @@
 // The direct library (CHOLMOD, MUMPS) against the simplicial factorization:
 // the same solutions and inertia on definite, indefinite and quasi-definite
-// tangents, the same static solves, and CHOLMOD's solves allocate nothing
-// once warm. Its own program: it replaces malloc to count allocations (the
+// tangents, the same static solves, CHOLMOD's solves allocate nothing once
+// warm, and the library's one-column BLAS products equal the matrix products. Its own program: it replaces malloc to count allocations (the
 // libraries are C and Fortran: operator new would not see them).
 #include "organsim/fem/direct_factorizations.h"
 
 #include <dlfcn.h>
+
+#include <cmath>
+#include <limits>
 
 #include <gtest/gtest.h>
 
 #include "organsim/fem/elasticity_system.h"
 #include "organsim/fem/static_solver.h"
 #include "organsim/fem/tet_mesh.h"
+#include "single_column_blas.h"
 
 extern "C" {
+void dgemm_(const char*, const char*, const int*, const int*, const int*, const double*, const double*, const int*,
+            const double*, const int*, const double*, double*, const int*);
+void dtrsm_(const char*, const char*, const char*, const char*, const int*, const int*, const double*, const double*,
+            const int*, double*, const int*);
 void* __libc_malloc(std::size_t);
 void* __libc_calloc(std::size_t, std::size_t);
 void* __libc_realloc(void*, std::size_t);
@@ -170,6 +178,80 @@ TEST(DirectFactorizations, CholmodSolvesAllocateNothingOnceWarm) {
   const long mumps_before = allocations;
   mumps->solve(rhs, x);
   EXPECT_GT(allocations, mumps_before);
+}
+
+using Matrix = Eigen::MatrixXd;
+
+/// op(M) for a BLAS transpose character.
+Matrix op(const char* trans, const Matrix& m) { return *trans == 'N' ? m : Matrix(m.transpose()); }
+
+TEST(SingleColumnBlas, OneRowOrColumnProductsEqualTheMatrixProducts) {
+  // Stored with leading dimensions larger than the rows (MUMPS's fronts are
+  // blocks of larger arrays), C filled with NaN where beta = 0 (GEMM must not
+  // read it then).
+  const int k = 7, ld = 11;
+  for (const char* transa : {"N", "T"})
+    for (const char* transb : {"N", "T"})
+      for (const double beta : {0.0, 0.5})
+        for (const bool one_column : {true, false}) {
+          const int m = one_column ? 5 : 1, n = one_column ? 1 : 6;
+          const Matrix a = Matrix::Random(*transa == 'N' ? m : k, *transa == 'N' ? k : m);
+          const Matrix b = Matrix::Random(*transb == 'N' ? k : n, *transb == 'N' ? n : k);
+          Matrix a_stored = Matrix::Zero(ld, a.cols()), b_stored = Matrix::Zero(ld, b.cols());
+          a_stored.topRows(a.rows()) = a;
+          b_stored.topRows(b.rows()) = b;
+          Matrix c_stored = Matrix::Constant(ld, n, 0.25);
+          if (beta == 0) c_stored.topRows(m).setConstant(std::numeric_limits<double>::quiet_NaN());
+          const Matrix c = c_stored.topRows(m);
+          const double alpha = -1.5;
+          const std::uint64_t routed = detail::single_column_blas_calls();
+          dgemm_(transa, transb, &m, &n, &k, &alpha, a_stored.data(), &ld, b_stored.data(), &ld, &beta,
+                 c_stored.data(), &ld);
+          const Matrix expected = alpha * op(transa, a) * op(transb, b) + (beta == 0 ? Matrix::Zero(m, n) : Matrix(beta * c));
+          EXPECT_LT((c_stored.topRows(m) - expected).cwiseAbs().maxCoeff(), 1e-14)
+              << transa << transb << " beta " << beta << (one_column ? " one column" : " one row");
+          EXPECT_EQ(detail::single_column_blas_calls(), routed + 1);
+          EXPECT_TRUE((c_stored.bottomRows(ld - m).array() == 0.25).all()) << "wrote past the rows of C";
+        }
+}
+
+TEST(SingleColumnBlas, OneRowOrColumnTriangularSolvesEqualTheMatrixSolves) {
+  const int size = 6, ld = 9;
+  for (const char* uplo : {"U", "L"})
+    for (const char* trans : {"N", "T"})
+      for (const char* diag : {"N", "U"})
+        for (const bool left : {true, false}) {
+          Matrix a_stored = Matrix::Random(ld, size);
+          a_stored.diagonal().array() += 4;  // well conditioned
+          Matrix a = a_stored.topRows(size);
+          a = *uplo == 'U' ? Matrix(a.triangularView<Eigen::Upper>()) : Matrix(a.triangularView<Eigen::Lower>());
+          if (*diag == 'U') a.diagonal().setOnes();  // the stored diagonal is not read
+          const int m = left ? size : 1, n = left ? 1 : size;
+          Matrix b_stored = Matrix::Random(left ? ld : 3, n);
+          const Matrix b = b_stored.topRows(m);
+          const int ldb = static_cast<int>(b_stored.rows());
+          const double alpha = 1;
+          const std::uint64_t routed = detail::single_column_blas_calls();
+          dtrsm_(left ? "L" : "R", uplo, trans, diag, &m, &n, &alpha, a_stored.data(), &ld, b_stored.data(), &ldb);
+          const Matrix x = b_stored.topRows(m);
+          const Matrix residual = left ? Matrix(op(trans, a) * x - b) : Matrix(x * op(trans, a) - b);
+          EXPECT_LT(residual.cwiseAbs().maxCoeff(), 1e-12) << uplo << trans << diag << (left ? " left" : " right");
+          EXPECT_EQ(detail::single_column_blas_calls(), routed + 1);
+        }
+}
+
+TEST(SingleColumnBlas, MumpsSolvesOneSystemWithTheMatrixVectorRoutines) {
+  std::size_t pressures = 0;
+  const SparseMatrix tangent = tangent_of(Material::mooney_rivlin_from_young(1e6, 0.49, 100), 0.05, pressures);
+  const auto mumps = make_mumps_factorization();
+  mumps->analyze(tangent);
+  ASSERT_TRUE(mumps->factorize(tangent));
+  const Eigen::VectorXd rhs = Eigen::VectorXd::Random(tangent.rows());
+  Eigen::VectorXd x(tangent.rows());
+  const std::uint64_t routed = detail::single_column_blas_calls();
+  mumps->solve(rhs, x);
+  EXPECT_GT(detail::single_column_blas_calls(), routed) << "the solve's GEMMs went to the packing GEMM";
+  EXPECT_LT((tangent * x - rhs).norm(), 1e-9 * rhs.norm() * tangent.norm());
 }
 
 }  // namespace

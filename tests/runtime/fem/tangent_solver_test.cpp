@@ -78,6 +78,21 @@ TEST(TangentSolver, GmresWithTheKeptFactorizationGivesTheCurrentTangentsSolution
   }
 }
 
+TEST(TangentSolver, ASystemThatNeedsFewerDigitsStopsGmresEarlier) {
+  Systems sys(0.03);
+  const Eigen::VectorXd exact = direct_solution(sys.stretched, sys.b);
+  int iterations[2] = {0, 0};
+  for (const int accurate : {0, 1}) {
+    TangentSolver solver(make_simplicial_factorization(), TangentSolverOptions{});
+    ASSERT_TRUE(solver.solve(sys.rest, sys.b, sys.x));
+    const double sufficient = accurate ? 0.0 : 1e-3;  // 0: the options' 1e-6
+    ASSERT_TRUE(solver.solve(sys.stretched, sys.b, sys.x, sufficient));
+    iterations[accurate] = solver.krylov_iterations();
+    EXPECT_LT((sys.x - exact).norm(), 10 * std::max(sufficient, TangentSolverOptions{}.krylov_tolerance) * exact.norm());
+  }
+  EXPECT_LT(iterations[0], iterations[1]);
+}
+
 TEST(TangentSolver, FactorizesWhenGmresMissesTheToleranceWithinItsBudget) {
   Systems sys(0.15);
   TangentSolverOptions options;

@@ -41,7 +41,13 @@ class TangentSolver {
   /// solution = tangent⁻¹ rhs. False when a tangent that had to be factorized
   /// could not be (singular, or not of the factorization's kind). The tangent's
   /// pattern must not change between calls. Allocates.
-  bool solve(const SparseMatrix& tangent, const Eigen::VectorXd& rhs, Eigen::VectorXd& solution);
+  ///
+  /// `sufficient_accuracy`: a relative residual that is enough for this system
+  /// (a Newton step close to the tolerance needs fewer digits); GMRES stops at
+  /// the larger of it and the options' krylov_tolerance. A fresh factorization
+  /// solves to its own precision.
+  bool solve(const SparseMatrix& tangent, const Eigen::VectorXd& rhs, Eigen::VectorXd& solution,
+             double sufficient_accuracy = 0);
 
   /// Factorize at the next solve (the kept factorization belongs to a state
   /// that was abandoned, e.g. a load step being cut).
@@ -57,7 +63,8 @@ class TangentSolver {
   const char* name() const noexcept { return factorization_->name(); }
 
  private:
-  bool krylov_solve(const SparseMatrix& tangent, const Eigen::VectorXd& rhs, Eigen::VectorXd& solution);
+  bool krylov_solve(const SparseMatrix& tangent, const Eigen::VectorXd& rhs, Eigen::VectorXd& solution,
+                    double tolerance);
 
   std::unique_ptr<Factorization> factorization_;
   TangentSolverOptions options_;
