@@ -85,31 +85,56 @@ double corotational(const Constitutive& m, const Matrix3d& F, Matrix3d& P, Matri
   return m.mu * (F - R).squaredNorm() + 0.5 * m.lambda * volumetric * volumetric;
 }
 
+/// What mooney_rivlin's energy, stress and tangent share at one F.
+struct MooneyRivlinKinematics {
+  double J, I1, I2, a, b;  ///< det F, the invariants of C, J^(−2/3), J^(−4/3)
+  Matrix3d G, C, FC;       ///< F⁻ᵀ, FᵀF, F C
+
+  explicit MooneyRivlinKinematics(const Matrix3d& F) noexcept
+      : J(F.determinant()), G(F.inverse().transpose()), C(F.transpose() * F), FC(F * C) {
+    I1 = C.trace();
+    I2 = 0.5 * (I1 * I1 - double_dot(C, C));
+    a = std::pow(J, -2.0 / 3.0);
+    b = a * a;
+  }
+};
+
+/// A = ∂P/∂F of mooney_rivlin's P, entry by entry: A(i + 3j, r + 3s) = ∂P_ij/∂F_rs.
+/// With G = F⁻ᵀ, B = FFᵀ, H = I₁F − FC and δ for the identity, the derivatives
+/// of P's parts in the direction of the unit matrix at (r, s) are
+///   ∂J/J = G_rs,  ∂G_ij = −G_is G_rj,  ∂I₁ = 2F_rs,  ∂I₂ = 2H_rs,
+///   ∂(FC)_ij = δ_ir C_sj + F_is F_rj + B_ir δ_sj;
+/// collected, every term is symmetric under (i, j) ↔ (r, s), so the lower
+/// triangle is computed and mirrored (the matrix is exactly symmetric).
+void mooney_rivlin_tangent(const Constitutive& m, const Matrix3d& F, const MooneyRivlinKinematics& k, double p,
+                           Matrix9d& A) noexcept {
+  const Matrix3d& G = k.G;
+  const Matrix3d B = F * F.transpose(), H = k.I1 * F - k.FC;
+  const double c1a = m.c1 * k.a, c2b = m.c2 * k.b, pJ = p * k.J;
+  for (int s = 0; s < 3; ++s)
+    for (int r = 0; r < 3; ++r)
+      for (int j = s; j < 3; ++j)
+        for (int i = j == s ? r : 0; i < 3; ++i) {
+          const double identity = i == r && j == s ? 1.0 : 0.0;
+          const double cross = G(i, s) * G(r, j), GG = G(r, s) * G(i, j);
+          const double first = 2 * identity - (4.0 / 3.0) * (F(r, s) * G(i, j) + G(r, s) * F(i, j)) +
+                               (4.0 / 9.0) * k.I1 * GG + (2.0 / 3.0) * k.I1 * cross;
+          const double second = 4 * F(r, s) * F(i, j) + 2 * k.I1 * identity - 2 * (i == r ? k.C(s, j) : 0.0) -
+                                 2 * F(i, s) * F(r, j) - 2 * (j == s ? B(i, r) : 0.0) -
+                                 (8.0 / 3.0) * (H(r, s) * G(i, j) + G(r, s) * H(i, j)) + (16.0 / 9.0) * k.I2 * GG +
+                                 (4.0 / 3.0) * k.I2 * cross;
+          A(i + 3 * j, r + 3 * s) = A(r + 3 * s, i + 3 * j) = c1a * first + c2b * second + pJ * (GG - cross);
+        }
+}
+
 double mooney_rivlin(const Constitutive& m, const Matrix3d& F, double p, Matrix3d& P, Matrix9d* tangent) noexcept {
-  const double J = F.determinant();
-  const Matrix3d F_inv_t = F.inverse().transpose();
-  const Matrix3d C = F.transpose() * F;
-  const double I1 = C.trace();
-  const double I2 = 0.5 * (I1 * I1 - double_dot(C, C));
-  const double a = std::pow(J, -2.0 / 3.0), b = a * a;  // J^(−2/3), J^(−4/3)
-  const Matrix3d FC = F * C;
+  const MooneyRivlinKinematics k(F);
   // ∂I₁/∂F = 2F, ∂I₂/∂F = 2 (I₁ F − F C), ∂J/∂F = J F⁻ᵀ.
-  const Matrix3d dW1 = 2 * F - (2.0 / 3.0) * I1 * F_inv_t;
-  const Matrix3d dW2 = 2 * (I1 * F - FC) - (4.0 / 3.0) * I2 * F_inv_t;
-  P = m.c1 * a * dW1 + m.c2 * b * dW2 + p * J * F_inv_t;
-  if (tangent)
-    fill_tangent(*tangent, [&](const Matrix3d& dF) -> Matrix3d {
-      const double t = double_dot(F_inv_t, dF);  // δJ / J = tr(F⁻¹ δF)
-      const Matrix3d dF_inv_t = -F_inv_t * dF.transpose() * F_inv_t;
-      const double dI1 = 2 * double_dot(F, dF);
-      const double dI2 = 2 * double_dot(I1 * F - FC, dF);
-      const Matrix3d dFC = dF * C + F * (dF.transpose() * F + F.transpose() * dF);
-      const Matrix3d d_dW1 = 2 * dF - (2.0 / 3.0) * (dI1 * F_inv_t + I1 * dF_inv_t);
-      const Matrix3d d_dW2 = 2 * (dI1 * F + I1 * dF - dFC) - (4.0 / 3.0) * (dI2 * F_inv_t + I2 * dF_inv_t);
-      return m.c1 * a * (d_dW1 - (2.0 / 3.0) * t * dW1) + m.c2 * b * (d_dW2 - (4.0 / 3.0) * t * dW2) +
-             p * J * (t * F_inv_t + dF_inv_t);
-    });
-  return m.c1 * (a * I1 - 3) + m.c2 * (b * I2 - 3) + p * (J - 1) - p * p / (2 * m.bulk_modulus);
+  const Matrix3d dW1 = 2 * F - (2.0 / 3.0) * k.I1 * k.G;
+  const Matrix3d dW2 = 2 * (k.I1 * F - k.FC) - (4.0 / 3.0) * k.I2 * k.G;
+  P = m.c1 * k.a * dW1 + m.c2 * k.b * dW2 + p * k.J * k.G;
+  if (tangent) mooney_rivlin_tangent(m, F, k, p, *tangent);
+  return m.c1 * (k.a * k.I1 - 3) + m.c2 * (k.b * k.I2 - 3) + p * (k.J - 1) - p * p / (2 * m.bulk_modulus);
 }
 
 }  // namespace

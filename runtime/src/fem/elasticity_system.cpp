@@ -205,14 +205,15 @@ std::int64_t ElasticitySystem::assemble(const Eigen::VectorXd& x, Eigen::VectorX
       gradient[static_cast<Eigen::Index>(3 * nodes + e)] += V * (J - 1 - pressure / material_.bulk_modulus);
     if (!tangent) continue;
 
-    // K_ab(i, j) = V Σ_kl A(i + 3k, j + 3l) g_a(k) g_b(l).
+    // K_ab(i, j) = V Σ_kl A(i + 3k, j + 3l) g_a(k) g_b(l); A is symmetric, so K_ba = K_abᵀ.
     for (int a = 0; a < 4; ++a) {
       Eigen::Matrix<double, 3, 9> contracted = Eigen::Matrix<double, 3, 9>::Zero();  // Σ_k g_a(k) A(i + 3k, ·)
       for (int k = 0; k < 3; ++k) contracted += g(a, k) * A.middleRows<3>(3 * k);
-      for (int b = 0; b < 4; ++b) {
+      for (int b = a; b < 4; ++b) {
         Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
         for (int l = 0; l < 3; ++l) block += g(b, l) * contracted.middleCols<3>(3 * l);
         K.block<3, 3>(3 * a, 3 * b) = V * block;
+        if (b != a) K.block<3, 3>(3 * b, 3 * a) = V * block.transpose();
       }
     }
     if (has_pressure()) {
