@@ -363,16 +363,21 @@ void MassSpring::accelerations(const Points& x, const Points& v, Points& a) noex
   // read-modify-write of memory that every next spring would wait for.
   constexpr std::size_t kBlock = 64;
   alignas(64) double dx[kBlock], dy[kBlock], dz[kBlock], dvx[kBlock], dvy[kBlock], dvz[kBlock];
-  const std::uint32_t* ends_a = force_a_.data();
-  const std::uint32_t* ends_b = force_b_.data();
+  // Local pointers: the stores into the sums could alias the vectors' own
+  // members as far as the compiler knows, which would reload them per spring.
+  const std::uint32_t* const ends_a = force_a_.data();
+  const std::uint32_t* const ends_b = force_b_.data();
+  const Eigen::Vector3d* const positions = x.data();
+  const Eigen::Vector3d* const velocities = v.data();
+  Eigen::Vector3d* const sums = spring_force_.data();
   std::uint32_t current = force_spring_count_ > 0 ? ends_a[0] : 0;
   Eigen::Vector3d current_sum = Eigen::Vector3d::Zero();
   for (std::size_t first = 0; first < force_spring_count_; first += kBlock) {
     const std::size_t count = std::min(kBlock, force_spring_count_ - first);
     for (std::size_t j = 0; j < count; ++j) {
       const std::uint32_t ia = ends_a[first + j], ib = ends_b[first + j];
-      const Eigen::Vector3d d = x[ia] - x[ib];
-      const Eigen::Vector3d dv = v[ia] - v[ib];
+      const Eigen::Vector3d d = positions[ia] - positions[ib];
+      const Eigen::Vector3d dv = velocities[ia] - velocities[ib];
       dx[j] = d.x(), dy[j] = d.y(), dz[j] = d.z();
       dvx[j] = dv.x(), dvy[j] = dv.y(), dvz[j] = dv.z();
     }
@@ -381,16 +386,16 @@ void MassSpring::accelerations(const Points& x, const Points& v, Points& a) noex
     for (std::size_t j = 0; j < count; ++j) {
       const std::uint32_t ia = ends_a[first + j];
       if (ia != current) {
-        spring_force_[current] += current_sum;
+        sums[current] += current_sum;
         current = ia;
         current_sum.setZero();
       }
       const Eigen::Vector3d f(dx[j], dy[j], dz[j]);
       current_sum -= f;
-      spring_force_[ends_b[first + j]] += f;
+      sums[ends_b[first + j]] += f;
     }
   }
-  if (force_spring_count_ > 0) spring_force_[current] += current_sum;
+  if (force_spring_count_ > 0) sums[current] += current_sum;
   const double c = options_.point_damping;
   for (std::size_t k = 0; k < integrated_count_; ++k) {
     const std::uint32_t i = integrated_nodes_[k];
@@ -529,21 +534,30 @@ StepStatus MassSpring::step() noexcept {
   const double h = options_.dt;
   const std::uint32_t* nodes = integrated_nodes_.data();
   const std::size_t count = integrated_count_;
+  // Local pointers: a store through one vector's data could alias another
+  // vector's members as far as the compiler knows (reloaded per node).
+  Eigen::Vector3d* const x = x_.data();
+  Eigen::Vector3d* const v = v_.data();
+  Eigen::Vector3d* const stage_x = stage_x_.data();
+  Eigen::Vector3d* const stage_v = stage_v_.data();
+  Eigen::Vector3d* const sum_x = sum_x_.data();
+  Eigen::Vector3d* const sum_v = sum_v_.data();
+  const Eigen::Vector3d* const accel = accel_.data();
   switch (options_.integrator) {
     case Integrator::explicit_euler:
       accelerations(x_, v_, accel_);
       for (std::size_t k = 0; k < count; ++k) {
         const std::uint32_t i = nodes[k];
-        x_[i] += h * v_[i];
-        v_[i] += h * accel_[i];
+        x[i] += h * v[i];
+        v[i] += h * accel[i];
       }
       break;
     case Integrator::symplectic_euler:
       accelerations(x_, v_, accel_);
       for (std::size_t k = 0; k < count; ++k) {
         const std::uint32_t i = nodes[k];
-        v_[i] += h * accel_[i];
-        x_[i] += h * v_[i];
+        v[i] += h * accel[i];
+        x[i] += h * v[i];
       }
       break;
     case Integrator::midpoint:
@@ -551,14 +565,14 @@ StepStatus MassSpring::step() noexcept {
       accelerations(x_, v_, accel_);
       for (std::size_t k = 0; k < count; ++k) {
         const std::uint32_t i = nodes[k];
-        stage_x_[i] = x_[i] + 0.5 * h * v_[i];
-        stage_v_[i] = v_[i] + 0.5 * h * accel_[i];
+        stage_x[i] = x[i] + 0.5 * h * v[i];
+        stage_v[i] = v[i] + 0.5 * h * accel[i];
       }
       accelerations(stage_x_, stage_v_, accel_);
       for (std::size_t k = 0; k < count; ++k) {
         const std::uint32_t i = nodes[k];
-        x_[i] += h * stage_v_[i];
-        v_[i] += h * accel_[i];
+        x[i] += h * stage_v[i];
+        v[i] += h * accel[i];
       }
       break;
     case Integrator::rk4:
@@ -566,28 +580,28 @@ StepStatus MassSpring::step() noexcept {
       accelerations(x_, v_, accel_);  // k1 = (v, a1)
       for (std::size_t k = 0; k < count; ++k) {
         const std::uint32_t i = nodes[k];
-        sum_x_[i] = v_[i];
-        sum_v_[i] = accel_[i];
-        stage_x_[i] = x_[i] + 0.5 * h * v_[i];
-        stage_v_[i] = v_[i] + 0.5 * h * accel_[i];
+        sum_x[i] = v[i];
+        sum_v[i] = accel[i];
+        stage_x[i] = x[i] + 0.5 * h * v[i];
+        stage_v[i] = v[i] + 0.5 * h * accel[i];
       }
       for (int stage = 2; stage <= 3; ++stage) {  // k2, k3
         accelerations(stage_x_, stage_v_, accel_);
         const double reach = stage == 2 ? 0.5 * h : h;
         for (std::size_t k = 0; k < count; ++k) {
           const std::uint32_t i = nodes[k];
-          const Eigen::Vector3d stage_velocity = stage_v_[i];
-          sum_x_[i] += 2.0 * stage_velocity;
-          sum_v_[i] += 2.0 * accel_[i];
-          stage_x_[i] = x_[i] + reach * stage_velocity;
-          stage_v_[i] = v_[i] + reach * accel_[i];
+          const Eigen::Vector3d stage_velocity = stage_v[i];
+          sum_x[i] += 2.0 * stage_velocity;
+          sum_v[i] += 2.0 * accel[i];
+          stage_x[i] = x[i] + reach * stage_velocity;
+          stage_v[i] = v[i] + reach * accel[i];
         }
       }
       accelerations(stage_x_, stage_v_, accel_);  // k4
       for (std::size_t k = 0; k < count; ++k) {
         const std::uint32_t i = nodes[k];
-        x_[i] += (h / 6.0) * (sum_x_[i] + stage_v_[i]);
-        v_[i] += (h / 6.0) * (sum_v_[i] + accel_[i]);
+        x[i] += (h / 6.0) * (sum_x[i] + stage_v[i]);
+        v[i] += (h / 6.0) * (sum_v[i] + accel[i]);
       }
       break;
     case Integrator::implicit_euler:
