@@ -76,7 +76,7 @@ bool held(int which, const TetMesh& mesh, std::size_t n) {
 std::unique_ptr<Factorization> factorization_for(int solver, const ElasticitySystem& system) {
   const MatrixKind kind = system.has_pressure() ? MatrixKind::quasi_definite : MatrixKind::positive_definite;
 #ifdef ORGANSIM_HAVE_FEM_DIRECT
-  if (solver == 1) return direct_factorization(kind, false);
+  if (solver == 1) return direct_factorization(kind, SolveUse::newton);
 #endif
   (void)kind;
   (void)solver;
@@ -192,8 +192,9 @@ StaticProblem press_problem() {
 }
 
 /// Time per Newton iteration of the press, without the ordering's one-time
-/// analysis. x_memory_limit: against reading the factor twice per solve (8
-/// bytes per entry: MUMPS keeps dense front panels) at the copy bandwidth.
+/// analysis. x_memory_limit: against reading the factor twice per solve at
+/// the copy bandwidth (MUMPS keeps dense front panels: 8 bytes per entry, 4
+/// for the single-precision factor GMRES refines).
 void PshPress(benchmark::State& state) {
   const StaticProblem problem = press_problem();
   SolverOptions options;
@@ -212,11 +213,12 @@ void PshPress(benchmark::State& state) {
   ElasticitySystem system(problem.mesh, problem.material, std::vector<bool>(3 * problem.mesh.nodes.size(), false));
   Eigen::VectorXd x = Eigen::VectorXd::Zero(system.dof_count()), gradient(system.dof_count());
   system.assemble(x, gradient, true);
-  const auto factorization = make_factorization(options.factorization, MatrixKind::quasi_definite, false);
+  const auto factorization = make_factorization(options.factorization, MatrixKind::quasi_definite, SolveUse::preconditioner);
   factorization->analyze(system.tangent_free());
   factorization->factorize(system.tangent_free());
   const double solves = solution.factorizations + solution.krylov_solves + solution.krylov_iterations;
-  const double bytes = 8.0 * 2.0 * static_cast<double>(factorization->factor_nonzeros()) * solves / iterations;
+  const double entry_bytes = factorization->exact() ? 8.0 : 4.0;
+  const double bytes = entry_bytes * 2.0 * static_cast<double>(factorization->factor_nonzeros()) * solves / iterations;
   state.counters["newton_iterations"] = iterations;
   state.counters["factorizations"] = solution.factorizations;
   state.counters["solves"] = solves;

@@ -73,9 +73,9 @@ class SimplicialFactorization final : public Factorization {
 
 std::unique_ptr<Factorization> make_simplicial_factorization() { return std::make_unique<SimplicialFactorization>(); }
 
-std::unique_ptr<Factorization> make_factorization(FactorizationFactory factory, MatrixKind kind, bool realtime_solve) {
+std::unique_ptr<Factorization> make_factorization(FactorizationFactory factory, MatrixKind kind, SolveUse use) {
   if (factory)
-    if (std::unique_ptr<Factorization> made = factory(kind, realtime_solve)) return made;
+    if (std::unique_ptr<Factorization> made = factory(kind, use)) return made;
   return make_simplicial_factorization();
 }
 

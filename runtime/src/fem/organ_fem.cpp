@@ -251,7 +251,8 @@ OrganFem::~OrganFem() = default;
 std::unique_ptr<OrganFem::Tangent> OrganFem::make_tangent(bool realtime_solve) const {
   const MatrixKind kind = system_->has_pressure() ? MatrixKind::quasi_definite : MatrixKind::positive_definite;
   return std::make_unique<Tangent>(system_->tangent_free(), contacts_.size(),
-                                   make_factorization(factorization_, kind, realtime_solve && realtime_solves_));
+                                   make_factorization(factorization_, kind,
+                                                      realtime_solve && realtime_solves_ ? SolveUse::realtime : SolveUse::newton));
 }
 
 const char* OrganFem::linear_solver() const noexcept {

@@ -35,7 +35,8 @@ class NewtonSolver {
         system_(problem.mesh, problem.material, constraint_mask(problem)),
         tangent_solver_(make_factorization(
                             options.factorization,
-                            system_.has_pressure() ? MatrixKind::quasi_definite : MatrixKind::positive_definite, false),
+                            system_.has_pressure() ? MatrixKind::quasi_definite : MatrixKind::positive_definite,
+                            SolveUse::preconditioner),
                         options.tangent) {
     out_.linear_solver = tangent_solver_.name();
     const Eigen::Index dofs = system_.dof_count(), displacement_dofs = static_cast<Eigen::Index>(3 * problem.mesh.nodes.size());

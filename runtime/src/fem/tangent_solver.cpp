@@ -38,17 +38,20 @@ class KeptFactorization {
   Factorization* factorization_ = nullptr;
 };
 
+/// GMRES iterations allowed to refine an approximate factorization's solve of its own tangent.
+constexpr int kRefinementIterations = 20;
+
 }  // namespace
 
 TangentSolver::TangentSolver(std::unique_ptr<Factorization> factorization, const TangentSolverOptions& options)
     : factorization_(std::move(factorization)), options_(options) {}
 
 bool TangentSolver::krylov_solve(const SparseMatrix& tangent, const Eigen::VectorXd& rhs, Eigen::VectorXd& solution,
-                                 double tolerance) {
+                                 double tolerance, int max_iterations, bool with_kept_factorization) {
   if (!tangent.isCompressed()) {
     SparseMatrix compressed = tangent;
     compressed.makeCompressed();
-    return krylov_solve(compressed, rhs, solution, tolerance);
+    return krylov_solve(compressed, rhs, solution, tolerance, max_iterations, with_kept_factorization);
   }
   // The tangent is symmetric with both triangles stored, so its compressed
   // columns are also its compressed rows: GMRES multiplies by rows, a dot
@@ -58,22 +61,23 @@ bool TangentSolver::krylov_solve(const SparseMatrix& tangent, const Eigen::Vecto
                                                  tangent.outerIndexPtr(), tangent.innerIndexPtr(), tangent.valuePtr());
   Eigen::GMRES<RowMajorMatrix, KeptFactorization> gmres;
   gmres.preconditioner().use(factorization_.get());
-  gmres.setMaxIterations(options_.max_krylov_iterations);
-  gmres.set_restart(options_.max_krylov_iterations);
+  gmres.setMaxIterations(max_iterations);
+  gmres.set_restart(max_iterations);
   gmres.setTolerance(tolerance);
   gmres.compute(by_rows);
   solution = gmres.solve(rhs);
   krylov_iterations_ += static_cast<int>(gmres.iterations());
   if (gmres.info() != Eigen::Success || !solution.allFinite()) return false;
-  ++krylov_solves_;
+  if (with_kept_factorization) ++krylov_solves_;
   if (gmres.iterations() > options_.refactorize_after) refactorize_next_ = true;
   return true;
 }
 
 bool TangentSolver::solve(const SparseMatrix& tangent, const Eigen::VectorXd& rhs, Eigen::VectorXd& solution,
                           double sufficient_accuracy) {
+  const double tolerance = std::max(sufficient_accuracy, options_.krylov_tolerance);
   if (factorized_ && !refactorize_next_ && options_.max_krylov_iterations > 0 &&
-      krylov_solve(tangent, rhs, solution, std::max(sufficient_accuracy, options_.krylov_tolerance)))
+      krylov_solve(tangent, rhs, solution, tolerance, options_.max_krylov_iterations, true))
     return true;
   refactorize_next_ = false;
   if (!analyzed_) {
@@ -85,6 +89,12 @@ bool TangentSolver::solve(const SparseMatrix& tangent, const Eigen::VectorXd& rh
   ++factorizations_;
   factorized_ = factorization_->factorize(tangent);
   if (!factorized_) return false;
+  if (!factorization_->exact()) {
+    // The tangent's own approximate factor: GMRES refines its answer in a
+    // few iterations (whatever the budget for kept factorizations).
+    return krylov_solve(tangent, rhs, solution, tolerance, std::max(options_.max_krylov_iterations, kRefinementIterations),
+                        false);
+  }
   solution.resize(rhs.size());
   factorization_->solve(rhs, solution);
   return true;

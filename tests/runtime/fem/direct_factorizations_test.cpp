@@ -14,6 +14,7 @@
 
 #include "organsim/fem/elasticity_system.h"
 #include "organsim/fem/static_solver.h"
+#include "organsim/fem/tangent_solver.h"
 #include "organsim/fem/tet_mesh.h"
 #include "single_column_blas.h"
 
@@ -121,10 +122,14 @@ TEST(DirectFactorizations, CholmodRefusesAnIndefiniteMatrixAndMumpsCountsItsNega
   EXPECT_LT((m * x - Eigen::Vector3d(1, 2, 3)).norm(), 1e-12);
 }
 
-TEST(DirectFactorizations, TheFactoryGivesRealTimeSolvesOnlyWhereItCan) {
-  EXPECT_EQ(direct_factorization(MatrixKind::quasi_definite, true), nullptr);
-  EXPECT_TRUE(direct_factorization(MatrixKind::positive_definite, true)->realtime_solve());
-  EXPECT_FALSE(direct_factorization(MatrixKind::quasi_definite, false)->realtime_solve());
+TEST(DirectFactorizations, TheFactoryGivesRealTimeSolvesOnlyWhereItCanAndApproximationsOnlyToGmres) {
+  EXPECT_EQ(direct_factorization(MatrixKind::quasi_definite, SolveUse::realtime), nullptr);
+  EXPECT_TRUE(direct_factorization(MatrixKind::positive_definite, SolveUse::realtime)->realtime_solve());
+  for (const MatrixKind kind : {MatrixKind::positive_definite, MatrixKind::quasi_definite}) {
+    EXPECT_FALSE(direct_factorization(kind, SolveUse::newton)->realtime_solve());
+    EXPECT_TRUE(direct_factorization(kind, SolveUse::newton)->exact());
+  }
+  EXPECT_FALSE(direct_factorization(MatrixKind::quasi_definite, SolveUse::preconditioner)->exact());
 }
 
 TEST(DirectFactorizations, StaticSolvesEqualTheSimplicialOnes) {
@@ -144,11 +149,38 @@ TEST(DirectFactorizations, StaticSolvesEqualTheSimplicialOnes) {
     options.factorization = &direct_factorization;
     const StaticSolution direct = solve_static(problem, options);
     ASSERT_TRUE(simplicial.converged && direct.converged) << direct.error;
-    EXPECT_EQ(direct.linear_solver, make_mumps_factorization()->name());
+    const bool saddle = material.model == MaterialModel::mooney_rivlin;
+    EXPECT_EQ(direct.linear_solver,
+              (saddle ? make_single_precision_mumps_factorization() : make_mumps_factorization())->name());
     EXPECT_GT(direct.displacements.cwiseAbs().maxCoeff(), 1e-4);
     EXPECT_LT((direct.displacements - simplicial.displacements).cwiseAbs().maxCoeff(),
               1e-8 * simplicial.displacements.cwiseAbs().maxCoeff());
   }
+}
+
+TEST(DirectFactorizations, SinglePrecisionMumpsIsAPreconditionerThatGmresRefines) {
+  std::size_t pressures = 0;
+  const SparseMatrix m = tangent_of(Material::mooney_rivlin_from_young(5000, 0.49, 100), 0.005, pressures);
+  const auto single = make_single_precision_mumps_factorization();
+  EXPECT_FALSE(single->exact());
+  EXPECT_TRUE(make_mumps_factorization()->exact());
+  single->analyze(m);
+  ASSERT_TRUE(single->factorize(m));
+  EXPECT_EQ(single->negative_pivots(), static_cast<Eigen::Index>(pressures));  // the same inertia
+  const Eigen::VectorXd rhs = Eigen::VectorXd::LinSpaced(m.rows(), -1.0, 2.0);
+  const Eigen::VectorXd exact = solve_with(*make_mumps_factorization(), m, rhs);
+  Eigen::VectorXd x(m.rows());
+  const std::uint64_t routed = detail::single_column_blas_calls();
+  single->solve(rhs, x);
+  EXPECT_GT(detail::single_column_blas_calls(), routed) << "single precision's one-column GEMMs were packed";
+  const double error = (x - exact).norm() / exact.norm();
+  EXPECT_LT(error, 1e-2) << "a useful preconditioner";
+  EXPECT_GT(error, 1e-12) << "single precision cannot be this close";
+  TangentSolver solver(make_single_precision_mumps_factorization(), TangentSolverOptions{});
+  ASSERT_TRUE(solver.solve(m, rhs, x));
+  EXPECT_EQ(solver.factorizations(), 1);
+  EXPECT_GE(solver.krylov_iterations(), 1);  // the fresh factor's answer, refined
+  EXPECT_LT((x - exact).norm(), 10 * TangentSolverOptions{}.krylov_tolerance * exact.norm());
 }
 
 TEST(DirectFactorizations, CholmodSolvesAllocateNothingOnceWarm) {

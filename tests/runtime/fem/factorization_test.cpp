@@ -70,10 +70,10 @@ TEST(Factorization, SimplicialRefusesTheTangentOfABodyNotHeld) {
 }
 
 TEST(Factorization, MakeFactorizationFallsBackToSimplicial) {
-  const FactorizationFactory none = [](MatrixKind, bool) -> std::unique_ptr<Factorization> { return nullptr; };
-  EXPECT_STREQ(make_factorization(none, MatrixKind::quasi_definite, true)->name(),
+  const FactorizationFactory none = [](MatrixKind, SolveUse) -> std::unique_ptr<Factorization> { return nullptr; };
+  EXPECT_STREQ(make_factorization(none, MatrixKind::quasi_definite, SolveUse::realtime)->name(),
                make_simplicial_factorization()->name());
-  EXPECT_STREQ(make_factorization(nullptr, MatrixKind::positive_definite, false)->name(),
+  EXPECT_STREQ(make_factorization(nullptr, MatrixKind::positive_definite, SolveUse::newton)->name(),
                make_simplicial_factorization()->name());
 }
 

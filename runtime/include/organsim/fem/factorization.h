@@ -54,6 +54,10 @@ class Factorization {
   virtual void solve3(const Eigen::Ref<const Eigen::MatrixX3d>& rhs, Eigen::Ref<Eigen::MatrixX3d> solution) noexcept {
     for (Eigen::Index k = 0; k < 3; ++k) solve(rhs.col(k), solution.col(k));
   }
+  /// False when solve() gives an approximation of matrix⁻¹ rhs (a factor kept
+  /// in single precision, say): a preconditioner that GMRES refines
+  /// (tangent_solver.h), not a solver.
+  virtual bool exact() const noexcept { return true; }
   /// True when solve() and solve3() allocate nothing, takes no lock and does no I/O once
   /// it has run once after a factorize(): what a real-time loop may call.
   virtual bool realtime_solve() const noexcept = 0;
@@ -63,16 +67,23 @@ class Factorization {
   virtual const char* name() const noexcept = 0;
 };
 
-/// Makes a factorization for matrices of `kind`; with `realtime_solve`, one
-/// whose solve() a real-time loop may call. Returns null when it has none
-/// that fits (the caller then uses the simplicial one).
-using FactorizationFactory = std::unique_ptr<Factorization> (*)(MatrixKind kind, bool realtime_solve);
+/// What a factorization's solves are for.
+enum class SolveUse : std::uint8_t {
+  newton,          ///< exact solves (Newton steps), outside real-time loops
+  preconditioner,  ///< approximate solves serve: GMRES refines them (tangent_solver.h)
+  realtime,        ///< exact solves a real-time loop may call (realtime_solve())
+};
+
+/// Makes a factorization for matrices of `kind` whose solves serve `use`.
+/// Returns null when it has none that fits (the caller then uses the
+/// simplicial one).
+using FactorizationFactory = std::unique_ptr<Factorization> (*)(MatrixKind kind, SolveUse use);
 
 /// Eigen's SimplicialLDLT with AMD ordering: every kind, real-time solves.
 std::unique_ptr<Factorization> make_simplicial_factorization();
 
 /// `factory`'s factorization for `kind`, or the simplicial one when the
 /// factory is null or has none that fits.
-std::unique_ptr<Factorization> make_factorization(FactorizationFactory factory, MatrixKind kind, bool realtime_solve);
+std::unique_ptr<Factorization> make_factorization(FactorizationFactory factory, MatrixKind kind, SolveUse use);
 
 }  // namespace organsim::fem

@@ -11,6 +11,11 @@
 // method). When GMRES needs more than half its iteration budget the next
 // system is factorized afresh; when it misses the tolerance within the budget,
 // this one is.
+//
+// A factorization whose solves are approximate (exact() false: MUMPS's single
+// precision factor, for PSH's Newton systems) is refined the same way on its
+// own tangent right after it is made, so every system is solved to the same
+// tolerance whichever factorization is used.
 #pragma once
 
 #include <memory>
@@ -55,7 +60,8 @@ class TangentSolver {
 
   int factorizations() const noexcept { return factorizations_; }
   /// Solves done by GMRES with a kept factorization, and the GMRES iterations
-  /// run (those of attempts that ended in a factorization included).
+  /// run (those of attempts that ended in a factorization, and those refining
+  /// an approximate factorization's solve of its own tangent, included).
   int krylov_solves() const noexcept { return krylov_solves_; }
   int krylov_iterations() const noexcept { return krylov_iterations_; }
   /// Seconds spent ordering and analyzing the pattern (once; for reports).
@@ -64,7 +70,7 @@ class TangentSolver {
 
  private:
   bool krylov_solve(const SparseMatrix& tangent, const Eigen::VectorXd& rhs, Eigen::VectorXd& solution,
-                    double tolerance);
+                    double tolerance, int max_iterations, bool with_kept_factorization);
 
   std::unique_ptr<Factorization> factorization_;
   TangentSolverOptions options_;
