@@ -184,27 +184,48 @@ model::BeamSection organ_section(const MaskSampler& sampler, const model::Point3
   // The fine pass covers the coarse extent only; samples outside it count as
   // outside. Buffers are reused per thread: a bake calls this 100,000 times.
   const std::size_t width = static_cast<std::size_t>(hi_i - lo_i + 1), height = static_cast<std::size_t>(hi_j - lo_j + 1);
-  thread_local std::vector<std::uint8_t> inside;
+  constexpr std::uint8_t kUnknown = 0, kOutside = 1, kInside = 2, kTaken = 3;
+  thread_local std::vector<std::uint8_t> state;
   thread_local std::vector<std::size_t> stack;
-  inside.assign(width * height, 0);
-  for (std::size_t j = 0; j < height; ++j)
-    for (std::size_t i = 0; i < width; ++i)
-      inside[j * width + i] = inside_at(static_cast<unsigned>(lo_i + static_cast<long>(i)),
-                                        static_cast<unsigned>(lo_j + static_cast<long>(j)));
-  // The connected piece containing the axis point, or the piece nearest to it.
-  std::size_t start = inside.size();
+  state.assign(width * height, kUnknown);
+  const auto sampled = [&](std::size_t at) {
+    if (state[at] == kUnknown)
+      state[at] = inside_at(static_cast<unsigned>(lo_i + static_cast<long>(at % width)),
+                            static_cast<unsigned>(lo_j + static_cast<long>(at / width)))
+                      ? kInside
+                      : kOutside;
+    return state[at];
+  };
+  // The connected piece containing the axis point, or the piece nearest to it:
+  // its start is the inside cell whose centre is nearest to the axis point
+  // (the first in row order among equals). The nearest of all cells is one of
+  // the four around the axis point; when it is inside it is the start, and
+  // only the piece and its rim are sampled. Otherwise every cell of the
+  // extent is.
+  const auto distance2 = [&](std::size_t at) {
+    const auto [y, z] = local(static_cast<unsigned>(lo_i + static_cast<long>(at % width)),
+                              static_cast<unsigned>(lo_j + static_cast<long>(at / width)));
+    return y * y + z * z;
+  };
+  std::size_t start = state.size(), nearest_cell = state.size();
   double nearest = std::numeric_limits<double>::infinity();
-  for (std::size_t j = 0; j < height; ++j)
-    for (std::size_t i = 0; i < width; ++i)
-      if (inside[j * width + i]) {
-        const auto [y, z] = local(static_cast<unsigned>(lo_i + static_cast<long>(i)),
-                                  static_cast<unsigned>(lo_j + static_cast<long>(j)));
-        const double d = y * y + z * z;
-        if (d < nearest) nearest = d, start = j * width + i;
+  const long below_i = static_cast<long>(std::floor(axis_i)), below_j = static_cast<long>(std::floor(axis_j));
+  for (long j = below_j; j <= below_j + 1; ++j)
+    for (long i = below_i; i <= below_i + 1; ++i)
+      if (i >= lo_i && i <= hi_i && j >= lo_j && j <= hi_j) {
+        const std::size_t at = static_cast<std::size_t>(j - lo_j) * width + static_cast<std::size_t>(i - lo_i);
+        if (const double d = distance2(at); d < nearest) nearest = d, nearest_cell = at;
       }
-  if (start == inside.size()) return section;
+  if (nearest_cell < state.size() && sampled(nearest_cell) == kInside) start = nearest_cell;
+  if (start == state.size()) {
+    nearest = std::numeric_limits<double>::infinity();
+    for (std::size_t at = 0; at < state.size(); ++at)
+      if (sampled(at) == kInside)
+        if (const double d = distance2(at); d < nearest) nearest = d, start = at;
+  }
+  if (start == state.size()) return section;
   stack.assign(1, start);
-  inside[start] = 2;
+  state[start] = kTaken;
   double count = 0, sy = 0, sz = 0, syy = 0, szz = 0, syz = 0;
   while (!stack.empty()) {
     const std::size_t at = stack.back();
@@ -217,7 +238,7 @@ model::BeamSection organ_section(const MaskSampler& sampler, const model::Point3
     const std::size_t neighbours[4] = {i > 0 ? at - 1 : at, i + 1 < width ? at + 1 : at, j > 0 ? at - width : at,
                                        j + 1 < height ? at + width : at};
     for (std::size_t next : neighbours)
-      if (inside[next] == 1) inside[next] = 2, stack.push_back(next);
+      if (sampled(next) == kInside) state[next] = kTaken, stack.push_back(next);
   }
   const double cell = h * h;
   section.area = count * cell;
