@@ -9,9 +9,9 @@
 // LDLᵀ, 1 the direct library's (CHOLMOD / MUMPS; built with it only). The
 // "nnz(L)" counter is the factor's size, which sets the solve's memory traffic
 // (16 bytes per entry: value and index). PshPress (with a baked model) is
-// issue 16's figure: the static press of the model's top 10 % down with PSH
-// (β = 100), 10 load steps, solved as `organsim fem` solves it (kept
-// factorization and GMRES), timed per Newton iteration.
+// issue 16's figure: fem_paper's press of the model's top (top_press_problem)
+// with PSH (E = 1 MPa, ν = 0.49, β = 100), solved as `organsim fem` solves it
+// (kept factorization and GMRES), timed per Newton iteration.
 #include <cstdlib>
 #include <memory>
 #include <stdexcept>
@@ -169,34 +169,13 @@ void NewtonIteration(benchmark::State& state) {
   state.SetLabel(factorization->name());
 }
 
-/// The baked model's tetrahedra, held within 10 mm of the fixed point, the
-/// nodes within 10 mm of the topmost one pressed down 10 % of the height
-/// (fem_paper's liver press); PSH, E = 1 MPa, ν = 0.49, β = 100.
-StaticProblem press_problem() {
-  StaticProblem p;
-  p.mesh = baked_mesh().mesh;
-  p.material = Material::mooney_rivlin_from_young(1e6, 0.49, 100);
-  p.load_steps = 10;
-  std::size_t top = 0;
-  for (std::size_t n = 0; n < p.mesh.nodes.size(); ++n)
-    if (p.mesh.nodes[n].z() > p.mesh.nodes[top].z()) top = n;
-  const double press = 0.1 * bounding_box_size(p.mesh.nodes).z();
-  for (std::size_t n = 0; n < p.mesh.nodes.size(); ++n) {
-    const auto node = static_cast<std::int32_t>(n);
-    if ((p.mesh.nodes[n] - baked_mesh().fixed_point).norm() < 0.010)
-      p.fixed.push_back(node);
-    else if ((p.mesh.nodes[n] - p.mesh.nodes[top]).norm() < 0.010)
-      p.prescribed.push_back({node, 2, -press});
-  }
-  return p;
-}
-
 /// Time per Newton iteration of the press, without the ordering's one-time
 /// analysis. x_memory_limit: against reading the factor twice per solve at
 /// the copy bandwidth (MUMPS keeps dense front panels: 8 bytes per entry, 4
 /// for the single-precision factor GMRES refines).
 void PshPress(benchmark::State& state) {
-  const StaticProblem problem = press_problem();
+  const StaticProblem problem =
+      top_press_problem(baked_mesh().mesh, baked_mesh().fixed_point, Material::mooney_rivlin_from_young(1e6, 0.49, 100));
   SolverOptions options;
 #ifdef ORGANSIM_HAVE_FEM_DIRECT
   options.factorization = direct_factorization;

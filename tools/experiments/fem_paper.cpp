@@ -26,6 +26,7 @@
 #include <iostream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/SparseCholesky>
@@ -179,28 +180,13 @@ double pressure_oscillation(const StaticProblem& p, const StaticSolution& s) {
 }
 
 StaticProblem liver_problem(const model::OrganModel& organ, const Material& material) {
-  StaticProblem p;
-  for (const auto& v : organ.volume_vertices) p.mesh.nodes.emplace_back(v[0], v[1], v[2]);
+  TetMesh mesh;
+  for (const auto& v : organ.volume_vertices) mesh.nodes.emplace_back(v[0], v[1], v[2]);
   for (const auto& t : organ.tetrahedra)
-    p.mesh.tetrahedra.push_back({static_cast<std::int32_t>(t[0]), static_cast<std::int32_t>(t[1]),
-                                 static_cast<std::int32_t>(t[2]), static_cast<std::int32_t>(t[3])});
-  p.material = material;
-  p.load_steps = material.model == MaterialModel::linear ? 1 : 10;
-  // Held like the beam model: the nodes within 10 mm of the fixed point. Pressed:
-  // the nodes within 10 mm of the topmost node, moved 10 % of the height down.
+    mesh.tetrahedra.push_back({static_cast<std::int32_t>(t[0]), static_cast<std::int32_t>(t[1]),
+                               static_cast<std::int32_t>(t[2]), static_cast<std::int32_t>(t[3])});
   const Eigen::Vector3d fixed_point(organ.fixed_points[0][0], organ.fixed_points[0][1], organ.fixed_points[0][2]);
-  std::size_t top = 0;
-  for (std::size_t n = 0; n < p.mesh.nodes.size(); ++n)
-    if (p.mesh.nodes[n].z() > p.mesh.nodes[top].z()) top = n;
-  const double press = 0.1 * bounding_box_size(p.mesh.nodes).z();
-  for (std::size_t n = 0; n < p.mesh.nodes.size(); ++n) {
-    const auto node = static_cast<std::int32_t>(n);
-    if ((p.mesh.nodes[n] - fixed_point).norm() < 0.010)
-      p.fixed.push_back(node);
-    else if ((p.mesh.nodes[n] - p.mesh.nodes[top]).norm() < 0.010)
-      p.prescribed.push_back({node, 2, -press});
-  }
-  return p;
+  return top_press_problem(std::move(mesh), fixed_point, material);
 }
 
 /// The deformed mesh (mm) as a panel of a field view, coloured by `values`

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "organsim/fem/elasticity_system.h"
 
@@ -273,6 +274,26 @@ void validate(const StaticProblem& problem) {
   require(problem.load_steps >= 1 && problem.load_steps <= 100000, "load_steps: must be between 1 and 100000");
   require(std::isfinite(problem.tolerance) && problem.tolerance > 0 && problem.tolerance < 1,
           "tolerance: must be in (0, 1)");
+}
+
+StaticProblem top_press_problem(TetMesh mesh, const Eigen::Vector3d& fixed_point, const Material& material) {
+  constexpr double kReach = 0.010;  // m
+  StaticProblem p;
+  p.mesh = std::move(mesh);
+  p.material = material;
+  p.load_steps = material.model == MaterialModel::linear ? 1 : 10;
+  std::size_t top = 0;
+  for (std::size_t n = 0; n < p.mesh.nodes.size(); ++n)
+    if (p.mesh.nodes[n].z() > p.mesh.nodes[top].z()) top = n;
+  const double press = 0.1 * bounding_box_size(p.mesh.nodes).z();
+  for (std::size_t n = 0; n < p.mesh.nodes.size(); ++n) {
+    const auto node = static_cast<std::int32_t>(n);
+    if ((p.mesh.nodes[n] - fixed_point).norm() < kReach)
+      p.fixed.push_back(node);
+    else if ((p.mesh.nodes[n] - p.mesh.nodes[top]).norm() < kReach)
+      p.prescribed.push_back({node, 2, -press});
+  }
+  return p;
 }
 
 StaticSolution solve_static(const StaticProblem& problem, const SolverOptions& options) {

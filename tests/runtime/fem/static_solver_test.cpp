@@ -283,3 +283,30 @@ TEST(StaticSolver, ValidationNamesTheField) {
 
 }  // namespace
 }  // namespace organsim::fem
+
+namespace organsim::fem {
+namespace {
+
+TEST(StaticSolver, TopPressHoldsTheNodesNearTheFixedPointAndPressesTheTopDown) {
+  const TetMesh mesh = box_mesh({8, 8, 10}, {0.04, 0.04, 0.05});
+  const Eigen::Vector3d held(0.02, 0.02, 0.0);  // the middle of the bottom face
+  const StaticProblem p = top_press_problem(mesh, held, Material::mooney_rivlin_from_young(1e5, 0.49, 100));
+  EXPECT_EQ(p.load_steps, 10);
+  EXPECT_EQ(top_press_problem(mesh, held, Material::from_young(MaterialModel::linear, 1e5, 0.45)).load_steps, 1);
+  ASSERT_FALSE(p.fixed.empty());
+  ASSERT_FALSE(p.prescribed.empty());
+  for (const std::int32_t n : p.fixed) EXPECT_LT((mesh.nodes[static_cast<std::size_t>(n)] - held).norm(), 0.010);
+  for (const PrescribedDisplacement& d : p.prescribed) {
+    EXPECT_EQ(d.component, 2);
+    EXPECT_DOUBLE_EQ(d.value, -0.005);  // 10 % of the 50 mm height
+    EXPECT_GT(mesh.nodes[static_cast<std::size_t>(d.node)].z(), 0.05 - 0.010 - 1e-12);
+  }
+  EXPECT_NO_THROW(validate(p));  // no node both held and pressed
+  const StaticSolution linear =
+      solve_static(top_press_problem(mesh, held, Material::from_young(MaterialModel::linear, 1e5, 0.45)));
+  ASSERT_TRUE(linear.converged) << linear.error;
+  EXPECT_LT(linear.reaction_prescribed.z(), 0) << "the body pushes back against the press";
+}
+
+}  // namespace
+}  // namespace organsim::fem

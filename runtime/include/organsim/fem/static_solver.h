@@ -96,6 +96,13 @@ struct StaticSolution {
   std::string linear_solver;                  ///< the factorization's name
 };
 
+/// The press the FEM experiments and benchmarks apply to an organ's
+/// tetrahedra (fem_paper, fem_bench PshPress): the nodes within 10 mm of
+/// `fixed_point` held (as the beam model is clamped), those within 10 mm of the
+/// topmost node moved down by 10 % of the mesh's height, in 10 load steps (one
+/// for the linear material).
+StaticProblem top_press_problem(TetMesh mesh, const Eigen::Vector3d& fixed_point, const Material& material);
+
 /// Validates and solves `problem`. Errors of the input throw
 /// std::invalid_argument; a solve that fails returns converged = false with
 /// `error` set and the last converged state.
