@@ -68,8 +68,12 @@ bool TangentSolver::krylov_solve(const SparseMatrix& tangent, const Eigen::Vecto
   solution = gmres.solve(rhs);
   krylov_iterations_ += static_cast<int>(gmres.iterations());
   if (gmres.info() != Eigen::Success || !solution.allFinite()) return false;
-  if (with_kept_factorization) ++krylov_solves_;
-  if (gmres.iterations() > options_.refactorize_after) refactorize_next_ = true;
+  // Many iterations with a kept factorization: it has drifted from the
+  // tangents (refining a fresh factor's own solve says nothing of the kind).
+  if (with_kept_factorization) {
+    ++krylov_solves_;
+    if (gmres.iterations() > options_.refactorize_after) refactorize_next_ = true;
+  }
   return true;
 }
 
