@@ -257,6 +257,7 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
     return meshed;
   });
   report.tetrahedra = measure_quality(tetrahedra);
+  report.tetrahedra_warnings = tetrahedra_quality_warnings(report.tetrahedra);
   report.volume_vertices = tetrahedra.vertices.size();
   report.tetrahedra_volume_ml = report.tetrahedra.total_volume_m3 * kMillilitresPerCubicMetre;
 

@@ -384,6 +384,74 @@ MaskImage::Pointer onto_ct_grid(const MaskImage& working, const CtImage& ct) {
   return result;
 }
 
+
+/// The dents of `organ` that lesions and vessels at its surface leave: what a
+/// closing by the lesion radius adds within the lesion and vessel HU range, by
+/// connected pieces. A piece joins the organ when the organ encloses it (that
+/// fraction of its border faces touch the organ) and most of it lies outside
+/// the organ's HU window (a piece of tissue inside the window was cut off on
+/// purpose, by leak control or a background seed). A gallbladder or a
+/// bowel loop in a fossa borders the organ on one side only.
+MaskImage::Pointer with_enclosed_dents(const MaskImage& organ, const FloatImage& image, const MaskImage& window,
+                                       const MaskImage& claimed_by_background, const SeededSegmentationOptions& o) {
+  const MaskImage::Pointer closed = erode(*dilate(organ, o.lesion_radius_mm), o.lesion_radius_mm);
+  const MaskImage::Pointer tissue = threshold(image, o.lesion_low_hu, o.vessel_high_hu);
+  auto candidates = MaskImage::New();
+  candidates->CopyInformation(&organ);
+  candidates->SetRegions(organ.GetLargestPossibleRegion());
+  candidates->Allocate();
+  const std::size_t n = organ.GetLargestPossibleRegion().GetNumberOfPixels();
+  {
+    const std::uint8_t *in_organ = organ.GetBufferPointer(), *in_closed = closed->GetBufferPointer(),
+                       *in_tissue = tissue->GetBufferPointer(), *claimed = claimed_by_background.GetBufferPointer();
+    std::uint8_t* c = candidates->GetBufferPointer();
+    for (std::size_t i = 0; i < n; ++i) c[i] = in_closed[i] && !in_organ[i] && in_tissue[i] && !claimed[i];
+  }
+  const LabelImage::Pointer labels = components(*candidates);
+  const std::uint32_t* label = labels->GetBufferPointer();
+  const std::uint8_t* in_organ = organ.GetBufferPointer();
+  const std::uint8_t* in_window = window.GetBufferPointer();
+  std::vector<std::size_t> touching_organ, border, voxels, window_voxels;
+  const auto size = organ.GetLargestPossibleRegion().GetSize();
+  const long nx = static_cast<long>(size[0]), ny = static_cast<long>(size[1]), nz = static_cast<long>(size[2]);
+  const long stride[3] = {1, nx, nx * ny};
+  for (long k = 0; k < nz; ++k)
+    for (long j = 0; j < ny; ++j)
+      for (long i = 0; i < nx; ++i) {
+        const long at = (k * ny + j) * nx + i;
+        const std::uint32_t l = label[at];
+        if (l == 0) continue;
+        if (l >= border.size())
+          border.resize(l + 1, 0), touching_organ.resize(l + 1, 0), voxels.resize(l + 1, 0), window_voxels.resize(l + 1, 0);
+        ++voxels[l];
+        window_voxels[l] += in_window[at] != 0;
+        const long index[3] = {i, j, k}, extent[3] = {nx, ny, nz};
+        for (int axis = 0; axis < 3; ++axis)
+          for (const long step : {-1L, 1L}) {
+            const long next = index[axis] + step;
+            if (next < 0 || next >= extent[axis]) {
+              ++border[l];
+              continue;
+            }
+            const long neighbour = at + step * stride[axis];
+            if (label[neighbour] == l) continue;
+            ++border[l];
+            touching_organ[l] += in_organ[neighbour] != 0;
+          }
+      }
+  auto result = MaskImage::New();
+  result->CopyInformation(&organ);
+  result->SetRegions(organ.GetLargestPossibleRegion());
+  result->Allocate();
+  std::uint8_t* to = result->GetBufferPointer();
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint32_t l = label[i];
+    to[i] = in_organ[i] ||
+            (l != 0 && static_cast<double>(touching_organ[l]) >= o.lesion_enclosure * static_cast<double>(border[l]) &&
+             2 * window_voxels[l] < voxels[l]);
+  }
+  return result;
+}
 }  // namespace
 
 std::pair<std::size_t, std::size_t> border_and_organ_slices(const MaskImage& mask) {
@@ -427,8 +495,8 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
   if (o.hu_window && !(o.hu_window->first < o.hu_window->second))
     throw std::runtime_error(fmt::format("HU window {},{} is empty; give LOW,HIGH with LOW < HIGH", o.hu_window->first,
                                          o.hu_window->second));
-  if (!(o.opening_radius_mm >= 0.0 && o.reach_mm >= 0.0 && o.closing_radius_mm >= 0.0 && o.seed_radius_mm > 0.0 &&
-        o.window_sigmas_below > 0.0 && o.window_sigmas_above > 0.0 && o.working_spacing_mm >= 0.0 && o.smoothing_iterations >= 0))
+  if (!(o.opening_radius_mm >= 0.0 && o.reach_mm >= 0.0 && o.closing_radius_mm >= 0.0 && o.lesion_radius_mm >= 0.0 && o.seed_radius_mm > 0.0 &&
+        o.window_sigmas_below > 0.0 && o.window_sigmas_above > 0.0 && o.discovery_sigmas_above > 0.0 && o.working_spacing_mm >= 0.0 && o.smoothing_iterations >= 0))
     throw std::runtime_error("segmentation radii, the window width and the working spacing must be non-negative");
 
   SeededSegmentation result;
@@ -495,15 +563,19 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
   report.seed_median_hu = statistics.median;
   report.seed_sigma_hu = statistics.sigma;
   report.window_given = o.hu_window.has_value();
-  const auto window_from = [&](const RobustStatistics& st) {
+  const auto window_from = [&](const RobustStatistics& st, double sigmas_above) {
     const double sigma = std::max(st.sigma, o.minimum_sigma_hu);
     report.hu_low = st.median - o.window_sigmas_below * sigma;
-    report.hu_high = st.median + o.window_sigmas_above * sigma;
+    report.hu_high = st.median + sigmas_above * sigma;
   };
   if (o.hu_window) {
     report.hu_low = o.hu_window->first, report.hu_high = o.hu_window->second;
   } else {
-    window_from(statistics);
+    // The first window reaches higher than the final one: a seed in a part of
+    // the organ that enhances less (the posterior liver in a portal phase is
+    // 30 HU darker) must still find the brighter rest.
+    window_from(statistics, o.opening_radius_mm > 0.0 ? std::max(o.discovery_sigmas_above, o.window_sigmas_above)
+                                                    : o.window_sigmas_above);
     // A seed's neighbourhood sees a few centimetres of an organ whose HU
     // drifts across it (enhancement, beam hardening) or a darker patch
     // (a vessel, a lesion): the window is taken again from the organ's
@@ -521,7 +593,7 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
         const RobustStatistics organ = robust_statistics(std::move(values));
         report.organ_median_hu = organ.median;
         report.organ_sigma_hu = organ.sigma;
-        window_from(organ);
+        window_from(organ, o.window_sigmas_above);
       }
     }
   }
@@ -551,11 +623,17 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
     if (o.opening_radius_mm > 0.0 && count_voxels(*grown) > 0) {
       const MaskImage::Pointer certain = certain_part(*grown, work_seeds, o);
       const double keep_away_mm = 2.0 * o.opening_radius_mm;
+      // Only a background seed in or at the certain part (a neighbour that a
+      // thick bridge joined to it) pushes the organ's markers back; one that
+      // lies clear of it would only hand the organ's rim to the neighbour.
+      std::vector<FloatImage::IndexType> joined_background;
+      for (const auto& b : work_background)
+        if (nearest_set_voxel(*certain, b, o.opening_radius_mm)) joined_background.push_back(b);
       itk::ImageRegionConstIteratorWithIndex<MaskImage> it(certain, certain->GetLargestPossibleRegion());
       for (; !it.IsAtEnd(); ++it) {
         if (!it.Get()) continue;
         bool near_background = false;
-        for (const auto& b : work_background) {
+        for (const auto& b : joined_background) {
           double d2 = 0.0;
           for (unsigned k = 0; k < 3; ++k) d2 += std::pow((it.GetIndex()[k] - b[k]) * spacing[k], 2);
           near_background |= d2 < keep_away_mm * keep_away_mm;
@@ -606,6 +684,12 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
   // 6. Holes, notches, one piece, the CT's grid.
   organ = fill_holes_3d_then_axial(*organ);
   if (o.closing_radius_mm > 0.0) organ = erode(*dilate(*organ, o.closing_radius_mm), o.closing_radius_mm);
+  if (o.lesion_radius_mm > 0.0) {
+    const std::size_t before = count_voxels(*organ);
+    organ = with_enclosed_dents(*organ, *image, *threshold(*image, report.hu_low, report.hu_high),
+                                *claimed_by_background, o);
+    report.enclosed_dents_ml = static_cast<double>(count_voxels(*organ) - before) * working_voxel_ml;
+  }
   organ = fill_holes_3d_then_axial(*organ);
   // What the background seeds claimed stays out, even where it is a hole (the vena cava).
   {

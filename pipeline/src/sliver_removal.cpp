@@ -23,11 +23,28 @@ double signed_volume(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const E
   return (b - a).cross(c - a).dot(d - a) / 6.0;
 }
 
-// The angle's quality of a positively oriented tetrahedron: its smallest
-// dihedral angle; -1 when it is inverted or flat.
+// Circumradius over shortest edge (0.612 for a regular tetrahedron).
+double radius_edge_ratio(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                         const Eigen::Vector3d& d, double volume) {
+  const Eigen::Vector3d u = b - a, v = c - a, w = d - a;
+  const double radius =
+      (u.squaredNorm() * v.cross(w) + v.squaredNorm() * w.cross(u) + w.squaredNorm() * u.cross(v)).norm() /
+      (12.0 * volume);
+  const double shortest = std::sqrt(std::min({u.squaredNorm(), v.squaredNorm(), w.squaredNorm(), (c - b).squaredNorm(),
+                                              (d - b).squaredNorm(), (d - c).squaredNorm()}));
+  return radius / shortest;
+}
+
+// The quality of a positively oriented tetrahedron, in degrees: its smallest
+// dihedral angle, or less when its radius-edge ratio ρ exceeds 3 (the
+// tetrahedra stage's goal), as kRatioScale / ρ so that ρ = 3 reads as the
+// sliver bound's 15°; -1 when it is inverted or flat.
+constexpr double kRatioScale = 45.0;
 double quality(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c, const Eigen::Vector3d& d) {
-  if (!(signed_volume(a, b, c, d) > 0.0)) return -1.0;
-  return min_dihedral_deg(point(a), point(b), point(c), point(d));
+  const double volume = signed_volume(a, b, c, d);
+  if (!(volume > 0.0)) return -1.0;
+  return std::min(min_dihedral_deg(point(a), point(b), point(c), point(d)),
+                  kRatioScale / radius_edge_ratio(a, b, c, d, volume));
 }
 
 // Faces and edges as sorted vertex indices packed into one key (vertex
@@ -238,15 +255,34 @@ class Slivers {
           const double current = worst_around(v, here);
           double best = current;
           Eigen::Vector3d best_at = here;
-          for (const double step : {1.0, 0.5, 0.25, 0.125}) {
-            for (const Eigen::Vector3d& candidate : {Eigen::Vector3d(here + step * towards_centroid),
-                                                     Eigen::Vector3d(here + step * away)}) {
-              const double q = worst_around(v, candidate);
-              if (q > best + 1e-9) {
-                best = q;
-                best_at = candidate;
-              }
+          const auto try_move = [&](const Eigen::Vector3d& candidate) {
+            const double q = worst_around(v, candidate);
+            if (q > best + 1e-9) {
+              best = q;
+              best_at = candidate;
             }
+          };
+          for (const double step : {1.0, 0.5, 0.25, 0.125}) {
+            try_move(here + step * towards_centroid);
+            try_move(here + step * away);
+          }
+          // Where neither direction helps (the sliver's other vertices lie on
+          // creases and cannot move), a pattern search: the 26 directions of
+          // a cube's faces, edges and corners at a tenth and a twentieth of
+          // the sliver's edges, in the tangent plane for a boundary vertex.
+          if (best < options_.min_dihedral_deg) {
+            const Eigen::Vector3d n_out =
+                on_boundary[v] ? Eigen::Vector3d(outward[v].normalized()) : Eigen::Vector3d::Zero();
+            for (const double fraction : {0.1, 0.05})
+              for (int dx = -1; dx <= 1; ++dx)
+                for (int dy = -1; dy <= 1; ++dy)
+                  for (int dz = -1; dz <= 1; ++dz) {
+                    if (dx == 0 && dy == 0 && dz == 0) continue;
+                    Eigen::Vector3d direction(dx, dy, dz);
+                    direction -= direction.dot(n_out) * n_out;
+                    if (direction.norm() < 1e-6) continue;
+                    try_move(here + fraction * edge * direction.normalized());
+                  }
           }
           if (best_at != here) {
             mesh_.vertices[v] = point(best_at);

@@ -24,6 +24,7 @@
 
 #include "organsim/geometry/model_measures.h"
 #include "organsim/pipeline/segmentation.h"
+#include "organsim/pipeline/volume_matching.h"
 
 namespace organsim::pipeline {
 namespace {
@@ -35,6 +36,7 @@ using Ptr = vtkSmartPointer<T>;
 constexpr double kVerticesPerTarget = 8.0;
 // Coarsest down-sampling: blocks of 4³ voxels.
 constexpr long kLargestBlock = 4;
+constexpr double kCubicMetresPerCubicMillimetre = 1e-9;
 
 /// Faces between organ and background voxels inside `box`: about the number
 /// of vertices flying edges makes at full resolution.
@@ -115,10 +117,38 @@ double contour_level(long factor) {
   return voxels % 2 == 0 ? (voxels / 2 - 0.5) / static_cast<double>(voxels) : 0.5;
 }
 
+/// Signed volume and area of a VTK triangle surface (scaled index space, mm).
+std::pair<double, double> volume_and_area(vtkPolyData* surface) {
+  double volume = 0.0, area = 0.0;
+  vtkCellArray* polys = surface->GetPolys();
+  polys->InitTraversal();
+  vtkIdType n = 0;
+  const vtkIdType* ids = nullptr;
+  while (polys->GetNextCell(n, ids)) {
+    if (n != 3) continue;
+    double a[3], b[3], c[3];
+    surface->GetPoint(ids[0], a), surface->GetPoint(ids[1], b), surface->GetPoint(ids[2], c);
+    const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    const double cross[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]};
+    volume += (a[0] * cross[0] + a[1] * cross[1] + a[2] * cross[2]) / 6.0;
+    area += 0.5 * std::sqrt(cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]);
+  }
+  return {volume, area};
+}
+
+struct Contour {
+  Ptr<vtkPolyData> surface;  ///< smoothed largest sheet, scaled index space (mm)
+  double target_volume_mm3;  ///< the mask's volume within that sheet
+};
+
 /// Flying edges, windowed-sinc smoothing and the largest connected sheet (a
 /// down-sampled thin bridge can part the organ into pieces; a model is one).
-Ptr<vtkPolyData> smoothed_contour(const MaskImage& mask, const MaskImage::RegionType& box, long factor,
-                                  const SurfaceOptions& options) {
+/// The contour of the block means is offset from the mask's boundary by a
+/// fraction of a block (the level is not 0.5, and corners are cut), so the
+/// target volume is the kept sheet's volume corrected by the offset that gives
+/// all sheets together the mask's voxel volume.
+Contour smoothed_contour(const MaskImage& mask, const MaskImage::RegionType& box, long factor,
+                         const SurfaceOptions& options) {
   auto contour = Ptr<vtkFlyingEdges3D>::New();
   contour->SetInputData(to_vtk(mask, box, factor));
   contour->SetValue(0, contour_level(factor));
@@ -134,6 +164,14 @@ Ptr<vtkPolyData> smoothed_contour(const MaskImage& mask, const MaskImage::Region
   clean->Update();
   if (clean->GetOutput()->GetNumberOfCells() == 0) throw std::runtime_error("the segmentation is empty");
 
+  const auto spacing = mask.GetSpacing();
+  const double mask_volume_mm3 =
+      static_cast<double>(count_voxels(mask)) * spacing[0] * spacing[1] * spacing[2];
+  auto [all_volume, all_area] = volume_and_area(contour->GetOutput());
+  auto [kept_volume, kept_area] = volume_and_area(clean->GetOutput());
+  if (all_volume < 0.0) all_volume = -all_volume, kept_volume = -kept_volume;  // the axes' handedness
+  const double bias_offset_mm = (mask_volume_mm3 - all_volume) / all_area;
+
   auto smooth = Ptr<vtkWindowedSincPolyDataFilter>::New();
   smooth->SetInputConnection(clean->GetOutputPort());
   smooth->SetNumberOfIterations(options.smoothing_iterations);
@@ -143,7 +181,7 @@ Ptr<vtkPolyData> smoothed_contour(const MaskImage& mask, const MaskImage::Region
   smooth->FeatureEdgeSmoothingOff();
   smooth->NonManifoldSmoothingOn();
   smooth->Update();
-  return smooth->GetOutput();
+  return {smooth->GetOutput(), kept_volume + bias_offset_mm * kept_area};
 }
 
 Ptr<vtkPolyData> decimated(vtkPolyData* surface, std::size_t target_vertices) {
@@ -191,21 +229,31 @@ geometry::SurfaceMesh to_mesh(vtkPolyData* surface, const MaskImage& mask) {
 }  // namespace
 
 geometry::SurfaceMesh extract_surface(const MaskImage& mask, const SurfaceOptions& options) {
+  if (options.block_factor < 0 || options.block_factor > kLargestBlock)
+    throw std::invalid_argument(
+        fmt::format("the contouring block must be 1 to {} voxels, or 0 to choose it (got {})", kLargestBlock,
+                    options.block_factor));
   const MaskImage::RegionType box = organ_bounding_box(mask, {0, 0, 0});
   // Down-sample when full resolution would give far more vertices than the
   // target: decimation, not contouring, dominates the cost on fine CTs.
   const double faces = static_cast<double>(boundary_faces(mask, box));
   const double oversampling = faces / (kVerticesPerTarget * static_cast<double>(options.target_vertices));
-  const long factor = std::clamp(static_cast<long>(std::ceil(std::sqrt(oversampling))), 1L, kLargestBlock);
-  const Ptr<vtkPolyData> surface = smoothed_contour(mask, box, factor, options);
+  const long factor = options.block_factor > 0
+                          ? options.block_factor
+                          : std::clamp(static_cast<long>(std::ceil(std::sqrt(oversampling))), 1L, kLargestBlock);
+  const Contour contour = smoothed_contour(mask, box, factor, options);
 
   // Quadric decimation can fold a thin part of the organ into edges shared by
   // four triangles: then decimate less, and at last not at all.
   std::string problem;
   for (const std::size_t target : {options.target_vertices, 2 * options.target_vertices, std::size_t{0}}) {
-    geometry::SurfaceMesh mesh = to_mesh(target == 0 ? surface.Get() : decimated(surface, target).Get(), mask);
+    geometry::SurfaceMesh mesh =
+        to_mesh(target == 0 ? contour.surface.Get() : decimated(contour.surface, target).Get(), mask);
     problem = manifold_problem(mesh);
-    if (problem.empty()) return mesh;
+    if (problem.empty()) {
+      match_enclosed_volume(mesh.vertices, mesh.triangles, contour.target_volume_mm3 * kCubicMetresPerCubicMillimetre);
+      return mesh;
+    }
   }
   throw std::runtime_error(fmt::format(
       "the extracted surface is not a closed, consistently oriented manifold even without decimation ({}); check the "

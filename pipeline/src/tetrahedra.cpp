@@ -23,6 +23,7 @@
 
 #include "organsim/geometry/model_measures.h"
 #include "organsim/pipeline/sliver_removal.h"
+#include "organsim/pipeline/volume_matching.h"
 
 namespace organsim::pipeline {
 namespace {
@@ -142,13 +143,16 @@ geometry::TetrahedralMesh make_tetrahedra(const geometry::SurfaceMesh& surface, 
       std::swap(tet[2], tet[3]);
     mesh.tetrahedra.push_back(tet);
   }
-  if (options.optimize) remove_slivers(mesh, {kSliverBoundDeg, 20});
-  canonicalize(mesh);
   if (mesh.tetrahedra.empty())
     throw std::runtime_error(
         fmt::format("meshing failure: CGAL Mesh_3 produced no tetrahedra for a {}-triangle surface; check that the "
                     "organ is larger than --tet-size ({} mm)",
                     surface.triangles.size(), options.tet_size_mm));
+  if (options.optimize) remove_slivers(mesh, {kSliverBoundDeg, 20});
+  // Boundary facets are chords of the surface (within facet_distance of it):
+  // where the organ is convex they cut inside, a thin layer of lost volume.
+  match_tetrahedra_volume(mesh, geometry::enclosed_volume(surface.vertices, surface.triangles));
+  canonicalize(mesh);
   return mesh;
 }
 
@@ -190,6 +194,22 @@ TetrahedralQuality measure_quality(const geometry::TetrahedralMesh& mesh) {
   }
   q.mean_radius_edge_ratio = ratio_sum / static_cast<double>(mesh.tetrahedra.size());
   return q;
+}
+
+std::vector<std::string> tetrahedra_quality_warnings(const TetrahedralQuality& q) {
+  std::vector<std::string> warnings;
+  if (q.tetrahedra == 0) return warnings;
+  if (q.min_dihedral_deg < kMinDihedralGoalDeg)
+    warnings.push_back(fmt::format(
+        "the smallest dihedral angle is {:.1f}° (goal {:.0f}°): the FEM models will be stiffer there and solve slower; "
+        "try another --tet-size or a smoother mask (--closing)",
+        q.min_dihedral_deg, kMinDihedralGoalDeg));
+  if (q.max_radius_edge_ratio > kMaxRadiusEdgeGoal)
+    warnings.push_back(fmt::format(
+        "the largest radius-edge ratio is {:.2f} (goal {:.0f}): a badly shaped tetrahedron; try another --tet-size or "
+        "a smoother mask (--closing)",
+        q.max_radius_edge_ratio, kMaxRadiusEdgeGoal));
+  return warnings;
 }
 
 }  // namespace organsim::pipeline

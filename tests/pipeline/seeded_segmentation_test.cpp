@@ -70,15 +70,16 @@ TEST(SeededSegmentation, RealCtDicomSeriesFromOneSeed) {
   }
 }
 
-// A seed in the liver's darker posterior part (about 70 HU in this contrast
-// phase, 100 HU elsewhere) finds that part only; a second seed in the rest
-// brings the whole liver.
-TEST(SeededSegmentation, RealCtDicomSeriesWithTwoSeeds) {
+// A seed in the liver's darker posterior part (about 65 HU in this contrast
+// phase, 100 HU elsewhere) finds the whole liver: the first window reaches
+// higher than the final one, which comes from the organ's certain part. A
+// second seed in the rest changes nothing.
+TEST(SeededSegmentation, RealCtDicomSeriesFromASeedInTheDarkerPart) {
   SeededSegmentationOptions o = one_seed_voxel(189, 347, 12);
   const double one = dice_from(dicom_case(), o);
   o.seeds.push_back(SeedPoint::at_voxel({184, 287, 14}));
   const double two = dice_from(dicom_case(), o);
-  EXPECT_LT(one, 0.7);
+  EXPECT_GE(one, 0.93);
   EXPECT_GE(two, 0.93);
   RecordProperty("dice_one_seed", std::to_string(one));
   RecordProperty("dice_two_seeds", std::to_string(two));
@@ -94,8 +95,10 @@ TEST(SeededSegmentation, BackgroundSeedsHoldBackTheNeighbours) {
                         SeedPoint::at_voxel({98, 71, 81})};
   const SeededSegmentation with_background = segment_from_seeds(*nifti_case().ct, o);
   const double dice = dice_coefficient(*with_background.mask, *nifti_case().label);
-  EXPECT_GE(dice, 0.93);
-  EXPECT_GT(dice, alone);
+  // 0.93 before lesions and vessels at the surface were taken in: the label
+  // leaves out 13 mL of vessels at the hilum that the segmentation now keeps.
+  EXPECT_GE(dice, 0.925);
+  EXPECT_GT(dice, alone + 0.003);
   EXPECT_GT(with_background.report.background_split_ml, 0.0);
   RecordProperty("dice_one_seed", std::to_string(alone));
   RecordProperty("dice_with_background_seeds", std::to_string(dice));

@@ -1,10 +1,14 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <numeric>
 
+#include <fmt/format.h>
+
 #include "organsim/geometry/model_measures.h"
+#include "organsim/pipeline/segmentation.h"
 #include "organsim/pipeline/surface.h"
 #include "synthetic_volumes.h"
 
@@ -82,6 +86,74 @@ TEST(Surface, AwkwardMaskGivesOneClosedManifoldAtEverySize) {
     options.target_vertices = target;
     expect_closed_oriented_manifold(extract_surface(*mask, options));
   }
+}
+
+
+/// Volume and shape against the analytic ellipsoid, with the mask's own
+/// volume beside it (the mask is the best any surface of it can do).
+struct VolumeCase {
+  double about_z, about_x;              ///< the ellipsoid's orientation, rad
+  std::array<double, 3> spacing;        ///< the grid's voxel size, mm
+  long block_factor;
+  std::size_t target_vertices;
+  double tolerance;                     ///< relative volume error allowed
+};
+
+void expect_volume_true(const VolumeCase& c) {
+  SCOPED_TRACE(::testing::Message() << "rotation " << c.about_z << "," << c.about_x << " rad, spacing " << c.spacing[0]
+                                    << "x" << c.spacing[1] << "x" << c.spacing[2] << " mm, block " << c.block_factor
+                                    << ", " << c.target_vertices << " vertices");
+  const testing::Ellipsoid e(c.about_z, c.about_x);
+  const MaskImage::Pointer mask = testing::make_ellipsoid_mask(e, c.spacing);
+  const double mask_mm3 = static_cast<double>(count_voxels(*mask)) * c.spacing[0] * c.spacing[1] * c.spacing[2];
+  ASSERT_NEAR(mask_mm3, e.volume_mm3(), 0.002 * e.volume_mm3()) << "the test's mask itself";
+  SurfaceOptions options;
+  options.target_vertices = c.target_vertices;
+  options.block_factor = c.block_factor;
+  const geometry::SurfaceMesh mesh = extract_surface(*mask, options);
+  expect_closed_oriented_manifold(mesh);
+  const double volume = geometry::enclosed_volume(mesh.vertices, mesh.triangles) * 1e9;
+  EXPECT_NEAR(volume, mask_mm3, c.tolerance * mask_mm3);
+  EXPECT_NEAR(volume, e.volume_mm3(), c.tolerance * e.volume_mm3());
+  ::testing::Test::RecordProperty(
+      fmt::format("volume_error_z{}_x{}_s{}_{}_{}_block{}_{}", c.about_z, c.about_x, c.spacing[0], c.spacing[1],
+                  c.spacing[2], c.block_factor, c.target_vertices),
+      fmt::format("{:+.4f} % of the analytic volume", 100.0 * (volume / e.volume_mm3() - 1.0)));
+  // The volume comes from the shape, not from an inflated or shrunk one: the
+  // vertices lie on the ellipsoid on average and near it everywhere.
+  double sum = 0.0, squares = 0.0;
+  for (const model::Point3& p : mesh.vertices) {
+    const double d = e.signed_distance_mm({p[0] * 1e3, p[1] * 1e3, p[2] * 1e3});
+    sum += d, squares += d * d;
+  }
+  const double n = static_cast<double>(mesh.vertices.size());
+  const double coarsest = c.block_factor * std::max({c.spacing[0], c.spacing[1], c.spacing[2]});
+  EXPECT_LT(std::abs(sum / n), 0.05 * coarsest) << "mean signed distance to the ellipsoid, mm";
+  EXPECT_LT(std::sqrt(squares / n), 0.25 * coarsest) << "RMS distance to the ellipsoid, mm";
+}
+
+TEST(Surface, VolumeTrueOnRotatedAnisotropicEllipsoids) {
+  const std::array<std::array<double, 2>, 3> orientations{{{0.0, 0.0}, {0.4, 0.25}, {1.1, -0.7}}};
+  const std::array<std::array<double, 3>, 3> spacings{{{1.0, 1.0, 1.0}, {0.9, 1.1, 1.6}, {0.7, 0.8, 2.5}}};
+  for (const auto& r : orientations)
+    for (const auto& s : spacings)
+      for (const long block : {1L, 2L}) expect_volume_true({r[0], r[1], s, block, 3000, 0.003});
+}
+
+TEST(Surface, VolumeTrueAtEveryBlockFactorAndSize) {
+  for (const long block : {1L, 2L, 3L, 4L})
+    for (const std::size_t target : {std::size_t{3000}, std::size_t{10000}})
+      expect_volume_true({0.4, 0.25, {0.9, 1.1, 1.6}, block, target, 0.003});
+  // At 800 vertices decimation itself moves the surface by about 1 %.
+  expect_volume_true({0.4, 0.25, {0.9, 1.1, 1.6}, 2, 800, 0.01});
+}
+
+TEST(Surface, BlockFactorOutsideOneToFourIsAnError) {
+  const testing::Ellipsoid e;
+  const MaskImage::Pointer mask = testing::make_ellipsoid_mask(e, {2.0, 2.0, 2.0});
+  SurfaceOptions options;
+  options.block_factor = 5;
+  EXPECT_THROW(extract_surface(*mask, options), std::invalid_argument);
 }
 
 }  // namespace

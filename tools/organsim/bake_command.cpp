@@ -94,7 +94,8 @@ nlohmann::ordered_json report_json(const pipeline::BakeReport& r, const model::O
                      {"max_dihedral_deg", q.max_dihedral_deg},
                      {"max_radius_edge_ratio", q.max_radius_edge_ratio},
                      {"mean_radius_edge_ratio", q.mean_radius_edge_ratio},
-                     {"min_volume_mm3", q.min_volume_m3 * 1e9}};
+                     {"min_volume_mm3", q.min_volume_m3 * 1e9},
+                     {"warnings", r.tetrahedra_warnings}};
   j["beams"] = {{"stations", r.stations}, {"sections", r.beam_sections}};
   nlohmann::ordered_json stages;
   for (const auto& [stage, seconds] : r.stage_seconds) stages[stage] = seconds;
@@ -159,6 +160,7 @@ int run_bake(BakeCommandOptions& o) {
   if (verbosity() != Verbosity::quiet) progress = [&](const std::string& stage, double fraction) { printer(stage, fraction); };
   const pipeline::BakeResult result = bake_model(o, progress);
   for (const std::string& warning : result.report.segmentation_warnings) warn("bake", warning);
+  for (const std::string& warning : result.report.tetrahedra_warnings) warn("bake", warning);
   const std::uintmax_t bytes = std::filesystem::file_size(o.output_path);
   if (o.json)
     fmt::print("{}\n", report_json(result.report, result.model, o.output_path, bytes).dump());

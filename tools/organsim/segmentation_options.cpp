@@ -74,6 +74,10 @@ void add_seeded_segmentation_options(CLI::App& app, SegmentationCommandOptions& 
   app.add_option("--reach", m.reach_mm,
                  "Leak control: how far beyond the opened organ its border may lie, mm (restores thin edges)")
       ->check(kNonNegative)->capture_default_str();
+  app.add_option("--lesion-radius", m.lesion_radius_mm,
+                 "Takes in dents up to this radius, mm, that lesions and vessels at the organ's surface leave, when "
+                 "the organ encloses them (0: none)")
+      ->check(kNonNegative)->capture_default_str();
   app.add_option("--smoothing-iterations", m.smoothing_iterations,
                  "Edge-preserving smoothing (curvature anisotropic diffusion) iterations (0: none)")
       ->check(CLI::Range(0, 100))->capture_default_str();
@@ -106,6 +110,8 @@ void print_seeded_segmentation_report(const pipeline::SeededSegmentationReport& 
   fmt::print("leak control    window region {:.1f} mL, cut by the opening {:.1f} mL", r.grown_ml, r.cut_by_opening_ml);
   if (r.background_split_ml > 0.0) fmt::print(", {:.1f} mL given to background seeds", r.background_split_ml);
   fmt::print("\n");
+  fmt::print("lesions         {:.1f} mL of enclosed dents (lesions, vessels at the surface) taken in\n",
+             r.enclosed_dents_ml);
   fmt::print("working grid    {:.3g}x{:.3g}x{:.3g} mm\n", r.working_spacing_mm[0], r.working_spacing_mm[1],
              r.working_spacing_mm[2]);
   std::string steps;
@@ -128,6 +134,7 @@ nlohmann::ordered_json seeded_segmentation_report_json(const pipeline::SeededSeg
   j["window_region_ml"] = r.grown_ml;
   j["cut_by_opening_ml"] = r.cut_by_opening_ml;
   j["background_split_ml"] = r.background_split_ml;
+  j["enclosed_dents_ml"] = r.enclosed_dents_ml;
   j["border_slices"] = r.border_slices;
   j["warnings"] = r.warnings;
   nlohmann::ordered_json steps;

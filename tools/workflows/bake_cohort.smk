@@ -54,9 +54,11 @@ rule bake:
     resources:
         mem_mb=6000,
         runtime=60,
+    # --bake-args=VALUE, one word: Snakemake leaves an empty value unquoted (nothing at all),
+    # and a value that is one option ("--fast") must not be read as an option itself.
     shell:
         "{PYTHON:q} {HELPER:q} bake --organsim {ORGANSIM:q} --out {OUT:q} --case {wildcards.case} {params.row}"
-        " --threads {threads} --bake-args {BAKE_ARGS:q} > {log:q} 2>&1"
+        " --threads {threads} --bake-args={BAKE_ARGS:q} > {log:q} 2>&1"
 
 rule report:
     input:

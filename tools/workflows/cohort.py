@@ -2,7 +2,7 @@
 """Cohort baking, the parts bake_cohort.smk runs (docs/cohort.md).
 
   cohort.py bake --organsim PROGRAM --out DIR --case ID --ct CT [--label L] [--seed=X,Y,Z]
-                 [--fixed-point=X,Y,Z] [--threads N] [--bake-args "…"]
+                 [--fixed-point=X,Y,Z] [--threads N] [--bake-args="…"]
       bakes one case into DIR/ID.organ and writes DIR/ID.json: the bake report with
       "case", "status": "ok" and "wall_seconds", or, when the bake fails,
       {"case", "status": "failed", "error", "exit_code", "wall_seconds"} and no model.

@@ -70,6 +70,7 @@ struct BakeReport {
   double surface_area_cm2 = 0.0, surface_volume_ml = 0.0;
   std::size_t volume_vertices = 0;
   TetrahedralQuality tetrahedra;
+  std::vector<std::string> tetrahedra_warnings;    ///< quality goals missed (tetrahedra_quality_warnings)
   double tetrahedra_volume_ml = 0.0;
   std::uint32_t stations = 0;
   std::size_t beam_sections = 0;

@@ -62,11 +62,24 @@ struct SeededSegmentationOptions {
   /// contrast-filled vessels and bone, which hole filling takes back.
   double window_sigmas_below = 4.5;
   double window_sigmas_above = 3.0;
+  /// The first window, from the seeds' neighbourhoods, reaches this far above
+  /// (a seed in a less enhanced part still finds the rest); the final window
+  /// comes from the organ's certain part that the first one finds.
+  double discovery_sigmas_above = 6.0;
   double minimum_sigma_hu = 10.0;    ///< floor of the robust σ (a very uniform neighbourhood)
   std::optional<std::pair<double, double>> hu_window;  ///< given LOW,HIGH replaces the statistics
   double opening_radius_mm = 10.0;   ///< leak control: cuts bridges thinner than twice this, mm; 0: none
   double reach_mm = 3.0;             ///< leak control: how far beyond the opened organ its border may lie, mm
   double closing_radius_mm = 0.0;    ///< closes notches and vessel entries, mm; 0: none
+  /// Lesions and vessels at the organ's surface leave dents the HU window
+  /// cannot see and hole filling cannot close. A dent up to this radius (the
+  /// largest lesion's) is taken into the organ when it is soft tissue or a
+  /// vessel (lesion_low_hu up to vessel_high_hu) and the organ encloses it:
+  /// at least `lesion_enclosure` of its border touches the organ. 0: off.
+  double lesion_radius_mm = 20.0;
+  double lesion_enclosure = 0.6;
+  double lesion_low_hu = -40.0;      ///< below: fat and air, never a lesion's inside
+  double vessel_high_hu = 300.0;     ///< above: bone and contrast in the bowel
   std::size_t minimum_voxels = 1000; ///< smaller results are an error
 };
 
@@ -83,6 +96,7 @@ struct SeededSegmentationReport {
   double background_split_ml = 0.0;  ///< given to the background seeds' regions
   double grown_ml = 0.0;             ///< the window's region connected to the seeds, before leak control
   double cut_by_opening_ml = 0.0;    ///< of that, what leak control removed
+  double enclosed_dents_ml = 0.0;    ///< lesions and vessels at the surface taken into the organ
   std::size_t border_slices = 0;     ///< axial slices where the mask touches the volume's side
   std::vector<std::string> warnings;
   std::vector<std::pair<std::string, double>> step_seconds;  ///< in order

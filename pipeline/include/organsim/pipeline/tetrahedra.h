@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "organsim/geometry/meshes.h"
@@ -29,12 +30,24 @@ struct TetrahedralQuality {
 };
 
 /// Meshes the inside of `surface` (closed, manifold, outward; in metres).
-/// Deterministic: the same surface and options give the same mesh. Throws
+/// Deterministic: the same surface and options give the same mesh. The
+/// boundary vertices are offset along their normals (a fraction of a
+/// millimetre) so that the tetrahedra fill the surface's volume (volume_matching.h). Throws
 /// std::runtime_error with one line when the options are unusable or the
 /// mesher produces no tetrahedra ("meshing failure").
 geometry::TetrahedralMesh make_tetrahedra(const geometry::SurfaceMesh& surface, const TetrahedraOptions& options);
 
 /// Quality figures of a tetrahedral mesh (empty meshes give all zeros).
 TetrahedralQuality measure_quality(const geometry::TetrahedralMesh& mesh);
+
+/// The quality a mesh should reach for the FEM models: below 12° a
+/// tetrahedron's stiffness grows like 1/sin of its smallest dihedral angle and
+/// the solves slow down; above 3 its circumradius is large for its shortest
+/// edge (Mesh_3's own refinement bound).
+constexpr double kMinDihedralGoalDeg = 12.0;
+constexpr double kMaxRadiusEdgeGoal = 3.0;
+
+/// One line per quality goal the mesh misses, saying what to do (empty when all are met).
+std::vector<std::string> tetrahedra_quality_warnings(const TetrahedralQuality& quality);
 
 }  // namespace organsim::pipeline
