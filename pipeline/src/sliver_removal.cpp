@@ -162,6 +162,7 @@ class Slivers {
     std::vector<Eigen::Vector3d> outward(n, Eigen::Vector3d::Zero()), ring_sum(n, Eigen::Vector3d::Zero());
     std::vector<double> edge_sum(n, 0.0);
     std::vector<int> ring_count(n, 0);
+    std::unordered_map<std::uint64_t, std::vector<Eigen::Vector3d>> edge_normals;  // of the boundary faces at an edge
     std::vector<Eigen::Vector3d> face_normals;  // unit, outward: per boundary face, three times (per corner)
     std::vector<std::uint32_t> face_corner;
     for (const model::Tetrahedron& t : mesh_.tetrahedra)
@@ -172,6 +173,7 @@ class Slivers {
                                       vec(mesh_.vertices[t[f[2]]])};
         Eigen::Vector3d area = (q[1] - q[0]).cross(q[2] - q[0]);
         if (area.dot(vec(mesh_.vertices[t[corner]]) - q[0]) > 0.0) area = -area;
+        for (int k = 0; k < 3; ++k) edge_normals[edge_key(t[f[k]], t[f[(k + 1) % 3]])].push_back(area.normalized());
         for (int k = 0; k < 3; ++k) {
           const std::uint32_t v = t[f[k]];
           face_normals.push_back(area.normalized());
@@ -193,6 +195,18 @@ class Slivers {
       const std::uint32_t v = face_corner[k];
       if (face_normals[k].dot(outward[v].normalized()) < std::cos(30.0 / kDegrees)) may_slide[v] = false;
     }
+    // A vertex on a crease line (two crease edges meet there: the boundary
+    // faces on either side differ by more than 30°; a field-of-view cut makes
+    // such lines) may slide along the crease instead, towards either
+    // neighbour on it: the crease keeps its place to first order.
+    std::vector<std::vector<std::uint32_t>> crease_neighbours(n);
+    for (const auto& [key, normals] : edge_normals)
+      if (normals.size() == 2 && normals[0].dot(normals[1]) < std::cos(30.0 / kDegrees)) {
+        const auto a = static_cast<std::uint32_t>(key >> 32), b = static_cast<std::uint32_t>(key & 0xffffffffu);
+        crease_neighbours[a].push_back(b);
+        crease_neighbours[b].push_back(a);
+      }
+    for (std::vector<std::uint32_t>& on_crease : crease_neighbours) std::sort(on_crease.begin(), on_crease.end());
 
     // The worst quality around v if it stood at `at`.
     auto worst_around = [&](std::uint32_t v, const Eigen::Vector3d& at) {
@@ -207,17 +221,44 @@ class Slivers {
       return worst;
     };
 
+    // A tetrahedron none of whose vertices could move is tried again only
+    // after a vertex of it moved for another one: the pattern search is
+    // costly, and nothing else changes what it would find.
+    std::vector<int> last_moved(n, -1), stuck_since(mesh_.tetrahedra.size(), -1);
     std::size_t moves = 0;
     for (int pass = 0; pass < options_.passes; ++pass) {
       bool moved = false;
-      for (const model::Tetrahedron& t : mesh_.tetrahedra) {
+      for (std::size_t i = 0; i < mesh_.tetrahedra.size(); ++i) {
+        const model::Tetrahedron& t = mesh_.tetrahedra[i];
+        if (stuck_since[i] >= 0 &&
+            std::none_of(t.begin(), t.end(), [&](std::uint32_t v) { return last_moved[v] >= stuck_since[i]; }))
+          continue;
+        const std::size_t moves_before = moves;
         // Interior vertices first; boundary ones slide only if that was not enough.
         for (int turn = 0; turn < 8; ++turn) {
           if (tet_quality(t) >= options_.min_dihedral_deg) break;
           const int corner = turn % 4;
           const std::uint32_t v = t[corner];
-          if (on_boundary[v] != (turn >= 4) || (on_boundary[v] && !may_slide[v])) continue;
+          const bool on_crease_line = on_boundary[v] && !may_slide[v] && crease_neighbours[v].size() == 2;
+          if (on_boundary[v] != (turn >= 4) || (on_boundary[v] && !may_slide[v] && !on_crease_line)) continue;
           const Eigen::Vector3d here = vec(mesh_.vertices[v]);
+          if (on_crease_line) {
+            double best = worst_around(v, here);
+            Eigen::Vector3d best_at = here;
+            for (const std::uint32_t u : crease_neighbours[v])
+              for (const double fraction : {0.25, 0.125, 0.0625}) {
+                const Eigen::Vector3d candidate = here + fraction * (vec(mesh_.vertices[u]) - here);
+                const double q = worst_around(v, candidate);
+                if (q > best + 1e-9) best = q, best_at = candidate;
+              }
+            if (best_at != here) {
+              mesh_.vertices[v] = point(best_at);
+              last_moved[v] = pass;
+              ++moves;
+              moved = true;
+            }
+            continue;
+          }
           // Towards the centroid of its neighbours...
           Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
           int neighbours = 0;
@@ -286,10 +327,12 @@ class Slivers {
           }
           if (best_at != here) {
             mesh_.vertices[v] = point(best_at);
+            last_moved[v] = pass;
             ++moves;
             moved = true;
           }
         }
+        if (moves == moves_before) stuck_since[i] = pass;
       }
       if (!moved) break;
     }
@@ -305,7 +348,8 @@ class Slivers {
 double min_dihedral_deg(const model::Point3& a, const model::Point3& b, const model::Point3& c, const model::Point3& d) {
   static constexpr int kEdges[6][4] = {{0, 1, 2, 3}, {0, 2, 1, 3}, {0, 3, 1, 2}, {1, 2, 0, 3}, {1, 3, 0, 2}, {2, 3, 0, 1}};
   const Eigen::Vector3d p[4] = {vec(a), vec(b), vec(c), vec(d)};
-  double smallest = 180.0;
+  // The smallest angle has the largest cosine: one arc cosine, not six.
+  double largest_cosine = -1.0;
   for (const auto& e : kEdges) {
     // The angle at edge (e0, e1) between the faces towards e2 and e3.
     const Eigen::Vector3d axis = (p[e[1]] - p[e[0]]).normalized();
@@ -314,9 +358,13 @@ double min_dihedral_deg(const model::Point3& a, const model::Point3& b, const mo
     w -= w.dot(axis) * axis;
     const double nu = u.norm(), nw = w.norm();
     if (!(nu > 0.0 && nw > 0.0)) return 0.0;
-    smallest = std::min(smallest, std::acos(std::clamp(u.dot(w) / (nu * nw), -1.0, 1.0)) * kDegrees);
+    largest_cosine = std::max(largest_cosine, std::clamp(u.dot(w) / (nu * nw), -1.0, 1.0));
   }
-  return smallest;
+  return std::acos(largest_cosine) * kDegrees;
+}
+
+double shape_quality_deg(const model::Point3& a, const model::Point3& b, const model::Point3& c, const model::Point3& d) {
+  return quality(vec(a), vec(b), vec(c), vec(d));
 }
 
 SliverRemovalReport remove_slivers(geometry::TetrahedralMesh& mesh, const SliverRemovalOptions& options) {

@@ -13,7 +13,6 @@
 
 #include "organsim/geometry/model_measures.h"
 #include "organsim/pipeline/sliver_removal.h"
-#include "organsim/pipeline/tetrahedra.h"
 
 namespace organsim::pipeline {
 namespace {
@@ -119,15 +118,15 @@ VolumeMatch match_tetrahedra_volume(geometry::TetrahedralMesh& mesh, double targ
   const std::vector<model::Point3> rest = mesh.vertices;
   std::vector<Eigen::Vector3d> normals = vertex_normals(rest, boundary);
   const auto quality = [](const std::vector<model::Point3>& v, const model::Tetrahedron& t) {
-    return geometry::signed_tetrahedron_volume(vec(v[t[0]]), vec(v[t[1]]), vec(v[t[2]]), vec(v[t[3]])) > 0.0
-               ? min_dihedral_deg(v[t[0]], v[t[1]], v[t[2]], v[t[3]])
-               : -1.0;
+    return shape_quality_deg(v[t[0]], v[t[1]], v[t[2]], v[t[3]]);
   };
+  // The shape quality that sliver removal reaches (15°: ρ ≤ 3 and angles ≥ 15°).
+  constexpr double kKeptQualityDeg = 15.0;
   std::vector<double> quality_before(mesh.tetrahedra.size());
   for (std::size_t i = 0; i < mesh.tetrahedra.size(); ++i) quality_before[i] = quality(rest, mesh.tetrahedra[i]);
   // A boundary vertex moves by a fraction of a millimetre, far less than a
-  // tetrahedron's height; where a flat boundary tetrahedron would lose angle
-  // (below its own or the goal's), its vertices stay and the others move a
+  // tetrahedron's height; where a flat boundary tetrahedron would lose shape
+  // (below its own quality and 15°), its vertices stay and the others move a
   // little more.
   VolumeMatch match;
   for (int round = 0; round < 8; ++round) {
@@ -136,7 +135,7 @@ VolumeMatch match_tetrahedra_volume(geometry::TetrahedralMesh& mesh, double targ
     bool held = false;
     for (std::size_t i = 0; i < mesh.tetrahedra.size(); ++i) {
       const model::Tetrahedron& t = mesh.tetrahedra[i];
-      if (quality(mesh.vertices, t) >= std::min(quality_before[i], kMinDihedralGoalDeg)) continue;
+      if (quality(mesh.vertices, t) >= std::min(quality_before[i], kKeptQualityDeg)) continue;
       for (const std::uint32_t v : t)
         if (normals[v].squaredNorm() > 0.0) normals[v].setZero(), held = true;
     }

@@ -278,6 +278,7 @@ void print_json(const ReplayOptions& o, const Session& session, const ModelRun& 
                      {"deadline_misses", timings.force_deadline_misses},
                      {"realtime_priority", timings.realtime_priority}};
   j["deformation_loop"] = {{"frames", timings.deformation_computes.count()},
+                           {"dropped", timings.deformation_frames_dropped},
                            {"compute", timing_json(timings.deformation_computes.percentiles())}};
   j["refused_contacts"] = run.refused;
   j["deformation_model"] = run.name;

@@ -135,6 +135,7 @@ int run_serve(const ServeOptions& o) {
                                   {"deadline_misses", timings.force_deadline_misses}}},
                                 {"deformation_loop",
                                  {{"frames", timings.deformation_computes.count()},
+                                  {"dropped", timings.deformation_frames_dropped},
                                   {"compute", milliseconds(timings.deformation_computes.percentiles())}}}}
                      .dump()
               << '\n';

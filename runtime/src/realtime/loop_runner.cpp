@@ -43,13 +43,13 @@ std::size_t ticks_for(double duration, double period) {
 
 // Runs `body(time)` every `period` until `count` ticks have come due or `stop`
 // is set, sleeping to absolute deadlines so that lateness does not accumulate.
-// With `skip_late`, ticks whose time passed while the body ran are skipped
-// (a deformation model slower than its frame rate drops frames, as a display
-// does, instead of running behind the session for ever); otherwise each
-// tick runs, late ones back to back.
+// With `skipped`, ticks whose time passed while the body ran are skipped and
+// counted there (a deformation model slower than its frame rate drops frames,
+// as a display does, instead of running behind the session for ever);
+// otherwise each tick runs, late ones back to back.
 template <typename Body>
 void periodic(double period, std::size_t count, const timespec& start, DurationHistogram& periods,
-              DurationHistogram& computes, std::atomic<bool>& stop, bool skip_late, Body body) {
+              DurationHistogram& computes, std::atomic<bool>& stop, std::uint64_t* skipped, Body body) {
   timespec next = start;
   double previous = -1.0;
   for (std::size_t k = 0; k < count && !stop.load(std::memory_order_relaxed); ++k) {
@@ -66,10 +66,11 @@ void periodic(double period, std::size_t count, const timespec& start, DurationH
     computes.record(seconds(end) - seconds(begin));
     previous = time;
     advance(next, period);
-    if (skip_late)
+    if (skipped)
       while (k + 1 < count && seconds(next) < seconds(end)) {
         advance(next, period);
         ++k;
+        ++*skipped;
       }
   }
 }
@@ -133,7 +134,7 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
     sched_param parameter{};
     parameter.sched_priority = 80;
     priority_error.store(pthread_setschedparam(pthread_self(), SCHED_FIFO, &parameter));
-    periodic(o.force_period, force_ticks, start, timings.force_periods, timings.force_computes, stop, false,
+    periodic(o.force_period, force_ticks, start, timings.force_periods, timings.force_computes, stop, nullptr,
              [&](double time) { engine.force_tick(time); });
     force_done.store(true);
   });
@@ -146,7 +147,8 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
     sched_param parameter{};
     parameter.sched_priority = 70;
     deformation_priority_error.store(pthread_setschedparam(pthread_self(), SCHED_FIFO, &parameter));
-    periodic(o.deformation_period, frames, start, timings.deformation_periods, timings.deformation_computes, stop, true,
+    periodic(o.deformation_period, frames, start, timings.deformation_periods, timings.deformation_computes, stop,
+             &timings.deformation_frames_dropped,
              [&](double time) { engine.deformation_step(time); });
     deformation_done.store(true);
   });

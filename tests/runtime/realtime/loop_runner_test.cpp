@@ -260,11 +260,13 @@ TEST(RunRealtime, AShortRunRecordsEveryTickAndPollsUntilAfterTheLoopsStop) {
     return true;
   });
   // Not stopped early: every tick ran (0..200 ms: 201 force ticks; 0..12/60 s:
-  // 13 frames), each with its compute time and, after the first, its period.
+  // 13 frames, less those dropped when the machine held the loop back), each
+  // with its compute time and, after the first, its period.
   ASSERT_EQ(t.force_computes.count(), 201u);
   ASSERT_EQ(t.force_periods.count(), 200u);
-  ASSERT_EQ(t.deformation_computes.count(), 13u);
-  ASSERT_EQ(t.deformation_periods.count(), 12u);
+  ASSERT_EQ(t.deformation_computes.count() + t.deformation_frames_dropped, 13u);
+  ASSERT_EQ(t.deformation_periods.count(), t.deformation_computes.count() - 1);
+  ::testing::Test::RecordProperty("frames_dropped", static_cast<int>(t.deformation_frames_dropped));
   EXPECT_EQ(device.record_count(), 201u);
   for (std::size_t k = 1; k < device.record_count(); ++k)
     EXPECT_GT(device.record(k).time, device.record(k - 1).time) << k;  // session time moves forward
@@ -298,7 +300,8 @@ TEST(RunRealtime, RunsWithoutAPoll) {
   const RunTimings t = run_realtime(engine, 0.05);
   EXPECT_EQ(t.force_computes.count(), 51u);
   EXPECT_EQ(t.force_periods.count(), 50u);
-  EXPECT_EQ(t.deformation_computes.count(), 4u);  // 0, 1/60, 2/60, 3/60 s
+  // 0, 1/60, 2/60, 3/60 s, computed or (on a machine that held the loop back) dropped.
+  EXPECT_EQ(t.deformation_computes.count() + t.deformation_frames_dropped, 4u);
   EXPECT_EQ(device.record_count(), 51u);
 }
 

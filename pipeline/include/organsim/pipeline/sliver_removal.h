@@ -39,6 +39,11 @@ struct SliverRemovalReport {
 /// crease), so the boundary keeps its shape to second order.
 SliverRemovalReport remove_slivers(geometry::TetrahedralMesh& mesh, const SliverRemovalOptions& options = {});
 
+/// A tetrahedron's shape quality in degrees: its smallest dihedral angle, or
+/// 45° / ρ when that is lower (ρ its radius–edge ratio, so that ρ = 3 reads as
+/// 15°); −1 when it is inverted or flat. What sliver removal raises.
+double shape_quality_deg(const model::Point3& a, const model::Point3& b, const model::Point3& c, const model::Point3& d);
+
 /// The smallest dihedral angle of one tetrahedron, degrees (0 when degenerate).
 double min_dihedral_deg(const model::Point3& a, const model::Point3& b, const model::Point3& c, const model::Point3& d);
 

@@ -32,9 +32,9 @@ VolumeMatch match_enclosed_volume(std::vector<model::Point3>& vertices, const st
 std::vector<model::Triangle> boundary_triangles(const geometry::TetrahedralMesh& mesh);
 
 /// match_enclosed_volume on the boundary of a tetrahedral mesh: only boundary
-/// vertices move. A vertex whose move would lower a tetrahedron's smallest
-/// dihedral angle below its own and below kMinDihedralGoalDeg stays where it
-/// is, and the others share its part; the result says what was applied.
+/// vertices move. A vertex whose move would lower a tetrahedron's shape
+/// quality (shape_quality_deg) below its own and below 15° stays where it is,
+/// and the others share its part; the result says what was applied.
 VolumeMatch match_tetrahedra_volume(geometry::TetrahedralMesh& mesh, double target_m3);
 
 }  // namespace organsim::pipeline

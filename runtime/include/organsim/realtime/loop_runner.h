@@ -26,6 +26,7 @@ struct RunTimings {
   DurationHistogram deformation_periods;            ///< s between successive deformation steps (real time only)
   DurationHistogram deformation_computes;           ///< s inside deformation_step
   std::uint64_t force_deadline_misses = 0;          ///< force periods longer than kForceDeadline
+  std::uint64_t deformation_frames_dropped = 0;     ///< frames whose time passed while the one before ran (real time)
   bool realtime_priority = false;            ///< both loops got SCHED_FIFO (force 80, deformation 70)
   std::string priority_warning;              ///< why not, when it did not
   double wall_seconds = 0.0;
