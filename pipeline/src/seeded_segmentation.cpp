@@ -384,7 +384,6 @@ MaskImage::Pointer onto_ct_grid(const MaskImage& working, const CtImage& ct) {
   return result;
 }
 
-
 /// The dents of `organ` that lesions and vessels at its surface leave: what a
 /// closing by the lesion radius adds within the lesion and vessel HU range, by
 /// connected pieces. A piece joins the organ when the organ encloses it (that
@@ -452,6 +451,7 @@ MaskImage::Pointer with_enclosed_dents(const MaskImage& organ, const FloatImage&
   }
   return result;
 }
+
 }  // namespace
 
 std::pair<std::size_t, std::size_t> border_and_organ_slices(const MaskImage& mask) {
@@ -495,8 +495,9 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
   if (o.hu_window && !(o.hu_window->first < o.hu_window->second))
     throw std::runtime_error(fmt::format("HU window {},{} is empty; give LOW,HIGH with LOW < HIGH", o.hu_window->first,
                                          o.hu_window->second));
-  if (!(o.opening_radius_mm >= 0.0 && o.reach_mm >= 0.0 && o.closing_radius_mm >= 0.0 && o.lesion_radius_mm >= 0.0 && o.seed_radius_mm > 0.0 &&
-        o.window_sigmas_below > 0.0 && o.window_sigmas_above > 0.0 && o.discovery_sigmas_above > 0.0 && o.working_spacing_mm >= 0.0 && o.smoothing_iterations >= 0))
+  if (!(o.opening_radius_mm >= 0.0 && o.reach_mm >= 0.0 && o.closing_radius_mm >= 0.0 && o.lesion_radius_mm >= 0.0 &&
+        o.seed_radius_mm > 0.0 && o.window_sigmas_below > 0.0 && o.window_sigmas_above > 0.0 &&
+        o.discovery_sigmas_above > 0.0 && o.working_spacing_mm >= 0.0 && o.smoothing_iterations >= 0))
     throw std::runtime_error("segmentation radii, the window width and the working spacing must be non-negative");
 
   SeededSegmentation result;
@@ -623,17 +624,11 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
     if (o.opening_radius_mm > 0.0 && count_voxels(*grown) > 0) {
       const MaskImage::Pointer certain = certain_part(*grown, work_seeds, o);
       const double keep_away_mm = 2.0 * o.opening_radius_mm;
-      // Only a background seed in or at the certain part (a neighbour that a
-      // thick bridge joined to it) pushes the organ's markers back; one that
-      // lies clear of it would only hand the organ's rim to the neighbour.
-      std::vector<FloatImage::IndexType> joined_background;
-      for (const auto& b : work_background)
-        if (nearest_set_voxel(*certain, b, o.opening_radius_mm)) joined_background.push_back(b);
       itk::ImageRegionConstIteratorWithIndex<MaskImage> it(certain, certain->GetLargestPossibleRegion());
       for (; !it.IsAtEnd(); ++it) {
         if (!it.Get()) continue;
         bool near_background = false;
-        for (const auto& b : joined_background) {
+        for (const auto& b : work_background) {
           double d2 = 0.0;
           for (unsigned k = 0; k < 3; ++k) d2 += std::pow((it.GetIndex()[k] - b[k]) * spacing[k], 2);
           near_background |= d2 < keep_away_mm * keep_away_mm;
