@@ -57,18 +57,6 @@ void offset(std::vector<model::Point3>& vertices, const std::vector<model::Point
 
 /// Newton on the common offset of the vertices whose `normals` are not zero.
 VolumeMatch offset_to_volume(std::vector<model::Point3>& vertices, const std::vector<model::Triangle>& triangles,
-                             const std::vector<Eigen::Vector3d>& normals, double target_m3);
-
-}  // namespace
-
-VolumeMatch match_enclosed_volume(std::vector<model::Point3>& vertices, const std::vector<model::Triangle>& triangles,
-                                  double target_m3) {
-  return offset_to_volume(vertices, triangles, vertex_normals(vertices, triangles), target_m3);
-}
-
-namespace {
-
-VolumeMatch offset_to_volume(std::vector<model::Point3>& vertices, const std::vector<model::Triangle>& triangles,
                              const std::vector<Eigen::Vector3d>& normals, double target_m3) {
   VolumeMatch match;
   match.volume_before_m3 = geometry::enclosed_volume(vertices, triangles);
@@ -94,6 +82,11 @@ VolumeMatch offset_to_volume(std::vector<model::Point3>& vertices, const std::ve
 }
 
 }  // namespace
+
+VolumeMatch match_enclosed_volume(std::vector<model::Point3>& vertices, const std::vector<model::Triangle>& triangles,
+                                  double target_m3) {
+  return offset_to_volume(vertices, triangles, vertex_normals(vertices, triangles), target_m3);
+}
 
 std::vector<model::Triangle> boundary_triangles(const geometry::TetrahedralMesh& mesh) {
   // Outward faces of a positive tetrahedron (a, b, c, d), one opposite each corner.
