@@ -2,7 +2,9 @@
 # What a user downstream does with organsim, on the build just made:
 #   1. cmake --install into a temporary prefix; a separate CMake project finds
 #      the package (find_package(organsim)), builds against organsim::runtime,
-#      loads a model and presses it;
+#      loads a model and presses it; with the direct factorizations, a program
+#      that calls the BLAS itself finds the system's (organsim defines no BLAS
+#      symbol in any installed library or the Python module);
 #   2. the same through pkg-config (organsim-runtime.pc);
 #   3. the Python module imported from the installed tree;
 #   4. cpack's Debian package: its Depends, and organsim --version and
@@ -25,6 +27,26 @@ cmake --build "$work/consumer" >/dev/null
 "$work/consumer/press" "$work/cylinder.organ" | tee "$work/press.txt"
 # The press point follows the tool: it moves the 5 mm pressed.
 awk '{ if (!($2 > 0 && $6 > 4.99 && $6 < 5.01)) exit 1 }' "$work/press.txt"
+if [[ -x $work/consumer/direct_solver_consumer ]]; then
+  "$work/consumer/direct_solver_consumer"
+fi
+# No BLAS or LAPACK routine (Fortran names: lower case, trailing underscore,
+# as dgemm_ or dpotrf_) is defined by an installed library or the Python module.
+fortran_definitions() { awk '$2 ~ /^[TWVDBR]$/ && $3 ~ /^[a-z][a-z0-9_]*_$/ { print FILENAME ": " $3 }' FILENAME="$1"; }
+defined=""
+for library in "$prefix"/lib/*.a; do
+  defined+=$(nm -g --defined-only "$library" 2>/dev/null | fortran_definitions "$library")
+done
+module=$(find "$prefix" -name '_organsim*.so' | head -1)
+if [[ -n $module ]]; then
+  defined+=$(nm -D --defined-only "$module" | fortran_definitions "$module")
+fi
+if [[ -n $defined ]]; then
+  echo "installed files define BLAS/LAPACK-style symbols:" >&2
+  echo "$defined" >&2
+  exit 1
+fi
+echo "no BLAS or LAPACK symbol defined in $(ls "$prefix"/lib/*.a | wc -l) installed libraries${module:+ and the Python module}"
 
 echo "== 2. pkg-config organsim-runtime"
 export PKG_CONFIG_PATH=$prefix/lib/pkgconfig

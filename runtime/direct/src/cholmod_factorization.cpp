@@ -5,7 +5,6 @@
 
 #include "organsim/fem/direct_factorizations.h"
 
-#include "single_column_blas.h"
 #include "solver_threads.h"
 
 namespace organsim::fem {
@@ -33,7 +32,6 @@ class CholmodFactorization final : public Factorization {
  public:
   CholmodFactorization() {
     detail::use_one_solver_thread();
-    detail::route_single_column_blas();
     cholmod_start(&common_);
     common_.supernodal = CHOLMOD_SUPERNODAL;
     common_.print = 0;

@@ -9,7 +9,6 @@
 
 #include "organsim/fem/direct_factorizations.h"
 
-#include "single_column_blas.h"
 #include "solver_threads.h"
 
 namespace organsim::fem {
@@ -49,7 +48,6 @@ class MumpsFactorization final : public Factorization {
  public:
   MumpsFactorization() {
     detail::use_one_solver_thread();
-    detail::route_single_column_blas();
     id_.job = kJobInit;
     id_.par = 1;  // this process works too
     id_.sym = 2;  // general symmetric, with pivoting: any symmetric matrix (SYM 1 would assume positive definite)

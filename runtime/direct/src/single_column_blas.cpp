@@ -5,7 +5,6 @@
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
-#include <stdexcept>
 
 namespace organsim::fem::detail {
 namespace {
@@ -128,11 +127,6 @@ void trsm(const char* side, const char* uplo, const char* transa, const char* di
 }
 
 }  // namespace
-
-void route_single_column_blas() {
-  if (!loaded_blas<double>().complete() || !loaded_blas<float>().complete())
-    throw std::runtime_error("no BLAS library loaded (GEMM, TRSM, GEMV, TRSV in single and double precision)");
-}
 
 std::uint64_t single_column_blas_calls() noexcept { return routed_calls.load(std::memory_order_relaxed); }
 
