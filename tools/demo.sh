@@ -34,7 +34,7 @@ echo "== organsim poke: two tools press the baked liver (multi-beam model): forc
   --out "$out/liver_poked.vtp"
 echo
 echo "== organsim poke --model psh --compare beam: the same presses through the pressure-stabilized Mooney-Rivlin FEM"
-echo "   (paper 004; Newton to equilibrium on the model's tetrahedra) and how far the multi-beam model is from it"
+echo "   (Ogata et al.; Newton to equilibrium on the model's tetrahedra) and how far the multi-beam model is from it"
 "$build/tools/organsim" poke "$out/liver.organ" --tool -7.1,-252.0,356.2/0,5,0 --tool -99.4,-217.0,387.9/-4,0,0 \
   --model psh --compare beam
 echo
@@ -47,7 +47,7 @@ echo "   co-rotational FEM and pressure-stabilized FEM models"
 "$build/tools/organsim" replay "$out/liver.organ" "$repo/data_samples/liver_two_tools.session" \
   --model beam,springs,corotational,psh
 echo
-echo "== organsim compare: the same presses with every model, each against the PSH FEM (paper 004's Table 5 measure)"
+echo "== organsim compare: the same presses with every model, each against the PSH FEM (Ogata et al.'s Table 5 measure)"
 "$build/tools/organsim" compare "$out/liver.organ" --tool -7.1,-252.0,356.2/0,5,0 --tool -99.4,-217.0,387.9/-4,0,0
 echo
 echo "Outputs in $out (models; mask, surface and tetrahedra for 3D Slicer / ParaView in liver_intermediates/)."

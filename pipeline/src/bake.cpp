@@ -15,7 +15,7 @@
 #include "organsim/io/atomic_file.h"
 #include "organsim/mesh_io/mesh_io.h"
 #include "organsim/model/model_file.h"
-#include "organsim/multibeam/beam_organ.h"
+#include "organsim/organ/organ.h"
 #include "organsim/pipeline/ct_input.h"
 #include "organsim/pipeline/fixed_point.h"
 #include "organsim/pipeline/image_io.h"
@@ -25,10 +25,10 @@
 namespace organsim::pipeline {
 namespace {
 
-// The surface in the order the runtime keeps it (multibeam::morton_order), so
+// The surface in the order the runtime keeps it (organ::morton_order), so
 // that loading the model renumbers and copies nothing.
 geometry::SurfaceMesh in_runtime_order(geometry::SurfaceMesh mesh) {
-  multibeam::renumber_in_morton_order(mesh.vertices, mesh.triangles);
+  organ::renumber_in_morton_order(mesh.vertices, mesh.triangles);
   return mesh;
 }
 
@@ -98,8 +98,10 @@ void check_options(const BakeOptions& o) {
     throw std::runtime_error(fmt::format("--alpha must be positive (got {})", m.attenuation_alpha));
   if (!(std::isfinite(m.attenuation_beta) && m.attenuation_beta >= 0.0))
     throw std::runtime_error(fmt::format("--beta must be a non-negative number per metre (got {})", m.attenuation_beta));
-  if (o.beams.stations < 1 || o.beams.stations > 4096)
-    throw std::runtime_error(fmt::format("--stations must lie in 1..4096 (got {})", o.beams.stations));
+  if (o.beam_tables && (o.beams.stations < 1 || o.beams.stations > 4096))
+    throw std::runtime_error(fmt::format("--stations must lie in 1..4096 (got {}); to bake a model without beam tables "
+                                         "(every model but the multi-beam one runs on it), pass --no-beam-tables",
+                                         o.beams.stations));
   if (o.surface.target_vertices < 100)
     throw std::runtime_error(fmt::format("--surface-vertices must be at least 100 (got {})", o.surface.target_vertices));
 }
@@ -209,8 +211,12 @@ std::map<std::string, std::string> provenance_parameters(const BakeOptions& o, c
   p["facet_angle_deg"] = fmt::format("{}", o.tetrahedra.facet_angle_deg);
   p["radius_edge_ratio"] = fmt::format("{}", o.tetrahedra.radius_edge_ratio);
   p["mesh_optimization"] = o.tetrahedra.optimize ? "lloyd+exude" : "none";
-  p["stations"] = fmt::format("{}", o.beams.stations);
-  p["section_samples_per_side"] = fmt::format("{}", o.beams.samples_per_side);
+  if (o.beam_tables) {
+    p["stations"] = fmt::format("{}", o.beams.stations);
+    p["section_samples_per_side"] = fmt::format("{}", o.beams.samples_per_side);
+  } else {
+    p["beam_tables"] = "none";
+  }
   return p;
 }
 
@@ -265,10 +271,11 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
                              report.fixed_point_mm[1] * kMetresPerMillimetre,
                              report.fixed_point_mm[2] * kMetresPerMillimetre};
   model::OrganModel& model = result.model;
-  model.beams = clock.run("beam tables", [&] {
-    return bake_beam_tables(*mask, surface.vertices, fixed_point_m, o.beams,
-                            [&](double fraction) { clock.notify("beam tables", fraction); });
-  });
+  if (o.beam_tables)
+    model.beams = clock.run("beam tables", [&] {
+      return bake_beam_tables(*mask, surface.vertices, fixed_point_m, o.beams,
+                              [&](double fraction) { clock.notify("beam tables", fraction); });
+    });
   report.stations = model.beams.stations_per_beam;
   report.beam_sections = model.beams.sections.size();
 

@@ -26,7 +26,7 @@
 #include "organsim/fem/static_solver.h"
 #include "organsim/fem/tet_mesh.h"
 #include "organsim/model/model_file.h"
-#include "organsim/multibeam/beam_organ.h"
+#include "organsim/organ/organ.h"
 #ifdef ORGANSIM_HAVE_FEM_DIRECT
 #include "organsim/fem/direct_factorizations.h"
 #endif
@@ -51,7 +51,7 @@ const BakedMesh& baked_mesh() {
     BakedMesh b;
     auto read = organsim::model::read_organ_model_file(bench_model());
     if (!read) throw std::runtime_error(read.error);
-    const organsim::multibeam::BeamOrgan organ(std::move(*read.model));  // in metres
+    const organsim::organ::Organ organ(std::move(*read.model));  // in metres
     for (const auto& p : organ.model().volume_vertices) b.mesh.nodes.emplace_back(p[0], p[1], p[2]);
     for (const auto& t : organ.model().tetrahedra)
       b.mesh.tetrahedra.push_back({static_cast<std::int32_t>(t[0]), static_cast<std::int32_t>(t[1]),

@@ -11,7 +11,7 @@
 #include <benchmark/benchmark.h>
 #include <fmt/format.h>
 
-#include "organsim/multibeam/beam_organ.h"
+#include "organsim/organ/organ.h"
 
 namespace organsim::bench {
 namespace {
@@ -89,7 +89,7 @@ const MachineLimits& machine_limits() {
   static const MachineLimits limits = [] {
     MachineLimits m;
     m.cpu = cpu_model();
-    m.simd = multibeam::vertex_kernel_level();
+    m.simd = organ::vertex_kernel_level();
     m.copy_bytes_per_s = copy_bandwidth();
     m.peak_flops = peak_flops(m.simd);
     return m;

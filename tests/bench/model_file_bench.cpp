@@ -8,7 +8,7 @@
 #include <filesystem>
 
 #include "organsim/model/model_file.h"
-#include "organsim/multibeam/beam_organ.h"
+#include "organsim/organ/organ.h"
 #include "test_models.h"
 
 namespace {
@@ -45,18 +45,18 @@ BENCHMARK(BM_LoadModelFile100k)->Unit(benchmark::kMillisecond);
 
 // What a simulating program waits for: the file read and the multi-beam
 // model's own layout (vertices along a Morton curve, their rings).
-void BM_LoadAndPrepareBeamOrgan100k(benchmark::State& state) {
+void BM_LoadAndPrepareOrgan100k(benchmark::State& state) {
   const std::string path = large_model_file();
   for (auto _ : state) {
     organsim::model::ModelReadResult r = organsim::model::read_organ_model_file(path);
     if (!r) state.SkipWithError(r.error.c_str());
-    const organsim::multibeam::BeamOrgan organ(std::move(*r.model));
+    const organsim::organ::Organ organ(std::move(*r.model));
     benchmark::DoNotOptimize(organ.vertex_count());
   }
   state.counters["x_memory_limit"] =
       organsim::bench::times_memory_limit(2.0 * static_cast<double>(std::filesystem::file_size(path)));
 }
-BENCHMARK(BM_LoadAndPrepareBeamOrgan100k)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_LoadAndPrepareOrgan100k)->Unit(benchmark::kMillisecond);
 
 void BM_ParseInMemory100k(benchmark::State& state) {
   const std::vector<std::uint8_t> bytes = organsim::model::serialize_organ_model(large_model());

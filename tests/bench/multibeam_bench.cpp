@@ -22,9 +22,9 @@ using namespace organsim::multibeam;
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kRadius = 0.08;  // the test sphere's radius, m
 
-const BeamOrgan& organ(std::size_t vertices) {
-  static const BeamOrgan small(testing::make_sphere_model(2400, 20));
-  static const BeamOrgan large(testing::make_sphere_model(100000, 20));
+const organ::Organ& organ(std::size_t vertices) {
+  static const organ::Organ small(testing::make_sphere_model(2400, 20));
+  static const organ::Organ large(testing::make_sphere_model(100000, 20));
   return vertices <= 2400 ? small : large;
 }
 
@@ -36,7 +36,7 @@ Eigen::Vector3d tool_point(int i, int count) {
   return kRadius * Eigen::Vector3d(r * std::cos(azimuth), r * std::sin(azimuth), z);
 }
 
-std::unique_ptr<MultiBeam> attached(const BeamOrgan& o, int tools, std::vector<Eigen::Vector3d>& displacements) {
+std::unique_ptr<MultiBeam> attached(const organ::Organ& o, int tools, std::vector<Eigen::Vector3d>& displacements) {
   MultiBeamOptions options;
   options.max_tools = static_cast<std::uint32_t>(tools);
   auto beams = std::make_unique<MultiBeam>(o, options);
@@ -53,14 +53,14 @@ std::unique_ptr<MultiBeam> attached(const BeamOrgan& o, int tools, std::vector<E
 }
 
 void BM_BeamCreation(benchmark::State& state) {
-  const BeamOrgan& o = organ(2400);
+  const organ::Organ& o = organ(2400);
   MultiBeam beams(o, {});
   int i = 0;
   for (auto _ : state) {
     const Status s = beams.attach(0, tool_point(i++ % 64, 64));
     benchmark::DoNotOptimize(s);
   }
-  state.counters["elements"] = o.stations();
+  state.counters["elements"] = beams.stations();
 }
 BENCHMARK(BM_BeamCreation)->Unit(benchmark::kMicrosecond);
 
@@ -88,7 +88,7 @@ double minimum(const std::vector<double>& values) { return *std::min_element(val
 // The frame's normals: MultiBeam::normals() on the single-precision points
 // its distort() kept (here the rest shape).
 void BM_Normals(benchmark::State& state) {
-  const BeamOrgan& o = organ(static_cast<std::size_t>(state.range(0)));
+  const organ::Organ& o = organ(static_cast<std::size_t>(state.range(0)));
   const MultiBeam beams(o, {});
   std::vector<model::Point3> normals(o.vertex_count());
   for (auto _ : state) {
@@ -107,7 +107,7 @@ BENCHMARK(BM_Normals)->Arg(2400)->Arg(100000)->Unit(benchmark::kMicrosecond)->Co
 // compute_vertex_normals(): any double positions (the other models' frames,
 // the viewer's rest shape).
 void BM_NormalsOfDoublePositions(benchmark::State& state) {
-  const BeamOrgan& o = organ(static_cast<std::size_t>(state.range(0)));
+  const organ::Organ& o = organ(static_cast<std::size_t>(state.range(0)));
   std::vector<model::Point3> normals(o.vertex_count());
   for (auto _ : state) {
     compute_vertex_normals(o, o.model().surface_vertices.data(), normals.data(), 0, o.vertex_count());
@@ -161,10 +161,10 @@ void BM_Deformation(benchmark::State& state) {
   const std::size_t vertices = static_cast<std::size_t>(state.range(0));
   const int tools = static_cast<int>(state.range(1));
   const bool two_threads = state.range(2) == 2;
-  const BeamOrgan& o = organ(vertices);
+  const organ::Organ& o = organ(vertices);
   std::vector<Eigen::Vector3d> displacements;
   const auto beams = attached(o, tools, displacements);
-  const std::size_t n = o.vertex_count(), half = n / 2 / BeamOrgan::kPadding * BeamOrgan::kPadding;
+  const std::size_t n = o.vertex_count(), half = n / 2 / organ::Organ::kPadding * organ::Organ::kPadding;
   std::vector<model::Point3> positions(n), normals(n);
   if (!two_threads) {
     for (auto _ : state) {

@@ -24,8 +24,8 @@ using namespace organsim::realtime;
 
 constexpr double kRadius = 0.08;  // the test sphere, m
 
-const multibeam::BeamOrgan& organ() {
-  static const multibeam::BeamOrgan sphere(testing::make_sphere_model(100000, 20));
+const organ::Organ& organ() {
+  static const organ::Organ sphere(testing::make_sphere_model(100000, 20));
   return sphere;
 }
 

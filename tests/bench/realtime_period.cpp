@@ -26,7 +26,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "pressing tools: 0, 1 or 2\n");
     return 2;
   }
-  const multibeam::BeamOrgan organ(testing::make_sphere_model(vertices, 20));
+  const organ::Organ organ(testing::make_sphere_model(vertices, 20));
   std::vector<std::unique_ptr<ScriptedDevice>> devices;
   std::vector<HapticDevice*> pointers;
   for (int k = 0; k < std::max(pressing, 1); ++k) {

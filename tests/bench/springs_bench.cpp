@@ -15,7 +15,7 @@
 
 #include "organsim/devices/scripted_device.h"
 #include "organsim/model/model_file.h"
-#include "organsim/multibeam/beam_organ.h"
+#include "organsim/organ/organ.h"
 #include "organsim/realtime/engine.h"
 #include "organsim/springs/mass_spring.h"
 #include "test_models.h"
@@ -100,7 +100,7 @@ BENCHMARK(BM_StepBakedLiver)->DenseRange(0, 4)->Unit(benchmark::kMicrosecond);
 
 /// The force loop's cost with the spring model: the same 3×3 linearization as the beam's.
 void BM_EngineForceTickSprings(benchmark::State& state) {
-  static const multibeam::BeamOrgan organ(testing::make_sphere_model(3000, 20));
+  static const organ::Organ organ(testing::make_sphere_model(3000, 20));
   devices::Trajectory press;
   press.times = {0.0, 1.0};
   press.positions = {Eigen::Vector3d(0, 0, 0.09), Eigen::Vector3d(0, 0, 0.07)};
@@ -111,7 +111,7 @@ void BM_EngineForceTickSprings(benchmark::State& state) {
     pointers.push_back(owned.back().get());
   }
   realtime::EngineOptions options;
-  options.model = realtime::ModelKind::springs;
+  options.model = "springs";
   realtime::Engine engine(organ, pointers, options);
   double now = 0.0;
   for (int frame = 0; frame < 40; ++frame) {  // make contact and settle into it

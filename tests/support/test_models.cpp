@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "organsim/model/beam_frame.h"
-#include "organsim/multibeam/beam_organ.h"
+#include "organsim/organ/organ.h"
 
 namespace organsim::testing {
 namespace {
@@ -170,7 +170,7 @@ model::OrganModel make_sphere_model(std::size_t vertex_count, std::uint32_t stat
       m.surface_triangles.push_back({at(r, s), at(r + 1, s + 1), at(r, s + 1)});
     }
   // In the order organsim bake writes (the runtime's), like a baked model.
-  multibeam::renumber_in_morton_order(m.surface_vertices, m.surface_triangles);
+  organ::renumber_in_morton_order(m.surface_vertices, m.surface_triangles);
   m.volume_vertices = m.surface_vertices;
   m.volume_vertices.push_back({0.0, 0.0, 0.0});
   const auto centre = static_cast<std::uint32_t>(m.volume_vertices.size() - 1);

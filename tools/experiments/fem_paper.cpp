@@ -1,4 +1,4 @@
-// Ogata et al.'s FEM experiments (paper 004) on our curved tube, and the same
+// Ogata et al.'s FEM experiments on our curved tube, and the same
 // comparison on a baked liver (docs/fem.md):
 //   1. PSH with β = 0 against CalculiX (the paper checked against ADINA) at
 //      ρ = 510 and 5.1 kg/m³: mean and largest nodal difference;

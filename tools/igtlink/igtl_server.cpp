@@ -77,7 +77,7 @@ class IgtlServer::PoseHandler final : public MessageReader::Handler {
   Client& client_;
 };
 
-IgtlServer::IgtlServer(const ServerOptions& options, const multibeam::BeamOrgan& organ,
+IgtlServer::IgtlServer(const ServerOptions& options, const organ::Organ& organ,
                        std::vector<model::Triangle> file_triangles, std::vector<devices::StreamedTool*> tools,
                        realtime::TripleBuffer<realtime::SurfaceFrame>& surfaces, Log warn, Log note)
     : options_(options),

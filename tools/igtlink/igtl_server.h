@@ -38,7 +38,7 @@
 #include "igtlink/message_reader.h"
 #include "organsim/devices/streamed_tool.h"
 #include "organsim/model/organ_model.h"
-#include "organsim/multibeam/beam_organ.h"
+#include "organsim/organ/organ.h"
 #include "organsim/realtime/engine.h"
 
 namespace organsim::igtlink {
@@ -72,7 +72,7 @@ class IgtlServer {
   /// the server reads (its only reader); `file_triangles` are the model file's.
   /// `warn` receives bad messages (once per kind) and failures, `note` clients
   /// coming and going. Throws std::runtime_error when it cannot listen.
-  IgtlServer(const ServerOptions& options, const multibeam::BeamOrgan& organ,
+  IgtlServer(const ServerOptions& options, const organ::Organ& organ,
              std::vector<model::Triangle> file_triangles, std::vector<devices::StreamedTool*> tools,
              realtime::TripleBuffer<realtime::SurfaceFrame>& surfaces, Log warn, Log note);
   ~IgtlServer();
@@ -104,7 +104,7 @@ class IgtlServer {
   void dropped(Problem problem, const MessageInfo& info, const Client& client);
 
   ServerOptions options_;
-  const multibeam::BeamOrgan& organ_;
+  const organ::Organ& organ_;
   std::vector<model::Triangle> file_triangles_;
   std::vector<devices::StreamedTool*> tools_;
   realtime::TripleBuffer<realtime::SurfaceFrame>& surfaces_;

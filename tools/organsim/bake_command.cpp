@@ -130,7 +130,10 @@ void print_report(const pipeline::BakeReport& r, const model::OrganModel& model,
   fmt::print("volumes         mask {:.1f} mL, surface {:.1f} mL ({:+.2f} %), tetrahedra {:.1f} mL ({:+.2f} %)\n",
              r.mask_volume_ml, r.surface_volume_ml, percent_from(r.surface_volume_ml, r.mask_volume_ml),
              r.tetrahedra_volume_ml, percent_from(r.tetrahedra_volume_ml, r.mask_volume_ml));
-  fmt::print("beam tables     {} stations x {} beams\n", r.stations, r.surface_vertices);
+  if (r.stations > 0)
+    fmt::print("beam tables     {} stations x {} beams\n", r.stations, r.surface_vertices);
+  else
+    fmt::print("beam tables     none (--no-beam-tables): every model but --model beam runs on it\n");
   fmt::print("material        E {} Pa, nu {}, rho {} kg/m³, alpha {:.4g}, beta {} 1/m\n", model.material.young_modulus,
              model.material.poisson_ratio, model.material.density, model.material.attenuation_alpha,
              model.material.attenuation_beta);
@@ -191,6 +194,8 @@ void add_bake_options(CLI::App& app, const std::shared_ptr<BakeCommandOptions>& 
   app.add_option("--facet-distance", b.tetrahedra.facet_distance_mm,
                  "Largest distance of a boundary facet from the surface, mm")->capture_default_str();
   app.add_option("--stations", b.beams.stations, "Beam stations (sections per beam)")->capture_default_str();
+  app.add_flag("--no-beam-tables{false}", b.beam_tables,
+               "Bake no beam tables: faster; the model runs every deformation model but the multi-beam one");
   app.add_option("--section-samples", b.beams.samples_per_side, "Section sampling grid per side")->capture_default_str();
   app.add_option("--threads", b.beams.threads, "Threads for the beam tables (0: all cores)")->capture_default_str();
   app.add_option("--young-modulus", b.material.young_modulus, "E, Pa")->capture_default_str();

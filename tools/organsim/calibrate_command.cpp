@@ -56,7 +56,7 @@ Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 /// sampling from a seeded start, among the vertices far enough from the
 /// clamp that every model can take the press (a quarter of the way from the
 /// clamp ball to the farthest vertex).
-std::vector<std::uint32_t> press_sites(const multibeam::BeamOrgan& organ, int count, std::uint32_t seed,
+std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std::uint32_t seed,
                                        double clamp_radius) {
   const std::vector<model::Point3>& vertices = organ.model().surface_vertices;
   double farthest = 0.0;
@@ -95,7 +95,7 @@ struct Probe {
 
 /// Mean nodal displacement difference (fraction of the bounding box's
 /// diagonal) of the beam field exp(−κ d) s against the reference.
-double beam_difference(const Probe& p, const multibeam::BeamOrgan& organ, double rate, double diagonal) {
+double beam_difference(const Probe& p, const organ::Organ& organ, double rate, double diagonal) {
   const std::vector<model::Point3>& rest = organ.model().volume_vertices;
   double sum = 0.0;
   for (std::size_t n = 0; n < rest.size(); ++n) {
@@ -105,7 +105,7 @@ double beam_difference(const Probe& p, const multibeam::BeamOrgan& organ, double
   return sum / (diagonal * static_cast<double>(std::max<std::size_t>(rest.size(), 1)));
 }
 
-double mean_beam_difference(const std::vector<Probe>& probes, const multibeam::BeamOrgan& organ, double rate,
+double mean_beam_difference(const std::vector<Probe>& probes, const organ::Organ& organ, double rate,
                             double diagonal) {
   double sum = 0.0;
   for (const Probe& p : probes) sum += beam_difference(p, organ, rate, diagonal);
@@ -114,7 +114,7 @@ double mean_beam_difference(const std::vector<Probe>& probes, const multibeam::B
 
 /// The attenuation rate κ (1/m) that minimizes the mean difference: a scan
 /// over [0, 400] 1/m, then golden-section search around the best point.
-double fit_attenuation_rate(const std::vector<Probe>& probes, const multibeam::BeamOrgan& organ, double diagonal) {
+double fit_attenuation_rate(const std::vector<Probe>& probes, const organ::Organ& organ, double diagonal) {
   constexpr double kHighest = 400.0, kStep = 10.0;
   auto cost = [&](double rate) { return mean_beam_difference(probes, organ, rate, diagonal); };
   double best = 0.0, best_cost = cost(0.0);
@@ -172,7 +172,7 @@ struct HeldOutError {
   double spring_difference = 0.0, spring_force = 0.0, spring_factor = 0.0;
 };
 
-HeldOutError measure_held_out(const multibeam::BeamOrgan& organ, const std::vector<Probe>& probes,
+HeldOutError measure_held_out(const organ::Organ& organ, const std::vector<Probe>& probes,
                               const PressOptions& o, const Eigen::Vector3d& extent) {
   HeldOutError e;
   double reference_size = 0.0, beam_log = 0.0, spring_log = 0.0;
@@ -202,26 +202,13 @@ model::OrganModel with_material(model::OrganModel model, const model::Material& 
   return model;
 }
 
-int run_calibrate(CalibrateOptions o) {
-  if (o.presses < 4 || o.presses > 256) throw CLI::ValidationError("--presses", "must be 4 to 256 (half fit, half held out)");
-  o.press.command = "calibrate";
-  const model::OrganModel original = load_simulation_model("calibrate", o.model_path);
-  const model::Material& before = original.material;
-  const multibeam::BeamOrgan organ(original);  // its own material: the errors before
-  if (organ.model().volume_vertices.empty())
-    throw std::runtime_error(o.model_path + ": the model has no tetrahedra for the reference FEM model; bake it with "
-                                            "tetrahedra (organsim bake makes them by default)");
-  model::Material unit = before;  // κ = 0 and unit scales: what the fit scales
-  unit.attenuation_beta = 0.0;
-  unit.beam_stiffness_scale = unit.spring_stiffness_scale = 1.0;
-  const multibeam::BeamOrgan unit_organ(with_material(original, unit));
-  const Eigen::Vector3d extent = bounding_box_extent(organ.model().surface_vertices);
-
-  // The presses, alternately to fit and held out.
+/// The presses, alternately to fit and held out: each pressed with the
+/// reference on `organ` and with the fast models on `unit_organ` (unit scales,
+/// no attenuation). A press the reference cannot solve is left out with a warning.
+void press_probes(const CalibrateOptions& o, const organ::Organ& organ, const organ::Organ& unit_organ,
+                  std::vector<Probe>& fit, std::vector<Probe>& held_out) {
   std::vector<model::Point3> normals(organ.vertex_count());
-  multibeam::compute_vertex_normals(organ, organ.model().surface_vertices.data(), normals.data(), 0,
-                                    organ.vertex_count());
-  std::vector<Probe> fit, held_out;
+  organ::compute_vertex_normals(organ, organ.model().surface_vertices.data(), normals.data(), 0, organ.vertex_count());
   const std::vector<std::uint32_t> sites = press_sites(organ, o.presses, o.seed, o.press.tuning.fixed_radius_mm * 1e-3);
   for (std::size_t k = 0; k < sites.size(); ++k) {
     const Eigen::Vector3d at = point(organ.model().surface_vertices[sites[k]]) * 1e3;
@@ -258,97 +245,106 @@ int run_calibrate(CalibrateOptions o) {
   if (fit.size() < 2 || held_out.size() < 2)
     throw std::runtime_error(fmt::format("only {} of {} presses could be solved by {}: press less deep (--depth)",
                                          fit.size() + held_out.size(), sites.size(), o.reference));
+}
 
-  // The fit, then a guard: a fitted value whose held-out error (computed the
-  // same way) would be larger than the current value's is not taken.
-  const double diagonal = extent.norm();
+/// The fitted material, and the names of the values kept because the fitted
+/// one would raise the held-out error (computed the same way).
+struct FittedMaterial {
+  model::Material material;
+  std::vector<std::string> kept;
+};
+
+FittedMaterial fit_material(const model::Material& before, const std::vector<Probe>& fit,
+                            const std::vector<Probe>& held_out, const organ::Organ& unit_organ, double diagonal) {
   const double alpha = std::abs(std::log(before.attenuation_alpha)) > 1e-12 ? before.attenuation_alpha : std::exp(1.0);
   const double rate_before = before.attenuation_beta * std::log(before.attenuation_alpha);
-  model::Material after = before;
+  FittedMaterial result{before, {}};
+  model::Material& after = result.material;
   after.attenuation_alpha = alpha;
-  std::vector<std::string> kept;
   const double rate = fit_attenuation_rate(fit, unit_organ, diagonal);
   if (mean_beam_difference(held_out, unit_organ, rate, diagonal) <=
       mean_beam_difference(held_out, unit_organ, rate_before, diagonal))
     after.attenuation_beta = rate / std::log(alpha);
   else
-    kept.push_back("attenuation");
+    result.kept.push_back("attenuation");
   const double beam_scale = fit_force_scale(fit, &Probe::beam_force);
   if (force_factor(held_out, &Probe::beam_force, beam_scale) <=
       force_factor(held_out, &Probe::beam_force, before.beam_stiffness_scale))
     after.beam_stiffness_scale = beam_scale;
   else
-    kept.push_back("beam stiffness");
+    result.kept.push_back("beam stiffness");
   const double spring_scale = fit_force_scale(fit, &Probe::spring_force);
   if (force_factor(held_out, &Probe::spring_force, spring_scale) <=
       force_factor(held_out, &Probe::spring_force, before.spring_stiffness_scale))
     after.spring_stiffness_scale = spring_scale;
   else
-    kept.push_back("spring stiffness");
+    result.kept.push_back("spring stiffness");
+  return result;
+}
 
-  model::OrganModel calibrated = with_material(original, after);
+/// How the calibration was made and what it achieved, in the model's provenance.
+void record_calibration(model::OrganModel& calibrated, const CalibrateOptions& o, std::size_t fitted,
+                        std::size_t held_out, const HeldOutError& before, const HeldOutError& after) {
   auto& parameters = calibrated.provenance.parameters;
   parameters["calibration_reference"] = o.reference;
-  parameters["calibration_presses"] = fmt::format("{} fitted, {} held out", fit.size(), held_out.size());
+  parameters["calibration_presses"] = fmt::format("{} fitted, {} held out", fitted, held_out);
   parameters["calibration_depth_mm"] = fmt::format("{:g}", o.depth_mm);
   parameters["calibration_seed"] = std::to_string(o.seed);
   parameters["calibration_fixed_radius_mm"] = fmt::format("{:g}", o.press.tuning.fixed_radius_mm);
   parameters["calibration_beam"] = fmt::format("{}, {} sections", o.press.theory, o.press.sections);
-
-  // What the user gets: every held-out press again with both materials.
-  note("calibrate", "measuring the held-out presses before and after");
-  const HeldOutError error_before = measure_held_out(organ, held_out, o.press, extent);
-  const multibeam::BeamOrgan calibrated_organ(calibrated);
-  const HeldOutError error_after = measure_held_out(calibrated_organ, held_out, o.press, extent);
   parameters["calibration_held_out_beam"] =
       fmt::format("displacement {:.3g} -> {:.3g} % of the bounding box, force off by x {:.3g} -> {:.3g}",
-                  100 * error_before.beam_difference, 100 * error_after.beam_difference, error_before.beam_factor,
-                  error_after.beam_factor);
+                  100 * before.beam_difference, 100 * after.beam_difference, before.beam_factor, after.beam_factor);
   parameters["calibration_held_out_springs"] =
       fmt::format("displacement {:.3g} -> {:.3g} % of the bounding box, force off by x {:.3g} -> {:.3g}",
-                  100 * error_before.spring_difference, 100 * error_after.spring_difference,
-                  error_before.spring_factor, error_after.spring_factor);
-  model::write_organ_model_file(calibrated, o.output_path);
+                  100 * before.spring_difference, 100 * after.spring_difference, before.spring_factor,
+                  after.spring_factor);
+}
 
-  if (o.json) {
-    auto material = [](const model::Material& m) {
-      return nlohmann::json{{"attenuation_alpha", m.attenuation_alpha},
-                            {"attenuation_beta_per_m", m.attenuation_beta},
-                            {"beam_stiffness_scale", m.beam_stiffness_scale},
-                            {"spring_stiffness_scale", m.spring_stiffness_scale}};
-    };
-    auto errors = [](const HeldOutError& e) {
-      return nlohmann::json{
-          {"beam",
-           {{"mean_difference", e.beam_difference}, {"force_factor", e.beam_factor}, {"force_error", e.beam_force}}},
-          {"springs",
-           {{"mean_difference", e.spring_difference},
-            {"force_factor", e.spring_factor},
-            {"force_error", e.spring_force}}}};
-    };
-    nlohmann::json j = {{"reference", o.reference},
-                        {"model", o.model_path},
-                        {"output", o.output_path},
-                        {"presses_fitted", fit.size()},
-                        {"presses_held_out", held_out.size()},
-                        {"before", material(before)},
-                        {"after", material(after)},
-                        {"kept", kept},
-                        {"held_out_before", errors(error_before)},
-                        {"held_out_after", errors(error_after)}};
-    std::cout << j.dump() << '\n';
-    return 0;
-  }
+struct CalibrationOutcome {
+  std::size_t fitted = 0, held_out = 0;
+  model::Material before, after;
+  std::vector<std::string> kept;
+  HeldOutError error_before, error_after;
+};
+
+void print_json(const CalibrateOptions& o, const CalibrationOutcome& c) {
+  auto material = [](const model::Material& m) {
+    return nlohmann::json{{"attenuation_alpha", m.attenuation_alpha},
+                          {"attenuation_beta_per_m", m.attenuation_beta},
+                          {"beam_stiffness_scale", m.beam_stiffness_scale},
+                          {"spring_stiffness_scale", m.spring_stiffness_scale}};
+  };
+  auto errors = [](const HeldOutError& e) {
+    return nlohmann::json{
+        {"beam", {{"mean_difference", e.beam_difference}, {"force_factor", e.beam_factor}, {"force_error", e.beam_force}}},
+        {"springs",
+         {{"mean_difference", e.spring_difference}, {"force_factor", e.spring_factor}, {"force_error", e.spring_force}}}};
+  };
+  nlohmann::json j = {{"reference", o.reference},
+                      {"model", o.model_path},
+                      {"output", o.output_path},
+                      {"presses_fitted", c.fitted},
+                      {"presses_held_out", c.held_out},
+                      {"before", material(c.before)},
+                      {"after", material(c.after)},
+                      {"kept", c.kept},
+                      {"held_out_before", errors(c.error_before)},
+                      {"held_out_after", errors(c.error_after)}};
+  std::cout << j.dump() << '\n';
+}
+
+void print_table(const CalibrateOptions& o, const CalibrationOutcome& c) {
   std::cout << fmt::format("{:<14}{} against {}: {} presses of {:g} mm, inward or tilted 45 degrees (seed {}), {} fitted, "
                            "{} held out\n",
-                           "calibrate", o.model_path, o.reference, fit.size() + held_out.size(), o.depth_mm, o.seed,
-                           fit.size(), held_out.size());
+                           "calibrate", o.model_path, o.reference, c.fitted + c.held_out, o.depth_mm, o.seed, c.fitted,
+                           c.held_out);
   std::cout << fmt::format("{:<14}beam: attenuation beta {:g} -> {:g} 1/m (alpha {:g}; only beta ln alpha enters), "
                            "stiffness E x {:g} -> {:g}; springs: stiffness E x {:g} -> {:g}\n",
-                           "fitted", before.attenuation_beta, after.attenuation_beta, alpha,
-                           before.beam_stiffness_scale, after.beam_stiffness_scale, before.spring_stiffness_scale,
-                           after.spring_stiffness_scale);
-  for (const std::string& k : kept)
+                           "fitted", c.before.attenuation_beta, c.after.attenuation_beta, c.after.attenuation_alpha,
+                           c.before.beam_stiffness_scale, c.after.beam_stiffness_scale, c.before.spring_stiffness_scale,
+                           c.after.spring_stiffness_scale);
+  for (const std::string& k : c.kept)
     std::cout << fmt::format("{:<14}{}: the fitted value would raise the held-out error; the model's value is kept\n",
                              "kept", k);
   std::cout << fmt::format("\nheld-out presses against {}: mean nodal displacement difference (% of the bounding box "
@@ -360,11 +356,47 @@ int run_calibrate(CalibrateOptions o) {
     std::cout << fmt::format("| {:<7} | {:>18.3f}% | {:>5.3f}% | {:>18.2f}x | {:>5.2f}x | {:>17.1f}% | {:>5.1f}% |\n",
                              name, 100 * d0, 100 * d1, k0, k1, 100 * f0, 100 * f1);
   };
-  row("beam", error_before.beam_difference, error_after.beam_difference, error_before.beam_factor,
-      error_after.beam_factor, error_before.beam_force, error_after.beam_force);
-  row("springs", error_before.spring_difference, error_after.spring_difference, error_before.spring_factor,
-      error_after.spring_factor, error_before.spring_force, error_after.spring_force);
+  const HeldOutError &b = c.error_before, &a = c.error_after;
+  row("beam", b.beam_difference, a.beam_difference, b.beam_factor, a.beam_factor, b.beam_force, a.beam_force);
+  row("springs", b.spring_difference, a.spring_difference, b.spring_factor, a.spring_factor, b.spring_force,
+      a.spring_force);
   std::cout << fmt::format("\n{:<14}{}\n", "written", o.output_path);
+}
+
+int run_calibrate(CalibrateOptions o) {
+  if (o.presses < 4 || o.presses > 256) throw CLI::ValidationError("--presses", "must be 4 to 256 (half fit, half held out)");
+  o.press.command = "calibrate";
+  const model::OrganModel original = load_simulation_model("calibrate", o.model_path, {o.reference, "beam", "springs"});
+  CalibrationOutcome c;
+  c.before = original.material;
+  const organ::Organ organ(original);  // its own material: the errors before
+  model::Material unit = c.before;  // κ = 0 and unit scales: what the fit scales
+  unit.attenuation_beta = 0.0;
+  unit.beam_stiffness_scale = unit.spring_stiffness_scale = 1.0;
+  const organ::Organ unit_organ(with_material(original, unit));
+  const Eigen::Vector3d extent = bounding_box_extent(organ.model().surface_vertices);
+
+  std::vector<Probe> fit, held_out;
+  press_probes(o, organ, unit_organ, fit, held_out);
+  c.fitted = fit.size();
+  c.held_out = held_out.size();
+  FittedMaterial fitted = fit_material(c.before, fit, held_out, unit_organ, extent.norm());
+  c.after = fitted.material;
+  c.kept = std::move(fitted.kept);
+
+  // What the user gets: every held-out press again with both materials.
+  model::OrganModel calibrated = with_material(original, c.after);
+  note("calibrate", "measuring the held-out presses before and after");
+  c.error_before = measure_held_out(organ, held_out, o.press, extent);
+  const organ::Organ calibrated_organ(calibrated);
+  c.error_after = measure_held_out(calibrated_organ, held_out, o.press, extent);
+  record_calibration(calibrated, o, c.fitted, c.held_out, c.error_before, c.error_after);
+  model::write_organ_model_file(calibrated, o.output_path);
+
+  if (o.json)
+    print_json(o, c);
+  else
+    print_table(o, c);
   return 0;
 }
 

@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "organsim/model/model_file.h"
+#include "organsim/realtime/model_registry.h"
 #include "organsim/version.h"
 
 namespace organsim::cli {
@@ -135,15 +136,23 @@ const CLI::Validator kPositive = number_check("a positive number", [](double v) 
 const CLI::Validator kNonNegative = number_check("a number >= 0", [](double v) { return v >= 0.0; });
 
 const std::vector<std::string>& deformation_model_names() {
-  static const std::vector<std::string> names{"beam", "springs", "linear", "corotational", "stvk", "psh"};
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> registered;
+    for (const realtime::RegisteredModel* model : realtime::registered_models()) registered.emplace_back(model->name);
+    return registered;
+  }();
   return names;
 }
 
+std::string deformation_model_help() {
+  std::string help = "Deformation model:";
+  for (const realtime::RegisteredModel* model : realtime::registered_models())
+    help += fmt::format("{} {} ({})", help.back() == ':' ? "" : ";", model->name, model->description);
+  return help + "; docs/architecture.md";
+}
+
 void add_deformation_model_option(CLI::App& app, std::string& kind) {
-  app.add_option("--model", kind,
-                 "Deformation model: beam (multi-beam), springs (mass-spring), or FEM on the tetrahedra: linear, "
-                 "corotational, stvk (St. Venant-Kirchhoff), psh (pressure-stabilized Mooney-Rivlin); "
-                 "docs/architecture.md")
+  app.add_option("--model", kind, deformation_model_help())
       ->check(CLI::IsMember(deformation_model_names()))
       ->capture_default_str();
 }
@@ -158,15 +167,20 @@ void detail(const std::string& command, const std::string& message) {
   if (g_verbosity == Verbosity::verbose) std::fprintf(stderr, "organsim %s: %s\n", command.c_str(), message.c_str());
 }
 
-model::OrganModel load_simulation_model(const std::string& command, const std::string& path) {
+model::OrganModel load_simulation_model(const std::string& command, const std::string& path,
+                                        const std::vector<std::string>& models) {
   model::ModelReadResult read = model::read_organ_model_file(path);
   if (!read) throw std::runtime_error(read.error);
   const model::OrganModel& model = *read.model;
   detail(command, fmt::format("{}: {} surface vertices, {} triangles, {} tetrahedra, {} beam stations, E = {:g} Pa",
                               path, model.surface_vertices.size(), model.surface_triangles.size(),
                               model.tetrahedra.size(), model.beams.stations_per_beam, model.material.young_modulus));
-  if (model.beams.empty())
-    throw std::runtime_error(path + ": the model has no beam tables; re-bake it with --stations N");
+  for (const std::string& name : models) {
+    const realtime::RegisteredModel* entry = realtime::find_model(name);
+    if (!entry) throw std::runtime_error("unknown deformation model '" + name + "': " + realtime::model_names(", "));
+    if (const std::string why = realtime::unsuitable_model(*entry, model); !why.empty())
+      throw std::runtime_error(path + ": " + why);
+  }
   return std::move(*read.model);
 }
 

@@ -50,16 +50,22 @@ void detail(const std::string& command, const std::string& message);
 extern const CLI::Validator kPositive;     ///< a finite number > 0
 extern const CLI::Validator kNonNegative;  ///< a finite number ≥ 0
 
-/// The names --model accepts: beam, springs, linear, corotational, stvk, psh.
+/// The names --model accepts: the registered models (realtime/model_registry.h).
 const std::vector<std::string>& deformation_model_names();
+/// "Deformation model: beam (multi-beam …), springs (…), …": the registered
+/// models with their descriptions, for --model's help.
+std::string deformation_model_help();
 /// --model NAME: which deformation model the engine runs (default beam).
-/// `kind` receives the name; realtime::parse_model_kind reads it.
+/// `kind` receives a registered name (realtime::find_model).
 void add_deformation_model_option(CLI::App& app, std::string& kind);
 
 /// Loads the model file at `path` for a command that simulates it with the
-/// multi-beam model: throws std::runtime_error (an input error) when the file
-/// is unreadable or invalid or has no beam tables; with --verbose, says what it holds.
-model::OrganModel load_simulation_model(const std::string& command, const std::string& path);
+/// deformation models `models` (registered names): throws std::runtime_error
+/// (an input error) when the file is unreadable or invalid or lacks what one
+/// of them needs (beam tables, tetrahedra; one line saying how to bake it);
+/// with --verbose, says what it holds.
+model::OrganModel load_simulation_model(const std::string& command, const std::string& path,
+                                        const std::vector<std::string>& models);
 /// "organsim COMMAND: warning: MESSAGE" on stderr, always.
 void warn(const std::string& command, const std::string& message);
 

@@ -1,6 +1,6 @@
 // `organsim compare MODEL --tool X,Y,Z/DX,DY,DZ [--tool …] [--models …]
 // [--reference psh] [--json] [--out DIR]`: every deformation model under the
-// same presses, each measured against a reference model (the paper 004 Table 5
+// same presses, each measured against a reference model (Ogata et al.'s Table 5
 // measure: nodal displacement differences normalized by the bounding box).
 #include <algorithm>
 #include <cstdlib>
@@ -14,6 +14,7 @@
 #include "command_line.h"
 #include "organsim/mesh_io/mesh_io.h"
 #include "organsim/model/model_file.h"
+#include "organsim/realtime/model_registry.h"
 #include "plot/line_plot.h"
 #include "static_press.h"
 
@@ -25,6 +26,7 @@ struct CompareOptions {
   std::vector<std::string> tools;
   std::vector<std::string> models = deformation_model_names();
   std::string reference = "psh";
+  bool models_given = false;  // --models on the command line
   bool json = false;
   std::string out_dir;
   int sweep = 4;
@@ -61,7 +63,7 @@ void add_fields(mesh_io::FieldMesh& mesh, const std::vector<model::Point3>& rest
 /// The model's deformed surface in the file's vertex numbering and, when the
 /// model and the reference moved the tetrahedral nodes, its deformed
 /// tetrahedra, each with displacement and difference from the reference (mm).
-std::vector<std::string> write_model_files(const multibeam::BeamOrgan& organ,
+std::vector<std::string> write_model_files(const organ::Organ& organ,
                                            const std::vector<model::Triangle>& file_triangles, const PressResult& r,
                                            const PressResult& reference, const std::string& stem) {
   mesh_io::FieldMesh surface;
@@ -80,7 +82,7 @@ std::vector<std::string> write_model_files(const multibeam::BeamOrgan& organ,
 
 /// differences.png (mean and max per model) and force_depth.png (each tool's
 /// |F| against the press depth, `sweep` depths up to the given presses).
-std::vector<std::string> write_plots(const CompareOptions& o, const multibeam::BeamOrgan& organ,
+std::vector<std::string> write_plots(const CompareOptions& o, const organ::Organ& organ,
                                      const std::vector<ToolSpec>& tools, const std::vector<std::string>& models,
                                      const std::vector<PressResult>& results, const std::vector<Comparison>& versus) {
   if (const char* display = std::getenv("DISPLAY"); display == nullptr || *display == '\0') {
@@ -128,9 +130,19 @@ int run_compare(CompareOptions o) {
   if (std::find(models.begin(), models.end(), o.reference) == models.end()) models.insert(models.begin(), o.reference);
   if (!o.out_dir.empty()) std::filesystem::create_directories(o.out_dir);
 
-  model::OrganModel loaded = load_simulation_model("compare", o.model_path);
+  // Without --models: every model the file can run (one baked with
+  // --no-beam-tables runs all but the multi-beam model).
+  model::OrganModel loaded = load_simulation_model("compare", o.model_path, o.models_given ? models : std::vector{o.reference});
+  if (!o.models_given)
+    models.erase(std::remove_if(models.begin(), models.end(),
+                                [&](const std::string& m) {
+                                  const std::string why = realtime::unsuitable_model(*realtime::find_model(m), loaded);
+                                  if (!why.empty()) note("compare", "not pressing with " + m + ": " + why);
+                                  return !why.empty();
+                                }),
+                 models.end());
   const std::vector<model::Triangle> file_triangles = loaded.surface_triangles;
-  const multibeam::BeamOrgan organ(std::move(loaded));
+  const organ::Organ organ(std::move(loaded));
   o.press.command = "compare";
   for (std::size_t i = 0; i < tools.size(); ++i) snap_to_surface(organ, tools[i], i, o.press);  // before any press
   std::vector<PressResult> results;
@@ -223,10 +235,11 @@ Command add_compare_command(CLI::App& app) {
   auto o = std::make_shared<CompareOptions>();
   app.add_option("model", o->model_path, "Model file (.organ)")->required();
   add_press_options(app, o->tools, o->press);
-  app.add_option("--models", o->models, "The models to press, comma-separated")
-      ->delimiter(',')
-      ->check(CLI::IsMember(deformation_model_names()))
-      ->capture_default_str();
+  CLI::Option* models = app.add_option("--models", o->models,
+                                       "The models to press, comma-separated (default: every model the file can run)")
+                            ->delimiter(',')
+                            ->check(CLI::IsMember(deformation_model_names()))
+                            ->capture_default_str();
   app.add_option("--reference", o->reference, "The model the others are measured against")
       ->check(CLI::IsMember(deformation_model_names()))
       ->capture_default_str();
@@ -237,7 +250,10 @@ Command add_compare_command(CLI::App& app) {
       ->check(CLI::Range(1, 50))
       ->capture_default_str();
   app.add_flag("--json", o->json, "Print the comparison as one JSON object on stdout");
-  return [o] { return run_compare(*o); };
+  return [o, models] {
+    o->models_given = models->count() > 0;
+    return run_compare(*o);
+  };
 }
 
 }  // namespace organsim::cli

@@ -35,7 +35,7 @@ nlohmann::json triple(const Eigen::Vector3d& v) { return {v[0], v[1], v[2]}; }
 
 /// The deformed tetrahedra coloured by the displacement's magnitude (mm),
 /// seen from the front (along +y, LPS: from anterior), head up.
-void draw_tetrahedra(const multibeam::BeamOrgan& organ, const PressResult& r, const std::vector<ToolSpec>& tools,
+void draw_tetrahedra(const organ::Organ& organ, const PressResult& r, const std::vector<ToolSpec>& tools,
                      const PokeOptions& o, const std::string& path) {
   if (r.node_positions.empty())
     throw std::runtime_error("--png: the " + o.deformation +
@@ -71,9 +71,11 @@ int run_poke(const PokeOptions& o) {
   if (!o.compare.empty() && o.compare == o.deformation)
     throw CLI::ValidationError("--compare", "compare with another model than --model " + o.deformation);
 
-  model::OrganModel loaded = load_simulation_model("poke", o.model_path);
+  std::vector<std::string> models{o.deformation};
+  if (!o.compare.empty()) models.push_back(o.compare);
+  model::OrganModel loaded = load_simulation_model("poke", o.model_path, models);
   const std::vector<model::Triangle> file_triangles = loaded.surface_triangles;
-  const multibeam::BeamOrgan organ(std::move(loaded));
+  const organ::Organ organ(std::move(loaded));
   const bool beam = o.deformation == "beam";
   const PressResult r = press(o.deformation, organ, tools, o.press);
   const std::vector<model::Point3>& positions = r.positions;

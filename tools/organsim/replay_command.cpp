@@ -21,6 +21,8 @@
 #include "organsim/devices/scripted_device.h"
 #include "organsim/io/atomic_file.h"
 #include "organsim/mesh_io/mesh_io.h"
+#include "organsim/realtime/model_registry.h"
+#include "organsim/realtime/session_playback.h"
 #include "organsim/model/model_file.h"
 #include "organsim/realtime/loop_runner.h"
 
@@ -57,7 +59,7 @@ nlohmann::json timing_json(const Percentiles& p) {
 // frames come (published complete by finish()) so that memory stays bounded.
 class FrameWriter {
  public:
-  FrameWriter(const std::string& directory, const multibeam::BeamOrgan& organ, std::vector<model::Triangle> triangles)
+  FrameWriter(const std::string& directory, const organ::Organ& organ, std::vector<model::Triangle> triangles)
       : directory_(directory), organ_(organ), triangles_(std::move(triangles)) {
     if (directory_.empty()) return;
     fs::create_directories(directory_);
@@ -84,7 +86,7 @@ class FrameWriter {
 
  private:
   std::string directory_;
-  const multibeam::BeamOrgan& organ_;
+  const organ::Organ& organ_;
   std::vector<model::Triangle> triangles_;
   std::vector<model::Point3> in_file_order_;
   std::unique_ptr<io::AtomicStream> index_;
@@ -187,54 +189,68 @@ class ProgressReporter {
 /// One model's run of the session.
 struct ModelRun {
   std::string name;
-  std::vector<std::unique_ptr<ScriptedDevice>> devices;  ///< with the forces they received
+  std::unique_ptr<SessionPlayback> playback;  ///< its devices hold the forces they received
   std::vector<ToolTelemetry> telemetry;
   std::vector<std::uint64_t> clamped, watchdog, non_finite;  ///< force-safety ticks per tool
   RunTimings timings;
   std::uint64_t refused = 0, instabilities = 0;
+
+  const std::vector<std::unique_ptr<ScriptedDevice>>& devices() const { return playback->devices(); }
 };
 
 // Records each device's ring holds: 8 s of force ticks, far more than the
 // writer lets accumulate between two takes (2 ms in real time, one frame fast).
 constexpr std::size_t kRingRecords = 8192;
 
-ModelRun run_model(const ReplayOptions& o, const std::string& name, const multibeam::BeamOrgan& organ,
-                   const Session& session, FrameWriter& frames, ForceWriter& forces) {
-  SafetyLimits limits;
-  limits.max_force = o.max_force;
-  limits.max_stiffness = o.max_stiffness;
+EngineOptions engine_options(const ReplayOptions& o, const std::string& name) {
   EngineOptions options;
-  parse_model_kind(name, options.model);
+  options.model = name;
   apply_model_tuning(o.tuning, options.fem, options.springs);
-  options.beams.merge = o.merge == "sum" ? multibeam::MergeRule::sum : multibeam::MergeRule::influence;
+  multibeam::parse_merge_rule(o.merge, options.beams.merge);  // --merge admits only the names it knows
+  return options;
+}
+
+/// Says what the model's undone frames mean, when there were any.
+void warn_instabilities(const std::string& name, std::uint64_t instabilities) {
+  if (instabilities == 0) return;
+  if (!realtime::find_model(name)->fem_material)
+    warn("replay", fmt::format("the {} model diverged {} time(s) and was reset to rest; use a smaller time step", name,
+                               instabilities));
+  else
+    warn("replay", fmt::format("the {} model kept the organ's shape in {} frame(s): even a sixteenth of the iteration "
+                               "would have inverted a tetrahedron (the tool pressed deeper than the material and mesh "
+                               "can follow)",
+                               name, instabilities));
+}
+
+ModelRun run_model(const ReplayOptions& o, const std::string& name, const organ::Organ& organ,
+                   const Session& session, FrameWriter& frames, ForceWriter& forces) {
+  PlaybackOptions playback;
+  playback.limits.max_force = o.max_force;
+  playback.limits.max_stiffness = o.max_stiffness;
+  playback.records_per_tool = kRingRecords;
+  playback.repeat_period = o.repeat_for > 0.0 ? session.duration : 0.0;
   ModelRun run;
   run.name = name;
-  std::vector<HapticDevice*> device_pointers;
-  const double repeat_period = o.repeat_for > 0.0 ? session.duration : 0.0;
-  for (const Trajectory& t : session.tools) {
-    run.devices.push_back(std::make_unique<ScriptedDevice>(t, limits, kRingRecords, repeat_period));
-    device_pointers.push_back(run.devices.back().get());
-  }
-  Engine engine(organ, device_pointers, options);
+  run.playback = std::make_unique<SessionPlayback>(organ, session, engine_options(o, name), playback);
+  const Engine& engine = run.playback->engine();
   const double duration = o.repeat_for > 0.0 ? o.repeat_for : session.duration;
   ProgressReporter progress(o.progress, name, o.json);
-  if (o.fast) {
-    run.timings = run_fast(engine, duration, [&](const RunTimings& so_far) {
-      frames.take(engine.surfaces());
-      forces.take(run.devices);
-      progress.poll(so_far);
-    });
-  } else {
-    run.timings = run_realtime(engine, duration, [&](const RunTimings& so_far) {
-      frames.take(engine.surfaces());
-      forces.take(run.devices);
-      progress.poll(so_far);
+  auto take = [&](const RunTimings& so_far) {
+    frames.take(run.playback->engine().surfaces());
+    forces.take(run.devices());
+    progress.poll(so_far);
+  };
+  if (o.fast)
+    run.timings = run.playback->run_fast(duration, take);
+  else
+    run.timings = run.playback->run_realtime(duration, [&](const RunTimings& so_far) {
+      take(so_far);
       return true;
     });
-  }
-  forces.take(run.devices, true);
+  forces.take(run.devices(), true);
   if (!run.timings.priority_warning.empty() && !o.fast) warn("replay", run.timings.priority_warning);
-  for (std::size_t i = 0; i < run.devices.size(); ++i) {
+  for (std::size_t i = 0; i < run.devices().size(); ++i) {
     run.telemetry.push_back(engine.telemetry(i));
     run.clamped.push_back(engine.safety(i).clamp_count());
     run.watchdog.push_back(engine.safety(i).stalled_count());
@@ -242,14 +258,7 @@ ModelRun run_model(const ReplayOptions& o, const std::string& name, const multib
   }
   run.refused = engine.refused_contacts();
   run.instabilities = engine.model().instabilities();
-  if (run.instabilities > 0 && options.model == ModelKind::springs)
-    warn("replay", fmt::format("the {} model diverged {} time(s) and was reset to rest; use a smaller time step", name,
-                               run.instabilities));
-  else if (run.instabilities > 0)
-    warn("replay", fmt::format("the {} model kept the organ's shape in {} frame(s): even a sixteenth of the iteration "
-                               "would have inverted a tetrahedron (the tool pressed deeper than the material and mesh "
-                               "can follow)",
-                               name, run.instabilities));
+  warn_instabilities(name, run.instabilities);
   return run;
 }
 
@@ -264,7 +273,7 @@ void print_json(const ReplayOptions& o, const Session& session, const ModelRun& 
   j["duration_s"] = o.repeat_for > 0.0 ? o.repeat_for : session.duration;
   j["wall_s"] = timings.wall_seconds;
   nlohmann::json tools = nlohmann::json::array();
-  for (std::size_t i = 0; i < run.devices.size(); ++i)
+  for (std::size_t i = 0; i < run.devices().size(); ++i)
     tools.push_back({{"tool", i + 1},
                      {"contacts", run.telemetry[i].contacts},
                      {"peak_force_n", run.telemetry[i].peak_force},
@@ -351,12 +360,12 @@ int run_replay(const ReplayOptions& o) {
     throw std::runtime_error("--frames " + o.frames_dir + " is a file; give a directory");
   if (o.repeat_for > SessionLimits{}.max_duration && !o.long_session)
     throw CLI::ValidationError("--repeat-for", "longer than a day; pass --long-session to run it on purpose");
-  model::OrganModel loaded = load_simulation_model("replay", o.model_path);
+  model::OrganModel loaded = load_simulation_model("replay", o.model_path, o.models);
   const Session session = read_session(o.session_path, session_limits(loaded, o.long_session));
   if (o.repeat_for > 0.0 && !(session.duration > 0.0))
     throw CLI::ValidationError("--repeat-for", "the session lasts 0 s; it needs samples at two times to repeat");
   const std::vector<model::Triangle> file_triangles = loaded.surface_triangles;
-  const multibeam::BeamOrgan organ(std::move(loaded));
+  const organ::Organ organ(std::move(loaded));
 
   FrameWriter frames(o.frames_dir, organ, file_triangles);
   ForceWriter forces(o.forces_path);

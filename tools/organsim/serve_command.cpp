@@ -64,9 +64,9 @@ nlohmann::json milliseconds(const realtime::Percentiles& p) {
 }
 
 int run_serve(const ServeOptions& o) {
-  model::OrganModel loaded = load_simulation_model("serve", o.model_path);
+  model::OrganModel loaded = load_simulation_model("serve", o.model_path, {o.deformation});
   std::vector<model::Triangle> file_triangles = loaded.surface_triangles;
-  const multibeam::BeamOrgan organ(std::move(loaded));
+  const organ::Organ organ(std::move(loaded));
 
   devices::SafetyLimits limits;
   limits.max_force = o.max_force;
@@ -80,7 +80,7 @@ int run_serve(const ServeOptions& o) {
     streamed.push_back(tools.back().get());
   }
   realtime::EngineOptions options;
-  realtime::parse_model_kind(o.deformation, options.model);
+  options.model = o.deformation;
   apply_model_tuning(o.tuning, options.fem, options.springs);
   realtime::Engine engine(organ, devices, options);
 

@@ -12,7 +12,7 @@
 #include "organsim/fem/organ_fem.h"
 #include "organsim/geometry/model_measures.h"
 #include "organsim/multibeam/multibeam.h"
-#include "organsim/realtime/deformation_model.h"
+#include "organsim/realtime/model_registry.h"
 
 namespace organsim::cli {
 namespace {
@@ -63,12 +63,12 @@ double time_force_law(const std::vector<ContactLaw>& laws, const std::vector<Eig
 }
 
 /// The multi-beam model: static, so one deformation gives the pressed organ.
-PressResult press_beams(const multibeam::BeamOrgan& organ, const std::vector<ToolSpec>& tools, const PressOptions& o) {
+PressResult press_beams(const organ::Organ& organ, const std::vector<ToolSpec>& tools, const PressOptions& o) {
   using namespace organsim::multibeam;
   MultiBeamOptions options;
   options.max_tools = static_cast<std::uint32_t>(tools.size());
-  options.merge = o.merge == "sum" ? MergeRule::sum : MergeRule::influence;
-  options.beam.theory = o.theory == "timoshenko" ? BeamTheory::timoshenko : BeamTheory::euler_bernoulli;
+  parse_merge_rule(o.merge, options.merge);  // the options' checks admit only the names it knows
+  parse_beam_theory(o.theory, options.beam.theory);
   options.beam.centroid_offsets = o.sections == "eccentric";
   options.snap_distance = o.snap_distance_mm * 1e-3;
   MultiBeam beams(organ, options);
@@ -113,12 +113,16 @@ PressResult press_beams(const multibeam::BeamOrgan& organ, const std::vector<Too
     r.tools[i].beam_length = b.length;
     r.tools[i].action_moved = beams.displacement_at(b.action.position);
   }
+  r.summary = fmt::format("{} stations per beam; E {:g} Pa x {:g}, nu {:g}, attenuation {:g} 1/m; {}, {} sections, {} merge",
+                          beams.stations(), organ.model().material.young_modulus,
+                          organ.model().material.beam_stiffness_scale, organ.model().material.poisson_ratio,
+                          beams.attenuation_rate(), o.theory, o.sections, o.merge);
   return r;
 }
 
 /// A FEM model: the static equilibrium of the press by Newton's method (the
 /// tangent refactored at every iteration), from rest.
-PressResult press_fem(const multibeam::BeamOrgan& organ, const std::vector<ToolSpec>& tools, const PressOptions& o,
+PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& tools, const PressOptions& o,
                      fem::MaterialModel material) {
   constexpr int kMaxIterations = 40;
   fem::OrganFemOptions options;
@@ -191,7 +195,7 @@ PressResult press_fem(const multibeam::BeamOrgan& organ, const std::vector<ToolS
   fem.surface_positions(r.positions.data());
   r.node_positions.resize(organ.model().volume_vertices.size());
   fem.node_positions(r.node_positions.data());
-  multibeam::compute_vertex_normals(organ, r.positions.data(), r.normals.data(), 0, r.positions.size());
+  organ::compute_vertex_normals(organ, r.positions.data(), r.normals.data(), 0, r.positions.size());
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
     r.tools[i].force = fem.contact_force(i);
     r.tools[i].action_moved = fem.contact_displacement(i);
@@ -214,12 +218,12 @@ PressResult press_fem(const multibeam::BeamOrgan& organ, const std::vector<ToolS
 /// The mass-spring model: dynamic, so the press is held while the organ
 /// settles (deformation frames of 1/60 s, as in the engine) and the force is
 /// read from the settled state.
-PressResult press_springs(const multibeam::BeamOrgan& organ, const std::vector<ToolSpec>& tools, const PressOptions& o) {
+PressResult press_springs(const organ::Organ& organ, const std::vector<ToolSpec>& tools, const PressOptions& o) {
   using namespace organsim::realtime;
   ModelOptions options;
   apply_model_tuning(o.tuning, options.fem, options.springs);
   const std::unique_ptr<DeformationModel> springs =
-      make_deformation_model(ModelKind::springs, organ, options, tools.size());
+      make_deformation_model("springs", organ, options, tools.size());
   PressResult r;
   r.tools.resize(tools.size());
   std::vector<ContactLinearization> contacts(tools.size());
@@ -263,7 +267,7 @@ PressResult press_springs(const multibeam::BeamOrgan& organ, const std::vector<T
 
 }  // namespace
 
-Eigen::Vector3d snap_to_surface(const multibeam::BeamOrgan& organ, const ToolSpec& tool, std::size_t index,
+Eigen::Vector3d snap_to_surface(const organ::Organ& organ, const ToolSpec& tool, std::size_t index,
                                 const PressOptions& o) {
   const Eigen::Vector3d point = tool.point_mm * 1e-3;
   if (!point.allFinite() || !tool.displacement_mm.allFinite())
@@ -282,26 +286,18 @@ ToolSpec parse_tool(const std::string& text) {
   return {text, parse_triple(text.substr(0, slash), text), parse_triple(text.substr(slash + 1), text)};
 }
 
-PressResult press(const std::string& name, const multibeam::BeamOrgan& organ, const std::vector<ToolSpec>& tools,
+PressResult press(const std::string& name, const organ::Organ& organ, const std::vector<ToolSpec>& tools,
                  const PressOptions& o) {
-  realtime::ModelKind kind = realtime::ModelKind::beam;
-  realtime::parse_model_kind(name, kind);
-  fem::MaterialModel material = fem::MaterialModel::linear;
-  PressResult r = kind == realtime::ModelKind::beam      ? press_beams(organ, tools, o)
-                 : kind == realtime::ModelKind::springs ? press_springs(organ, tools, o)
-                 : realtime::fem_material(kind, material)
-                     ? press_fem(organ, tools, o, material)
-                     : throw std::logic_error("unknown deformation model " + name);
+  const realtime::RegisteredModel* entry = realtime::find_model(name);
+  if (!entry) throw std::logic_error("unknown deformation model " + name);
+  PressResult r = name == "beam"             ? press_beams(organ, tools, o)
+                  : entry->fem_material ? press_fem(organ, tools, o, *entry->fem_material)
+                                        : press_springs(organ, tools, o);
   r.model = name;
-  if (kind == realtime::ModelKind::beam)
-    r.summary = fmt::format("{} stations per beam; E {:g} Pa x {:g}, nu {:g}, attenuation {:g} 1/m; {}, {} sections, {} merge",
-                            organ.stations(), organ.model().material.young_modulus,
-                            organ.model().material.beam_stiffness_scale, organ.model().material.poisson_ratio,
-                            organ.attenuation_rate(), o.theory, o.sections, o.merge);
   return r;
 }
 
-Deformation measure(const multibeam::BeamOrgan& organ, const PressResult& press) {
+Deformation measure(const organ::Organ& organ, const PressResult& press) {
   const std::vector<model::Point3>& positions = press.positions;
   const model::OrganModel& model = organ.model();
   Deformation d;

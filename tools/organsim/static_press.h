@@ -11,7 +11,7 @@
 #include <Eigen/Core>
 
 #include "model_tuning.h"
-#include "organsim/multibeam/beam_organ.h"
+#include "organsim/organ/organ.h"
 
 namespace organsim::cli {
 
@@ -75,14 +75,14 @@ void add_press_options(CLI::App& app, std::vector<std::string>& tools, PressOpti
 /// The rest-surface point a tool presses: the nearest one, within the snap
 /// distance (m). Throws std::runtime_error naming the tool (its 0-based
 /// `index` is printed 1-based) when it is farther or not finite.
-Eigen::Vector3d snap_to_surface(const multibeam::BeamOrgan& organ, const ToolSpec& tool, std::size_t index,
+Eigen::Vector3d snap_to_surface(const organ::Organ& organ, const ToolSpec& tool, std::size_t index,
                                 const PressOptions& o);
 
 /// Presses the organ with `model` (beam, springs, linear, corotational,
 /// stvk, psh): the multi-beam model's one deformation, the mass-spring model
 /// settled over `settle_seconds`, a FEM model's static equilibrium by Newton's
 /// method. Throws std::runtime_error with a one-line reason.
-PressResult press(const std::string& model, const multibeam::BeamOrgan& organ, const std::vector<ToolSpec>& tools,
+PressResult press(const std::string& model, const organ::Organ& organ, const std::vector<ToolSpec>& tools,
                   const PressOptions& o);
 
 /// How the deformed organ of a press looks, in numbers.
@@ -93,7 +93,7 @@ struct Deformation {
   bool volume_of_tetrahedra = false;
 };
 
-Deformation measure(const multibeam::BeamOrgan& organ, const PressResult& press);
+Deformation measure(const organ::Organ& organ, const PressResult& press);
 
 /// Where two presses of the same organ differ: the surfaces vertex by vertex
 /// (m) and the tools' forces (N).

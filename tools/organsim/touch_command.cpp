@@ -45,13 +45,13 @@ void report_device_faults(const std::vector<std::unique_ptr<devices::OpenHaptics
 }
 
 int run_touch(const TouchOptions& o) {
-  model::OrganModel loaded = load_simulation_model("touch", o.model_path);
-  const multibeam::BeamOrgan organ(std::move(loaded));
+  model::OrganModel loaded = load_simulation_model("touch", o.model_path, {o.deformation});
+  const organ::Organ organ(std::move(loaded));
   const devices::HapticRig rig = devices::open_haptic_rig(o.rig, organ.model());
   const auto& owned = rig.devices;
   const std::vector<devices::HapticDevice*> tools = rig.tools();
   realtime::EngineOptions options;
-  realtime::parse_model_kind(o.deformation, options.model);
+  options.model = o.deformation;
   apply_model_tuning(o.tuning, options.fem, options.springs);
   realtime::Engine engine(organ, tools, options);
   devices::OpenHapticsServo servo(*rig.library, rig.servo_devices(), engine);

@@ -25,6 +25,7 @@
 #include "organsim/devices/scripted_device.h"
 #include "organsim/model/model_file.h"
 #include "organsim/realtime/loop_runner.h"
+#include "organsim/realtime/session_playback.h"
 #include "viewer/recording.h"
 #include "viewer/scene.h"
 #include "viewer/tool_style.h"
@@ -91,7 +92,7 @@ std::string overlay(const std::vector<Eigen::Vector3d>& forces, const std::vecto
 
 EngineOptions engine_options(const ViewOptions& o) {
   EngineOptions options;
-  parse_model_kind(o.deformation, options.model);
+  options.model = o.deformation;
   apply_model_tuning(o.tuning, options.fem, options.springs);
   return options;
 }
@@ -99,21 +100,19 @@ EngineOptions engine_options(const ViewOptions& o) {
 /// A recorded session with scripted tools, in the session's own time, stepped
 /// like `replay --fast`; drawn at every deformation frame, paced to the wall
 /// clock when a window is shown.
-void view_session(const multibeam::BeamOrgan& organ, const Session& session, ViewRun& run) {
+void view_session(const organ::Organ& organ, const Session& session, ViewRun& run) {
   const ViewOptions& o = run.options;
-  std::vector<std::unique_ptr<ScriptedDevice>> scripted;
-  std::vector<HapticDevice*> pointers;
-  for (const Trajectory& t : session.tools) {
-    scripted.push_back(std::make_unique<ScriptedDevice>(t, SafetyLimits{}, 16));
-    pointers.push_back(scripted.back().get());
-  }
-  Engine engine(organ, pointers, engine_options(o));
+  PlaybackOptions playback_options;
+  playback_options.records_per_tool = 16;  // the view reads poses, not the recorded forces
+  SessionPlayback playback(organ, session, engine_options(o), playback_options);
+  Engine& engine = playback.engine();
+  const auto& scripted = playback.devices();
   const double frame_period = engine.options().deformation_period;
   const auto wall_start = std::chrono::steady_clock::now();
   std::vector<Eigen::Vector3d> forces(scripted.size());
   const std::vector<bool> present(scripted.size(), true);
   bool stop = false;
-  run_fast(engine, session.duration, [&](const RunTimings&) {
+  playback.run_fast(session.duration, [&](const RunTimings&) {
     if (stop) return;
     engine.surfaces().update();
     const SurfaceFrame& surface = engine.surfaces().read();
@@ -141,7 +140,7 @@ void view_session(const multibeam::BeamOrgan& organ, const Session& session, Vie
 
 /// PHANToM / Touch devices: the HD servo runs the force loop; the deformation
 /// loop and the drawing run here at 60 Hz.
-void view_phantom(const multibeam::BeamOrgan& organ, const HapticRig& rig, ViewRun& run) {
+void view_phantom(const organ::Organ& organ, const HapticRig& rig, ViewRun& run) {
   const ViewOptions& o = run.options;
   const std::vector<HapticDevice*> pointers = rig.tools();
   Engine engine(organ, pointers, engine_options(o));
@@ -181,7 +180,7 @@ void view_phantom(const multibeam::BeamOrgan& organ, const HapticRig& rig, ViewR
 }
 
 /// Mouse and keyboard tools, with the engine's loops on their threads in real time.
-void view_mouse(const multibeam::BeamOrgan& organ, ViewRun& run) {
+void view_mouse(const organ::Organ& organ, ViewRun& run) {
   const ViewOptions& o = run.options;
   std::vector<StreamedTool> tools(kMouseTools);
   std::vector<HapticDevice*> pointers;
@@ -239,8 +238,8 @@ int run_view(const ViewOptions& o) {
   if (!o.screenshot_path.empty() && fs::path(o.screenshot_path).extension() != ".png")
     throw std::runtime_error("--screenshot " + o.screenshot_path + ": screenshots are PNG files; name it .png");
   if (o.phantom && !o.session_path.empty()) throw std::runtime_error("--phantom and --session are exclusive; choose one");
-  model::OrganModel loaded = load_simulation_model("view", o.model_path);
-  const multibeam::BeamOrgan organ(std::move(loaded));
+  model::OrganModel loaded = load_simulation_model("view", o.model_path, {o.deformation});
+  const organ::Organ organ(std::move(loaded));
 
   std::vector<std::string> warnings;
   viewer::SceneOptions scene_options;

@@ -19,11 +19,12 @@
 #include "organsim/devices/scripted_device.h"
 #include "organsim/devices/session_file.h"
 #include "organsim/model/model_file.h"
-#include "organsim/multibeam/beam_organ.h"
+#include "organsim/organ/organ.h"
 #include "organsim/multibeam/multibeam.h"
-#include "organsim/realtime/deformation_model.h"
+#include "organsim/realtime/model_registry.h"
 #include "organsim/realtime/engine.h"
 #include "organsim/realtime/loop_runner.h"
+#include "organsim/realtime/session_playback.h"
 #include "organsim/version.h"
 
 namespace py = pybind11;
@@ -53,20 +54,22 @@ Model load(const std::string& path) {
 }
 
 multibeam::MergeRule merge_rule(const std::string& merge) {
-  if (merge == "influence") return multibeam::MergeRule::influence;
-  if (merge == "sum") return multibeam::MergeRule::sum;
-  throw std::invalid_argument("merge must be 'influence' or 'sum', not '" + merge + "'");
+  multibeam::MergeRule rule{};
+  if (!multibeam::parse_merge_rule(merge, rule))
+    throw std::invalid_argument("merge must be 'influence' or 'sum', not '" + merge + "'");
+  return rule;
 }
 
 multibeam::BeamTheory beam_theory(const std::string& theory) {
-  if (theory == "euler-bernoulli") return multibeam::BeamTheory::euler_bernoulli;
-  if (theory == "timoshenko") return multibeam::BeamTheory::timoshenko;
-  throw std::invalid_argument("theory must be 'euler-bernoulli' or 'timoshenko', not '" + theory + "'");
+  multibeam::BeamTheory parsed{};
+  if (!multibeam::parse_beam_theory(theory, parsed))
+    throw std::invalid_argument("theory must be 'euler-bernoulli' or 'timoshenko', not '" + theory + "'");
+  return parsed;
 }
 
 /// Vertex positions in the organ's (Morton) order → an (N, 3) array in the
 /// model file's order.
-py::array_t<double> in_file_order(const multibeam::BeamOrgan& organ, const std::vector<model::Point3>& points) {
+py::array_t<double> in_file_order(const organ::Organ& organ, const std::vector<model::Point3>& points) {
   py::array_t<double> out({points.size(), std::size_t{3}});
   auto o = out.mutable_unchecked<2>();
   const std::vector<std::uint32_t>& file_index = organ.file_vertex_index();
@@ -90,12 +93,12 @@ void check_status(multibeam::Status status) {
   if (status != multibeam::Status::ok) throw std::runtime_error(multibeam::describe(status));
 }
 
-/// The multi-beam model (paper 000) on a model: attach tools, read their
+/// The multi-beam model (Ushiki et al.) on a model: attach tools, read their
 /// forces, deform the surface.
 class MultiBeamModel {
  public:
   MultiBeamModel(const Model& model, std::uint32_t max_tools, const std::string& merge, const std::string& theory)
-      : organ_(std::make_shared<multibeam::BeamOrgan>(*model)), beam_(*organ_, options(max_tools, merge, theory)) {}
+      : organ_(std::make_shared<organ::Organ>(*model)), beam_(*organ_, options(max_tools, merge, theory)) {}
 
   void attach(std::uint32_t tool, const Eigen::Vector3d& point) {
     check_tool(tool);
@@ -148,27 +151,33 @@ class MultiBeamModel {
       throw std::out_of_range("tool " + std::to_string(tool) + " is out of range: this model takes tools 0.." +
                               std::to_string(beam_.max_tools() - 1));
   }
-  std::shared_ptr<multibeam::BeamOrgan> organ_;
+  std::shared_ptr<organ::Organ> organ_;
   multibeam::MultiBeam beam_;
 };
 
-/// Any of the engine's deformation models (beam, springs, linear,
-/// corotational, stvk, psh) through the engine's own interface: attach a tool,
+/// A registered model's name (ValueError otherwise) that can run on `model`
+/// (organsim.Error with the one line that says how to bake one otherwise).
+void check_model_name(const std::string& name, const model::OrganModel& model) {
+  const realtime::RegisteredModel* entry = realtime::find_model(name);
+  if (!entry) throw std::invalid_argument("unknown model '" + name + "': " + realtime::model_names(", "));
+  if (const std::string why = realtime::unsuitable_model(*entry, model); !why.empty()) throw std::runtime_error(why);
+}
+
+/// Any of the engine's deformation models (model_registry.h: beam, springs,
+/// linear, corotational, stvk, psh) through the engine's own interface: attach a tool,
 /// step time with the tools' displacements, read each contact's force.
 class Simulation {
  public:
   Simulation(const Model& model, const std::string& kind, std::uint32_t tools, const std::string& merge,
              double fixed_radius)
-      : organ_(std::make_shared<multibeam::BeamOrgan>(*model)), contacts_(tools), attached_(tools, false) {
-    realtime::ModelKind k;
-    if (!realtime::parse_model_kind(kind, k))
-      throw std::invalid_argument("unknown model '" + kind + "': beam, springs, linear, corotational, stvk or psh");
+      : organ_(std::make_shared<organ::Organ>(*model)), contacts_(tools), attached_(tools, false) {
+    check_model_name(kind, *model);
     if (tools < 1 || tools > multibeam::kMaxTools)
       throw std::invalid_argument("tools must be 1 to " + std::to_string(multibeam::kMaxTools));
     realtime::ModelOptions options;
     options.beams.merge = merge_rule(merge);
     options.fem.fixed_radius = fixed_radius;
-    model_ = realtime::make_deformation_model(k, *organ_, options, tools);
+    model_ = realtime::make_deformation_model(kind, *organ_, options, tools);
     positions_.resize(organ_->vertex_count());
     normals_.resize(organ_->vertex_count());
   }
@@ -216,7 +225,7 @@ class Simulation {
     d["force"] = Eigen::Vector3d(c.force);
     return d;
   }
-  std::string kind() const { return realtime::model_name(model_->kind()); }
+  std::string kind() const { return model_->name(); }
 
  private:
   void check_tool(std::uint32_t tool) const {
@@ -224,7 +233,7 @@ class Simulation {
       throw std::out_of_range("tool " + std::to_string(tool) + " is out of range: this simulation has tools 0.." +
                               std::to_string(contacts_.size() - 1));
   }
-  std::shared_ptr<multibeam::BeamOrgan> organ_;
+  std::shared_ptr<organ::Organ> organ_;
   std::unique_ptr<realtime::DeformationModel> model_;
   std::vector<realtime::ContactLinearization> contacts_;
   std::vector<bool> attached_;
@@ -237,24 +246,20 @@ py::dict replay(const Model& model, const std::string& session_path, const std::
                 double fixed_radius) {
   const devices::Session session = devices::read_session(session_path);
   realtime::EngineOptions options;
-  if (!realtime::parse_model_kind(kind, options.model))
-    throw std::invalid_argument("unknown model '" + kind + "': beam, springs, linear, corotational, stvk or psh");
+  check_model_name(kind, *model);
+  options.model = kind;
   options.beams.merge = merge_rule(merge);
   options.fem.fixed_radius = fixed_radius;
-  const multibeam::BeamOrgan organ(*model);
-  const auto records = static_cast<std::size_t>(session.duration / options.force_period) + 16;
-  std::vector<std::unique_ptr<devices::ScriptedDevice>> scripted;
-  std::vector<devices::HapticDevice*> pointers;
-  for (const devices::Trajectory& t : session.tools) {
-    scripted.push_back(std::make_unique<devices::ScriptedDevice>(t, devices::SafetyLimits{}, records));
-    pointers.push_back(scripted.back().get());
-  }
-  realtime::RunTimings timings;
+  const organ::Organ organ(*model);
+  realtime::PlaybackOptions playback_options;
+  playback_options.records_per_tool = realtime::records_for_whole_session(session.duration, options.force_period);
+  std::unique_ptr<realtime::SessionPlayback> playback;
   {
-    py::gil_scoped_release released;
-    realtime::Engine engine(organ, pointers, options);
-    timings = realtime::run_fast(engine, session.duration);
+    py::gil_scoped_release released;  // the model's set-up and the run
+    playback = std::make_unique<realtime::SessionPlayback>(organ, session, options, playback_options);
+    playback->run_fast(session.duration);
   }
+  const auto& scripted = playback->devices();
   const std::size_t count = scripted.front()->record_count();
   py::array_t<double> times(count), forces({scripted.size(), count, std::size_t{3}});
   py::array_t<bool> in_contact({scripted.size(), count});
@@ -350,7 +355,7 @@ PYBIND11_MODULE(_organsim, m) {
   m.def("_load", &load, py::arg("path"), "Reads a .organ model file (checked: a bad file raises organsim.Error)");
   m.def("_bake", &cli::bake_report_for_arguments, py::arg("arguments"), py::call_guard<py::gil_scoped_release>());
 
-  py::class_<MultiBeamModel>(m, "MultiBeam", "The multi-beam model (paper 000): one beam per tool, m and N")
+  py::class_<MultiBeamModel>(m, "MultiBeam", "The multi-beam model (Ushiki et al.): one beam per tool, m and N")
       .def(py::init<const Model&, std::uint32_t, const std::string&, const std::string&>(), py::arg("model"),
            py::arg("max_tools") = 4, py::arg("merge") = "influence", py::arg("theory") = "euler-bernoulli")
       .def_property_readonly("max_tools", &MultiBeamModel::max_tools)

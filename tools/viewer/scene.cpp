@@ -84,7 +84,7 @@ struct OrganScene::Parts {
   std::vector<std::unique_ptr<ToolActors>> tools;
 };
 
-OrganScene::OrganScene(const multibeam::BeamOrgan& organ, std::size_t tools, SceneOptions options)
+OrganScene::OrganScene(const organ::Organ& organ, std::size_t tools, SceneOptions options)
     : parts_(std::make_unique<Parts>()) {
   Parts& p = *parts_;
   p.options = std::move(options);
@@ -177,7 +177,7 @@ OrganScene::OrganScene(const multibeam::BeamOrgan& organ, std::size_t tools, Sce
   realtime::SurfaceFrame rest;
   rest.positions = model.surface_vertices;
   rest.normals.resize(rest.positions.size());
-  multibeam::compute_vertex_normals(organ, rest.positions.data(), rest.normals.data(), 0, rest.positions.size());
+  organ::compute_vertex_normals(organ, rest.positions.data(), rest.normals.data(), 0, rest.positions.size());
   show_surface(rest);
   vtkCamera* camera = p.renderer->GetActiveCamera();
   camera->SetViewAngle(60.0);

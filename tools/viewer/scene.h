@@ -12,7 +12,7 @@
 #include <opencv2/core.hpp>
 
 #include "imagery.h"
-#include "organsim/multibeam/beam_organ.h"
+#include "organsim/organ/organ.h"
 #include "organsim/realtime/engine.h"
 
 class vtkRenderWindow;
@@ -32,10 +32,10 @@ struct SceneOptions {
 
 class OrganScene {
  public:
-  OrganScene(const multibeam::BeamOrgan& organ, std::size_t tools, SceneOptions options);
+  OrganScene(const organ::Organ& organ, std::size_t tools, SceneOptions options);
   ~OrganScene();
 
-  /// The deformed surface (BeamOrgan's vertex order).
+  /// The deformed surface (organ::Organ's vertex order).
   void show_surface(const realtime::SurfaceFrame& frame);
   /// Tool `i`: its pose, the force it feels (N) and whether it touches.
   void show_tool(std::size_t i, bool present, const devices::ToolPose& pose, const Eigen::Vector3d& force,

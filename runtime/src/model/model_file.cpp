@@ -413,8 +413,10 @@ std::uint64_t checksum_checking(const std::uint8_t* data, std::size_t size, Beam
   return XXH3_64bits_digest(&state);
 }
 
-OrganModel parse(const std::uint8_t* data, std::size_t size, ModelFileSummary& summary,
-                 const std::shared_ptr<const void>& mapping) {
+/// Checks the header (magic, byte order, version, scalar sizes, checksums of
+/// the header and the section table, the declared length); returns where the
+/// section table ends.
+std::size_t check_header(const std::uint8_t* data, std::size_t size, ModelFileSummary& summary) {
   using namespace format;
   const std::size_t magic_bytes = std::min<std::size_t>(size, sizeof kMagic);
   if (size == 0) fail("the file is empty; pass a .organ model file written by 'organsim bake'");
@@ -466,10 +468,27 @@ OrganModel parse(const std::uint8_t* data, std::size_t size, ModelFileSummary& s
     fail("the section table runs past the end of the file; " + std::string(kDamagedAdvice));
   if (load<std::uint64_t>(data + kOffTableChecksum) != checksum(data + kHeaderBytes, table_end - kHeaderBytes))
     fail(std::string("section table checksum mismatch; ") + kDamagedAdvice);
+  return table_end;
+}
 
-  std::vector<TableEntry> table = read_table(data, section_count);
+/// The known sections' table entries (null where absent), once each.
+struct SectionIndex {
+  const TableEntry* found[std::size(format::kSections)] = {};
+
+  bool has(Section id) const { return found[static_cast<std::size_t>(id)] != nullptr; }
+  const TableEntry* entry(Section id) const { return found[static_cast<std::size_t>(id)]; }
+};
+
+/// Places every section in the payload area (no overlaps, no unknown section
+/// unless the file is of a newer minor version, none twice, every required
+/// one present) and lists them in the summary.
+SectionIndex index_sections(const std::vector<TableEntry>& table, std::size_t table_end, std::size_t size,
+                            ModelFileSummary& summary) {
+  using namespace format;
+  const std::string file_version =
+      std::to_string(summary.version.major) + "." + std::to_string(summary.version.minor);
   const bool newer_minor = summary.version.minor > kModelFormatVersion.minor;
-  const TableEntry* found[std::size(kSections)] = {};
+  SectionIndex index;
   std::vector<std::pair<std::uint64_t, std::uint64_t>> extents;
   for (const TableEntry& e : table) {
     const auto* known = find_known_section(e.tag);
@@ -486,61 +505,62 @@ OrganModel parse(const std::uint8_t* data, std::size_t size, ModelFileSummary& s
       continue;  // Added by a newer minor version: safe to skip by definition of "minor".
     }
     const std::size_t k = static_cast<std::size_t>(known->id);
-    if (found[k]) fail(label + " appears twice; " + std::string(kDamagedAdvice));
-    found[k] = &e;
+    if (index.found[k]) fail(label + " appears twice; " + std::string(kDamagedAdvice));
+    index.found[k] = &e;
   }
   std::sort(extents.begin(), extents.end());
   for (std::size_t i = 1; i < extents.size(); ++i)
     if (extents[i].first < extents[i - 1].first + extents[i - 1].second)
       fail(std::string("two sections overlap in the file; ") + kDamagedAdvice);
+  return index;
+}
 
-  // One pass in the common case: the whole-file checksum covers every payload.
-  // Only when it fails are the sections hashed one by one, to name the damaged one.
-  // The same pass checks the beam values a view will keep, while each piece
-  // of the file is in cache (BeamValueCheck).
-  BeamValueCheck beam_check(found[static_cast<std::size_t>(Section::BeamTables)], data);
-  if (load<std::uint64_t>(data + kOffFileChecksum) != checksum_checking(data + kHeaderBytes, size - kHeaderBytes, beam_check)) {
-    for (const TableEntry& e : table)
-      if (checksum(data + e.offset, static_cast<std::size_t>(e.size)) != e.checksum) {
-        const auto* known = find_known_section(e.tag);
-        fail((known ? section_label(known->id) : "section '" + printable_tag(e.tag) + "'") +
-             ": checksum mismatch; " + kDamagedAdvice);
-      }
-    fail(std::string("whole-file checksum mismatch (damage outside every section's payload); ") +
-         kDamagedAdvice);
-  }
+/// The whole-file checksum, in one pass in the common case: only when it fails
+/// are the sections hashed one by one, to name the damaged one. The same pass
+/// checks the beam values a view will keep, while each piece of the file is
+/// in cache (`beam_check`).
+void check_payloads(const std::uint8_t* data, std::size_t size, const std::vector<TableEntry>& table,
+                    BeamValueCheck& beam_check) {
+  using namespace format;
+  if (load<std::uint64_t>(data + kOffFileChecksum) == checksum_checking(data + kHeaderBytes, size - kHeaderBytes, beam_check))
+    return;
+  for (const TableEntry& e : table)
+    if (checksum(data + e.offset, static_cast<std::size_t>(e.size)) != e.checksum) {
+      const auto* known = find_known_section(e.tag);
+      fail((known ? section_label(known->id) : "section '" + printable_tag(e.tag) + "'") + ": checksum mismatch; " +
+           kDamagedAdvice);
+    }
+  fail(std::string("whole-file checksum mismatch (damage outside every section's payload); ") + kDamagedAdvice);
+}
 
-  for (const auto& d : kSections)
-    if (d.required && !found[static_cast<std::size_t>(d.id)])
-      fail(section_label(d.id) + " is missing but required; " + kDamagedAdvice);
-
-  auto payload = [&](Section id) { return data + found[static_cast<std::size_t>(id)]->offset; };
-  auto bytes = [&](Section id) { return static_cast<std::size_t>(found[static_cast<std::size_t>(id)]->size); };
-  auto has = [&](Section id) { return found[static_cast<std::size_t>(id)] != nullptr; };
-
+/// The model from the checked sections, itself checked (find_model_issue).
+OrganModel read_sections(const std::uint8_t* data, const SectionIndex& index, const BeamValueCheck& beam_check,
+                         const std::shared_ptr<const void>& mapping) {
+  auto payload = [&](Section id) { return data + index.entry(id)->offset; };
+  auto bytes = [&](Section id) { return static_cast<std::size_t>(index.entry(id)->size); };
   OrganModel m;
   read_metadata(payload(Section::Metadata), bytes(Section::Metadata), m.provenance);
   m.surface_vertices = read_array<double, 3>(Section::SurfaceVertices, payload(Section::SurfaceVertices),
                                              bytes(Section::SurfaceVertices));
   m.surface_triangles = read_array<std::uint32_t, 3>(
       Section::SurfaceTriangles, payload(Section::SurfaceTriangles), bytes(Section::SurfaceTriangles));
-  if (has(Section::SurfaceTexcoords))
+  if (index.has(Section::SurfaceTexcoords))
     m.surface_texcoords = read_array<double, 2>(Section::SurfaceTexcoords, payload(Section::SurfaceTexcoords),
                                                 bytes(Section::SurfaceTexcoords));
-  if (has(Section::Tetrahedra) && !has(Section::VolumeVertices))
+  if (index.has(Section::Tetrahedra) && !index.has(Section::VolumeVertices))
     fail_section(Section::Tetrahedra, std::string("present without section 'TVRT' (tetrahedron vertices); ") +
                                           kDamagedAdvice);
-  if (has(Section::VolumeVertices))
+  if (index.has(Section::VolumeVertices))
     m.volume_vertices = read_array<double, 3>(Section::VolumeVertices, payload(Section::VolumeVertices),
                                               bytes(Section::VolumeVertices));
-  if (has(Section::Tetrahedra))
+  if (index.has(Section::Tetrahedra))
     m.tetrahedra = read_array<std::uint32_t, 4>(Section::Tetrahedra, payload(Section::Tetrahedra),
                                                 bytes(Section::Tetrahedra));
   m.fixed_points =
       read_array<double, 3>(Section::FixedPoints, payload(Section::FixedPoints), bytes(Section::FixedPoints));
   read_material(payload(Section::Material), bytes(Section::Material), m.material);
   bool beams_plausible = false;
-  if (has(Section::BeamTables)) {
+  if (index.has(Section::BeamTables)) {
     beams_plausible = read_beams(payload(Section::BeamTables), bytes(Section::BeamTables), m.beams, mapping,
                                  beam_check.done() ? std::optional<bool>(beam_check.plausible) : std::nullopt);
     if (m.beams.sections.size() / m.beams.stations_per_beam != m.surface_vertices.size())
@@ -552,6 +572,19 @@ OrganModel parse(const std::uint8_t* data, std::size_t size, ModelFileSummary& s
   if (const auto issue = find_model_issue(m, beams_plausible))
     fail_section(issue->section, issue->message + "; " + kDamagedAdvice);
   return m;
+}
+
+OrganModel parse(const std::uint8_t* data, std::size_t size, ModelFileSummary& summary,
+                 const std::shared_ptr<const void>& mapping) {
+  const std::size_t table_end = check_header(data, size, summary);
+  const std::vector<TableEntry> table = read_table(data, load<std::uint32_t>(data + format::kOffSectionCount));
+  const SectionIndex index = index_sections(table, table_end, size, summary);
+  BeamValueCheck beam_check(index.entry(Section::BeamTables), data);
+  check_payloads(data, size, table, beam_check);
+  for (const auto& d : format::kSections)
+    if (d.required && !index.has(d.id))
+      fail(section_label(d.id) + " is missing but required; " + kDamagedAdvice);
+  return read_sections(data, index, beam_check, mapping);
 }
 
 // `mapping` (may be null) keeps `data` valid: the beam tables may then view it.

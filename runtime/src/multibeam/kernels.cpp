@@ -207,7 +207,7 @@ void distort(const DistortionJob& job, std::size_t first, std::size_t last) noex
 }
 
 void normals(const NormalsJob& job, std::size_t first, std::size_t last) noexcept {
-  // Eight vertices at a time, one per lane (BeamOrgan::ring_rows), in slices
+  // Eight vertices at a time, one per lane (organ::Organ::ring_rows), in slices
   // of as many as a register holds: each row gathers one neighbour per
   // vertex. Neighbours are taken relative to the centre (which cancels in
   // exact arithmetic) to keep the products small: edges are millimetres,

@@ -32,7 +32,7 @@ inline constexpr std::uint32_t kMaxBeams = 16;      ///< = kMaxTools (static_ass
 ///        are zero because u and θ are continuous at the knots.
 inline constexpr std::uint32_t kPolynomialCoefficients = 18;
 inline constexpr std::uint32_t kCoefficients = 30;
-inline constexpr std::size_t kPadding = 8;          ///< = BeamOrgan::kPadding: vertex arrays are padded
+inline constexpr std::size_t kPadding = 8;          ///< = organ::Organ::kPadding: vertex arrays are padded
 inline constexpr std::size_t kChunk = 8;            ///< vertices per chunk (one register of floats)
 /// A chunk's elements in 16 bits: its lowest element (the low kElementBits
 /// bits) and how many knots its vertices cross beyond it (the top two: 0, 1,
@@ -97,16 +97,16 @@ struct WeightJob {
 };
 
 struct NormalsJob {
-  const std::uint32_t* row_offsets;  ///< BeamOrgan::ring_row_offsets()
-  const std::uint32_t* rows;         ///< BeamOrgan::ring_rows()
+  const std::uint32_t* row_offsets;  ///< organ::Organ::ring_row_offsets()
+  const std::uint32_t* rows;         ///< organ::Organ::ring_rows()
   std::size_t vertex_count;
   const double* positions;           ///< xyz per vertex (m)
   double* normals;                   ///< out: unit xyz per vertex
 };
 
 struct PackedNormalsJob {
-  const std::uint32_t* row_offsets;  ///< BeamOrgan::ring_row_offsets()
-  const std::uint32_t* rows;         ///< BeamOrgan::ring_rows()
+  const std::uint32_t* row_offsets;  ///< organ::Organ::ring_row_offsets()
+  const std::uint32_t* rows;         ///< organ::Organ::ring_rows()
   const float* packed;               ///< x, y, z, 0 per vertex (m, any origin), vertex_count + kPadding of them
   double* normals;                   ///< out: unit xyz per vertex
 };

@@ -31,18 +31,46 @@ kernels::BeamAxis beam_axis(const ToolBeam& tool, std::uint32_t stations) noexce
   return axis;
 }
 
-static_assert(kernels::kMaxBeams == kMaxTools && kernels::kPadding == BeamOrgan::kPadding);
+static_assert(kernels::kMaxBeams == kMaxTools && kernels::kPadding == organ::Organ::kPadding);
 static_assert(sizeof(model::Point3) == 3 * sizeof(double));  // the kernels see xyz-interleaved arrays
+
+/// The organ's beam tables' stations, or a one-line refusal without them.
+std::uint32_t stations_of(const organ::Organ& organ) {
+  if (!organ.has_beam_tables())
+    throw std::invalid_argument("the model has no beam tables (baked with --no-beam-tables): bake it again without "
+                                "that option to run the multi-beam model; every other model runs on it");
+  return organ.model().beams.stations_per_beam;
+}
 
 }  // namespace
 
-MultiBeam::MultiBeam(const BeamOrgan& organ, const MultiBeamOptions& options) : organ_(organ), options_(options) {
+bool parse_merge_rule(std::string_view name, MergeRule& rule) noexcept {
+  if (name == "influence") rule = MergeRule::influence;
+  else if (name == "sum") rule = MergeRule::sum;
+  else return false;
+  return true;
+}
+
+bool parse_beam_theory(std::string_view name, BeamTheory& theory) noexcept {
+  if (name == "euler-bernoulli") theory = BeamTheory::euler_bernoulli;
+  else if (name == "timoshenko") theory = BeamTheory::timoshenko;
+  else return false;
+  return true;
+}
+
+MultiBeam::MultiBeam(const organ::Organ& organ, const MultiBeamOptions& options)
+    : organ_(organ),
+      options_(options),
+      stations_(stations_of(organ)),
+      elasticity_(BeamElasticity::from(organ.model().material.young_modulus * organ.model().material.beam_stiffness_scale,
+                                       organ.model().material.poisson_ratio)),
+      attenuation_rate_(organ.model().material.attenuation_beta * std::log(organ.model().material.attenuation_alpha)) {
   if (options_.max_tools == 0 || options_.max_tools > kMaxTools)
     throw std::invalid_argument("max_tools must be between 1 and 16");
   if (!(options_.snap_distance >= 0.0) || !(options_.merge_distance >= 0.0) || !(options_.min_beam_length > 0.0))
     throw std::invalid_argument("snap, merge and minimum beam distances must be non-negative (m)");
   kernels::selected();  // picks the instruction set now, not in the first real-time call
-  const std::uint32_t stations = organ_.stations();
+  const std::uint32_t stations = stations_;
   if (stations > kernels::kMaxStations)
     throw std::invalid_argument("the multi-beam model takes at most " + std::to_string(kernels::kMaxStations) +
                                 " stations per beam");
@@ -51,16 +79,23 @@ MultiBeam::MultiBeam(const BeamOrgan& organ, const MultiBeamOptions& options) : 
   for (std::uint32_t i = 0; i < options_.max_tools; ++i) solvers_.emplace_back(stations);
   sections_.resize(stations);
   coefficient_data_.assign(static_cast<std::size_t>(options_.max_tools) * kCoefficients * stations, 0.0);
-  vertex_stride_ = organ_.vertex_count() + BeamOrgan::kPadding;
+  const std::size_t n = organ_.vertex_count();
+  vertex_stride_ = n + organ::Organ::kPadding;
+  for (int k = 0; k < 3; ++k) {
+    const double* rest = k == 0 ? organ_.rest_x() : k == 1 ? organ_.rest_y() : organ_.rest_z();
+    offset_[k].resize(vertex_stride_);
+    for (std::size_t i = 0; i < vertex_stride_; ++i)
+      offset_[k][i] = static_cast<float>(rest[i] - organ_.fixed_point()[k]);
+  }
   vertex_weights_.assign(static_cast<std::size_t>(options_.max_tools) * vertex_stride_, 0.0);
-  static_assert(kernels::kChunk == BeamOrgan::kPadding);
+  static_assert(kernels::kChunk == organ::Organ::kPadding);
   chunk_stride_ = vertex_stride_ / kernels::kChunk;
   chunk_elements_.assign(static_cast<std::size_t>(options_.max_tools) * chunk_stride_, 0);
   packed_positions_.assign(4 * vertex_stride_, 0.0f);
   for (std::size_t v = 0; v < organ_.vertex_count(); ++v) {  // the rest shape until the first distort()
-    packed_positions_[4 * v] = organ_.offset_x()[v];
-    packed_positions_[4 * v + 1] = organ_.offset_y()[v];
-    packed_positions_[4 * v + 2] = organ_.offset_z()[v];
+    packed_positions_[4 * v] = offset_x()[v];
+    packed_positions_[4 * v + 1] = offset_y()[v];
+    packed_positions_[4 * v + 2] = offset_z()[v];
   }
 }
 
@@ -101,7 +136,7 @@ Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point) noexc
   }
   const double total = weight[0] + weight[1] + weight[2];
   if (!(total > 0.0)) return Status::at_fixed_point;
-  const std::uint32_t stations = organ_.stations();
+  const std::uint32_t stations = stations_;
   for (std::uint32_t s = 0; s < stations; ++s) {
     Eigen::Matrix3d tensor = Eigen::Matrix3d::Zero();  // ∫ r rᵀ dA over the section, world
     Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
@@ -127,7 +162,7 @@ Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point) noexc
     section.centroid_y = y.dot(centroid);
     section.centroid_z = z.dot(centroid);
   }
-  const Status status = solvers_[tool].build(sections_.data(), stations, length, organ_.elasticity(), options_.beam);
+  const Status status = solvers_[tool].build(sections_.data(), stations, length, elasticity_, options_.beam);
   if (status != Status::ok) return status;
 
   beam.action = action;
@@ -165,7 +200,7 @@ ORGANSIM_FORCE_CLONES Status MultiBeam::force(std::uint32_t tool, const Eigen::V
 
 Status MultiBeam::prepare(const Eigen::Vector3d* tip_displacements) noexcept {
   active_count_ = 0;
-  const std::uint32_t stations = organ_.stations();
+  const std::uint32_t stations = stations_;
   for (std::uint32_t tool = 0; tool < options_.max_tools; ++tool) {
     if (!tools_[tool].attached) continue;
     if (!tip_displacements[tool].allFinite()) {
@@ -247,12 +282,12 @@ void MultiBeam::build_vertex_weights(std::size_t first, std::size_t last) noexce
   job.rest[0] = organ_.rest_x();
   job.rest[1] = organ_.rest_y();
   job.rest[2] = organ_.rest_z();
-  job.offset[0] = organ_.offset_x();
-  job.offset[1] = organ_.offset_y();
-  job.offset[2] = organ_.offset_z();
-  job.stations = organ_.stations();
+  job.offset[0] = offset_x();
+  job.offset[1] = offset_y();
+  job.offset[2] = offset_z();
+  job.stations = stations_;
   job.vertex_count = organ_.vertex_count();
-  job.attenuation_rate = organ_.attenuation_rate();
+  job.attenuation_rate = attenuation_rate_;
   job.groups = influence ? influence_.count() : 0;
   double group_points[kMaxTools][3];
   for (std::uint32_t g = 0; g < job.groups; ++g)
@@ -266,7 +301,7 @@ void MultiBeam::build_vertex_weights(std::size_t first, std::size_t last) noexce
     for (int k = 0; k < 3; ++k) beam.point[k] = active_point_[slot][k];
     beam.share = influence ? group_share_[slot] : 1.0;
     beam.group = influence ? active_group_[slot] : 0;
-    beam.axis = beam_axis(tools_[active_tool_[slot]], organ_.stations());
+    beam.axis = beam_axis(tools_[active_tool_[slot]], stations_);
     beam.weights = vertex_weight(slot);
     beam.chunk_elements = chunk_elements(slot);
   }
@@ -278,17 +313,17 @@ void MultiBeam::distort(std::size_t first, std::size_t last, model::Point3* posi
   distorted_.store(true, std::memory_order_relaxed);
   static_assert(kCoefficients == kernels::kCoefficients);
   kernels::DistortionJob job;
-  job.offset[0] = organ_.offset_x();
-  job.offset[1] = organ_.offset_y();
-  job.offset[2] = organ_.offset_z();
+  job.offset[0] = offset_x();
+  job.offset[1] = offset_y();
+  job.offset[2] = offset_z();
   job.rest[0] = organ_.rest_x();
   job.rest[1] = organ_.rest_y();
   job.rest[2] = organ_.rest_z();
-  job.stations = organ_.stations();
+  job.stations = stations_;
   job.beams = active_count_;
   for (std::uint32_t slot = 0; slot < active_count_; ++slot) {
     kernels::BeamLanes& beam = job.beam[slot];
-    beam.axis = beam_axis(tools_[active_tool_[slot]], organ_.stations());
+    beam.axis = beam_axis(tools_[active_tool_[slot]], stations_);
     beam.weights = vertex_weight(slot);
     beam.chunk_elements = chunk_elements(slot);
     beam.coefficients = coefficients(slot, 0);
@@ -304,7 +339,7 @@ Eigen::Vector3d MultiBeam::displacement_at(const Eigen::Vector3d& rest) const no
   std::fill(group_weight, group_weight + kMaxTools, 1.0);
   if (influence && influence_.count() > 1) influence_.weights(rest, group_weight);
   const Eigen::Vector3d offset = rest - organ_.fixed_point();
-  const std::uint32_t stations = organ_.stations();
+  const std::uint32_t stations = stations_;
   Eigen::Vector3d total = Eigen::Vector3d::Zero();
   for (std::uint32_t slot = 0; slot < active_count_; ++slot) {
     const ToolBeam& beam = tools_[active_tool_[slot]];
@@ -321,7 +356,7 @@ Eigen::Vector3d MultiBeam::displacement_at(const Eigen::Vector3d& rest) const no
       theta[k] = 2.0 * (c[12 + k] + xi * c[15 + k]);
     }
     const Eigen::Vector3d rotated = theta.cross(q);
-    const double weight = std::exp(-organ_.attenuation_rate() * (rest - active_point_[slot]).norm()) *
+    const double weight = std::exp(-attenuation_rate_ * (rest - active_point_[slot]).norm()) *
                           (influence ? group_share_[slot] * group_weight[active_group_[slot]] : 1.0);
     total += weight * (u + rotated + 0.5 * theta.cross(rotated));
   }

@@ -60,7 +60,7 @@ static_assert(kLanes % kDoubleLanes == 0);
 
 /// The x (or, from values + 1, y; values + 2, z) of the points
 /// offset[l] / 16 of an xyz array in lane l, for kDoubleLanes offsets (as
-/// BeamOrgan::ring_rows holds them). AVX2's gather instruction is not used:
+/// organ::Organ::ring_rows holds them). AVX2's gather instruction is not used:
 /// on the development machine (Sapphire Rapids class) it made the normals
 /// kernel 25 % slower than four loads.
 inline DoubleLanes gather(const double* values, const std::uint32_t* offset) noexcept {

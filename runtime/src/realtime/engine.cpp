@@ -7,6 +7,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "organsim/geometry/model_measures.h"
+#include "organsim/realtime/model_registry.h"
 
 namespace organsim::realtime {
 namespace {
@@ -16,11 +17,11 @@ multibeam::MultiBeamOptions with_tools(multibeam::MultiBeamOptions options, std:
   return options;
 }
 
-SurfaceFrame rest_frame(const multibeam::BeamOrgan& organ) {
+SurfaceFrame rest_frame(const organ::Organ& organ) {
   SurfaceFrame frame;
   frame.positions = organ.model().surface_vertices;
   frame.normals.resize(frame.positions.size());
-  multibeam::compute_vertex_normals(organ, frame.positions.data(), frame.normals.data(), 0, frame.positions.size());
+  organ::compute_vertex_normals(organ, frame.positions.data(), frame.normals.data(), 0, frame.positions.size());
   return frame;
 }
 
@@ -40,7 +41,7 @@ constexpr double kCaughtDepth = 1e-3;
 
 }  // namespace
 
-Engine::Engine(const multibeam::BeamOrgan& organ, const std::vector<devices::HapticDevice*>& devices,
+Engine::Engine(const organ::Organ& organ, const std::vector<devices::HapticDevice*>& devices,
                const EngineOptions& options)
     : organ_(organ),
       devices_(devices),

@@ -508,12 +508,7 @@ void MassSpring::step_implicit_euler() noexcept {
   }
 }
 
-StepStatus MassSpring::step() noexcept {
-  if (!stable_) return StepStatus::blew_up;
-  // Only movable nodes change in a step (anchors and clamped nodes never do).
-  for (const std::uint32_t i : movable_nodes_) saved_x_[i] = x_[i], saved_v_[i] = v_[i];
-  if (seeds_dirty_) rebuild_seeds();
-
+double MassSpring::move_held_nodes() noexcept {
   // Held nodes jump to their targets: the tool does the work −½(r₀ + r₁)·Δx
   // (r the reaction before and after the jump).
   double work = 0.0;
@@ -529,91 +524,95 @@ StepStatus MassSpring::step() noexcept {
     v_[i].setZero();
     work -= 0.5 * (before + reaction_force(i)).dot(jump);
   }
-  begin_region();
+  return work;
+}
 
-  const double h = options_.dt;
-  const std::uint32_t* nodes = integrated_nodes_.data();
-  const std::size_t count = integrated_count_;
-  // Local pointers: a store through one vector's data could alias another
-  // vector's members as far as the compiler knows (reloaded per node).
-  Eigen::Vector3d* const x = x_.data();
-  Eigen::Vector3d* const v = v_.data();
-  Eigen::Vector3d* const stage_x = stage_x_.data();
-  Eigen::Vector3d* const stage_v = stage_v_.data();
-  Eigen::Vector3d* const sum_x = sum_x_.data();
-  Eigen::Vector3d* const sum_v = sum_v_.data();
-  const Eigen::Vector3d* const accel = accel_.data();
-  switch (options_.integrator) {
-    case Integrator::explicit_euler:
-      accelerations(x_, v_, accel_);
-      for (std::size_t k = 0; k < count; ++k) {
-        const std::uint32_t i = nodes[k];
-        x[i] += h * v[i];
-        v[i] += h * accel[i];
-      }
-      break;
-    case Integrator::symplectic_euler:
-      accelerations(x_, v_, accel_);
-      for (std::size_t k = 0; k < count; ++k) {
-        const std::uint32_t i = nodes[k];
-        v[i] += h * accel[i];
-        x[i] += h * v[i];
-      }
-      break;
-    case Integrator::midpoint:
-      sync_stage();
-      accelerations(x_, v_, accel_);
-      for (std::size_t k = 0; k < count; ++k) {
-        const std::uint32_t i = nodes[k];
-        stage_x[i] = x[i] + 0.5 * h * v[i];
-        stage_v[i] = v[i] + 0.5 * h * accel[i];
-      }
-      accelerations(stage_x_, stage_v_, accel_);
-      for (std::size_t k = 0; k < count; ++k) {
-        const std::uint32_t i = nodes[k];
-        x[i] += h * stage_v[i];
-        v[i] += h * accel[i];
-      }
-      break;
-    case Integrator::rk4:
-      sync_stage();
-      accelerations(x_, v_, accel_);  // k1 = (v, a1)
-      for (std::size_t k = 0; k < count; ++k) {
-        const std::uint32_t i = nodes[k];
-        sum_x[i] = v[i];
-        sum_v[i] = accel[i];
-        stage_x[i] = x[i] + 0.5 * h * v[i];
-        stage_v[i] = v[i] + 0.5 * h * accel[i];
-      }
-      for (int stage = 2; stage <= 3; ++stage) {  // k2, k3
-        accelerations(stage_x_, stage_v_, accel_);
-        const double reach = stage == 2 ? 0.5 * h : h;
-        for (std::size_t k = 0; k < count; ++k) {
-          const std::uint32_t i = nodes[k];
-          const Eigen::Vector3d stage_velocity = stage_v[i];
-          sum_x[i] += 2.0 * stage_velocity;
-          sum_v[i] += 2.0 * accel[i];
-          stage_x[i] = x[i] + reach * stage_velocity;
-          stage_v[i] = v[i] + reach * accel[i];
-        }
-      }
-      accelerations(stage_x_, stage_v_, accel_);  // k4
-      for (std::size_t k = 0; k < count; ++k) {
-        const std::uint32_t i = nodes[k];
-        x[i] += (h / 6.0) * (sum_x[i] + stage_v[i]);
-        v[i] += (h / 6.0) * (sum_v[i] + accel[i]);
-      }
-      break;
-    case Integrator::implicit_euler:
-      step_implicit_euler();
-      break;
+// The explicit integrators over the integrated nodes, through local pointers
+// (StepArrays): a store through one vector's data could alias another vector's
+// members as far as the compiler knows (reloaded per node).
+
+MassSpring::StepArrays MassSpring::step_arrays() noexcept {
+  return {x_.data(),     v_.data(),     stage_x_.data(),           stage_v_.data(),  sum_x_.data(),
+          sum_v_.data(), accel_.data(), integrated_nodes_.data(), integrated_count_, options_.dt};
+}
+
+void MassSpring::step_explicit_euler() noexcept {
+  const StepArrays a = step_arrays();
+  accelerations(x_, v_, accel_);
+  for (std::size_t k = 0; k < a.count; ++k) {
+    const std::uint32_t i = a.nodes[k];
+    a.x[i] += a.h * a.v[i];
+    a.v[i] += a.h * a.accel[i];
   }
+}
 
-  // Blow-up: a non-finite state or the integrated part's energy beyond the limit.
+void MassSpring::step_symplectic_euler() noexcept {
+  const StepArrays a = step_arrays();
+  accelerations(x_, v_, accel_);
+  for (std::size_t k = 0; k < a.count; ++k) {
+    const std::uint32_t i = a.nodes[k];
+    a.v[i] += a.h * a.accel[i];
+    a.x[i] += a.h * a.v[i];
+  }
+}
+
+void MassSpring::step_midpoint() noexcept {
+  const StepArrays a = step_arrays();
+  sync_stage();
+  accelerations(x_, v_, accel_);
+  for (std::size_t k = 0; k < a.count; ++k) {
+    const std::uint32_t i = a.nodes[k];
+    a.stage_x[i] = a.x[i] + 0.5 * a.h * a.v[i];
+    a.stage_v[i] = a.v[i] + 0.5 * a.h * a.accel[i];
+  }
+  accelerations(stage_x_, stage_v_, accel_);
+  for (std::size_t k = 0; k < a.count; ++k) {
+    const std::uint32_t i = a.nodes[k];
+    a.x[i] += a.h * a.stage_v[i];
+    a.v[i] += a.h * a.accel[i];
+  }
+}
+
+void MassSpring::step_rk4() noexcept {
+  const StepArrays a = step_arrays();
+  const double h = a.h;
+  sync_stage();
+  accelerations(x_, v_, accel_);  // k1 = (v, a1)
+  for (std::size_t k = 0; k < a.count; ++k) {
+    const std::uint32_t i = a.nodes[k];
+    a.sum_x[i] = a.v[i];
+    a.sum_v[i] = a.accel[i];
+    a.stage_x[i] = a.x[i] + 0.5 * h * a.v[i];
+    a.stage_v[i] = a.v[i] + 0.5 * h * a.accel[i];
+  }
+  for (int stage = 2; stage <= 3; ++stage) {  // k2, k3
+    accelerations(stage_x_, stage_v_, accel_);
+    const double reach = stage == 2 ? 0.5 * h : h;
+    for (std::size_t k = 0; k < a.count; ++k) {
+      const std::uint32_t i = a.nodes[k];
+      const Eigen::Vector3d stage_velocity = a.stage_v[i];
+      a.sum_x[i] += 2.0 * stage_velocity;
+      a.sum_v[i] += 2.0 * a.accel[i];
+      a.stage_x[i] = a.x[i] + reach * stage_velocity;
+      a.stage_v[i] = a.v[i] + reach * a.accel[i];
+    }
+  }
+  accelerations(stage_x_, stage_v_, accel_);  // k4
+  for (std::size_t k = 0; k < a.count; ++k) {
+    const std::uint32_t i = a.nodes[k];
+    a.x[i] += (h / 6.0) * (a.sum_x[i] + a.stage_v[i]);
+    a.v[i] += (h / 6.0) * (a.sum_v[i] + a.accel[i]);
+  }
+}
+
+bool MassSpring::blew_up(double& work) const noexcept {
+  // A non-finite state, or the integrated part's energy beyond the limit
+  // (SimulationOptions::energy_growth_limit); `work` gains the external forces'.
+  const double h = options_.dt;
   double energy = 0.0;
   bool finite = true;
-  for (std::size_t k = 0; k < count; ++k) {
-    const std::uint32_t i = nodes[k];
+  for (std::size_t k = 0; k < integrated_count_; ++k) {
+    const std::uint32_t i = integrated_nodes_[k];
     finite = finite && x_[i].allFinite() && v_[i].allFinite();
     work += 0.5 * h * external_[i].dot(saved_v_[i] + v_[i]);  // trapezoidal ∫ F·v dt
     energy += 0.5 * network_.mass[i] * v_[i].squaredNorm() -
@@ -643,13 +642,30 @@ StepStatus MassSpring::step() noexcept {
   }
   for (const double lane : partial) energy += lane;
   const double supplied = std::max(supplied_, work_ + work);
-  if (!finite || !(energy <= options_.energy_growth_limit * (supplied + energy_floor_))) {
+  return !finite || !(energy <= options_.energy_growth_limit * (supplied + energy_floor_));
+}
+
+StepStatus MassSpring::step() noexcept {
+  if (!stable_) return StepStatus::blew_up;
+  // Only movable nodes change in a step (anchors and clamped nodes never do).
+  for (const std::uint32_t i : movable_nodes_) saved_x_[i] = x_[i], saved_v_[i] = v_[i];
+  if (seeds_dirty_) rebuild_seeds();
+  double work = move_held_nodes();
+  begin_region();
+  switch (options_.integrator) {
+    case Integrator::explicit_euler: step_explicit_euler(); break;
+    case Integrator::symplectic_euler: step_symplectic_euler(); break;
+    case Integrator::midpoint: step_midpoint(); break;
+    case Integrator::rk4: step_rk4(); break;
+    case Integrator::implicit_euler: step_implicit_euler(); break;
+  }
+  if (blew_up(work)) {
     for (const std::uint32_t i : movable_nodes_) x_[i] = saved_x_[i], v_[i] = saved_v_[i];
     stable_ = false;
     return StepStatus::blew_up;
   }
   work_ += work;
-  supplied_ = supplied;
+  supplied_ = std::max(supplied_, work_);
   end_region();
   ++steps_;
   return StepStatus::ok;

@@ -6,7 +6,7 @@
 #include <limits>
 #include <vector>
 
-#include "organsim/springs/mass_spring.h"
+#include "organsim/springs/stability.h"
 
 namespace organsim::springs {
 namespace {

@@ -4,7 +4,7 @@
 #include <vector>
 
 #include "organsim/model/model_file.h"
-#include "organsim/multibeam/beam_organ.h"
+#include "organsim/organ/organ.h"
 #include "organsim/multibeam/multibeam.h"
 
 int main(int argc, char** argv) {
@@ -17,10 +17,10 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "press: %s\n", read.error.c_str());
     return 1;
   }
-  const organsim::multibeam::BeamOrgan organ(std::move(*read.model));
+  const organsim::organ::Organ organ(std::move(*read.model));
   organsim::multibeam::MultiBeam beam(organ, {});
   std::vector<organsim::model::Point3> normals(organ.vertex_count()), positions(organ.vertex_count());
-  organsim::multibeam::compute_vertex_normals(organ, organ.model().surface_vertices.data(), normals.data(), 0,
+  organsim::organ::compute_vertex_normals(organ, organ.model().surface_vertices.data(), normals.data(), 0,
                                               organ.vertex_count());
   const auto& rest = organ.model().surface_vertices[0];
   const Eigen::Vector3d at(rest[0], rest[1], rest[2]);

@@ -28,7 +28,7 @@ Function control(const char* name) {
 TEST(OpenHaptics, ServoDrivesTheForceLoopWithinTheDeviceLimits) {
   const HdLibrary library(FAKE_HD_LIBRARY);
   const testing::CylinderSpec spec;  // far cap at x = 150 mm, clamped at x = 0
-  const multibeam::BeamOrgan organ(testing::make_cylinder_model(spec));
+  const organ::Organ organ(testing::make_cylinder_model(spec));
 
   OpenHapticsDevice device(library, "", DevicePlacement{}, devices::SafetyLimits{});
   EXPECT_DOUBLE_EQ(device.limits().max_force, 2.5);       // the device's nominal maximum, below the default 3.3 N
@@ -84,7 +84,7 @@ TEST(OpenHaptics, ServoDrivesTheForceLoopWithinTheDeviceLimits) {
 // servo thread back for milliseconds, and the scheduler then catches up.
 TEST(OpenHaptics, ADeviceThatFailsMidSessionFadesItsForceWhileTheOtherGoesOn) {
   const HdLibrary library(FAKE_HD_LIBRARY);
-  const multibeam::BeamOrgan organ(testing::make_cylinder_model({}));
+  const organ::Organ organ(testing::make_cylinder_model({}));
   // The simulation watchdog (a deformation loop silent for stall_timeout) has
   // its own tests; here it must not fade the force when the test's thread is
   // held back, so that what fades is the device fault alone.

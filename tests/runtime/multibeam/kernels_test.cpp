@@ -10,7 +10,8 @@
 #include <gtest/gtest.h>
 
 #include "multibeam/kernels.h"
-#include "organsim/multibeam/beam_organ.h"
+#include "organsim/multibeam/multibeam.h"
+#include "organsim/organ/organ.h"
 #include "test_models.h"
 
 namespace organsim::multibeam {
@@ -37,10 +38,11 @@ TEST(MultiBeamKernels, TheSelectedLevelIsTheWidestThisCpuRuns) {
 }
 
 TEST(MultiBeamKernels, EveryLevelComputesTheSameWeightsDistortionAndNormals) {
-  const BeamOrgan sphere(testing::make_sphere_model(2400, 20));
+  const organ::Organ sphere(testing::make_sphere_model(2400, 20));
+  const MultiBeam beams(sphere, {});  // the offsets the distortion loops read
   const std::size_t n = sphere.vertex_count();
   const std::size_t padded = n + kernels::kPadding;
-  const std::uint32_t stations = sphere.stations();
+  const std::uint32_t stations = beams.stations();
   std::mt19937 random(7);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
 
@@ -85,9 +87,9 @@ TEST(MultiBeamKernels, EveryLevelComputesTheSameWeightsDistortionAndNormals) {
     weight_job.inverse = inverse.data();
     weight_job.inverse_stride = 3;
     weight_job.beams = kBeams;
-    weight_job.offset[0] = sphere.offset_x();
-    weight_job.offset[1] = sphere.offset_y();
-    weight_job.offset[2] = sphere.offset_z();
+    weight_job.offset[0] = beams.offset_x();
+    weight_job.offset[1] = beams.offset_y();
+    weight_job.offset[2] = beams.offset_z();
     weight_job.stations = stations;
     weight_job.vertex_count = n;
     std::vector<std::vector<std::uint16_t>> chunk_elements(kBeams, std::vector<std::uint16_t>(padded / kernels::kChunk));
@@ -107,9 +109,9 @@ TEST(MultiBeamKernels, EveryLevelComputesTheSameWeightsDistortionAndNormals) {
 
     std::vector<model::Point3> positions(n), normals(n);
     kernels::DistortionJob job{};
-    job.offset[0] = sphere.offset_x();
-    job.offset[1] = sphere.offset_y();
-    job.offset[2] = sphere.offset_z();
+    job.offset[0] = beams.offset_x();
+    job.offset[1] = beams.offset_y();
+    job.offset[2] = beams.offset_z();
     job.rest[0] = sphere.rest_x();
     job.rest[1] = sphere.rest_y();
     job.rest[2] = sphere.rest_z();
@@ -155,7 +157,7 @@ TEST(MultiBeamKernels, EveryLevelComputesTheSameWeightsDistortionAndNormals) {
     // in (evaluated here in double, one vertex at a time), weighted.
     double worst = 0.0;
     for (std::size_t v = 0; v < n; ++v) {
-      const Eigen::Vector3d p(sphere.offset_x()[v], sphere.offset_y()[v], sphere.offset_z()[v]);
+      const Eigen::Vector3d p(beams.offset_x()[v], beams.offset_y()[v], beams.offset_z()[v]);
       Eigen::Vector3d expected = Eigen::Vector3d::Zero();
       for (std::uint32_t b = 0; b < kBeams; ++b) {
         const Eigen::Vector3d to_elements(axes[b].to_elements[0], axes[b].to_elements[1], axes[b].to_elements[2]);

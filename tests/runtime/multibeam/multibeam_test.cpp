@@ -30,7 +30,7 @@ std::uint32_t nearest_vertex(const model::OrganModel& model, const Eigen::Vector
 
 struct CylinderOrgan : ::testing::Test {
   testing::CylinderSpec spec;
-  BeamOrgan organ{testing::make_cylinder_model(spec)};
+  organ::Organ organ{testing::make_cylinder_model(spec)};
   std::vector<model::Point3> positions = std::vector<model::Point3>(organ.vertex_count());
   std::vector<model::Point3> normals = std::vector<model::Point3>(organ.vertex_count());
   Eigen::Vector3d far_cap_centre{spec.length, 0.0, 0.0};
@@ -101,7 +101,7 @@ TEST_F(CylinderOrgan, ZeroDisplacementGivesZeroDeformationAndZeroForce) {
 TEST_F(CylinderOrgan, AttenuationScalesEachDisplacementByAlphaToTheMinusBetaD) {
   model::OrganModel unattenuated_model = testing::make_cylinder_model(spec);
   unattenuated_model.material.attenuation_beta = 0.0;
-  const BeamOrgan unattenuated(std::move(unattenuated_model));
+  const organ::Organ unattenuated(std::move(unattenuated_model));
   MultiBeam with(organ, {}), without(unattenuated, {});
   ASSERT_EQ(with.attach(0, far_cap_centre), Status::ok);
   ASSERT_EQ(without.attach(0, far_cap_centre), Status::ok);
@@ -214,7 +214,7 @@ TEST_F(CylinderOrgan, BadToolInputGivesAClearStatusAndNeverNaN) {
 
 // Area-weighted vertex normals the plain way: each triangle's cross product
 // added to its three corners.
-std::vector<Eigen::Vector3d> reference_normals(const BeamOrgan& organ, const std::vector<model::Point3>& positions) {
+std::vector<Eigen::Vector3d> reference_normals(const organ::Organ& organ, const std::vector<model::Point3>& positions) {
   std::vector<Eigen::Vector3d> sum(positions.size(), Eigen::Vector3d::Zero());
   for (const model::Triangle& t : organ.model().surface_triangles) {
     const Eigen::Vector3d a = vec(positions[t[0]]), b = vec(positions[t[1]]), c = vec(positions[t[2]]);
@@ -225,8 +225,8 @@ std::vector<Eigen::Vector3d> reference_normals(const BeamOrgan& organ, const std
   return sum;
 }
 
-TEST(BeamOrgan, VertexNormalsAreTheAreaWeightedTriangleNormals) {
-  const BeamOrgan sphere(testing::make_sphere_model(2400, 20));
+TEST(Organ, VertexNormalsAreTheAreaWeightedTriangleNormals) {
+  const organ::Organ sphere(testing::make_sphere_model(2400, 20));
   const std::size_t n = sphere.vertex_count();
   std::vector<model::Point3> positions = sphere.model().surface_vertices, normals(n);
   compute_vertex_normals(sphere, positions.data(), normals.data(), 0, n);
@@ -241,7 +241,7 @@ TEST(BeamOrgan, VertexNormalsAreTheAreaWeightedTriangleNormals) {
   ASSERT_EQ(beams.attach(1, {0.0, 0.0, 0.08}), Status::ok);
   const Eigen::Vector3d tips[2] = {{-0.01, 0.002, 0.0}, {0.0, 0.004, -0.008}};
   ASSERT_EQ(beams.prepare(tips), Status::ok);
-  const std::size_t half = n / 2 / BeamOrgan::kPadding * BeamOrgan::kPadding;
+  const std::size_t half = n / 2 / organ::Organ::kPadding * organ::Organ::kPadding;
   beams.distort(0, half, positions.data());
   beams.distort(half, n, positions.data());
   expected = reference_normals(sphere, positions);
@@ -265,7 +265,7 @@ TEST(BeamOrgan, VertexNormalsAreTheAreaWeightedTriangleNormals) {
   }
 }
 
-TEST(BeamOrgan, VertexNormalsOnABorderAndOfAnIsolatedVertex) {
+TEST(Organ, VertexNormalsOnABorderAndOfAnIsolatedVertex) {
   // A hole: every triangle of vertex 100 removed, so that it is isolated and
   // its neighbours lie on a border (their rings are open).
   model::OrganModel model = testing::make_sphere_model(2400, 20);
@@ -276,7 +276,7 @@ TEST(BeamOrgan, VertexNormalsOnABorderAndOfAnIsolatedVertex) {
                                    return t[0] == kIsolated || t[1] == kIsolated || t[2] == kIsolated;
                                  }),
                   triangles.end());
-  const BeamOrgan organ(std::move(model));
+  const organ::Organ organ(std::move(model));
   const std::size_t n = organ.vertex_count();
   const std::uint32_t isolated = static_cast<std::uint32_t>(
       std::find(organ.file_vertex_index().begin(), organ.file_vertex_index().end(), kIsolated) -
@@ -293,10 +293,19 @@ TEST(BeamOrgan, VertexNormalsOnABorderAndOfAnIsolatedVertex) {
   EXPECT_EQ(vec(normals[isolated]), Eigen::Vector3d::Zero());
 }
 
-TEST(BeamOrgan, RefusesAModelWithoutBeamTables) {
+TEST(MultiBeam, RefusesAnOrganWithoutBeamTablesInOneLine) {
   model::OrganModel model = testing::make_cylinder_model({});
   model.beams = model::BeamTables{};
-  EXPECT_THROW(BeamOrgan{std::move(model)}, std::invalid_argument);
+  const organ::Organ organ(std::move(model));  // the organ itself takes it: other models run on it
+  EXPECT_FALSE(organ.has_beam_tables());
+  try {
+    MultiBeam beams(organ, {});
+    FAIL() << "a multi-beam model without beam tables";
+  } catch (const std::invalid_argument& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("--no-beam-tables"), std::string::npos) << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  }
 }
 
 }  // namespace

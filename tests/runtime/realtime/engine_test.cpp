@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "organsim/realtime/engine.h"
+#include "organsim/realtime/model_registry.h"
 #include "organsim/realtime/loop_runner.h"
 #include "organsim/devices/scripted_device.h"
 #include "organsim/realtime/triple_buffer.h"
@@ -89,7 +90,7 @@ TEST(SurfaceBvh, RefitFollowsTheDeformedSurfaceAndFindsEnteringCrossings) {
 // The helper cylinder (radius 30 mm, x from 0 to 150 mm, clamped at x = 0).
 struct CylinderEngine : ::testing::Test {
   testing::CylinderSpec spec;
-  multibeam::BeamOrgan organ{testing::make_cylinder_model(spec)};
+  organ::Organ organ{testing::make_cylinder_model(spec)};
 
   static Trajectory path(std::initializer_list<std::pair<double, Eigen::Vector3d>> samples) {
     Trajectory t;
@@ -135,7 +136,7 @@ TEST_F(CylinderEngine, ASpringsDynamicRegionReportsEveryVertexItMoves) {
   // moved: every vertex whose position changed in a frame must be listed.
   ModelOptions options;
   options.springs.simulation.region = springs::Region::dynamic;
-  const std::unique_ptr<DeformationModel> model = make_deformation_model(ModelKind::springs, organ, options, 1);
+  const std::unique_ptr<DeformationModel> model = make_deformation_model("springs", organ, options, 1);
   const std::size_t n = organ.vertex_count();
   std::vector<model::Point3> previous = organ.model().surface_vertices, positions(n), normals(n);
   std::array<ContactLinearization, 1> contacts{};
@@ -164,7 +165,7 @@ TEST_F(CylinderEngine, ASpringsDynamicRegionReportsEveryVertexItMoves) {
   EXPECT_GT(changed_total, 0u);
   EXPECT_LT(most, n / 2);  // a region, not the organ
   // Integrating every node, the model claims nothing narrower than all.
-  const std::unique_ptr<DeformationModel> everywhere = make_deformation_model(ModelKind::springs, organ, {}, 1);
+  const std::unique_ptr<DeformationModel> everywhere = make_deformation_model("springs", organ, {}, 1);
   ASSERT_TRUE(everywhere->attach(0, {spec.length, 0.0, 0.0}, contacts[0]));
   const Eigen::Vector3d press(-0.001, 0.0, 0.0);
   ASSERT_TRUE(everywhere->step(1.0 / 60.0, &press, positions.data(), normals.data(), contacts.data()));

@@ -105,8 +105,8 @@ TEST(Percentiles, OneOutlierInAHundredShowsOnlyInTheMax) {
 
 // The helper cylinder (radius 30 mm, x from 0 to 150 mm, clamped at x = 0),
 // built once for all tests here.
-const multibeam::BeamOrgan& cylinder() {
-  static const auto organ = std::make_unique<multibeam::BeamOrgan>(testing::make_cylinder_model({}));
+const organ::Organ& cylinder() {
+  static const auto organ = std::make_unique<organ::Organ>(testing::make_cylinder_model({}));
   return *organ;
 }
 

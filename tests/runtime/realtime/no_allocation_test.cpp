@@ -5,11 +5,15 @@
 #include <cmath>
 #include <cstdlib>
 #include <new>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
 #include "organsim/multibeam/multibeam.h"
 #include "organsim/realtime/engine.h"
+#include "organsim/realtime/model_registry.h"
 #include "organsim/devices/scripted_device.h"
 #include "organsim/springs/mass_spring.h"
 #include "test_models.h"
@@ -39,7 +43,7 @@ namespace {
 
 TEST(RealTime, AttachForceAndDeformAllocateNothing) {
   const testing::CylinderSpec spec;
-  const BeamOrgan organ(testing::make_cylinder_model(spec));
+  const organ::Organ organ(testing::make_cylinder_model(spec));
   for (MergeRule rule : {MergeRule::influence, MergeRule::sum}) {
     MultiBeamOptions options;
     options.max_tools = 4;
@@ -71,20 +75,21 @@ TEST(RealTime, AttachForceAndDeformAllocateNothing) {
 
 TEST(RealTime, EngineLoopsAllocateNothingWithEveryModel) {
   const testing::CylinderSpec spec;
-  const BeamOrgan organ(testing::make_cylinder_model(spec));
+  const organ::Organ organ(testing::make_cylinder_model(spec));
   devices::Trajectory press, side;
   press.times = {0.0, 0.3, 0.6};
   press.positions = {{0.16, 0.0, 0.0}, {0.144, 0.002, 0.0}, {0.16, 0.0, 0.0}};
   side.times = {0.0, 0.2, 0.6};
   side.positions = {{0.08, 0.04, 0.0}, {0.08, 0.026, 0.0}, {0.08, 0.04, 0.0}};
-  // The springs also with a dynamic region (partial refits of the contact
-  // tree) and with volume springs.
+  // Every registered model (model_registry.h), and the springs also with a
+  // dynamic region (partial refits of the contact tree) and with volume springs.
   enum class Springs { plain, dynamic_region, volume };
-  const std::pair<realtime::ModelKind, Springs> variants[] = {
-      {realtime::ModelKind::beam, Springs::plain},          {realtime::ModelKind::springs, Springs::plain},
-      {realtime::ModelKind::springs, Springs::dynamic_region}, {realtime::ModelKind::springs, Springs::volume},
-      {realtime::ModelKind::linear, Springs::plain},        {realtime::ModelKind::corotational, Springs::plain},
-      {realtime::ModelKind::stvk, Springs::plain},          {realtime::ModelKind::psh, Springs::plain}};
+  std::vector<std::pair<std::string, Springs>> variants;
+  for (const realtime::RegisteredModel* model : realtime::registered_models())
+    variants.emplace_back(model->name, Springs::plain);
+  ASSERT_GE(variants.size(), 6u);
+  variants.emplace_back("springs", Springs::dynamic_region);
+  variants.emplace_back("springs", Springs::volume);
   for (const auto& [kind, variant] : variants) {
     devices::ScriptedDevice a(press, {}, 1000), b(side, {}, 1000);
     realtime::EngineOptions options;
@@ -100,13 +105,13 @@ TEST(RealTime, EngineLoopsAllocateNothingWithEveryModel) {
       engine.force_tick(tick * 1e-3);
     }
     const long after = allocations;
-    EXPECT_EQ(after - before, 0) << "allocations in the engine's loops, model " << realtime::model_name(kind);
+    EXPECT_EQ(after - before, 0) << "allocations in the engine's loops, model " << kind;
     // The springs' surface relaxes after the tool has let go and may touch the
     // retreating tool once more: at least one contact per tool.
-    EXPECT_GE(engine.telemetry(0).contacts, 1u) << realtime::model_name(kind);
-    EXPECT_GE(engine.telemetry(1).contacts, 1u) << realtime::model_name(kind);
-    EXPECT_GT(engine.telemetry(0).peak_force, 0.0) << realtime::model_name(kind);
-    EXPECT_EQ(engine.model().instabilities(), 0u) << realtime::model_name(kind) << " variant " << static_cast<int>(variant);
+    EXPECT_GE(engine.telemetry(0).contacts, 1u) << kind;
+    EXPECT_GE(engine.telemetry(1).contacts, 1u) << kind;
+    EXPECT_GT(engine.telemetry(0).peak_force, 0.0) << kind;
+    EXPECT_EQ(engine.model().instabilities(), 0u) << kind << " variant " << static_cast<int>(variant);
   }
 }
 

@@ -55,6 +55,37 @@ TEST_F(Cli, BakeIsByteIdenticalAcrossRuns) {
   EXPECT_TRUE(read_bytes(dir_ / "a.organ") == read_bytes(dir_ / "b.organ"));
 }
 
+TEST_F(Cli, BakeWithoutBeamTablesSkipsTheStageAndKeepsEverythingElse) {
+  // --no-beam-tables: no beam-table stage and no tables in the file; the rest
+  // of the model (surface, tetrahedra, material) is the full bake's, array for
+  // array. --stations 0 stays refused, and its message names the option.
+  const fs::path full = dir_ / "full.organ", bare = dir_ / "bare.organ";
+  ASSERT_EQ(run_organsim("bake " + quick_phantom_bake(full), dir_).exit_code, 0);
+  const CommandRun run = run_organsim("bake " + quick_phantom_bake(bare) + " --no-beam-tables --json", dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json j = nlohmann::json::parse(run.out);
+  EXPECT_EQ(j["beams"]["stations"], 0);
+  EXPECT_FALSE(j["seconds"]["stages"].contains("beam tables"));
+  const model::ModelReadResult with = model::read_organ_model_file(full.string());
+  const model::ModelReadResult without = model::read_organ_model_file(bare.string());
+  ASSERT_TRUE(with && without) << with.error << without.error;
+  EXPECT_TRUE(without.model->beams.empty());
+  EXPECT_FALSE(with.model->beams.empty());
+  EXPECT_EQ(without.model->surface_vertices, with.model->surface_vertices);
+  EXPECT_EQ(without.model->surface_triangles, with.model->surface_triangles);
+  EXPECT_EQ(without.model->volume_vertices, with.model->volume_vertices);
+  EXPECT_EQ(without.model->tetrahedra, with.model->tetrahedra);
+  EXPECT_EQ(without.model->fixed_points, with.model->fixed_points);
+  EXPECT_LT(fs::file_size(bare), fs::file_size(full) / 2);
+
+  std::string zero_stations = quick_phantom_bake(dir_ / "zero.organ");
+  zero_stations.replace(zero_stations.find("--stations 8"), 12, "--stations 0");
+  const CommandRun zero = run_organsim("bake " + zero_stations, dir_);
+  EXPECT_EQ(zero.exit_code, 1);
+  EXPECT_NE(zero.err.find("--no-beam-tables"), std::string::npos) << zero.err;
+  EXPECT_FALSE(fs::exists(dir_ / "zero.organ"));
+}
+
 TEST_F(Cli, NoPatientTagReachesTheModelTheReportOrTheLog) {
   // A DICOM series with a known patient name, ID and birth date.
   const pipeline::Phantom phantom = pipeline::make_phantom(pipeline::PhantomOptions{});

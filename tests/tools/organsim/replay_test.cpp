@@ -16,6 +16,7 @@
 
 #include "cli_fixture.h"
 #include "organsim/model/model_file.h"
+#include "organsim/realtime/model_registry.h"
 #include "test_models.h"
 
 namespace organsim {
@@ -220,6 +221,45 @@ TEST_F(Cli, ReplayWithEveryFemModelIsBitIdenticalAndPushesBack) {
   const CommandRun small = run_organsim("replay " + model + " " + session.string() + " --model linear --fast", dir_);
   EXPECT_EQ(small.exit_code, 1);
   EXPECT_NE(small.err.find("--fixed-radius"), std::string::npos) << small.err;
+}
+
+TEST_F(Cli, AModelWithoutBeamTablesRunsEveryOtherModelAndBeamRefusesItInOneLine) {
+  // The same cylinder with and without beam tables: every registered model but
+  // the multi-beam one gives the same forces on both, bit for bit (the tables
+  // are the multi-beam model's alone); --model beam names the bake option.
+  const auto [model, session] = write_cylinder_and_two_tool_press(dir_);
+  model::OrganModel without = testing::make_cylinder_model({});
+  without.beams = model::BeamTables{};
+  const std::string bare = (dir_ / "cylinder_no_beam_tables.organ").string();
+  model::write_organ_model_file(without, bare);
+  int models_run = 0;
+  for (const realtime::RegisteredModel* entry : realtime::registered_models()) {
+    const std::string name = entry->name;
+    if (entry->needs_beam_tables) {
+      const CommandRun refused =
+          run_organsim("replay " + bare + " " + session.string() + " --model " + name + " --fast", dir_);
+      EXPECT_EQ(refused.exit_code, 1) << name;
+      EXPECT_NE(refused.err.find("--no-beam-tables"), std::string::npos) << refused.err;
+      EXPECT_EQ(std::count(refused.err.begin(), refused.err.end(), '\n'), 1) << refused.err;
+      continue;
+    }
+    std::array<std::string, 2> csv;
+    for (int file = 0; file < 2; ++file) {
+      const fs::path forces = dir_ / fmt::format("{}_{}.csv", name, file);
+      const CommandRun replay = run_organsim("replay " + (file == 0 ? model : bare) + " " + session.string() +
+                                                 " --model " + name + " --fixed-radius 31 --fast --json --forces " +
+                                                 forces.string(),
+                                             dir_);
+      ASSERT_EQ(replay.exit_code, 0) << name << ": " << replay.err;
+      const nlohmann::json j = nlohmann::json::parse(replay.out);
+      EXPECT_GT(j["tools"][0]["peak_force_n"].get<double>(), 0.001) << name;
+      std::ifstream in(forces);
+      csv[file].assign(std::istreambuf_iterator<char>(in), {});
+    }
+    EXPECT_EQ(csv[0], csv[1]) << name;
+    ++models_run;
+  }
+  EXPECT_GE(models_run, 5);  // springs, linear, corotational, stvk, psh
 }
 
 TEST_F(Cli, ReplayThroughBothModelsReportsThemSideBySide) {

@@ -44,6 +44,10 @@ struct BakeOptions {
   SurfaceOptions surface;
   TetrahedraOptions tetrahedra;
   BeamBakingOptions beams;
+  /// False (--no-beam-tables): the model carries no beam tables, which are
+  /// the multi-beam model's alone (and the slowest stage but segmentation);
+  /// every other deformation model runs on it, `--model beam` refuses it.
+  bool beam_tables = true;
   model::Material material = model::liver_default_material();
 
   std::string program_version;     ///< written into the model's provenance
@@ -72,7 +76,7 @@ struct BakeReport {
   TetrahedralQuality tetrahedra;
   std::vector<std::string> tetrahedra_warnings;    ///< quality goals missed (tetrahedra_quality_warnings)
   double tetrahedra_volume_ml = 0.0;
-  std::uint32_t stations = 0;
+  std::uint32_t stations = 0;      ///< 0: baked without beam tables
   std::size_t beam_sections = 0;
   std::vector<std::pair<std::string, double>> stage_seconds;  ///< in pipeline order
   double total_seconds = 0.0;

@@ -1,4 +1,4 @@
-// Materials of the tetrahedral FEM models (Ogata et al., paper 004; docs/fem.md).
+// Materials of the tetrahedral FEM models (Ogata et al.; docs/fem.md).
 //
 //   linear         W = μ ε:ε + (λ/2) (tr ε)²,  ε = sym(F − I)       (small strain)
 //   corotational   W = μ ‖F − R‖² + (λ/2) (tr(RᵀF) − 3)²,  F = R S (polar)

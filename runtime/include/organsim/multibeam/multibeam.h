@@ -33,13 +33,14 @@
 
 #include <atomic>
 #include <cstdint>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/StdVector>
 
 #include "organsim/geometry/closest_point.h"
-#include "organsim/multibeam/beam_organ.h"
+#include "organsim/organ/organ.h"
 #include "organsim/multibeam/clamped_beam.h"
 #include "organsim/multibeam/influence.h"
 #include "organsim/multibeam/status.h"
@@ -64,13 +65,34 @@ struct ToolBeam {
   Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();    ///< condensed tip stiffness K (world), N/m
 };
 
+/// The names the command line and the Python module use: "influence" or
+/// "sum" (MergeRule); "euler-bernoulli" or "timoshenko" (BeamTheory). False
+/// (nothing changed) for any other name.
+bool parse_merge_rule(std::string_view name, MergeRule& rule) noexcept;
+bool parse_beam_theory(std::string_view name, BeamTheory& theory) noexcept;
+
 class MultiBeam {
  public:
-  MultiBeam(const BeamOrgan& organ, const MultiBeamOptions& options);
+  /// Throws std::invalid_argument with a one-line reason when the organ has no
+  /// beam tables (a model baked with --no-beam-tables) or the options are out
+  /// of range.
+  MultiBeam(const organ::Organ& organ, const MultiBeamOptions& options);
 
-  const BeamOrgan& organ() const noexcept { return organ_; }
+  const organ::Organ& organ() const noexcept { return organ_; }
   const MultiBeamOptions& options() const noexcept { return options_; }
   std::uint32_t max_tools() const noexcept { return options_.max_tools; }
+  /// Stations (elements) per beam: the model file's beam tables'.
+  std::uint32_t stations() const noexcept { return stations_; }
+  /// The beams' elastic constants: the model's E × beam_stiffness_scale and ν.
+  const BeamElasticity& elasticity() const noexcept { return elasticity_; }
+  /// κ of the attenuation exp(−κ d) = α^(−β d): κ = β ln α, 1/m.
+  double attenuation_rate() const noexcept { return attenuation_rate_; }
+  /// Rest positions relative to the fixed point (m), in single precision
+  /// (about 10 nm here), padded like Organ::rest_x(): what the distortion loops
+  /// read (twice the lanes per register).
+  const float* offset_x() const noexcept { return offset_[0].data(); }
+  const float* offset_y() const noexcept { return offset_[1].data(); }
+  const float* offset_z() const noexcept { return offset_[2].data(); }
 
   /// Contact begins: snaps `point` (m) to the surface and builds tool's beam.
   Status attach(std::uint32_t tool, const Eigen::Vector3d& point) noexcept;
@@ -98,9 +120,9 @@ class MultiBeam {
   /// by about float's 4 nm at a decimetre over the vertex's shortest edge
   /// (4·10⁻⁶ rad for 2 mm; docs/multibeam.md). Before any distort(), those of
   /// the rest shape. Vertex
-  /// indices are the BeamOrgan's (see BeamOrgan::file_vertex_index); range
+  /// indices are the organ's (see organ::Organ::file_vertex_index); range
   /// bounds other than 0 and vertex_count() must be multiples of
-  /// BeamOrgan::kPadding (vector loops read whole registers).
+  /// organ::Organ::kPadding (vector loops read whole registers).
   ///
   /// Each vertex's weight per tool (attenuation and influence) does not change
   /// while the contacts stay the same; it is computed by the first distort()
@@ -129,10 +151,10 @@ class MultiBeam {
   // values per element, single precision like the rest of the distortion.
   static constexpr int kCoefficients = 30;  // = kernels::kCoefficients
   float* coefficients(std::uint32_t slot, std::uint32_t element) noexcept {
-    return coefficient_data_.data() + (static_cast<std::size_t>(slot) * organ_.stations() + element) * kCoefficients;
+    return coefficient_data_.data() + (static_cast<std::size_t>(slot) * stations_ + element) * kCoefficients;
   }
   const float* coefficients(std::uint32_t slot, std::uint32_t element) const noexcept {
-    return coefficient_data_.data() + (static_cast<std::size_t>(slot) * organ_.stations() + element) * kCoefficients;
+    return coefficient_data_.data() + (static_cast<std::size_t>(slot) * stations_ + element) * kCoefficients;
   }
   // Per active tool, per vertex (valid between contact changes): the weight
   // α^(−βd)·f(x)/group size, the only per-vertex term that costs more to
@@ -148,8 +170,12 @@ class MultiBeam {
   }
   void build_vertex_weights(std::size_t first, std::size_t last) noexcept;
 
-  const BeamOrgan& organ_;
+  const organ::Organ& organ_;
   MultiBeamOptions options_;
+  std::uint32_t stations_;
+  BeamElasticity elasticity_;
+  double attenuation_rate_;
+  std::vector<float> offset_[3];
   std::vector<ToolBeam> tools_;
   std::vector<ClampedBeam> solvers_;   // per tool
   std::vector<model::BeamSection> sections_;  // scratch for attach(): stations entries

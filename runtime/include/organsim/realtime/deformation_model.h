@@ -30,23 +30,10 @@
 
 #include "organsim/fem/organ_fem.h"
 #include "organsim/model/organ_model.h"
-#include "organsim/multibeam/beam_organ.h"
 #include "organsim/multibeam/multibeam.h"
 #include "organsim/springs/mass_spring.h"
 
 namespace organsim::realtime {
-
-/// The deformation models the engine can run: multi-beam, mass-spring, and
-/// the FEM models on the model's tetrahedra (fem/organ_fem.h): linear,
-/// co-rotational, St. Venant–Kirchhoff, and pressure-stabilized Mooney–Rivlin.
-enum class ModelKind : std::uint8_t { beam, springs, linear, corotational, stvk, psh };
-/// "beam", "springs", "linear", "corotational", "stvk" or "psh".
-const char* model_name(ModelKind kind) noexcept;
-/// Parses a model name; false for an unknown one.
-bool parse_model_kind(const std::string& name, ModelKind& kind) noexcept;
-/// The FEM models' materials: true and `material` set for linear,
-/// corotational, stvk and psh (mooney-rivlin); false for beam and springs.
-bool fem_material(ModelKind kind, fem::MaterialModel& material) noexcept;
 
 /// One contact as the force loop renders it (see the file comment).
 struct ContactLinearization {
@@ -60,7 +47,8 @@ struct ContactLinearization {
 class DeformationModel {
  public:
   virtual ~DeformationModel() = default;
-  virtual ModelKind kind() const noexcept = 0;
+  /// The registered name (model_registry.h): "beam", "psh", …
+  virtual const char* name() const noexcept = 0;
   /// Contact begins: `tool` touches the rest surface at `rest_point` (m). Fills
   /// the linearization at zero displacement; false (nothing changed) when the
   /// model cannot take the contact (too near the clamp, …).
@@ -69,7 +57,7 @@ class DeformationModel {
   /// Advances the model by `dt` s with the attached tools' contact-point
   /// displacements (`displacements[tool]`, m; detached tools' entries are
   /// ignored); writes the surface vertex positions and unit normals (the
-  /// BeamOrgan's vertex order) and refreshes `contacts[tool]` of every attached
+  /// organ's vertex order, organ::Organ) and refreshes `contacts[tool]` of every attached
   /// tool. False when the positions could not be computed (the buffers then
   /// keep the previous frame).
   virtual bool step(double dt, const Eigen::Vector3d* displacements, model::Point3* positions, model::Point3* normals,
@@ -125,10 +113,5 @@ struct ModelOptions {
   SpringModelOptions springs;
   fem::OrganFemOptions fem;
 };
-
-/// The model `kind` on `organ`, sized for `tools` tools. Throws
-/// std::invalid_argument when the organ or the options do not suit it.
-std::unique_ptr<DeformationModel> make_deformation_model(ModelKind kind, const multibeam::BeamOrgan& organ,
-                                                         const ModelOptions& options, std::size_t tools);
 
 }  // namespace organsim::realtime

@@ -27,8 +27,9 @@
 #pragma once
 
 #include <array>
-#include <memory>
 #include <cstdint>
+#include <memory>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -36,6 +37,7 @@
 #include "organsim/devices/haptic_device.h"
 #include "organsim/geometry/closest_point.h"
 #include "organsim/multibeam/multibeam.h"
+#include "organsim/organ/organ.h"
 #include "organsim/realtime/deformation_model.h"
 #include "organsim/realtime/force_safety.h"
 #include "organsim/realtime/triple_buffer.h"
@@ -45,7 +47,7 @@ namespace organsim::realtime {
 using multibeam::kMaxTools;
 
 struct EngineOptions {
-  ModelKind model = ModelKind::beam;  ///< which deformation model runs
+  std::string model = "beam";         ///< which deformation model runs: a name in model_registry.h
   multibeam::MultiBeamOptions beams;  ///< merge rule, beam theory, distances (max_tools is set from the devices)
   SpringModelOptions springs;         ///< the mass-spring model's network and integration
   fem::OrganFemOptions fem;           ///< the FEM models' clamp and psh material
@@ -80,7 +82,7 @@ struct ToolFrame {
   double time = -1.0;
 };
 
-/// The deformed organ for viewers (model's vertex order of BeamOrgan).
+/// The deformed organ for viewers (model's vertex order of organ::Organ).
 struct SurfaceFrame {
   std::vector<model::Point3> positions;  ///< m
   std::vector<model::Point3> normals;    ///< unit
@@ -104,7 +106,7 @@ struct ToolTelemetry {
 class Engine {
  public:
   /// Devices are not owned and must outlive the engine; at most kMaxTools.
-  Engine(const multibeam::BeamOrgan& organ, const std::vector<devices::HapticDevice*>& devices, const EngineOptions& options);
+  Engine(const organ::Organ& organ, const std::vector<devices::HapticDevice*>& devices, const EngineOptions& options);
 
   /// One force-loop iteration at time `now` (s).
   void force_tick(double now) noexcept;
@@ -113,7 +115,7 @@ class Engine {
 
   std::size_t tool_count() const noexcept { return devices_.size(); }
   const EngineOptions& options() const noexcept { return options_; }
-  const multibeam::BeamOrgan& organ() const noexcept { return organ_; }
+  const organ::Organ& organ() const noexcept { return organ_; }
   /// The latest deformed surface: call update() then read() from one reader thread.
   TripleBuffer<SurfaceFrame>& surfaces() noexcept { return surfaces_; }
   /// Force-loop telemetry; read when the force loop is not running.
@@ -127,7 +129,7 @@ class Engine {
  private:
   void publish_linearization(std::size_t tool) noexcept;
 
-  const multibeam::BeamOrgan& organ_;
+  const organ::Organ& organ_;
   std::vector<devices::HapticDevice*> devices_;
   EngineOptions options_;
 

@@ -1,5 +1,4 @@
-#include "organsim/realtime/deformation_model.h"
-
+// The mass-spring model (He et al.; organsim/springs/mass_spring.h) in the engine.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -9,44 +8,13 @@
 #include <Eigen/Eigenvalues>
 
 #include "organsim/geometry/model_measures.h"
+#include "organsim/realtime/model_registry.h"
+#include "organsim/springs/mass_spring.h"
 
 namespace organsim::realtime {
 namespace {
 
 Eigen::Vector3d vec(const model::Point3& p) { return {p[0], p[1], p[2]}; }
-
-/// The multi-beam model: its contact force is linear in the displacement, so
-/// the linearization at zero displacement (force 0, stiffness K) is exact and
-/// never changes during a contact.
-class BeamModel final : public DeformationModel {
- public:
-  BeamModel(const multibeam::BeamOrgan& organ, const multibeam::MultiBeamOptions& options)
-      : organ_(organ), beams_(organ, options) {}
-
-  ModelKind kind() const noexcept override { return ModelKind::beam; }
-
-  bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, ContactLinearization& contact) noexcept override {
-    if (beams_.attach(tool, rest_point) != multibeam::Status::ok) return false;
-    const multibeam::ToolBeam& beam = beams_.beam(tool);
-    contact.action_point = beam.action.position;
-    contact.normal = geometry::triangle_normal(organ_.model(), beam.action.triangle);
-    contact.stiffness = beam.stiffness;
-    contact.displacement.setZero();
-    contact.force.setZero();
-    return true;
-  }
-
-  void detach(std::uint32_t tool) noexcept override { beams_.detach(tool); }
-
-  bool step(double, const Eigen::Vector3d* displacements, model::Point3* positions, model::Point3* normals,
-            ContactLinearization*) noexcept override {
-    return beams_.deform(displacements, positions, normals, organ_.vertex_count()) == multibeam::Status::ok;
-  }
-
- private:
-  const multibeam::BeamOrgan& organ_;
-  multibeam::MultiBeam beams_;
-};
 
 /// The mass-spring model on the organ's surface (docs/springs.md): a tool holds
 /// the surface node nearest its action point at the action point's displaced
@@ -54,7 +22,7 @@ class BeamModel final : public DeformationModel {
 /// the contact stiffness.
 class SpringModel final : public DeformationModel {
  public:
-  SpringModel(const multibeam::BeamOrgan& organ, const SpringModelOptions& options, std::size_t tools)
+  SpringModel(const organ::Organ& organ, const SpringModelOptions& options, std::size_t tools)
       : organ_(organ),
         options_(options),
         simulation_(make_simulation(organ.model(), options)),
@@ -62,7 +30,7 @@ class SpringModel final : public DeformationModel {
         moved_mark_(organ.vertex_count(), 0),
         moved_(organ.vertex_count()) {}
 
-  ModelKind kind() const noexcept override { return ModelKind::springs; }
+  const char* name() const noexcept override { return "springs"; }
 
   bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, ContactLinearization& contact) noexcept override {
     if (tool >= held_.size() || !rest_point.allFinite()) return false;
@@ -116,7 +84,7 @@ class SpringModel final : public DeformationModel {
       const Eigen::Vector3d& x = simulation_.position(static_cast<std::uint32_t>(v));
       positions[v] = {x[0], x[1], x[2]};
     }
-    multibeam::compute_vertex_normals(organ_, positions, normals, 0, n);
+    organ::compute_vertex_normals(organ_, positions, normals, 0, n);
     for (std::size_t tool = 0; tool < held_.size(); ++tool)
       if (held_[tool] != kNone) linearize(held_[tool], contacts[tool]);
     return true;
@@ -191,7 +159,7 @@ class SpringModel final : public DeformationModel {
                         eigen.eigenvectors().transpose();
   }
 
-  const multibeam::BeamOrgan& organ_;
+  const organ::Organ& organ_;
   SpringModelOptions options_;
   springs::MassSpring simulation_;
   std::vector<std::uint32_t> held_;  // per tool: the node it holds, or kNone
@@ -202,134 +170,13 @@ class SpringModel final : public DeformationModel {
   bool moved_all_ = true;
 };
 
-/// A FEM model (fem/organ_fem.h): one warm-started iteration per frame; the
-/// contact's force and condensed stiffness are the linearization.
-class FemModel final : public DeformationModel {
- public:
-  FemModel(ModelKind kind, const multibeam::BeamOrgan& organ, const fem::OrganFemOptions& options, std::size_t tools)
-      : kind_(kind), organ_(organ), fem_(organ.model(), material_of(kind), options, tools) {}
-
-  ModelKind kind() const noexcept override { return kind_; }
-
-  bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, ContactLinearization& contact) noexcept override {
-    if (!fem_.attach(tool, rest_point)) return false;
-    contact.action_point = rest_point;
-    contact.normal = geometry::triangle_normal(organ_.model(), organ_.surface_tree().closest_point(rest_point).triangle);
-    linearize(tool, contact);
-    // The organ may already be deformed there: the tool begins with no force
-    // where the material point is now.
-    contact.force.setZero();
-    return true;
-  }
-
-  void detach(std::uint32_t tool) noexcept override { fem_.detach(tool); }
-
-  bool step(double, const Eigen::Vector3d* displacements, model::Point3* positions, model::Point3* normals,
-            ContactLinearization* contacts) noexcept override {
-    const fem::FrameStatus status = fem_.step(displacements);
-    if (status == fem::FrameStatus::not_finite) return false;
-    // The organ keeps its shape this frame: even a sixteenth of the step
-    // would have inverted a tetrahedron.
-    if (status == fem::FrameStatus::inverted) ++instabilities_;
-    fem_.surface_positions(positions);
-    multibeam::compute_vertex_normals(organ_, positions, normals, 0, organ_.vertex_count());
-    for (std::uint32_t tool = 0; tool < multibeam::kMaxTools; ++tool)
-      if (fem_.attached(tool)) linearize(tool, contacts[tool]);
-    return true;
-  }
-
-  std::uint64_t instabilities() const noexcept override { return instabilities_; }
-
-  bool volume_node_positions(model::Point3* positions, std::size_t capacity) const noexcept override {
-    if (capacity < organ_.model().volume_vertices.size()) return false;
-    fem_.node_positions(positions);
-    return true;
-  }
-
- private:
-  static fem::MaterialModel material_of(ModelKind kind) {
-    fem::MaterialModel material = fem::MaterialModel::linear;
-    if (!fem_material(kind, material)) throw std::invalid_argument("not a FEM model");
-    return material;
-  }
-
-  void linearize(std::uint32_t tool, ContactLinearization& contact) const noexcept {
-    contact.displacement = fem_.contact_displacement(tool);
-    contact.force = fem_.contact_force(tool);
-    contact.stiffness = fem_.contact_stiffness(tool);
-  }
-
-  ModelKind kind_;
-  const multibeam::BeamOrgan& organ_;
-  fem::OrganFem fem_;
-  std::uint64_t instabilities_ = 0;
-};
-
 }  // namespace
 
-const char* model_name(ModelKind kind) noexcept {
-  switch (kind) {
-    case ModelKind::beam:
-      return "beam";
-    case ModelKind::springs:
-      return "springs";
-    case ModelKind::linear:
-      return "linear";
-    case ModelKind::corotational:
-      return "corotational";
-    case ModelKind::stvk:
-      return "stvk";
-    case ModelKind::psh:
-      return "psh";
-  }
-  return "unknown";
-}
-
-bool parse_model_kind(const std::string& name, ModelKind& kind) noexcept {
-  for (ModelKind k : {ModelKind::beam, ModelKind::springs, ModelKind::linear, ModelKind::corotational, ModelKind::stvk,
-                      ModelKind::psh})
-    if (name == model_name(k)) {
-      kind = k;
-      return true;
-    }
-  return false;
-}
-
-bool fem_material(ModelKind kind, fem::MaterialModel& material) noexcept {
-  switch (kind) {
-    case ModelKind::linear:
-      material = fem::MaterialModel::linear;
-      return true;
-    case ModelKind::corotational:
-      material = fem::MaterialModel::corotational;
-      return true;
-    case ModelKind::stvk:
-      material = fem::MaterialModel::stvk;
-      return true;
-    case ModelKind::psh:
-      material = fem::MaterialModel::mooney_rivlin;
-      return true;
-    case ModelKind::beam:
-    case ModelKind::springs:
-      break;
-  }
-  return false;
-}
-
-std::unique_ptr<DeformationModel> make_deformation_model(ModelKind kind, const multibeam::BeamOrgan& organ,
-                                                         const ModelOptions& options, std::size_t tools) {
-  switch (kind) {
-    case ModelKind::beam:
-      return std::make_unique<BeamModel>(organ, options.beams);
-    case ModelKind::springs:
+extern const RegisteredModel springs_model{
+    "springs", "mass-spring (He et al.): the surface (and optionally the tetrahedra) as a damped spring network",
+    /*needs_beam_tables=*/false, /*needs_tetrahedra=*/false, std::nullopt,
+    [](const organ::Organ& organ, const ModelOptions& options, std::size_t tools) -> std::unique_ptr<DeformationModel> {
       return std::make_unique<SpringModel>(organ, options.springs, tools);
-    case ModelKind::linear:
-    case ModelKind::corotational:
-    case ModelKind::stvk:
-    case ModelKind::psh:
-      return std::make_unique<FemModel>(kind, organ, options.fem, tools);
-  }
-  throw std::invalid_argument("unknown deformation model");
-}
+    }};
 
 }  // namespace organsim::realtime

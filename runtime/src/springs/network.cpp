@@ -9,7 +9,7 @@
 
 #include "organsim/geometry/model_measures.h"
 #include "organsim/geometry/tetrahedral_embedding.h"
-#include "organsim/springs/mass_spring.h"
+#include "organsim/springs/network.h"
 
 namespace organsim::springs {
 namespace {
@@ -138,10 +138,13 @@ SpringNetwork make_grid_network(const GridOptions& o) {
   return net;
 }
 
-SpringNetwork make_organ_network(const model::OrganModel& model, const OrganNetworkOptions& o) {
-  auto require = [](bool ok, const std::string& problem) {
-    if (!ok) throw std::invalid_argument("make_organ_network: " + problem);
-  };
+namespace {
+
+void require(bool ok, const std::string& problem) {
+  if (!ok) throw std::invalid_argument("make_organ_network: " + problem);
+}
+
+void check_organ_network_inputs(const model::OrganModel& model, const OrganNetworkOptions& o) {
   require(!model.surface_triangles.empty(), "the model has no surface triangles");
   require(non_negative(o.stiffness), "stiffness must be non-negative and finite (N/m)");
   require(non_negative(o.bending_factor), "bending_factor must be non-negative and finite");
@@ -164,40 +167,67 @@ SpringNetwork make_organ_network(const model::OrganModel& model, const OrganNetw
             "a surface triangle's vertex index is out of range");
     require(t[0] != t[1] && t[1] != t[2] && t[0] != t[2], "a surface triangle repeats a vertex");
   }
+}
 
-  // Edges: (low, high, opposite vertex) per triangle side, sorted so that the
-  // sides of one edge are adjacent.
+/// The surface's edges as triangle sides (low, high, opposite vertex), sorted
+/// so that the sides of one edge are adjacent.
+struct SurfaceEdges {
   struct Side {
     std::uint32_t a, b, opposite;
   };
   std::vector<Side> sides;
-  sides.reserve(3 * model.surface_triangles.size());
+  std::size_t edge_count = 0;
+  std::size_t interior = 0;  ///< edges between two triangles with distinct far vertices (a bending spring each)
+  double mean_length = 0.0;  ///< m
+
+  bool first_side_of_edge(std::size_t s) const {
+    return s == 0 || sides[s].a != sides[s - 1].a || sides[s].b != sides[s - 1].b;
+  }
+  /// Calls visit(s, e) for each edge's sides [s, e).
+  template <typename Visit>
+  void for_each_edge(Visit visit) const {
+    for (std::size_t s = 0; s < sides.size();) {
+      std::size_t e = s + 1;
+      while (e < sides.size() && sides[e].a == sides[s].a && sides[e].b == sides[s].b) ++e;
+      visit(s, e);
+      s = e;
+    }
+  }
+};
+
+SurfaceEdges surface_edges(const model::OrganModel& model) {
+  SurfaceEdges edges;
+  edges.sides.reserve(3 * model.surface_triangles.size());
   for (const model::Triangle& t : model.surface_triangles)
     for (int k = 0; k < 3; ++k) {
       const std::uint32_t a = t[k], b = t[(k + 1) % 3];
-      sides.push_back({std::min(a, b), std::max(a, b), t[(k + 2) % 3]});
+      edges.sides.push_back({std::min(a, b), std::max(a, b), t[(k + 2) % 3]});
     }
-  std::sort(sides.begin(), sides.end(), [](const Side& l, const Side& r) {
+  std::sort(edges.sides.begin(), edges.sides.end(), [](const SurfaceEdges::Side& l, const SurfaceEdges::Side& r) {
     return l.a != r.a ? l.a < r.a : l.b != r.b ? l.b < r.b : l.opposite < r.opposite;
   });
   double length_sum = 0.0;
-  std::size_t edge_count = 0;
-  for (std::size_t s = 0; s < sides.size(); ++s)
-    if (s == 0 || sides[s].a != sides[s - 1].a || sides[s].b != sides[s - 1].b) {
-      length_sum += (vec(model.surface_vertices[sides[s].a]) - vec(model.surface_vertices[sides[s].b])).norm();
-      ++edge_count;
+  for (std::size_t s = 0; s < edges.sides.size(); ++s)
+    if (edges.first_side_of_edge(s)) {
+      length_sum += (vec(model.surface_vertices[edges.sides[s].a]) - vec(model.surface_vertices[edges.sides[s].b])).norm();
+      ++edges.edge_count;
     }
-  const double mean_edge = length_sum / static_cast<double>(edge_count);
-  require(mean_edge > 0.0, "the surface edges have zero length");
+  edges.mean_length = length_sum / static_cast<double>(edges.edge_count);
+  require(edges.mean_length > 0.0, "the surface edges have zero length");
+  edges.for_each_edge([&](std::size_t s, std::size_t e) {
+    if (e - s == 2 && edges.sides[s].opposite != edges.sides[s + 1].opposite) ++edges.interior;
+  });
+  return edges;
+}
 
-  const double k = o.stiffness > 0.0 ? o.stiffness : model.material.young_modulus * model.material.spring_stiffness_scale * mean_edge;
-  require(std::isfinite(k) && k > 0.0, "the structural spring constant is zero: set stiffness or the model's E");
-  const double depth = o.anchor_depth > 0.0 ? o.anchor_depth : mean_edge;
+using Normals = std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>>;
 
-  // Vertex areas (a third of each adjacent triangle) and area-weighted normals.
-  std::vector<double> area(vertex_count, 0.0);
-  std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>> normal(vertex_count,
-                                                                                  Eigen::Vector3d::Zero());
+/// Each surface vertex's area (a third of each adjacent triangle's, m²) and
+/// area-weighted normal (not normalized); the total area.
+double vertex_areas_and_normals(const model::OrganModel& model, std::vector<double>& area, Normals& normal) {
+  const std::size_t vertex_count = model.surface_vertices.size();
+  area.assign(vertex_count, 0.0);
+  normal.assign(vertex_count, Eigen::Vector3d::Zero());
   double total_area = 0.0;
   for (const model::Triangle& t : model.surface_triangles) {
     const Eigen::Vector3d a = vec(model.surface_vertices[t[0]]), b = vec(model.surface_vertices[t[1]]),
@@ -212,37 +242,46 @@ SpringNetwork make_organ_network(const model::OrganModel& model, const OrganNetw
   }
   for (std::size_t v = 0; v < vertex_count; ++v)
     require(area[v] > 0.0, "surface vertex " + std::to_string(v) + " lies on no (non-degenerate) triangle");
+  return total_area;
+}
 
+/// The surface nodes' masses (kg): uniform_mass, or the organ's mass
+/// (density × volume) shared equally or by area.
+std::vector<double> surface_masses(const model::OrganModel& model, const OrganNetworkOptions& o,
+                                   const std::vector<double>& area, double total_area) {
+  const std::size_t vertex_count = model.surface_vertices.size();
   std::vector<double> mass(vertex_count, o.uniform_mass);
-  if (o.uniform_mass == 0.0) {
-    const double density = model.material.density;
-    require(std::isfinite(density) && density > 0.0, "the model's density must be positive to lump masses");
-    double volume = 0.0;
-    if (!model.tetrahedra.empty()) {
-      for (const model::Tetrahedron& t : model.tetrahedra) {
-        require(t[0] < model.volume_vertices.size() && t[1] < model.volume_vertices.size() &&
-                    t[2] < model.volume_vertices.size() && t[3] < model.volume_vertices.size(),
-                "a tetrahedron's vertex index is out of range");
-        volume += geometry::signed_tetrahedron_volume(vec(model.volume_vertices[t[0]]), vec(model.volume_vertices[t[1]]),
-                                                      vec(model.volume_vertices[t[2]]), vec(model.volume_vertices[t[3]]));
-      }
-    } else {
-      volume = geometry::enclosed_volume(model.surface_vertices, model.surface_triangles);
+  if (o.uniform_mass != 0.0) return mass;
+  const double density = model.material.density;
+  require(std::isfinite(density) && density > 0.0, "the model's density must be positive to lump masses");
+  double volume = 0.0;
+  if (!model.tetrahedra.empty()) {
+    for (const model::Tetrahedron& t : model.tetrahedra) {
+      require(t[0] < model.volume_vertices.size() && t[1] < model.volume_vertices.size() &&
+                  t[2] < model.volume_vertices.size() && t[3] < model.volume_vertices.size(),
+              "a tetrahedron's vertex index is out of range");
+      volume += geometry::signed_tetrahedron_volume(vec(model.volume_vertices[t[0]]), vec(model.volume_vertices[t[1]]),
+                                                    vec(model.volume_vertices[t[2]]), vec(model.volume_vertices[t[3]]));
     }
-    require(std::isfinite(volume) && volume > 0.0, "the organ's volume must be positive to lump masses");
-    // With volume springs the tetrahedral nodes are simulated too and take their shares.
-    const std::size_t sharing = vertex_count + (o.volume_springs ? model.volume_vertices.size() : 0);
-    for (std::size_t v = 0; v < vertex_count; ++v)
-      mass[v] = density * volume * (o.area_weighted_mass ? area[v] / total_area : 1.0 / static_cast<double>(sharing));
+  } else {
+    volume = geometry::enclosed_volume(model.surface_vertices, model.surface_triangles);
   }
+  require(std::isfinite(volume) && volume > 0.0, "the organ's volume must be positive to lump masses");
+  // With volume springs the tetrahedral nodes are simulated too and take their shares.
+  const std::size_t sharing = vertex_count + (o.volume_springs ? model.volume_vertices.size() : 0);
+  for (std::size_t v = 0; v < vertex_count; ++v)
+    mass[v] = density * volume * (o.area_weighted_mass ? area[v] / total_area : 1.0 / static_cast<double>(sharing));
+  return mass;
+}
 
-  double mean_mass = 0.0;
-  for (double m : mass) mean_mass += m / static_cast<double>(vertex_count);
-  const double d = o.damping > 0.0 ? o.damping : o.critical_fraction * 2.0 * std::sqrt(k * mean_mass);
-
+/// The network's nodes: the surface, its anchors `depth` inside along the
+/// normals (fixed; with body springs), the tetrahedral nodes (volume springs),
+/// and those within clamp_radius of the fixed point fixed. Returns the index
+/// of the first tetrahedral node.
+std::size_t add_nodes(SpringNetwork& net, const model::OrganModel& model, const OrganNetworkOptions& o,
+                      const std::vector<double>& mass, double mean_mass, const Normals& normal, double depth) {
+  const std::size_t vertex_count = model.surface_vertices.size();
   const bool body = o.body_factor > 0.0;
-  SpringNetwork net;
-  const auto ns = static_cast<std::uint32_t>(vertex_count);
   net.surface_nodes = vertex_count;
   const std::size_t nodes = body ? 2 * vertex_count : vertex_count;
   net.rest.reserve(nodes);
@@ -274,28 +313,46 @@ SpringNetwork make_organ_network(const model::OrganModel& model, const OrganNetw
     for (std::size_t v = volume_base; v < net.rest.size(); ++v)
       if ((net.rest[v] - centre).norm() <= o.clamp_radius) net.fixed[v] = 1;
   }
+  return volume_base;
+}
+
+}  // namespace
+
+SpringNetwork make_organ_network(const model::OrganModel& model, const OrganNetworkOptions& o) {
+  check_organ_network_inputs(model, o);
+  const std::size_t vertex_count = model.surface_vertices.size();
+  const SurfaceEdges edges = surface_edges(model);
+  const double k = o.stiffness > 0.0 ? o.stiffness
+                                     : model.material.young_modulus * model.material.spring_stiffness_scale *
+                                           edges.mean_length;
+  require(std::isfinite(k) && k > 0.0, "the structural spring constant is zero: set stiffness or the model's E");
+  const double depth = o.anchor_depth > 0.0 ? o.anchor_depth : edges.mean_length;
+
+  std::vector<double> area;
+  Normals normal;
+  const double total_area = vertex_areas_and_normals(model, area, normal);
+  const std::vector<double> mass = surface_masses(model, o, area, total_area);
+  double mean_mass = 0.0;
+  for (double m : mass) mean_mass += m / static_cast<double>(vertex_count);
+  const double d = o.damping > 0.0 ? o.damping : o.critical_fraction * 2.0 * std::sqrt(k * mean_mass);
+
+  SpringNetwork net;
+  const std::size_t volume_base = add_nodes(net, model, o, mass, mean_mass, normal, depth);
   net.triangles = model.surface_triangles;
 
-  // Springs: structural edges, bending across interior edges, body.
-  std::size_t interior = 0;
-  for (std::size_t s = 0; s < sides.size();) {
-    std::size_t e = s + 1;
-    while (e < sides.size() && sides[e].a == sides[s].a && sides[e].b == sides[s].b) ++e;
-    if (e - s == 2 && sides[s].opposite != sides[s + 1].opposite) ++interior;
-    s = e;
-  }
-  reserve_springs(net.springs, edge_count + interior + (body ? vertex_count : 0));
-  for (std::size_t s = 0; s < sides.size(); ++s)
-    if (s == 0 || sides[s].a != sides[s - 1].a || sides[s].b != sides[s - 1].b)
-      add_spring(net, sides[s].a, sides[s].b, k, d, SpringKind::structural);
+  // Springs: structural edges, bending across interior edges, body, volume.
+  const bool body = o.body_factor > 0.0;
+  reserve_springs(net.springs, edges.edge_count + edges.interior + (body ? vertex_count : 0));
+  for (std::size_t s = 0; s < edges.sides.size(); ++s)
+    if (edges.first_side_of_edge(s))
+      add_spring(net, edges.sides[s].a, edges.sides[s].b, k, d, SpringKind::structural);
   const double kb = o.bending_factor * k;
-  for (std::size_t s = 0; s < sides.size();) {
-    std::size_t e = s + 1;
-    while (e < sides.size() && sides[e].a == sides[s].a && sides[e].b == sides[s].b) ++e;
-    if (e - s == 2 && sides[s].opposite != sides[s + 1].opposite)
-      add_spring(net, sides[s].opposite, sides[s + 1].opposite, kb, o.bending_factor * d, SpringKind::bending);
-    s = e;
-  }
+  edges.for_each_edge([&](std::size_t s, std::size_t e) {
+    if (e - s == 2 && edges.sides[s].opposite != edges.sides[s + 1].opposite)
+      add_spring(net, edges.sides[s].opposite, edges.sides[s + 1].opposite, kb, o.bending_factor * d,
+                 SpringKind::bending);
+  });
+  const auto ns = static_cast<std::uint32_t>(vertex_count);
   if (body)
     for (std::uint32_t v = 0; v < ns; ++v)
       add_spring(net, v, ns + v, o.body_factor * k, o.body_factor * d, SpringKind::body);

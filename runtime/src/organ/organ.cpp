@@ -1,6 +1,7 @@
-#include "organsim/multibeam/beam_organ.h"
+#include "organsim/organ/organ.h"
 
-#include "kernels.h"
+// The per-vertex kernels are shared with the multi-beam model (its distortion).
+#include "../multibeam/kernels.h"
 
 #include <Eigen/Geometry>
 
@@ -12,7 +13,7 @@
 #include <type_traits>
 #include <utility>
 
-namespace organsim::multibeam {
+namespace organsim::organ {
 namespace {
 
 // The model with its surface vertices renumbered along the Morton curve;
@@ -84,17 +85,12 @@ void renumber_in_morton_order(std::vector<model::Point3>& vertices, std::vector<
     for (std::uint32_t& v : t) v = new_index[v];
 }
 
-BeamOrgan::BeamOrgan(model::OrganModel model)
+Organ::Organ(model::OrganModel model)
     : model_(surface_in_morton_order(std::move(model), file_index_)),
       fixed_point_(model_.fixed_points.empty() ? Eigen::Vector3d::Zero()
                                                : Eigen::Vector3d(model_.fixed_points[0][0], model_.fixed_points[0][1],
                                                                  model_.fixed_points[0][2])),
-      elasticity_(BeamElasticity::from(model_.material.young_modulus * model_.material.beam_stiffness_scale,
-                                        model_.material.poisson_ratio)),
-      attenuation_rate_(model_.material.attenuation_beta * std::log(model_.material.attenuation_alpha)),
       tree_(model_.surface_vertices, model_.surface_triangles) {
-  if (model_.beams.empty())
-    throw std::invalid_argument("the model has no beam tables; bake it with --stations N (N > 0)");
   if (model_.fixed_points.empty()) throw std::invalid_argument("the model has no fixed point");
   if (model_.surface_vertices.empty()) throw std::invalid_argument("the model has no surface");
 
@@ -170,27 +166,23 @@ BeamOrgan::BeamOrgan(model::OrganModel model)
 
   for (int k = 0; k < 3; ++k) {
     rest_[k].resize(n + kPadding);
-    offset_[k].resize(n + kPadding);
-    for (std::size_t i = 0; i < n + kPadding; ++i) {
-      rest_[k][i] = model_.surface_vertices[std::min(i, n - 1)][k];
-      offset_[k][i] = static_cast<float>(rest_[k][i] - fixed_point_[k]);
-    }
+    for (std::size_t i = 0; i < n + kPadding; ++i) rest_[k][i] = model_.surface_vertices[std::min(i, n - 1)][k];
   }
-  kernels::selected();  // picks the instruction set now, not in the first real-time call
+  multibeam::kernels::selected();  // picks the instruction set now, not in the first real-time call
 }
 
-void compute_vertex_normals(const BeamOrgan& organ, const model::Point3* positions, model::Point3* normals, std::size_t first,
+void compute_vertex_normals(const Organ& organ, const model::Point3* positions, model::Point3* normals, std::size_t first,
                             std::size_t last) noexcept {
   if (first >= last) return;
-  kernels::NormalsJob job;
+  multibeam::kernels::NormalsJob job;
   job.row_offsets = organ.ring_row_offsets().data();
   job.rows = organ.ring_rows().data();
   job.vertex_count = organ.vertex_count();
   job.positions = positions->data();
   job.normals = normals->data();
-  kernels::selected().normals(job, first, last);
+  multibeam::kernels::selected().normals(job, first, last);
 }
 
-const char* vertex_kernel_level() noexcept { return kernels::selected().level; }
+const char* vertex_kernel_level() noexcept { return multibeam::kernels::selected().level; }
 
-}  // namespace organsim::multibeam
+}  // namespace organsim::organ
