@@ -5,7 +5,7 @@ include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
 set(ORGANSIM_INSTALLED_LIBRARIES
-  organsim_io organsim_model_file organsim_devices organsim_fem organsim_runtime organsim_openhaptics)
+  organsim_io organsim_model_file organsim_lockfree organsim_devices organsim_fem organsim_runtime organsim_openhaptics)
 if(TARGET organsim_fem_direct)
   list(APPEND ORGANSIM_INSTALLED_LIBRARIES organsim_fem_direct)
 endif()
@@ -18,7 +18,8 @@ endforeach()
 install(TARGETS ${ORGANSIM_INSTALLED_LIBRARIES} EXPORT organsimTargets
   ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT development
   LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT development)
-foreach(headers runtime/include runtime/devices/include runtime/direct/include)
+foreach(headers runtime/io/include runtime/model_file/include runtime/lockfree/include runtime/devices/include
+                runtime/fem/include runtime/core/include runtime/openhaptics/include runtime/direct/include)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${headers}/organsim DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
     COMPONENT development FILES_MATCHING PATTERN "*.h")
 endforeach()

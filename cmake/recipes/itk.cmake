@@ -2,7 +2,7 @@
 # NRRD, MetaImage) and the segmentation filters. Consumed through the
 # interface target `organsim_itk` rather than ITK_USE_FILE, which would add ITK's
 # include directories and definitions to every target of the directory. The IO
-# factories are registered in code (pipeline/src/itk_factories.cpp).
+# factories are registered in code (pipeline/core/src/itk_factories.cpp).
 find_package(ITK 5.2 REQUIRED COMPONENTS
   ITKCommon ITKIOImageBase ITKIONIFTI ITKIONRRD ITKIOMeta ITKIOGDCM ITKImageGrid ITKImageIntensity
   ITKThresholding ITKRegionGrowing ITKBinaryMathematicalMorphology ITKMathematicalMorphology

@@ -160,3 +160,24 @@ def test_the_force_depth_example_draws_its_plot(tmp_path, monkeypatch):
     exec(compile(script.read_text(), str(script), "exec"), {"__name__": "__main__"})
     png = tmp_path / "force_depth.png"
     assert png.exists() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_bake_options_are_the_pipelines_own_and_bake_the_same_model(tmp_path):
+    # The keywords set BakeOptions' fields (no command line is built); baking
+    # those options directly writes the program's model, byte for byte.
+    options = organsim.bake_options(SAMPLES / "phantom_ct.nii.gz", tmp_path / "direct.organ", **QUICK_BAKE,
+                                    no_beam_tables=True, closing=2.0)
+    assert options.surface.target_vertices == 800 and options.tetrahedra.tet_size_mm == 12.0
+    assert options.beams.stations == 8 and options.beam_tables is False
+    assert options.label_closing_radius_mm == options.seeded.closing_radius_mm == 2.0
+    report = organsim.bake_with(options)
+    assert report["beams"]["stations"] == 0
+    code, _, err = run_program("bake", SAMPLES / "phantom_ct.nii.gz", "-o", tmp_path / "program.organ", "--seed",
+                               "-65,5,0", "--surface-vertices", "800", "--tet-size", "12", "--stations", "8",
+                               "--section-samples", "32", "--no-beam-tables", "--closing", "2")
+    assert code == 0, err
+    assert (tmp_path / "direct.organ").read_bytes() == (tmp_path / "program.organ").read_bytes()
+    model = organsim.load(tmp_path / "direct.organ")
+    with pytest.raises(organsim.Error, match="no-beam-tables"):
+        organsim.Simulation(model, "beam")
+    assert organsim.Simulation(model, "springs").kind == "springs"

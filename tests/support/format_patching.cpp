@@ -6,7 +6,7 @@
 #include <cstring>
 #include <stdexcept>
 
-#include "model/format_layout.h"
+#include "format_layout.h"
 
 namespace organsim::testing {
 namespace {

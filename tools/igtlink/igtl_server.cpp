@@ -79,7 +79,7 @@ class IgtlServer::PoseHandler final : public MessageReader::Handler {
 
 IgtlServer::IgtlServer(const ServerOptions& options, const organ::Organ& organ,
                        std::vector<model::Triangle> file_triangles, std::vector<devices::StreamedTool*> tools,
-                       realtime::TripleBuffer<realtime::SurfaceFrame>& surfaces, Log warn, Log note)
+                       lockfree::TripleBuffer<realtime::SurfaceFrame>& surfaces, Log warn, Log note)
     : options_(options),
       organ_(organ),
       file_triangles_(std::move(file_triangles)),

@@ -74,7 +74,7 @@ class IgtlServer {
   /// coming and going. Throws std::runtime_error when it cannot listen.
   IgtlServer(const ServerOptions& options, const organ::Organ& organ,
              std::vector<model::Triangle> file_triangles, std::vector<devices::StreamedTool*> tools,
-             realtime::TripleBuffer<realtime::SurfaceFrame>& surfaces, Log warn, Log note);
+             lockfree::TripleBuffer<realtime::SurfaceFrame>& surfaces, Log warn, Log note);
   ~IgtlServer();
   IgtlServer(const IgtlServer&) = delete;
   IgtlServer& operator=(const IgtlServer&) = delete;
@@ -107,7 +107,7 @@ class IgtlServer {
   const organ::Organ& organ_;
   std::vector<model::Triangle> file_triangles_;
   std::vector<devices::StreamedTool*> tools_;
-  realtime::TripleBuffer<realtime::SurfaceFrame>& surfaces_;
+  lockfree::TripleBuffer<realtime::SurfaceFrame>& surfaces_;
   Log warn_, note_;
   Eigen::AlignedBox3d reach_;  // m: the organ's box grown by 10 m
   int listener_ = -1;

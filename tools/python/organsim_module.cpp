@@ -281,6 +281,77 @@ py::dict replay(const Model& model, const std::string& session_path, const std::
   return out;
 }
 
+/// pipeline::BakeOptions and the option structs it holds, field for field
+/// (organsim.bake sets them from its keyword arguments: tools/python/organsim/__init__.py).
+void bind_bake_options(py::module_& m) {
+  using namespace organsim::pipeline;
+  py::class_<SeededSegmentationOptions>(m, "SeededSegmentationOptions")
+      .def(py::init<>())
+      .def("add_seed", [](SeededSegmentationOptions& o, const std::array<double, 3>& mm) {
+        o.seeds.push_back(SeedPoint::at_mm(mm));
+      }, py::arg("point_mm"), "A seed inside the organ, X,Y,Z in mm (LPS)")
+      .def("add_seed_voxel", [](SeededSegmentationOptions& o, const std::array<long, 3>& voxel) {
+        o.seeds.push_back(SeedPoint::at_voxel(voxel));
+      }, py::arg("voxel"))
+      .def("add_background_seed", [](SeededSegmentationOptions& o, const std::array<double, 3>& mm) {
+        o.background_seeds.push_back(SeedPoint::at_mm(mm));
+      }, py::arg("point_mm"))
+      .def("add_background_seed_voxel", [](SeededSegmentationOptions& o, const std::array<long, 3>& voxel) {
+        o.background_seeds.push_back(SeedPoint::at_voxel(voxel));
+      }, py::arg("voxel"))
+      .def_readwrite("working_spacing_mm", &SeededSegmentationOptions::working_spacing_mm)
+      .def_readwrite("smoothing_iterations", &SeededSegmentationOptions::smoothing_iterations)
+      .def_readwrite("seed_radius_mm", &SeededSegmentationOptions::seed_radius_mm)
+      .def_readwrite("window_sigmas_below", &SeededSegmentationOptions::window_sigmas_below)
+      .def_readwrite("window_sigmas_above", &SeededSegmentationOptions::window_sigmas_above)
+      .def_readwrite("hu_window", &SeededSegmentationOptions::hu_window)
+      .def_readwrite("opening_radius_mm", &SeededSegmentationOptions::opening_radius_mm)
+      .def_readwrite("reach_mm", &SeededSegmentationOptions::reach_mm)
+      .def_readwrite("closing_radius_mm", &SeededSegmentationOptions::closing_radius_mm)
+      .def_readwrite("lesion_radius_mm", &SeededSegmentationOptions::lesion_radius_mm);
+  py::class_<SurfaceOptions>(m, "SurfaceOptions")
+      .def(py::init<>())
+      .def_readwrite("target_vertices", &SurfaceOptions::target_vertices)
+      .def_readwrite("smoothing_iterations", &SurfaceOptions::smoothing_iterations)
+      .def_readwrite("smoothing_passband", &SurfaceOptions::smoothing_passband)
+      .def_readwrite("block_factor", &SurfaceOptions::block_factor);
+  py::class_<TetrahedraOptions>(m, "TetrahedraOptions")
+      .def(py::init<>())
+      .def_readwrite("tet_size_mm", &TetrahedraOptions::tet_size_mm)
+      .def_readwrite("facet_distance_mm", &TetrahedraOptions::facet_distance_mm);
+  py::class_<BeamBakingOptions>(m, "BeamBakingOptions")
+      .def(py::init<>())
+      .def_readwrite("stations", &BeamBakingOptions::stations)
+      .def_readwrite("samples_per_side", &BeamBakingOptions::samples_per_side)
+      .def_readwrite("threads", &BeamBakingOptions::threads);
+  py::class_<model::Material>(m, "Material")
+      .def(py::init<>())
+      .def_readwrite("young_modulus", &model::Material::young_modulus)
+      .def_readwrite("poisson_ratio", &model::Material::poisson_ratio)
+      .def_readwrite("density", &model::Material::density)
+      .def_readwrite("attenuation_alpha", &model::Material::attenuation_alpha)
+      .def_readwrite("attenuation_beta", &model::Material::attenuation_beta);
+  py::class_<BakeOptions>(m, "BakeOptions", "organsim bake's options: pipeline::BakeOptions (pipeline/core/include/organsim/pipeline/bake.h)")
+      .def(py::init<>())
+      .def_readwrite("ct_path", &BakeOptions::ct_path)
+      .def_readwrite("series_uid", &BakeOptions::series_uid)
+      .def_readwrite("label_path", &BakeOptions::label_path)
+      .def_readwrite("label_value", &BakeOptions::label_value)
+      .def_readwrite("label_closing_radius_mm", &BakeOptions::label_closing_radius_mm)
+      .def_readwrite("seeded", &BakeOptions::seeded)
+      .def_readwrite("reference_label_path", &BakeOptions::reference_label_path)
+      .def_readwrite("reference_label_value", &BakeOptions::reference_label_value)
+      .def_readwrite("fixed_point_mm", &BakeOptions::fixed_point_mm)
+      .def_readwrite("fixed_point_voxel", &BakeOptions::fixed_point_voxel)
+      .def_readwrite("surface", &BakeOptions::surface)
+      .def_readwrite("tetrahedra", &BakeOptions::tetrahedra)
+      .def_readwrite("beams", &BakeOptions::beams)
+      .def_readwrite("beam_tables", &BakeOptions::beam_tables)
+      .def_readwrite("material", &BakeOptions::material)
+      .def_readwrite("output_path", &BakeOptions::output_path)
+      .def_readwrite("intermediates_dir", &BakeOptions::intermediates_dir);
+}
+
 }  // namespace
 }  // namespace organsim::python
 
@@ -353,7 +424,9 @@ PYBIND11_MODULE(_organsim, m) {
                                                  "centroid_y_m", "centroid_z_m");
 
   m.def("_load", &load, py::arg("path"), "Reads a .organ model file (checked: a bad file raises organsim.Error)");
-  m.def("_bake", &cli::bake_report_for_arguments, py::arg("arguments"), py::call_guard<py::gil_scoped_release>());
+  bind_bake_options(m);
+  m.def("_bake", &cli::bake_report_json, py::arg("options"), py::call_guard<py::gil_scoped_release>(),
+        "Bakes with these options (output_path set) -> the report as `organsim bake --json` prints it");
 
   py::class_<MultiBeamModel>(m, "MultiBeam", "The multi-beam model (Ushiki et al.): one beam per tool, m and N")
       .def(py::init<const Model&, std::uint32_t, const std::string&, const std::string&>(), py::arg("model"),

@@ -1,7 +1,7 @@
 // The materials' stress is the derivative of their energy, their tangent the
 // derivative of their stress (central differences), rotations cause no stress,
 // and co-rotational equals linear at small strain.
-#include "fem/constitutive.h"
+#include "constitutive.h"
 
 #include <gtest/gtest.h>
 

@@ -7,7 +7,7 @@
 #include <atomic>
 
 #include "organsim/devices/haptic_device.h"
-#include "organsim/realtime/triple_buffer.h"
+#include "organsim/lockfree/triple_buffer.h"
 
 namespace organsim::devices {
 
@@ -57,8 +57,8 @@ class StreamedTool final : public HapticDevice {
     bool in_contact = false;
   };
   SafetyLimits limits_;
-  realtime::TripleBuffer<Placed> poses_;
-  realtime::TripleBuffer<Felt> forces_;
+  lockfree::TripleBuffer<Placed> poses_;
+  lockfree::TripleBuffer<Felt> forces_;
   std::atomic<std::uint64_t> ticks_{0};
 };
 

@@ -1,0 +1,177 @@
+// The real-time engine: a force loop (≥ 1 kHz) and a deformation loop (≥ 60 Hz)
+// around one deformation model (multi-beam, mass-spring or FEM; deformation_model.h) (Ushiki et al., multi-beam paper, §3;
+// docs/multibeam.md#references), with haptic devices, contact
+// detection and force safety. docs/realtime.md states the rules.
+//
+// Threads: force_tick() belongs to the force loop (a 1 kHz thread, or a device's
+// servo callback), deformation_step() to the deformation loop; each may run on
+// its own thread. They share nothing but three wait-free triple buffers: the
+// force loop publishes tool tips and releases, the deformation loop publishes
+// each tool's contact (action point, normal, condensed stiffness) and the
+// deformed surface. Neither call allocates, locks, throws or does I/O.
+//
+// Contact rule: a tool's contact begins when its tip's path since the previous
+// deformation frame crosses the current deformed surface inwards (a swept test,
+// so a fast tool cannot pass through a thin part), or else, for a tool whose
+// shaft is known, when its shaft (from the handle, shaft_length away, to the
+// tip) crosses the surface inwards, or else when the surface moved onto the
+// tip (the tip lies less than 1 mm inside the deformed surface: a nearly
+// incompressible organ bulging under another tool). The crossing point, mapped to the rest
+// surface, is the action point and a beam is built to it; the tool's contact
+// point is the tip, or the shaft point at the crossing's distance from the tip.
+// The force loop renders the contact's linearization, F = F₀ − K (d − d₀) with
+// d = contact point − action point (for the multi-beam model F₀ = 0, d₀ = 0:
+// F = −K d), and ends the
+// contact as soon as the contact point is back outside the tangent plane of the
+// rest surface at the action point, (contact point − action point) · n ≥ 0.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "organsim/devices/force_loop.h"
+#include "organsim/devices/haptic_device.h"
+#include "organsim/geometry/closest_point.h"
+#include "organsim/multibeam/multibeam.h"
+#include "organsim/organ/organ.h"
+#include "organsim/realtime/deformation_model.h"
+#include "organsim/realtime/force_safety.h"
+#include "organsim/lockfree/triple_buffer.h"
+
+namespace organsim::realtime {
+
+using lockfree::TripleBuffer;
+using multibeam::kMaxTools;
+
+struct EngineOptions {
+  std::string model = "beam";         ///< which deformation model runs: a name in model_registry.h
+  multibeam::MultiBeamOptions beams;  ///< merge rule, beam theory, distances (max_tools is set from the devices)
+  SpringModelOptions springs;         ///< the mass-spring model's network and integration
+  fem::OrganFemOptions fem;           ///< the FEM models' clamp and psh material
+  double force_period = 1e-3;         ///< s
+  double deformation_period = 1.0 / 60.0;  ///< s
+  double shaft_length = 0.30;              ///< m, tip to handle (laparoscopic instruments: 30–36 cm)
+};
+
+/// A tool's contact as the deformation loop publishes it.
+struct ToolContact {
+  bool active = false;
+  std::uint32_t generation = 0;                           ///< counts this tool's contacts
+  Eigen::Vector3d action_point = Eigen::Vector3d::Zero();  ///< rest surface, m
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();        ///< outward, rest surface
+  Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();     ///< K, N/m, device-limited
+  Eigen::Vector3d reference = Eigen::Vector3d::Zero();     ///< d₀, m: the displacement where `force` holds
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();         ///< F₀, N on the tool at d₀
+  double shaft_offset = 0.0;  ///< m from the tip along the shaft to the tool's contact point (0: the tip)
+};
+
+struct ContactFrame {
+  std::array<ToolContact, kMaxTools> tools{};
+  double time = -1.0;  ///< s, when the deformation loop published it
+};
+
+/// The force loop's view of the tools, published every tick.
+struct ToolFrame {
+  std::array<Eigen::Vector3d, kMaxTools> tips{};
+  std::array<Eigen::Vector3d, kMaxTools> shafts{};  ///< unit, tip to handle; zero when unknown
+  std::array<bool, kMaxTools> tip_valid{};
+  std::array<std::uint32_t, kMaxTools> released{};  ///< generation of the last contact the force loop ended
+  double time = -1.0;
+};
+
+/// The deformed organ for viewers (model's vertex order of organ::Organ).
+struct SurfaceFrame {
+  std::vector<model::Point3> positions;  ///< m
+  std::vector<model::Point3> normals;    ///< unit
+  std::uint64_t frame = 0;
+  double time = 0.0;
+};
+
+/// What the force loop saw of one tool (read after the loops have stopped).
+struct ToolTelemetry {
+  std::uint32_t contacts = 0;   ///< contacts begun
+  /// Times the device stopped giving a valid pose (an error, a disconnected
+  /// device): its force then fades from the last one sent to zero over the
+  /// device's ramp_down_time, and comes back through the onset ramp when
+  /// the pose does. The other tools go on.
+  std::uint32_t pose_faults = 0;
+  double peak_force = 0.0;      ///< N, after safety
+  bool in_contact = false;
+  Eigen::Vector3d last_force = Eigen::Vector3d::Zero();
+};
+
+class Engine final : public devices::ForceLoop {
+ public:
+  /// Devices are not owned and must outlive the engine; at most kMaxTools.
+  Engine(const organ::Organ& organ, const std::vector<devices::HapticDevice*>& devices, const EngineOptions& options);
+
+  /// One force-loop iteration at time `now` (s).
+  void force_tick(double now) noexcept override;
+  /// One deformation-loop iteration at time `now` (s).
+  void deformation_step(double now) noexcept;
+
+  std::size_t tool_count() const noexcept { return devices_.size(); }
+  const EngineOptions& options() const noexcept { return options_; }
+  const organ::Organ& organ() const noexcept { return organ_; }
+  /// The latest deformed surface: call update() then read() from one reader thread.
+  TripleBuffer<SurfaceFrame>& surfaces() noexcept { return surfaces_; }
+  /// Force-loop telemetry; read when the force loop is not running.
+  const ToolTelemetry& telemetry(std::size_t tool) const noexcept { return telemetry_[tool]; }
+  const ForceSafety& safety(std::size_t tool) const noexcept { return safety_[tool]; }
+  /// Contacts the model refused (far from organ, at the clamp…).
+  std::uint64_t refused_contacts() const noexcept { return refused_; }
+  /// The deformation model (read its counters when the loops are not running).
+  const DeformationModel& model() const noexcept { return *model_; }
+
+ private:
+  void publish_linearization(std::size_t tool) noexcept;
+
+  const organ::Organ& organ_;
+  std::vector<devices::HapticDevice*> devices_;
+  EngineOptions options_;
+
+  // Force loop only.
+  std::array<ForceSafety, kMaxTools> safety_{};
+  std::array<std::uint32_t, kMaxTools> released_{};
+  std::array<ToolTelemetry, kMaxTools> telemetry_{};
+  std::array<std::uint32_t, kMaxTools> seen_generation_{};
+  std::array<double, kMaxTools> fault_start_{};      // s, when the pose went invalid; < 0 while valid
+  std::array<Eigen::Vector3d, kMaxTools> fault_force_{};  // N, the force sent just before
+  double previous_tick_ = -1.0;
+
+  // Deformation loop only.
+  std::unique_ptr<DeformationModel> model_;
+  std::array<ContactLinearization, kMaxTools> linearizations_{};
+  double previous_step_ = -1.0;
+  geometry::SurfaceBvh deformed_tree_;
+  const model::Point3* tree_positions_ = nullptr;  // the last published surface
+  bool tree_stale_ = false;                 // the tree does not describe it yet
+  // The surface vertices moved since the tree's last refit (per vertex mark
+  // and list), unless all may have moved.
+  std::vector<std::uint8_t> moved_mark_;
+  std::vector<std::uint32_t> moved_list_;
+  std::size_t moved_count_ = 0;
+  bool all_moved_ = true;
+  void note_moved_vertices() noexcept;
+  void refit_contact_tree() noexcept;
+  ContactFrame contacts_;
+  std::array<Eigen::Vector3d, kMaxTools> previous_tip_{};
+  std::array<bool, kMaxTools> previous_valid_{};
+  std::array<Eigen::Vector3d, kMaxTools> displacement_{};
+  std::array<Eigen::Vector3d, kMaxTools> refused_at_{};  // where a contact was last refused
+  std::array<bool, kMaxTools> refused_valid_{};
+  std::uint64_t frame_ = 0;
+  std::uint64_t refused_ = 0;
+
+  // Hand-offs.
+  TripleBuffer<ContactFrame> contact_frames_;
+  TripleBuffer<ToolFrame> tool_frames_;
+  TripleBuffer<SurfaceFrame> surfaces_;
+};
+
+}  // namespace organsim::realtime

@@ -1,0 +1,250 @@
+// The real-time pieces: wait-free hand-off, force safety, contact detection on
+// the deformed surface, and the engine's loops stepped deterministically.
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cstring>
+#include <cmath>
+#include <memory>
+#include <set>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "organsim/realtime/engine.h"
+#include "organsim/realtime/model_registry.h"
+#include "organsim/realtime/loop_runner.h"
+#include "organsim/devices/scripted_device.h"
+#include "organsim/lockfree/triple_buffer.h"
+#include "test_models.h"
+
+namespace organsim::realtime {
+namespace {
+
+using namespace organsim::devices;
+
+struct Payload {
+  std::uint64_t sequence = 0;
+  std::uint64_t check[15] = {};  // each sequence × (k + 1): a torn read would mix two sequences
+};
+
+TEST(TripleBuffer, ReaderSeesOnlyWholeValuesInOrderUnderConcurrentLoad) {
+  TripleBuffer<Payload> buffer;
+  constexpr std::uint64_t kReads = 20000;
+  std::atomic<std::uint64_t> reads{0};
+  std::atomic<bool> done{false};
+  std::uint64_t written = 0;
+  // The writer publishes until the reader has taken kReads values (however the
+  // two threads get scheduled), then stops.
+  std::thread writer([&] {
+    for (std::uint64_t s = 1; reads.load(std::memory_order_relaxed) < kReads && s < 500'000'000; ++s) {
+      Payload& p = buffer.write_slot();
+      p.sequence = s;
+      for (int k = 0; k < 15; ++k) p.check[k] = s * (k + 1);
+      buffer.publish();
+      written = s;
+    }
+    done.store(true, std::memory_order_release);
+  });
+  std::uint64_t last = 0, torn = 0, backwards = 0;
+  while (true) {
+    const bool finished = done.load(std::memory_order_acquire);
+    if (buffer.update()) {
+      const Payload& p = buffer.read();
+      for (int k = 0; k < 15; ++k) torn += p.check[k] != p.sequence * (k + 1);
+      backwards += p.sequence <= last;
+      last = p.sequence;
+      reads.fetch_add(1, std::memory_order_relaxed);
+    } else if (finished) {
+      break;
+    }
+  }
+  writer.join();
+  EXPECT_EQ(torn, 0u);
+  EXPECT_EQ(backwards, 0u);  // each update brings a newer value
+  EXPECT_GE(reads.load(), kReads);
+  EXPECT_EQ(last, written);  // the last value always arrives
+}
+
+TEST(SurfaceBvh, RefitFollowsTheDeformedSurfaceAndFindsEnteringCrossings) {
+  const model::OrganModel model = testing::make_sphere_model(2000, 4);  // radius 0.08 m, centred
+  geometry::SurfaceBvh tree(model.surface_vertices, model.surface_triangles);
+  geometry::SegmentHit hit;
+  ASSERT_TRUE(tree.first_crossing({0.2, 0.001, 0.002}, {0.0, 0.001, 0.002}, true, hit));
+  EXPECT_TRUE(hit.entering);
+  EXPECT_NEAR(hit.position[0], 0.08, 1e-3);
+  // Leaving the sphere is not an entering crossing; the whole diameter enters once.
+  EXPECT_FALSE(tree.first_crossing({0.0, 0.001, 0.002}, {0.2, 0.001, 0.002}, true, hit));
+  ASSERT_TRUE(tree.first_crossing({0.0, 0.001, 0.002}, {0.2, 0.001, 0.002}, false, hit));
+  EXPECT_FALSE(hit.entering);
+  // Shifted by 5 cm along x, refit: the crossing moves with it.
+  std::vector<model::Point3> moved = model.surface_vertices;
+  for (model::Point3& p : moved) p[0] += 0.05;
+  tree.refit(moved.data());
+  ASSERT_TRUE(tree.first_crossing({0.3, 0.001, 0.002}, {0.0, 0.001, 0.002}, true, hit));
+  EXPECT_NEAR(hit.position[0], 0.13, 1e-3);
+  EXPECT_NEAR(tree.closest_point({0.0, 0.0, 0.0}).distance, 0.03, 1e-3);
+}
+
+// The helper cylinder (radius 30 mm, x from 0 to 150 mm, clamped at x = 0).
+struct CylinderEngine : ::testing::Test {
+  testing::CylinderSpec spec;
+  organ::Organ organ{testing::make_cylinder_model(spec)};
+
+  static Trajectory path(std::initializer_list<std::pair<double, Eigen::Vector3d>> samples) {
+    Trajectory t;
+    for (const auto& [time, position] : samples) {
+      t.times.push_back(time);
+      t.positions.push_back(position);
+    }
+    return t;
+  }
+};
+
+TEST_F(CylinderEngine, PressAndReleaseAtTheFarCap) {
+  // Approach the far cap along −x, press 5 mm, hold, retreat.
+  SafetyLimits limits;
+  limits.max_force = 10.0;
+  ScriptedDevice device(path({{0.0, {0.16, 0.0, 0.0}}, {0.3, {0.145, 0.0, 0.0}}, {0.8, {0.145, 0.0, 0.0}},
+                              {1.0, {0.16, 0.0, 0.0}}, {1.2, {0.16, 0.0, 0.0}}}),
+                        limits, 2000);
+  Engine engine(organ, {&device}, {});
+  run_fast(engine, 1.2);
+  EXPECT_EQ(engine.telemetry(0).contacts, 1u);
+  const double expected = organ.model().material.young_modulus * M_PI * spec.radius * spec.radius * 0.005 / spec.length;
+  bool touched = false, released_after = false;
+  for (std::size_t r = 0; r < device.record_count(); ++r) {
+    const ForceRecord& f = device.record(r);
+    if (f.time > 0.5 && f.time < 0.8) {
+      EXPECT_TRUE(f.in_contact);
+      EXPECT_NEAR(f.force[0], expected, 1e-4 * expected) << f.time;  // EAδ/L, pushing the tool back (+x)
+      touched = true;
+    }
+    if (f.time > 0.95) {
+      EXPECT_FALSE(f.in_contact) << f.time;
+      EXPECT_EQ(f.force, Eigen::Vector3d::Zero()) << f.time;
+      released_after = true;
+    }
+  }
+  EXPECT_TRUE(touched);
+  EXPECT_TRUE(released_after);
+}
+
+TEST_F(CylinderEngine, ASpringsDynamicRegionReportsEveryVertexItMoves) {
+  // The engine refits its contact tree only above the vertices a model says it
+  // moved: every vertex whose position changed in a frame must be listed.
+  ModelOptions options;
+  options.springs.simulation.region = springs::Region::dynamic;
+  const std::unique_ptr<DeformationModel> model = make_deformation_model("springs", organ, options, 1);
+  const std::size_t n = organ.vertex_count();
+  std::vector<model::Point3> previous = organ.model().surface_vertices, positions(n), normals(n);
+  std::array<ContactLinearization, 1> contacts{};
+  ASSERT_TRUE(model->attach(0, {spec.length, 0.0, 0.0}, contacts[0]));
+  std::size_t most = 0, changed_total = 0;
+  for (int frame = 0; frame < 90; ++frame) {
+    if (frame == 45) model->detach(0);
+    const Eigen::Vector3d press(-0.005 * std::min(1.0, frame / 20.0), 0.0, 0.0);
+    ASSERT_TRUE(model->step(1.0 / 60.0, &press, positions.data(), normals.data(), contacts.data()));
+    std::size_t count = 0;
+    const std::uint32_t* moved = model->moved_vertices(count);
+    ASSERT_NE(moved, nullptr) << frame;
+    const std::set<std::uint32_t> listed(moved, moved + count);
+    EXPECT_EQ(listed.size(), count) << frame;  // no repeats
+    for (std::uint32_t v = 0; v < n; ++v)
+      if (positions[v] != previous[v]) {
+        EXPECT_TRUE(listed.count(v)) << "frame " << frame << ", vertex " << v;
+        ++changed_total;
+      }
+    most = std::max(most, count);
+    if (frame < 45) {
+      EXPECT_GT(model->active_nodes(), 0u) << frame;  // the tool's neighbourhood at least
+    }
+    previous = positions;
+  }
+  EXPECT_GT(changed_total, 0u);
+  EXPECT_LT(most, n / 2);  // a region, not the organ
+  // Integrating every node, the model claims nothing narrower than all.
+  const std::unique_ptr<DeformationModel> everywhere = make_deformation_model("springs", organ, {}, 1);
+  ASSERT_TRUE(everywhere->attach(0, {spec.length, 0.0, 0.0}, contacts[0]));
+  const Eigen::Vector3d press(-0.001, 0.0, 0.0);
+  ASSERT_TRUE(everywhere->step(1.0 / 60.0, &press, positions.data(), normals.data(), contacts.data()));
+  std::size_t count = 1;
+  EXPECT_EQ(everywhere->moved_vertices(count), nullptr);
+  EXPECT_EQ(count, 0u);
+}
+
+TEST_F(CylinderEngine, AFastToolCannotPassThroughTheOrgan) {
+  // Across the whole 60 mm diameter within one force tick: the swept test still
+  // finds where it entered, and the force pushes it back out (clamped).
+  SafetyLimits limits;
+  limits.max_force = 0.3;
+  ScriptedDevice device(path({{0.0, {0.1, 0.05, 0.0}}, {0.1, {0.1, 0.05, 0.0}}, {0.101, {0.1, -0.05, 0.0}},
+                              {0.5, {0.1, -0.05, 0.0}}}),
+                        limits, 1000);
+  Engine engine(organ, {&device}, {});
+  run_fast(engine, 0.5);
+  EXPECT_EQ(engine.telemetry(0).contacts, 1u);
+  const ForceRecord& last = device.record(device.record_count() - 1);
+  EXPECT_TRUE(last.in_contact);
+  EXPECT_NEAR(last.force.norm(), 0.3, 1e-9);  // clamped to the device limit
+  EXPECT_GT(last.force[1], 0.0);              // back towards +y, where it came from
+  EXPECT_GT(engine.safety(0).clamp_count(), 0u);
+}
+
+TEST_F(CylinderEngine, AShaftPressingSidewaysMakesContactAlongTheShaft) {
+  // The tip stays below the organ (never inside it); the vertical shaft sweeps
+  // into its side (y from +40 mm to +25 mm at x = 100 mm). The contact is where
+  // the shaft entered, and the organ pushes the shaft back towards +y (and,
+  // through the beam's much stiffer axial direction, along x as well).
+  Trajectory t = path({{0.0, {0.1, 0.04, -0.06}}, {0.3, {0.1, 0.025, -0.06}}, {0.6, {0.1, 0.025, -0.06}}});
+  t.shafts.assign(3, Eigen::Vector3d(0.0, 0.0, 1.0));
+  SafetyLimits limits;
+  limits.max_force = 10.0;
+  ScriptedDevice device(t, limits, 1000);
+  Engine engine(organ, {&device}, {});
+  run_fast(engine, 0.6);
+  EXPECT_EQ(engine.telemetry(0).contacts, 1u);
+  const ForceRecord& last = device.record(device.record_count() - 1);
+  EXPECT_TRUE(last.in_contact);
+  EXPECT_GT(last.force[1], 0.01);
+  EXPECT_LT(std::abs(last.force[2]), 0.2 * last.force.norm());
+}
+
+TEST_F(CylinderEngine, FastModeIsBitIdenticalAcrossRuns) {
+  auto run = [&] {
+    ScriptedDevice a(path({{0.0, {0.16, 0.0, 0.0}}, {0.4, {0.144, 0.003, 0.0}}, {0.6, {0.16, 0.0, 0.0}}}), {}, 1000);
+    ScriptedDevice b(path({{0.0, {0.08, 0.04, 0.0}}, {0.3, {0.08, 0.026, 0.001}}, {0.6, {0.08, 0.04, 0.0}}}), {}, 1000);
+    Engine engine(organ, {&a, &b}, {});
+    run_fast(engine, 0.6);
+    std::vector<double> forces;
+    for (const ScriptedDevice* d : {&a, &b})
+      for (std::size_t r = 0; r < d->record_count(); ++r)
+        for (int k = 0; k < 3; ++k) forces.push_back(d->record(r).force[k]);
+    return forces;
+  };
+  const std::vector<double> first = run(), second = run();
+  ASSERT_EQ(first.size(), second.size());
+  EXPECT_EQ(std::memcmp(first.data(), second.data(), first.size() * sizeof(double)), 0);
+  double peak = 0.0;
+  for (double f : first) peak = std::max(peak, std::abs(f));
+  EXPECT_GT(peak, 0.01);
+}
+
+TEST_F(CylinderEngine, AStalledDeformationLoopFadesTheForceOut) {
+  ScriptedDevice device(path({{0.0, {0.16, 0.0, 0.0}}, {0.2, {0.146, 0.0, 0.0}}, {2.0, {0.146, 0.0, 0.0}}}), {}, 3000);
+  Engine engine(organ, {&device}, {});
+  run_fast(engine, 0.5);  // in contact, steady force
+  const double steady = device.record(device.record_count() - 1).force.norm();
+  ASSERT_GT(steady, 0.05);
+  // Only the force loop runs from now on (the simulation has stalled).
+  for (int tick = 501; tick <= 1000; ++tick) engine.force_tick(tick * 1e-3);
+  double at_250ms = 0.0;
+  for (std::size_t r = 0; r < device.record_count(); ++r)
+    if (std::abs(device.record(r).time - 0.75) < 1e-9) at_250ms = device.record(r).force.norm();
+  EXPECT_LT(at_250ms, 0.5 * steady);  // ramping down (stalled for 0.25 s: timeout 0.1 s, ramp 0.2 s)
+  EXPECT_EQ(device.record(device.record_count() - 1).force.norm(), 0.0);
+}
+
+}  // namespace
+}  // namespace organsim::realtime

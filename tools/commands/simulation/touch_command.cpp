@@ -1,0 +1,125 @@
+// `organsim touch MODEL`: feel the organ with PHANToM / Touch devices
+// (OpenHaptics, loaded at run time), without the viewer.
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <stdexcept>
+#include <thread>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "command_line.h"
+#include "model_tuning.h"
+#include "haptic_rig_options.h"
+#include "organsim/model/model_file.h"
+#include "organsim/realtime/engine.h"
+
+namespace organsim::cli {
+namespace {
+
+struct TouchOptions {
+  std::string model_path;
+  devices::HapticRigOptions rig;
+  double seconds = 60.0;
+  std::string deformation = "beam";
+  ModelTuning tuning;
+  bool json = false;
+};
+
+// Says once when a device starts reporting HD errors (its force fades to zero
+// in the servo loop) and once when it is back; called at the frame rate.
+void report_device_faults(const std::vector<std::unique_ptr<devices::OpenHapticsDevice>>& owned, double now,
+                          std::vector<std::uint64_t>& errors_seen, std::vector<bool>& failing) {
+  for (std::size_t i = 0; i < owned.size(); ++i) {
+    const std::uint64_t errors = owned[i]->error_ticks();
+    if (errors > errors_seen[i] && !failing[i])
+      warn("touch", fmt::format("device {} reported HD error 0x{:04x} at {:.2f} s; its force fades to zero and the "
+                                "other devices go on",
+                                i + 1, owned[i]->last_error(), now));
+    else if (errors == errors_seen[i] && failing[i])
+      note("touch", fmt::format("device {} is back at {:.2f} s", i + 1, now));
+    failing[i] = errors > errors_seen[i];
+    errors_seen[i] = errors;
+  }
+}
+
+int run_touch(const TouchOptions& o) {
+  model::OrganModel loaded = load_simulation_model("touch", o.model_path, {o.deformation});
+  const organ::Organ organ(std::move(loaded));
+  const devices::HapticRig rig = devices::open_haptic_rig(o.rig, organ.model());
+  const auto& owned = rig.devices;
+  const std::vector<devices::HapticDevice*> tools = rig.tools();
+  realtime::EngineOptions options;
+  options.model = o.deformation;
+  apply_model_tuning(o.tuning, options.fem, options.springs);
+  realtime::Engine engine(organ, tools, options);
+  devices::OpenHapticsServo servo(*rig.library, rig.servo_devices(), engine);
+  note("touch", fmt::format("{} device(s) on {} for {:g} s; the force loop runs in the HD servo scheduler",
+                            owned.size(), o.model_path, o.seconds));
+  const auto begin = std::chrono::steady_clock::now();
+  servo.start();
+  auto next = begin;
+  std::uint64_t frames = 0;
+  std::vector<std::uint64_t> errors_seen(owned.size(), 0);
+  std::vector<bool> failing(owned.size(), false);
+  while (std::chrono::steady_clock::now() - begin < std::chrono::duration<double>(o.seconds)) {
+    const double now = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+    engine.deformation_step(now);
+    ++frames;
+    report_device_faults(owned, now, errors_seen, failing);
+    next += std::chrono::microseconds(16667);
+    std::this_thread::sleep_until(next);
+  }
+  servo.stop();
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+
+  if (o.json) {
+    nlohmann::json tools_json = nlohmann::json::array();
+    for (std::size_t i = 0; i < owned.size(); ++i)
+      tools_json.push_back({{"tool", i + 1},
+                            {"contacts", engine.telemetry(i).contacts},
+                            {"peak_force_n", engine.telemetry(i).peak_force},
+                            {"max_force_n", owned[i]->limits().max_force},
+                            {"hd_error_ticks", owned[i]->error_ticks()},
+                            {"last_hd_error", owned[i]->last_error()},
+                            {"pose_faults", engine.telemetry(i).pose_faults}});
+    std::cout << nlohmann::json{{"model", o.model_path},
+                                {"seconds", seconds},
+                                {"servo_ticks", servo.ticks()},
+                                {"servo_rate_hz", servo.ticks() / seconds},
+                                {"deformation_frames", frames},
+                                {"tools", tools_json}}
+                     .dump()
+              << '\n';
+    return 0;
+  }
+  std::cout << fmt::format("{:<14}{:.1f} s, servo {:.0f} Hz ({} ticks), {} deformation frames\n", "touch", seconds,
+                           servo.ticks() / seconds, servo.ticks(), frames);
+  for (std::size_t i = 0; i < owned.size(); ++i)
+    std::cout << fmt::format("{:<14}{} contact(s), peak force {:.3f} N (device limit {:.2f} N){}\n",
+                             fmt::format("device {}", i + 1), engine.telemetry(i).contacts,
+                             engine.telemetry(i).peak_force, owned[i]->limits().max_force,
+                             owned[i]->error_ticks() == 0
+                                 ? std::string()
+                                 : fmt::format("; HD errors in {} servo ticks (last 0x{:04x}), {} time(s) without a pose",
+                                               owned[i]->error_ticks(), owned[i]->last_error(),
+                                               engine.telemetry(i).pose_faults));
+  return 0;
+}
+
+}  // namespace
+
+Command add_touch_command(CLI::App& app) {
+  auto o = std::make_shared<TouchOptions>();
+  app.add_option("model", o->model_path, "Model file (.organ)")->required();
+  add_deformation_model_option(app, o->deformation);
+  add_model_tuning_options(app, o->tuning);
+  add_haptic_rig_options(app, o->rig);
+  app.add_option("--seconds", o->seconds, "How long to run")->check(kPositive)->capture_default_str();
+  app.add_flag("--json", o->json, "Print the summary as one JSON object on stdout");
+  return [o] { return run_touch(*o); };
+}
+
+}  // namespace organsim::cli
