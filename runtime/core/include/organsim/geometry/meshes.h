@@ -1,6 +1,6 @@
 // Plain triangle and tetrahedral meshes, in the model's units (metres) and
 // frame: what the pipeline's surface and tetrahedra stages produce and what the
-// mesh writers (tools/mesh_io) write.
+// mesh writers (pipeline/mesh_io) write.
 #pragma once
 
 #include <vector>
