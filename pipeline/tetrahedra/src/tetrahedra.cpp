@@ -201,7 +201,7 @@ std::vector<std::string> tetrahedra_quality_warnings(const TetrahedralQuality& q
   if (q.tetrahedra == 0) return warnings;
   if (q.min_dihedral_deg < kMinDihedralGoalDeg)
     warnings.push_back(fmt::format(
-        "the smallest dihedral angle is {:.1f}° (goal {:.0f}°): the FEM models will be stiffer there and solve slower; "
+        "the smallest dihedral angle is {:.2f}° (goal {:.0f}°): the FEM models will be stiffer there and solve slower; "
         "try another --tet-size or a smoother mask (--closing)",
         q.min_dihedral_deg, kMinDihedralGoalDeg));
   if (q.max_radius_edge_ratio > kMaxRadiusEdgeGoal)

@@ -180,3 +180,23 @@ TEST(Tetrahedra, UnusableOptionsAreErrors) {
 
 }  // namespace
 }  // namespace organsim::pipeline
+
+namespace organsim::pipeline {
+namespace {
+
+TEST(Tetrahedra, QualityWarningsNameAMissNoMatterHowSmall) {
+  TetrahedralQuality q;
+  q.tetrahedra = 100;
+  q.min_dihedral_deg = kMinDihedralGoalDeg;
+  q.max_radius_edge_ratio = kMaxRadiusEdgeGoal;
+  EXPECT_TRUE(tetrahedra_quality_warnings(q).empty());
+  q.min_dihedral_deg = kMinDihedralGoalDeg - 0.05;  // 11.95°: shown as such, not rounded up to the goal
+  q.max_radius_edge_ratio = 3.68;
+  const std::vector<std::string> warnings = tetrahedra_quality_warnings(q);
+  ASSERT_EQ(warnings.size(), 2u);
+  EXPECT_NE(warnings[0].find("11.95°"), std::string::npos) << warnings[0];
+  EXPECT_NE(warnings[1].find("3.68"), std::string::npos) << warnings[1];
+}
+
+}  // namespace
+}  // namespace organsim::pipeline
