@@ -58,6 +58,13 @@ std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
   return a < b ? (std::uint64_t{a} << 32) | b : (std::uint64_t{b} << 32) | a;
 }
 
+// Rounds of peeling, flips and vertex moves; the most tetrahedra around an
+// edge that edge removal takes (Klingner and Shewchuk found larger rings
+// rarely help; up to 16 made no difference on our livers).
+constexpr int kRounds = 4;
+constexpr std::size_t kLargestRing = 7;
+constexpr std::size_t kLargestCavity = 16;  // tetrahedra a vertex insertion replaces
+
 constexpr int kFaces[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};  // face opposite corner i
 
 class Slivers {
@@ -67,8 +74,22 @@ class Slivers {
   SliverRemovalReport run() {
     SliverRemovalReport report;
     measure(report.min_dihedral_before_deg, report.slivers_before);
-    report.peeled = peel();
-    report.moves = smooth();
+    // Peeling the slivers lying on the boundary, then flips, which reconnect
+    // what vertex moves cannot fix, keep the boundary and cost little; a
+    // corner is peeled only where no flip helped (peeling cuts the organ).
+    // Then the moves, with fewer slivers to work on. A move may make a sliver
+    // of a tetrahedron on the boundary, or open new flips: rounds go on while
+    // peeling or flipping still does something.
+    for (int round = 0; round < kRounds; ++round) {
+      std::size_t peeled = peel(Corners::kept);
+      const std::size_t flips = flip();
+      peeled += peel(Corners::peeled);
+      report.peeled += peeled;
+      report.flips += flips;
+      if (round > 0 && peeled == 0 && flips == 0) break;
+      report.moves += smooth();
+    }
+    report.insertions = insertions_;
     measure(report.min_dihedral_after_deg, report.slivers_after);
     return report;
   }
@@ -91,8 +112,10 @@ class Slivers {
 
   // Removes boundary slivers: two faces on the boundary, sharing the edge ab;
   // the other two faces (sharing cd) become the boundary, which stays a
-  // 2-manifold when cd is not a boundary edge already.
-  std::size_t peel() {
+  // 2-manifold when cd is not a boundary edge already. Also removes slivers
+  // at a corner of the boundary (three faces on it), whose apex is then unused.
+  enum class Corners { kept, peeled };
+  std::size_t peel(Corners corners) {
     std::unordered_map<std::uint64_t, int> face_uses, boundary_edge_faces;
     for (const model::Tetrahedron& t : mesh_.tetrahedra)
       for (const auto& f : kFaces) ++face_uses[face_key(t[f[0]], t[f[1]], t[f[2]])];
@@ -106,6 +129,10 @@ class Slivers {
         ++boundary_edge_faces[edge_key(a, c)];
       }
 
+    std::unordered_map<std::uint64_t, int> edge_uses;
+    for (const model::Tetrahedron& t : mesh_.tetrahedra)
+      for (int a = 0; a < 4; ++a)
+        for (int b = a + 1; b < 4; ++b) ++edge_uses[edge_key(t[a], t[b])];
     std::vector<bool> removed(mesh_.tetrahedra.size(), false);
     std::size_t peeled = 0;
     for (bool changed = true; changed;) {
@@ -116,10 +143,22 @@ class Slivers {
         int boundary[4], count = 0;
         for (int f = 0; f < 4; ++f)
           if (on_boundary(face_key(t[kFaces[f][0]], t[kFaces[f][1]], t[kFaces[f][2]]))) boundary[count++] = f;
-        if (count != 2) continue;
-        // The faces opposite corners c and d are on the boundary: they share edge ab.
-        const std::uint32_t c = t[boundary[0]], d = t[boundary[1]];
-        if (boundary_edge_faces[edge_key(c, d)] != 0) continue;
+        if (count == 2) {
+          // The faces opposite corners c and d are on the boundary: they share edge ab.
+          const std::uint32_t c = t[boundary[0]], d = t[boundary[1]];
+          if (boundary_edge_faces[edge_key(c, d)] != 0) continue;
+        } else if (count == 3 && corners == Corners::peeled) {
+          // A corner: three boundary faces meet at the apex, and no other
+          // tetrahedron has an edge from the apex to this one's base (where
+          // one touches the apex, the boundary is pinched there, and the peel
+          // undoes that); the base becomes the boundary.
+          const int apex = 6 - boundary[0] - boundary[1] - boundary[2];
+          if (std::any_of(t.begin(), t.end(),
+                          [&](std::uint32_t u) { return u != t[apex] && edge_uses[edge_key(t[apex], u)] != 1; }))
+            continue;
+        } else {
+          continue;
+        }
         for (const auto& f : kFaces) {
           const std::uint64_t key = face_key(t[f[0]], t[f[1]], t[f[2]]);
           const int before = face_uses[key]--;
@@ -128,6 +167,8 @@ class Slivers {
           boundary_edge_faces[edge_key(t[f[1]], t[f[2]])] += sign;
           boundary_edge_faces[edge_key(t[f[0]], t[f[2]])] += sign;
         }
+        for (int a = 0; a < 4; ++a)
+          for (int b = a + 1; b < 4; ++b) --edge_uses[edge_key(t[a], t[b])];
         removed[i] = true;
         ++peeled;
         changed = true;
@@ -138,6 +179,227 @@ class Slivers {
       if (!removed[i]) mesh_.tetrahedra[kept++] = mesh_.tetrahedra[i];
     mesh_.tetrahedra.resize(kept);
     return peeled;
+  }
+
+  // Topological moves on the tetrahedra left below the bound (Klingner and
+  // Shewchuk's edge removal and face swaps): where all four vertices of a
+  // sliver are pinned to the boundary, no move of them helps, but the same
+  // vertices connected differently can. Only interior edges and faces are
+  // flipped: the boundary's triangles and the volume stay exactly as they were.
+  // A flip is made when it raises the worst quality of the tetrahedra it replaces.
+  std::size_t flip() {
+    std::vector<model::Tetrahedron>& tets = mesh_.tetrahedra;
+    const std::vector<model::Point3>& v = mesh_.vertices;
+    std::vector<std::vector<std::uint32_t>> around(v.size());
+    for (std::uint32_t i = 0; i < tets.size(); ++i)
+      for (std::uint32_t corner : tets[i]) around[corner].push_back(i);
+    std::vector<bool> alive(tets.size(), true);
+    auto live_tets_with = [&](std::uint32_t a, std::uint32_t b) {
+      std::vector<std::uint32_t> with;
+      for (std::uint32_t i : around[a])
+        if (alive[i] && std::find(tets[i].begin(), tets[i].end(), b) != tets[i].end()) with.push_back(i);
+      return with;
+    };
+    auto positive_quality = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t d) {
+      return quality(vec(v[a]), vec(v[b]), vec(v[c]), vec(v[d]));
+    };
+
+    struct Candidate {
+      std::vector<std::uint32_t> removed;
+      std::vector<model::Tetrahedron> added;
+      double worst_added = -1.0;
+    };
+    // Removing interior edge ab: the tetrahedra around it form a closed ring
+    // r_0..r_{m-1} (each (a, b, r_i, r_{i+1}) positive); a triangulation of the
+    // ring, here each fan of it, gives 2(m − 2) tetrahedra (r_i, r_j, r_k, b) and
+    // (r_j, r_i, r_k, a), valid when all are positively oriented.
+    // The tetrahedra around interior edge ab, and the closed ring r_0..r_{m-1}
+    // of their other vertices (each (a, b, r_i, r_{i+1}) positive); empty where
+    // ab lies on the boundary (an open ring) or has more than `largest`.
+    auto ring_around = [&](std::uint32_t a, std::uint32_t b, std::size_t largest, std::vector<std::uint32_t>& ring_tets,
+                           std::vector<std::uint32_t>& ring) {
+      ring.clear();
+      ring_tets = live_tets_with(a, b);
+      const std::size_t m = ring_tets.size();
+      if (m < 3 || m > largest) return false;
+      std::unordered_map<std::uint32_t, std::uint32_t> next;
+      for (std::uint32_t i : ring_tets) {
+        std::uint32_t other[2], k = 0;
+        for (std::uint32_t corner : tets[i])
+          if (corner != a && corner != b) other[k++] = corner;
+        if (signed_volume(vec(v[a]), vec(v[b]), vec(v[other[0]]), vec(v[other[1]])) < 0.0) std::swap(other[0], other[1]);
+        if (!next.emplace(other[0], other[1]).second) return false;
+      }
+      ring.push_back(std::min_element(next.begin(), next.end())->first);
+      for (std::size_t k = 1; k < m; ++k) {
+        const auto at = next.find(ring.back());
+        if (at == next.end()) return false;  // open: ab lies on the boundary
+        ring.push_back(at->second);
+      }
+      const auto closing = next.find(ring.back());
+      return closing != next.end() && closing->second == ring.front();
+    };
+    auto worst_of = [&](const std::vector<std::uint32_t>& indices) {
+      double worst = 180.0;
+      for (std::uint32_t i : indices) worst = std::min(worst, tet_quality(tets[i]));
+      return worst;
+    };
+    // Removing interior edge ab: a triangulation of its ring, here each fan of
+    // it, gives 2(m − 2) tetrahedra (r_i, r_j, r_k, b) and (r_j, r_i, r_k, a),
+    // valid when all are positively oriented.
+    auto remove_edge = [&](std::uint32_t a, std::uint32_t b, Candidate& best) {
+      std::vector<std::uint32_t> ring_tets, ring;
+      if (!ring_around(a, b, kLargestRing, ring_tets, ring)) return;
+      const std::size_t m = ring.size();
+      const double worst_removed = worst_of(ring_tets);
+      for (std::size_t apex = 0; apex < (m == 3 ? 1 : m); ++apex) {
+        Candidate c;
+        c.worst_added = 180.0;
+        for (std::size_t j = 1; j + 1 < m && c.worst_added > worst_removed; ++j) {
+          const std::uint32_t ri = ring[apex], rj = ring[(apex + j) % m], rk = ring[(apex + j + 1) % m];
+          for (const model::Tetrahedron& t : {model::Tetrahedron{ri, rj, rk, b}, model::Tetrahedron{rj, ri, rk, a}}) {
+            c.worst_added = std::min(c.worst_added, positive_quality(t[0], t[1], t[2], t[3]));
+            c.added.push_back(t);
+          }
+        }
+        if (c.worst_added > worst_removed + 1e-9 && c.worst_added > best.worst_added) {
+          c.removed = ring_tets;
+          best = std::move(c);
+        }
+      }
+    };
+    // The tetrahedron across the face opposite `corner` of tetrahedron i (i itself on the boundary).
+    auto neighbour_across = [&](std::uint32_t i, int corner) {
+      const model::Tetrahedron& t = tets[i];
+      const std::uint32_t c = t[kFaces[corner][2]];
+      for (std::uint32_t j : live_tets_with(t[kFaces[corner][0]], t[kFaces[corner][1]]))
+        if (j != i && std::find(tets[j].begin(), tets[j].end(), c) != tets[j].end()) return j;
+      return i;
+    };
+    // Inserting a new vertex p into a cavity (a set of tetrahedra): p and each
+    // face of the cavity's hull make a new tetrahedron, valid when all are
+    // positively oriented (p sees every hull face from inside). p is interior,
+    // so it is free to go where its tetrahedra are best: a compass search from
+    // `start`. The last resort where the vertices of a sliver are pinned to
+    // the boundary and no flip helps; the boundary's triangles stay as they were.
+    auto insert_vertex = [&](std::vector<std::uint32_t> cavity, const Eigen::Vector3d& start, Candidate& best,
+                             Eigen::Vector3d& best_at) {
+      std::sort(cavity.begin(), cavity.end());
+      cavity.erase(std::unique(cavity.begin(), cavity.end()), cavity.end());
+      if (cavity.size() > kLargestCavity) return;
+      std::unordered_map<std::uint64_t, std::pair<int, std::array<std::uint32_t, 3>>> faces;
+      for (std::uint32_t i : cavity)
+        for (int corner = 0; corner < 4; ++corner) {
+          const model::Tetrahedron& t = tets[i];
+          std::array<std::uint32_t, 3> f{t[kFaces[corner][0]], t[kFaces[corner][1]], t[kFaces[corner][2]]};
+          if (signed_volume(vec(v[f[0]]), vec(v[f[1]]), vec(v[f[2]]), vec(v[t[corner]])) < 0.0) std::swap(f[1], f[2]);
+          auto& [uses, oriented] = faces[face_key(f[0], f[1], f[2])];
+          ++uses;
+          oriented = f;
+        }
+      std::vector<std::array<std::uint32_t, 3>> hull;
+      for (const auto& [key, face] : faces)
+        if (face.first == 1) hull.push_back(face.second);
+      std::sort(hull.begin(), hull.end());  // the map's order is not the same from one library to another
+      const double worst_removed = worst_of(cavity);
+      auto worst_at = [&](const Eigen::Vector3d& p) {
+        double worst = 180.0;
+        for (std::size_t k = 0; k < hull.size() && worst > worst_removed; ++k)
+          worst = std::min(worst, quality(vec(v[hull[k][0]]), vec(v[hull[k][1]]), vec(v[hull[k][2]]), p));
+        return worst;
+      };
+      double reach = 0.0;
+      for (const auto& f : hull)
+        for (std::uint32_t corner : f) reach = std::max(reach, (vec(v[corner]) - start).norm());
+      Eigen::Vector3d at = start;
+      double worst = worst_at(at);
+      for (double step = 0.25 * reach; step > 0.02 * reach; step *= 0.5)
+        for (bool improved = true; improved;) {
+          improved = false;
+          for (int dx = -1; dx <= 1; ++dx)
+            for (int dy = -1; dy <= 1; ++dy)
+              for (int dz = -1; dz <= 1; ++dz) {
+                if (dx == 0 && dy == 0 && dz == 0) continue;
+                const Eigen::Vector3d candidate = at + step * Eigen::Vector3d(dx, dy, dz).normalized();
+                const double q = worst_at(candidate);
+                if (q > worst + 1e-9) worst = q, at = candidate, improved = true;
+              }
+        }
+      if (!(worst > worst_removed + 1e-9 && worst > best.worst_added)) return;
+      const auto p = static_cast<std::uint32_t>(v.size());  // the index the new vertex will get
+      best = Candidate{cavity, {}, worst};
+      for (const auto& f : hull) best.added.push_back({f[0], f[1], f[2], p});
+      best_at = at;
+    };
+    // Swapping interior face abc, shared with the tetrahedron on its other
+    // side (apex e), for the three tetrahedra around the new edge de.
+    auto swap_face = [&](std::uint32_t i, int corner, Candidate& best) {
+      const model::Tetrahedron& t = tets[i];
+      const std::uint32_t d = t[corner], a = t[kFaces[corner][0]], b = t[kFaces[corner][1]], c = t[kFaces[corner][2]];
+      const std::uint32_t other = neighbour_across(i, corner);
+      if (other == i) return;  // a boundary face
+      std::uint32_t e = 0;
+      for (std::uint32_t corner_e : tets[other])
+        if (corner_e != a && corner_e != b && corner_e != c) e = corner_e;
+      const double worst_removed = std::min(tet_quality(t), tet_quality(tets[other]));
+      std::array<std::uint32_t, 3> ring{a, b, c};
+      if (signed_volume(vec(v[d]), vec(v[e]), vec(v[a]), vec(v[b])) < 0.0) ring = {a, c, b};
+      Candidate swap;
+      swap.worst_added = 180.0;
+      for (int k = 0; k < 3; ++k) {
+        const model::Tetrahedron added{d, e, ring[k], ring[(k + 1) % 3]};
+        swap.worst_added = std::min(swap.worst_added, positive_quality(added[0], added[1], added[2], added[3]));
+        swap.added.push_back(added);
+      }
+      if (swap.worst_added > worst_removed + 1e-9 && swap.worst_added > best.worst_added) {
+        swap.removed = {i, other};
+        best = std::move(swap);
+      }
+    };
+
+    static constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+    std::size_t flips = 0;
+    const std::size_t most_flips = 4 * tets.size();
+    for (std::size_t i = 0; i < tets.size() && flips < most_flips; ++i) {
+      if (!alive[i] || tet_quality(tets[i]) >= options_.min_dihedral_deg) continue;
+      Candidate best;
+      const model::Tetrahedron t = tets[i];
+      for (const auto& e : kEdges) remove_edge(t[e[0]], t[e[1]], best);
+      for (int corner = 0; corner < 4; ++corner) swap_face(static_cast<std::uint32_t>(i), corner, best);
+      Eigen::Vector3d new_vertex;
+      bool inserted = false;
+      if (best.added.empty()) {
+        const Eigen::Vector3d centroid =
+            (vec(v[t[0]]) + vec(v[t[1]]) + vec(v[t[2]]) + vec(v[t[3]])) / 4.0;
+        for (const auto& e : kEdges) {
+          const Eigen::Vector3d midpoint = 0.5 * (vec(v[t[e[0]]]) + vec(v[t[e[1]]]));
+          insert_vertex(live_tets_with(t[e[0]], t[e[1]]), 0.5 * (midpoint + centroid), best, new_vertex);
+        }
+        std::vector<std::uint32_t> star{static_cast<std::uint32_t>(i)};
+        for (int corner = 0; corner < 4; ++corner) star.push_back(neighbour_across(static_cast<std::uint32_t>(i), corner));
+        insert_vertex(star, centroid, best, new_vertex);
+        inserted = !best.added.empty();
+      }
+      if (best.added.empty()) continue;
+      if (inserted) {
+        mesh_.vertices.push_back(point(new_vertex));
+        around.emplace_back();
+        ++insertions_;
+      }
+      for (std::uint32_t j : best.removed) alive[j] = false;
+      for (const model::Tetrahedron& added : best.added) {
+        const auto index = static_cast<std::uint32_t>(tets.size());
+        tets.push_back(added);
+        alive.push_back(true);
+        for (std::uint32_t corner : added) around[corner].push_back(index);
+      }
+      ++flips;
+    }
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < tets.size(); ++i)
+      if (alive[i]) tets[kept++] = tets[i];
+    tets.resize(kept);
+    return flips;
   }
 
   // Moves interior vertices of the remaining slivers.
@@ -341,26 +603,28 @@ class Slivers {
 
   geometry::TetrahedralMesh& mesh_;
   SliverRemovalOptions options_;
+  std::size_t insertions_ = 0;
 };
 
 }  // namespace
 
 double min_dihedral_deg(const model::Point3& a, const model::Point3& b, const model::Point3& c, const model::Point3& d) {
-  static constexpr int kEdges[6][4] = {{0, 1, 2, 3}, {0, 2, 1, 3}, {0, 3, 1, 2}, {1, 2, 0, 3}, {1, 3, 0, 2}, {2, 3, 0, 1}};
   const Eigen::Vector3d p[4] = {vec(a), vec(b), vec(c), vec(d)};
+  // The dihedral angle at the edge shared by the faces opposite corners k and
+  // l is π less the angle between their outward normals: cos θ = −n_k·n_l.
   // The smallest angle has the largest cosine: one arc cosine, not six.
-  double largest_cosine = -1.0;
-  for (const auto& e : kEdges) {
-    // The angle at edge (e0, e1) between the faces towards e2 and e3.
-    const Eigen::Vector3d axis = (p[e[1]] - p[e[0]]).normalized();
-    Eigen::Vector3d u = p[e[2]] - p[e[0]], w = p[e[3]] - p[e[0]];
-    u -= u.dot(axis) * axis;
-    w -= w.dot(axis) * axis;
-    const double nu = u.norm(), nw = w.norm();
-    if (!(nu > 0.0 && nw > 0.0)) return 0.0;
-    largest_cosine = std::max(largest_cosine, std::clamp(u.dot(w) / (nu * nw), -1.0, 1.0));
+  Eigen::Vector3d normal[4];
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector3d& f0 = p[kFaces[k][0]];
+    normal[k] = (p[kFaces[k][1]] - f0).cross(p[kFaces[k][2]] - f0);
+    const double length = normal[k].norm();
+    if (!(length > 0.0)) return 0.0;
+    normal[k] /= normal[k].dot(p[k] - f0) > 0.0 ? -length : length;
   }
-  return std::acos(largest_cosine) * kDegrees;
+  double largest_cosine = -1.0;
+  for (int k = 0; k < 4; ++k)
+    for (int l = k + 1; l < 4; ++l) largest_cosine = std::max(largest_cosine, -normal[k].dot(normal[l]));
+  return std::acos(std::clamp(largest_cosine, -1.0, 1.0)) * kDegrees;
 }
 
 double shape_quality_deg(const model::Point3& a, const model::Point3& b, const model::Point3& c, const model::Point3& d) {

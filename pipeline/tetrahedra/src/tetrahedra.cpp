@@ -22,6 +22,7 @@
 #include <fmt/format.h>
 
 #include "organsim/geometry/model_measures.h"
+#include "organsim/pipeline/connected_part.h"
 #include "organsim/pipeline/sliver_removal.h"
 #include "organsim/pipeline/volume_matching.h"
 
@@ -38,18 +39,17 @@ using Criteria = CGAL::Mesh_criteria_3<Triangulation>;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kMillimetre = 1e-3;
-// Optimization: one Lloyd iteration, sliver exudation, then our own sliver
-// removal (sliver_removal.h), bounded by iterations and angles, never by time
-// (a time limit would make the mesh depend on the machine's speed). Mesh_3's
-// sliver perturber is not used: its result depends on memory addresses, so two
-// runs gave different meshes. On the two real livers (3,000-vertex surfaces,
-// 15-18k tetrahedra) exudation alone left 3.0–3.4° slivers, on the boundary or
-// spanning a boundary edge; the removal lifts the smallest dihedral angle to
-// 14° in 0.5–1.1 s for the whole stage. More Lloyd iterations (10 before) cost
-// 0.3 s each and did not raise it.
-constexpr double kExudationBoundDeg = 20.0;
-constexpr int kSmoothingIterations = 1;
-constexpr double kSliverBoundDeg = 15.0;
+// Optimization: our own sliver removal (sliver_removal.h), bounded by rounds
+// and angles, never by time (a time limit would make the mesh depend on the
+// machine's speed). Mesh_3's optimizers are not used: its sliver perturber's
+// result depends on memory addresses (two runs gave different meshes), and
+// one Lloyd iteration plus sliver exudation cost 0.7–1.0 s on the DICOM liver
+// (18k tetrahedra) and left slivers whose four vertices lie on the boundary,
+// which only flips fix. Refinement, then flips, peeling and vertex moves:
+// 0.5 + 0.5–0.8 s there, every dihedral angle above 15° and every
+// radius–edge ratio below 3. The bound is a little above 15° (ρ = 3 reads as
+// 15°) so that a last-bit difference cannot leave a tetrahedron just past it.
+constexpr double kSliverBoundDeg = 15.5;
 
 /// Mesh_3 works in millimetres so that its criteria read as the user gave them.
 CgalSurface to_cgal(const geometry::SurfaceMesh& surface) {
@@ -119,10 +119,9 @@ geometry::TetrahedralMesh make_tetrahedra(const geometry::SurfaceMesh& surface, 
   const Criteria criteria(p::facet_angle = options.facet_angle_deg, p::facet_size = options.tet_size_mm,
                           p::facet_distance = options.facet_distance_mm,
                           p::cell_radius_edge_ratio = options.radius_edge_ratio, p::cell_size = options.tet_size_mm);
-  const Complex complex = options.optimize
-                              ? CGAL::make_mesh_3<Complex>(domain, criteria, p::lloyd(p::max_iteration_number = kSmoothingIterations),
-                                                           p::no_perturb(), p::exude(p::sliver_bound = kExudationBoundDeg))
-                              : CGAL::make_mesh_3<Complex>(domain, criteria, p::no_perturb(), p::no_exude());
+  // Mesh_3's own optimizers are not used (see above): refinement only.
+  const Complex complex = CGAL::make_mesh_3<Complex>(domain, criteria, p::no_perturb(), p::no_exude());
+
 
   geometry::TetrahedralMesh mesh;
   std::unordered_map<Triangulation::Vertex_handle, std::uint32_t> index;
@@ -149,6 +148,7 @@ geometry::TetrahedralMesh make_tetrahedra(const geometry::SurfaceMesh& surface, 
                     "organ is larger than --tet-size ({} mm)",
                     surface.triangles.size(), options.tet_size_mm));
   if (options.optimize) remove_slivers(mesh, {kSliverBoundDeg, 20});
+  keep_largest_connected_part(mesh);
   // Boundary facets are chords of the surface (within facet_distance of it):
   // where the organ is convex they cut inside, a thin layer of lost volume.
   match_tetrahedra_volume(mesh, geometry::enclosed_volume(surface.vertices, surface.triangles));

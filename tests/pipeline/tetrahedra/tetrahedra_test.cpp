@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 
 #include "organsim/geometry/model_measures.h"
+#include "organsim/pipeline/connected_part.h"
 #include "organsim/pipeline/surface.h"
 #include "organsim/pipeline/sliver_removal.h"
 #include "organsim/pipeline/tetrahedra.h"
@@ -40,7 +41,7 @@ TEST(Tetrahedra, VolumeTrueOnRotatedAnisotropicEllipsoids) {
       EXPECT_NEAR(q.total_volume_m3 * 1e9, surface_mm3, 1e-6 * surface_mm3);
       EXPECT_NEAR(q.total_volume_m3 * 1e9, e.volume_mm3(), 0.003 * e.volume_mm3());
       EXPECT_GE(q.min_dihedral_deg, kMinDihedralGoalDeg);
-      EXPECT_LE(q.max_radius_edge_ratio, kMaxRadiusEdgeGoal + 0.3);  // goal 3; a margin for another CPU's last bits
+      EXPECT_LE(q.max_radius_edge_ratio, kMaxRadiusEdgeGoal);
     }
 }
 
@@ -134,7 +135,7 @@ TEST(SliverRemoval, PeelsBoundarySliversAndMovesInteriorVerticesKeepingTheBounda
   EXPECT_LT(r.min_dihedral_before_deg, 5.0);
   EXPECT_GT(r.slivers_before, 10u);
   EXPECT_GT(r.peeled, 0u);
-  EXPECT_GT(r.moves, 0u);
+  EXPECT_GT(r.flips + r.moves, 0u);
   EXPECT_LT(r.slivers_after, r.slivers_before / 4);
   EXPECT_GT(r.min_dihedral_after_deg, r.min_dihedral_before_deg + 3.0);
   EXPECT_NEAR(measure_quality(mesh).min_dihedral_deg, r.min_dihedral_after_deg, 1e-9);
@@ -166,6 +167,65 @@ TEST(SliverRemoval, AnInteriorVertexPressedOntoAFaceIsMovedBack) {
   EXPECT_EQ(mesh.vertices[0], (model::Point3{1, 1, 1}));
   EXPECT_EQ(mesh.vertices[3], (model::Point3{-1, -1, 1}));
   expect_valid_with_manifold_boundary(mesh);
+}
+
+// The boundary's triangles (sorted vertex triples), each with its outward side.
+std::map<std::array<std::uint32_t, 3>, int> boundary_faces(const geometry::TetrahedralMesh& mesh) {
+  std::map<std::array<std::uint32_t, 3>, int> faces;
+  for (const model::Tetrahedron& t : mesh.tetrahedra)
+    for (const auto& f : {std::array<std::uint32_t, 3>{t[1], t[2], t[3]}, {t[0], t[2], t[3]}, {t[0], t[1], t[3]},
+                          {t[0], t[1], t[2]}}) {
+      auto key = f;
+      std::sort(key.begin(), key.end());
+      ++faces[key];
+    }
+  for (auto it = faces.begin(); it != faces.end();) it = it->second == 2 ? faces.erase(it) : std::next(it);
+  return faces;
+}
+
+// Two flat tetrahedra on either side of one triangle, every vertex a corner
+// of the boundary: moving a vertex would change the boundary, but the same
+// five vertices connected as three tetrahedra around the new edge de (a 2-3
+// flip) are well shaped.
+TEST(SliverRemoval, PinnedSliversAreFlippedNotMoved) {
+  geometry::TetrahedralMesh mesh;
+  mesh.vertices = {{0, 0, 0}, {1, 0, 0}, {-0.2, 0.9, 0}, {0.2, 0.2, 0.1}, {-0.1, 0.2, -0.3}};  // a, b, c, d, e
+  for (const model::Tetrahedron& t : {model::Tetrahedron{0, 1, 2, 3}, {0, 2, 1, 4}}) {
+    model::Tetrahedron oriented = t;
+    const auto& v = mesh.vertices;
+    auto e = [&](int i) { return Eigen::Vector3d(v[oriented[i]][0], v[oriented[i]][1], v[oriented[i]][2]); };
+    ASSERT_GT((e(1) - e(0)).cross(e(2) - e(0)).dot(e(3) - e(0)), 0.0);
+    mesh.tetrahedra.push_back(oriented);
+  }
+  const geometry::TetrahedralMesh before = mesh;
+  const SliverRemovalReport r = remove_slivers(mesh, {15.0, 20});
+  EXPECT_LT(r.min_dihedral_before_deg, 10.0);
+  EXPECT_EQ(r.peeled, 0u);
+  EXPECT_EQ(r.flips, 1u);
+  EXPECT_EQ(mesh.tetrahedra.size(), 3u);
+  EXPECT_GT(r.min_dihedral_after_deg, 15.0);
+  EXPECT_EQ(mesh.vertices, before.vertices);
+  EXPECT_EQ(boundary_faces(mesh), boundary_faces(before));
+  EXPECT_NEAR(measure_quality(mesh).total_volume_m3, measure_quality(before).total_volume_m3, 1e-12);
+  expect_valid_with_manifold_boundary(mesh);
+  RecordProperty("min_dihedral_before_deg", std::to_string(r.min_dihedral_before_deg));
+  RecordProperty("min_dihedral_after_deg", std::to_string(r.min_dihedral_after_deg));
+}
+
+// Two tetrahedra sharing a face, one touching them at a vertex only and one
+// apart: only the first two stay, with the vertices they use, renumbered.
+TEST(ConnectedPart, KeepsTheLargestFaceConnectedPart) {
+  geometry::TetrahedralMesh mesh;
+  mesh.vertices = {{9, 9, 9},  {0, 0, 0},  {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1},
+                   {2, 2, 2},  {3, 2, 2},  {2, 3, 2}, {5, 5, 5}, {6, 5, 5}, {5, 6, 5}, {5, 5, 6}};
+  mesh.tetrahedra = {{9, 10, 11, 12}, {1, 2, 3, 4}, {2, 3, 4, 5}, {5, 6, 7, 8}};
+  const ConnectedPartReport r = keep_largest_connected_part(mesh);
+  EXPECT_EQ(r.tetrahedra_dropped, 2u);
+  EXPECT_EQ(r.vertices_dropped, 8u);
+  ASSERT_EQ(mesh.vertices.size(), 5u);
+  EXPECT_EQ(mesh.vertices.front(), (model::Point3{0, 0, 0}));
+  EXPECT_EQ(mesh.vertices.back(), (model::Point3{1, 1, 1}));
+  EXPECT_EQ(mesh.tetrahedra, (std::vector<model::Tetrahedron>{{0, 1, 2, 3}, {1, 2, 3, 4}}));
 }
 
 TEST(Tetrahedra, UnusableOptionsAreErrors) {

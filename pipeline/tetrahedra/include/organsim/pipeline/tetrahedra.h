@@ -16,7 +16,7 @@ struct TetrahedraOptions {
   double facet_distance_mm = 0.4;        ///< largest distance of a boundary facet from the surface, mm
   double facet_angle_deg = 25.0;         ///< smallest boundary-facet angle (Mesh_3's facet_angle)
   double radius_edge_ratio = 3.0;        ///< largest circumradius / shortest edge of a tetrahedron
-  bool optimize = true;                  ///< Lloyd smoothing, sliver exudation and sliver removal after refinement
+  bool optimize = true;                  ///< sliver removal (flips, peeling, vertex moves) after refinement
 };
 
 struct TetrahedralQuality {
@@ -30,7 +30,9 @@ struct TetrahedralQuality {
 };
 
 /// Meshes the inside of `surface` (closed, manifold, outward; in metres).
-/// Deterministic: the same surface and options give the same mesh. The
+/// Deterministic: the same surface and options give the same mesh. One
+/// connected organ: tetrahedra joined to the largest part by no face are
+/// dropped (connected_part.h). The
 /// boundary vertices are offset along their normals (a fraction of a
 /// millimetre) so that the tetrahedra fill the surface's volume (volume_matching.h). Throws
 /// std::runtime_error with one line when the options are unusable or the
