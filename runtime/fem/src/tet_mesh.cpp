@@ -1,6 +1,7 @@
 #include "organsim/fem/tet_mesh.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -58,13 +59,23 @@ void add_kuhn_cells(TetMesh& mesh, int cells_i, int cells_j, int cells_k,
 TetMesh box_mesh(const Eigen::Vector3i& cells, const Eigen::Vector3d& size) {
   if ((cells.array() < 1).any() || (size.array() <= 0).any())
     throw std::invalid_argument("box_mesh: cells and size must be positive");
+  std::array<std::vector<double>, 3> planes;
+  for (int axis = 0; axis < 3; ++axis)
+    for (int i = 0; i <= cells[axis]; ++i) planes[axis].push_back(size[axis] * i / cells[axis]);
+  return box_mesh(planes[0], planes[1], planes[2]);
+}
+
+TetMesh box_mesh(const std::vector<double>& xs, const std::vector<double>& ys, const std::vector<double>& zs) {
+  for (const std::vector<double>* planes : {&xs, &ys, &zs})
+    if (planes->size() < 2 || !std::is_sorted(planes->begin(), planes->end(), std::less_equal<double>()) ||
+        !std::all_of(planes->begin(), planes->end(), [](double c) { return std::isfinite(c); }))
+      throw std::invalid_argument("box_mesh: each axis needs two or more finite, strictly increasing coordinates");
   TetMesh mesh;
-  const int nx = cells.x() + 1, ny = cells.y() + 1, nz = cells.z() + 1;
+  const int nx = static_cast<int>(xs.size()), ny = static_cast<int>(ys.size()), nz = static_cast<int>(zs.size());
   for (int k = 0; k < nz; ++k)
     for (int j = 0; j < ny; ++j)
-      for (int i = 0; i < nx; ++i)
-        mesh.nodes.emplace_back(size.x() * i / cells.x(), size.y() * j / cells.y(), size.z() * k / cells.z());
-  add_kuhn_cells(mesh, cells.x(), cells.y(), cells.z(),
+      for (int i = 0; i < nx; ++i) mesh.nodes.emplace_back(xs[i], ys[j], zs[k]);
+  add_kuhn_cells(mesh, nx - 1, ny - 1, nz - 1,
                  [&](int i, int j, int k) { return static_cast<std::int32_t>(i + nx * (j + ny * k)); });
   return mesh;
 }

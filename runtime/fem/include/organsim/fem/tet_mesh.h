@@ -29,6 +29,9 @@ Eigen::Vector3d bounding_box_size(const Points& nodes) noexcept;
 /// tetrahedra each (Kuhn subdivision, conforming). Node (i, j, k) has index
 /// i + (cells.x + 1) (j + (cells.y + 1) k).
 TetMesh box_mesh(const Eigen::Vector3i& cells, const Eigen::Vector3d& size);
+/// The same on the grid of the given planes (m, strictly increasing per
+/// axis): a mesh graded towards where the planes are dense.
+TetMesh box_mesh(const std::vector<double>& xs, const std::vector<double>& ys, const std::vector<double>& zs);
 
 /// A vessel-like curved tube: a hollow cylinder of the given inner and outer
 /// radii whose axis starts at (0, 0, length) heading down (−z) and bends
