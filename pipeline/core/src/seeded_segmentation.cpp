@@ -130,6 +130,9 @@ RobustStatistics robust_statistics(std::vector<float> values) {
   return s;
 }
 
+/// Below this a seed's neighbourhood reads as fat (HU).
+constexpr double kFatBelowHu = -30.0;
+
 /// What a seed's neighbourhood says about where it lies: an organ seed in
 /// air, lung, fat or bone is a user error, not a region to grow.
 void check_soft_tissue(double median_hu, const std::string& what) {
@@ -137,7 +140,7 @@ void check_soft_tissue(double median_hu, const std::string& what) {
     throw std::runtime_error(fmt::format("{} lies in air or lung ({:.0f} HU); place it inside the organ (liver: 20 to "
                                          "200 HU)",
                                          what, median_hu));
-  if (median_hu < -30.0)
+  if (median_hu < kFatBelowHu)
     throw std::runtime_error(fmt::format("{} lies in fat ({:.0f} HU); place it inside the organ (liver: 20 to 200 HU)",
                                          what, median_hu));
   if (median_hu > 300.0)
@@ -540,12 +543,18 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
   clock.lap("smoothing");
 
   // 3. The window.
-  std::vector<FloatImage::IndexType> work_seeds, work_background;
+  // A seed that reads as fat but not below a lesion's darkest inside, given
+  // beside a seed in the organ's tissue, was put in a hypodense lesion (on a
+  // CT without contrast a lesion 80 HU below the parenchyma's 45 HU): it
+  // marks a lesion to take into the organ, and stays out of the window's
+  // statistics. Alone, or darker, it is the user error it looks like.
+  std::vector<FloatImage::IndexType> work_seeds, work_background, work_lesions;
   std::vector<float> pooled;
+  std::vector<std::pair<std::string, RobustStatistics>> lesion_like;
   for (std::size_t s = 0; s < seeds.size(); ++s) {
-    work_seeds.push_back(on_grid(ct, seeds[s], *image));
+    const FloatImage::IndexType at = on_grid(ct, seeds[s], *image);
     std::vector<float> values;
-    for_each_in_ball(*image, work_seeds.back(), o.seed_radius_mm,
+    for_each_in_ball(*image, at, o.seed_radius_mm,
                      [&](const FloatImage::IndexType& v) { values.push_back(image->GetPixel(v)); });
     const RobustStatistics local = robust_statistics(values);
     const std::string what = fmt::format("seed {}", s + 1);
@@ -554,11 +563,19 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
         throw std::runtime_error(fmt::format("{} lies at {:.0f} HU, outside the window {},{}; move the seed into the "
                                              "organ or widen --hu-window",
                                              what, local.median, o.hu_window->first, o.hu_window->second));
+    } else if (local.median < kFatBelowHu && local.median >= o.lesion_low_hu && o.lesion_radius_mm > 0.0) {
+      lesion_like.emplace_back(what, local);
+      work_lesions.push_back(at);
+      continue;
     } else {
       check_soft_tissue(local.median, what);
     }
+    work_seeds.push_back(at);
     pooled.insert(pooled.end(), values.begin(), values.end());
   }
+  if (work_seeds.empty())  // every seed reads as fat: that is what the user is told
+    for (const auto& [what, local] : lesion_like) check_soft_tissue(local.median, what);
+  report.lesion_seeds = work_lesions.size();
   for (const auto& b : background) work_background.push_back(on_grid(ct, b, *image));
   const RobustStatistics statistics = robust_statistics(pooled);
   report.seed_median_hu = statistics.median;
@@ -684,6 +701,25 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
     organ = with_enclosed_dents(*organ, *image, *threshold(*image, report.hu_low, report.hu_high),
                                 *claimed_by_background, o);
     report.enclosed_dents_ml = static_cast<double>(count_voxels(*organ) - before) * working_voxel_ml;
+  }
+  // A lesion seed's lesion: the region darker than the window but not fat
+  // that holds the seed, within the lesion radius of it (so that it cannot
+  // run along a dark neighbour: the gallbladder, the stomach's fluid).
+  if (!work_lesions.empty()) {
+    const std::size_t before = count_voxels(*organ);
+    const MaskImage::Pointer dark = threshold(*image, o.lesion_low_hu, report.hu_low);
+    auto near_seed = MaskImage::New();
+    near_seed->CopyInformation(image);
+    near_seed->SetRegions(image->GetLargestPossibleRegion());
+    near_seed->Allocate(true);
+    for (const auto& l : work_lesions)
+      for_each_in_ball(*image, l, o.lesion_radius_mm, [&](const FloatImage::IndexType& v) { near_seed->SetPixel(v, 1); });
+    const MaskImage::Pointer lesions = components_holding(*logical_and(*dark, *near_seed), work_lesions);
+    std::uint8_t* v = organ->GetBufferPointer();
+    const std::uint8_t* l = lesions->GetBufferPointer();
+    const std::size_t n = organ->GetLargestPossibleRegion().GetNumberOfPixels();
+    for (std::size_t i = 0; i < n; ++i) v[i] = v[i] || l[i];
+    report.lesion_seed_ml = static_cast<double>(count_voxels(*organ) - before) * working_voxel_ml;
   }
   organ = fill_holes_3d_then_axial(*organ);
   // What the background seeds claimed stays out, even where it is a hole (the vena cava).

@@ -110,8 +110,10 @@ void print_seeded_segmentation_report(const pipeline::SeededSegmentationReport& 
   fmt::print("leak control    window region {:.1f} mL, cut by the opening {:.1f} mL", r.grown_ml, r.cut_by_opening_ml);
   if (r.background_split_ml > 0.0) fmt::print(", {:.1f} mL given to background seeds", r.background_split_ml);
   fmt::print("\n");
-  fmt::print("lesions         {:.1f} mL of enclosed dents (lesions, vessels at the surface) taken in\n",
+  fmt::print("lesions         {:.1f} mL of enclosed dents (lesions, vessels at the surface) taken in",
              r.enclosed_dents_ml);
+  if (r.lesion_seeds > 0) fmt::print("; {} seed(s) in a lesion added {:.1f} mL", r.lesion_seeds, r.lesion_seed_ml);
+  fmt::print("\n");
   fmt::print("working grid    {:.3g}x{:.3g}x{:.3g} mm\n", r.working_spacing_mm[0], r.working_spacing_mm[1],
              r.working_spacing_mm[2]);
   std::string steps;
@@ -135,6 +137,8 @@ nlohmann::ordered_json seeded_segmentation_report_json(const pipeline::SeededSeg
   j["cut_by_opening_ml"] = r.cut_by_opening_ml;
   j["background_split_ml"] = r.background_split_ml;
   j["enclosed_dents_ml"] = r.enclosed_dents_ml;
+  j["lesion_seeds"] = r.lesion_seeds;
+  j["lesion_seed_ml"] = r.lesion_seed_ml;
   j["border_slices"] = r.border_slices;
   j["warnings"] = r.warnings;
   nlohmann::ordered_json steps;

@@ -49,7 +49,10 @@ struct SeedPoint {
 };
 
 struct SeededSegmentationOptions {
-  std::vector<SeedPoint> seeds;             ///< inside the organ; at least one
+  /// Inside the organ; at least one. A seed whose neighbourhood reads as fat
+  /// (−30 HU down to lesion_low_hu) beside one in the organ's tissue marks a
+  /// hypodense lesion, which is taken into the organ (not a window seed).
+  std::vector<SeedPoint> seeds;
   std::vector<SeedPoint> background_seeds;  ///< in neighbours the organ must not include (heart, stomach, …)
 
   double working_spacing_mm = 2.5;   ///< voxels finer than this are averaged in blocks; 0: full resolution
@@ -97,6 +100,8 @@ struct SeededSegmentationReport {
   double grown_ml = 0.0;             ///< the window's region connected to the seeds, before leak control
   double cut_by_opening_ml = 0.0;    ///< of that, what leak control removed
   double enclosed_dents_ml = 0.0;    ///< lesions and vessels at the surface taken into the organ
+  std::size_t lesion_seeds = 0;      ///< seeds that read as a hypodense lesion (fat-dark, beside an organ seed)
+  double lesion_seed_ml = 0.0;       ///< what their lesions added to the organ
   std::size_t border_slices = 0;     ///< axial slices where the mask touches the volume's side
   std::vector<std::string> warnings;
   std::vector<std::pair<std::string, double>> step_seconds;  ///< in order
