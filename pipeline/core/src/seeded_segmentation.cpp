@@ -20,6 +20,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <set>
 #include <stdexcept>
 
@@ -621,8 +622,8 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
 
   // 4. Background seeds take their share of the window. Their markers are
   // small (a background seed is often put in a thin structure); the organ's
-  // markers are its certain part, less what lies near a background seed (a
-  // bridge thicker than the opening can carry the heart into it).
+  // markers are its opened region less the reach, less what lies near a
+  // background seed (a bridge thicker than the opening can carry the heart into it).
   auto claimed_by_background = MaskImage::New();
   claimed_by_background->CopyInformation(image);
   claimed_by_background->SetRegions(image->GetLargestPossibleRegion());
@@ -639,7 +640,14 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
     auto markers = outside_as_background(*window);
     const MaskImage::Pointer grown = components_holding(*window, work_seeds);
     if (o.opening_radius_mm > 0.0 && count_voxels(*grown) > 0) {
-      const MaskImage::Pointer certain = certain_part(*grown, work_seeds, o);
+      // The organ's markers reach to within the leak control's reach of its
+      // border (the opened organ less that margin), not only to its certain
+      // core: a 10 mm shell left undecided let the background flood the
+      // organ up to the first ridge inside it (a lesion's enhancing rim), and
+      // cost the contrast series up to 0.0076 of Dice.
+      MaskImage::Pointer certain = certain_part(*grown, work_seeds, o);
+      if (o.opening_radius_mm > o.reach_mm)
+        certain = logical_and(*dilate(*certain, o.opening_radius_mm - o.reach_mm), *grown);
       const double keep_away_mm = 2.0 * o.opening_radius_mm;
       itk::ImageRegionConstIteratorWithIndex<MaskImage> it(certain, certain->GetLargestPossibleRegion());
       for (; !it.IsAtEnd(); ++it) {
