@@ -209,19 +209,15 @@ class Slivers {
       std::vector<model::Tetrahedron> added;
       double worst_added = -1.0;
     };
-    // Removing interior edge ab: the tetrahedra around it form a closed ring
-    // r_0..r_{m-1} (each (a, b, r_i, r_{i+1}) positive); a triangulation of the
-    // ring, here each fan of it, gives 2(m − 2) tetrahedra (r_i, r_j, r_k, b) and
-    // (r_j, r_i, r_k, a), valid when all are positively oriented.
     // The tetrahedra around interior edge ab, and the closed ring r_0..r_{m-1}
     // of their other vertices (each (a, b, r_i, r_{i+1}) positive); empty where
-    // ab lies on the boundary (an open ring) or has more than `largest`.
-    auto ring_around = [&](std::uint32_t a, std::uint32_t b, std::size_t largest, std::vector<std::uint32_t>& ring_tets,
+    // ab lies on the boundary (an open ring) or has more than kLargestRing.
+    auto ring_around = [&](std::uint32_t a, std::uint32_t b, std::vector<std::uint32_t>& ring_tets,
                            std::vector<std::uint32_t>& ring) {
       ring.clear();
       ring_tets = live_tets_with(a, b);
       const std::size_t m = ring_tets.size();
-      if (m < 3 || m > largest) return false;
+      if (m < 3 || m > kLargestRing) return false;
       std::unordered_map<std::uint32_t, std::uint32_t> next;
       for (std::uint32_t i : ring_tets) {
         std::uint32_t other[2], k = 0;
@@ -249,7 +245,7 @@ class Slivers {
     // valid when all are positively oriented.
     auto remove_edge = [&](std::uint32_t a, std::uint32_t b, Candidate& best) {
       std::vector<std::uint32_t> ring_tets, ring;
-      if (!ring_around(a, b, kLargestRing, ring_tets, ring)) return;
+      if (!ring_around(a, b, ring_tets, ring)) return;
       const std::size_t m = ring.size();
       const double worst_removed = worst_of(ring_tets);
       for (std::size_t apex = 0; apex < (m == 3 ? 1 : m); ++apex) {
