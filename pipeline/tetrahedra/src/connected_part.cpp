@@ -1,5 +1,7 @@
 #include "organsim/pipeline/connected_part.h"
 
+#include "tetrahedron_faces.h"
+
 #include <algorithm>
 #include <array>
 #include <cstdint>
@@ -10,18 +12,6 @@
 namespace organsim::pipeline {
 namespace {
 
-constexpr int kFaces[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
-
-struct FaceKey {
-  std::array<std::uint32_t, 3> v;
-  bool operator==(const FaceKey& o) const { return v == o.v; }
-};
-struct FaceHash {
-  std::size_t operator()(const FaceKey& f) const {
-    return (std::size_t{f.v[0]} * 0x9E3779B97F4A7C15ull) ^ (std::size_t{f.v[1]} * 0xC2B2AE3D27D4EB4Full) ^ f.v[2];
-  }
-};
-
 // The part each tetrahedron belongs to (union-find over shared faces), 0..parts-1 in order of first appearance.
 std::vector<std::uint32_t> face_connected_parts(const std::vector<model::Tetrahedron>& tets, std::uint32_t& parts) {
   std::vector<std::uint32_t> parent(tets.size());
@@ -30,12 +20,10 @@ std::vector<std::uint32_t> face_connected_parts(const std::vector<model::Tetrahe
     while (parent[i] != i) i = parent[i] = parent[parent[i]];
     return i;
   };
-  std::unordered_map<FaceKey, std::uint32_t, FaceHash> first_user;
+  std::unordered_map<std::uint64_t, std::uint32_t> first_user;
   for (std::uint32_t i = 0; i < tets.size(); ++i)
     for (const auto& f : kFaces) {
-      FaceKey key{{tets[i][f[0]], tets[i][f[1]], tets[i][f[2]]}};
-      std::sort(key.v.begin(), key.v.end());
-      const auto [at, inserted] = first_user.emplace(key, i);
+      const auto [at, inserted] = first_user.emplace(face_key(tets[i][f[0]], tets[i][f[1]], tets[i][f[2]]), i);
       if (!inserted) parent[root(i)] = root(at->second);
     }
   std::vector<std::uint32_t> part(tets.size());

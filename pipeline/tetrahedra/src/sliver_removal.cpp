@@ -1,5 +1,7 @@
 #include "organsim/pipeline/sliver_removal.h"
 
+#include "tetrahedron_faces.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -47,25 +49,12 @@ double quality(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::
                   kRatioScale / radius_edge_ratio(a, b, c, d, volume));
 }
 
-// Faces and edges as sorted vertex indices packed into one key (vertex
-// indices below 2^21 for faces: two million tetrahedron vertices).
-std::uint64_t face_key(std::uint32_t a, std::uint32_t b, std::uint32_t c) {
-  std::array<std::uint64_t, 3> v{a, b, c};
-  std::sort(v.begin(), v.end());
-  return (v[0] << 42) | (v[1] << 21) | v[2];
-}
-std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
-  return a < b ? (std::uint64_t{a} << 32) | b : (std::uint64_t{b} << 32) | a;
-}
-
 // Rounds of peeling, flips and vertex moves; the most tetrahedra around an
 // edge that edge removal takes (Klingner and Shewchuk found larger rings
 // rarely help; up to 16 made no difference on our livers).
 constexpr int kRounds = 4;
 constexpr std::size_t kLargestRing = 7;
 constexpr std::size_t kLargestCavity = 16;  // tetrahedra a vertex insertion replaces
-
-constexpr int kFaces[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};  // face opposite corner i
 
 class Slivers {
  public:
