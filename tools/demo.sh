@@ -30,12 +30,12 @@ echo "== organsim info: what the baked model holds"
 "$build/tools/organsim" info "$out/liver.organ" --beam 0
 echo
 echo "== organsim poke: two tools press the baked liver (multi-beam model): forces and deformation"
-"$build/tools/organsim" poke "$out/liver.organ" --tool -7.1,-252.0,356.2/0,5,0 --tool -99.4,-217.0,387.9/-4,0,0 \
+"$build/tools/organsim" poke "$out/liver.organ" --tool -7.1,-252.0,356.2/0.28,-4.46,2.24 --tool -99.4,-217.0,387.9/3.29,1.61,1.62 \
   --out "$out/liver_poked.vtp"
 echo
 echo "== organsim poke --model psh --compare beam: the same presses through the pressure-stabilized Mooney-Rivlin FEM"
 echo "   (Ogata et al.; Newton to equilibrium on the model's tetrahedra) and how far the multi-beam model is from it"
-"$build/tools/organsim" poke "$out/liver.organ" --tool -7.1,-252.0,356.2/0,5,0 --tool -99.4,-217.0,387.9/-4,0,0 \
+"$build/tools/organsim" poke "$out/liver.organ" --tool -7.1,-252.0,356.2/0.28,-4.46,2.24 --tool -99.4,-217.0,387.9/3.29,1.61,1.62 \
   --model psh --compare beam
 echo
 echo "== organsim replay: a recorded two-tool session through the real-time engine (1 kHz forces, 60 Hz deformation)"
@@ -48,6 +48,6 @@ echo "   co-rotational FEM and pressure-stabilized FEM models"
   --model beam,springs,corotational,psh
 echo
 echo "== organsim compare: the same presses with every model, each against the PSH FEM (Ogata et al.'s Table 5 measure)"
-"$build/tools/organsim" compare "$out/liver.organ" --tool -7.1,-252.0,356.2/0,5,0 --tool -99.4,-217.0,387.9/-4,0,0
+"$build/tools/organsim" compare "$out/liver.organ" --tool -7.1,-252.0,356.2/0.28,-4.46,2.24 --tool -99.4,-217.0,387.9/3.29,1.61,1.62
 echo
 echo "Outputs in $out (models; mask, surface and tetrahedra for 3D Slicer / ParaView in liver_intermediates/)."

@@ -10,7 +10,9 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cmath>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -18,6 +20,8 @@
 #include "bake_command.h"
 #include "organsim/devices/scripted_device.h"
 #include "organsim/devices/session_file.h"
+#include "organsim/geometry/model_measures.h"
+#include "organsim/geometry/tool_tip.h"
 #include "organsim/model/model_file.h"
 #include "organsim/organ/organ.h"
 #include "organsim/multibeam/multibeam.h"
@@ -169,9 +173,11 @@ void check_model_name(const std::string& name, const model::OrganModel& model) {
 class Simulation {
  public:
   Simulation(const Model& model, const std::string& kind, std::uint32_t tools, const std::string& merge,
-             double fixed_radius)
+             double fixed_radius, double tip_radius)
       : organ_(std::make_shared<organ::Organ>(*model)), contacts_(tools), attached_(tools, false) {
     check_model_name(kind, *model);
+    if (!(tip_radius >= 0.0) || !std::isfinite(tip_radius)) throw std::invalid_argument("tip_radius must be >= 0, m");
+    tip_.radius = tip_radius;
     if (tools < 1 || tools > multibeam::kMaxTools)
       throw std::invalid_argument("tools must be 1 to " + std::to_string(multibeam::kMaxTools));
     realtime::ModelOptions options;
@@ -182,9 +188,16 @@ class Simulation {
     normals_.resize(organ_->vertex_count());
   }
 
-  py::dict attach(std::uint32_t tool, const Eigen::Vector3d& rest_point) {
+  py::dict attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, const std::optional<Eigen::Vector3d>& shaft) {
     check_tool(tool);
-    if (!model_->attach(tool, rest_point, contacts_[tool]))
+    geometry::ToolTip tip = tip_;
+    if (shaft) {
+      if (!(shaft->norm() > 0.0) || !shaft->allFinite()) throw std::invalid_argument("the shaft direction is zero or not finite");
+      tip.axis = shaft->normalized();
+    } else {
+      tip.axis = geometry::triangle_normal(organ_->model(), organ_->surface_tree().closest_point(rest_point).triangle);
+    }
+    if (!model_->attach(tool, rest_point, tip, contacts_[tool]))
       throw std::runtime_error("the model cannot take a contact here (too near the clamp, or too far from the surface)");
     attached_[tool] = true;
     return contact(tool);
@@ -235,6 +248,7 @@ class Simulation {
   }
   std::shared_ptr<organ::Organ> organ_;
   std::unique_ptr<realtime::DeformationModel> model_;
+  geometry::ToolTip tip_;
   std::vector<realtime::ContactLinearization> contacts_;
   std::vector<bool> attached_;
   std::vector<model::Point3> positions_, normals_;
@@ -243,9 +257,11 @@ class Simulation {
 /// `organsim replay --fast` of a session: the engine's loops stepped
 /// deterministically; every force written to each tool's device.
 py::dict replay(const Model& model, const std::string& session_path, const std::string& kind, const std::string& merge,
-                double fixed_radius) {
+                double fixed_radius, double tip_radius) {
   const devices::Session session = devices::read_session(session_path);
   realtime::EngineOptions options;
+  if (!(tip_radius >= 0.0) || !std::isfinite(tip_radius)) throw std::invalid_argument("tip_radius must be >= 0, m");
+  options.tip_radius = tip_radius;
   check_model_name(kind, *model);
   options.model = kind;
   options.beams.merge = merge_rule(merge);
@@ -446,12 +462,14 @@ PYBIND11_MODULE(_organsim, m) {
   py::class_<Simulation>(m, "Simulation",
                          "Any deformation model through the real-time engine's interface: beam, springs, linear, "
                          "corotational, stvk, psh")
-      .def(py::init<const Model&, const std::string&, std::uint32_t, const std::string&, double>(), py::arg("model"),
-           py::arg("kind") = "beam", py::arg("tools") = 1, py::arg("merge") = "influence",
-           py::arg("fixed_radius") = 0.010)
+      .def(py::init<const Model&, const std::string&, std::uint32_t, const std::string&, double, double>(),
+           py::arg("model"), py::arg("kind") = "beam", py::arg("tools") = 1, py::arg("merge") = "influence",
+           py::arg("fixed_radius") = 0.010, py::arg("tip_radius") = 2.5e-3,
+           "tip_radius: the tools' hemispherical end, m (0: a point tool; docs/realtime.md#contact-rule)")
       .def_property_readonly("kind", &Simulation::kind)
-      .def("attach", &Simulation::attach, py::arg("tool"), py::arg("rest_point"),
-           "Contact begins at a rest-surface point (m); returns the contact's linearization")
+      .def("attach", &Simulation::attach, py::arg("tool"), py::arg("rest_point"), py::arg("shaft") = py::none(),
+           "Contact begins where the tool's tip touches a rest-surface point (m); shaft: unit direction from the tip "
+           "to the handle (default: the surface's outward normal there). Returns the contact's linearization")
       .def("detach", &Simulation::detach, py::arg("tool"))
       .def("step", &Simulation::step, py::arg("dt"), py::arg("displacements"),
            "Advances dt s with (tools, 3) contact displacements (m) -> (positions, normals) (N, 3), file order")
@@ -460,6 +478,6 @@ PYBIND11_MODULE(_organsim, m) {
       .def("contact", &Simulation::contact, py::arg("tool"));
 
   m.def("_replay", &replay, py::arg("model"), py::arg("session"), py::arg("kind") = "beam",
-        py::arg("merge") = "influence", py::arg("fixed_radius") = 0.010,
+        py::arg("merge") = "influence", py::arg("fixed_radius") = 0.010, py::arg("tip_radius") = 2.5e-3,
         "organsim replay --fast: forces (tools, R, 3) N at times (R,) s, in_contact (tools, R)");
 }

@@ -38,21 +38,54 @@ Session read_session(const std::string& path, const SessionLimits& limits) {
 }
 
 Session parse_session(std::istream& in, const std::string& path, const SessionLimits& limits) {
+  static const std::string kHeader = "# organsim session ";
+  static const std::string kNotASession =
+      "not an organsim session (the first line must be '# organsim session 1' or '# organsim session 2')";
   Session session;
   std::string text;
   std::size_t line_number = 0;
-  bool header_seen = false;
+  int version = 0;
   while (std::getline(in, text)) {
     ++line_number;
     if (!text.empty() && text.back() == '\r') text.pop_back();
     if (text.empty()) continue;
     if (text[0] == '#') {
-      if (line_number == 1 && text.rfind("# organsim session 1", 0) != 0)
-        fail(path, 1, "not an organsim session (the first line must be '# organsim session 1')");
-      header_seen = header_seen || line_number == 1;
+      if (line_number == 1) {
+        if (text.rfind(kHeader, 0) != 0) fail(path, 1, kNotASession);
+        const std::string rest = text.substr(kHeader.size());
+        const std::string number = rest.substr(0, rest.find(' '));
+        if (number != "1" && number != "2")
+          fail(path, 1, "session format version '" + number + "' is not one this organsim reads (1 or 2)");
+        version = number == "1" ? 1 : 2;
+      }
       continue;
     }
-    if (!header_seen) fail(path, line_number, "not an organsim session (the first line must be '# organsim session 1')");
+    if (version == 0) fail(path, line_number, kNotASession);
+    if (text.rfind("tip,", 0) == 0) {
+      // tip,TOOL,RADIUS_MM: the tool's hemispherical end (version 2).
+      if (version < 2) fail(path, line_number, "a 'tip' line needs format version 2 ('# organsim session 2')");
+      if (std::count(text.begin(), text.end(), ',') != 2)
+        fail(path, line_number, "expected tip,TOOL,RADIUS_MM (the tool's tip radius in millimetres)");
+      const std::size_t comma = text.find(',', 4);
+      const std::string tool_field = text.substr(4, comma - 4), radius_field = text.substr(comma + 1);
+      char* stop = nullptr;
+      const double tool_value = std::strtod(tool_field.c_str(), &stop);
+      if (tool_field.empty() || stop != tool_field.c_str() + tool_field.size() || !(tool_value >= 1 && tool_value <= 16) ||
+          tool_value != std::floor(tool_value))
+        fail(path, line_number, "tool numbers are 1 to 16");
+      const double radius = std::strtod(radius_field.c_str(), &stop);
+      if (radius_field.empty() || stop != radius_field.c_str() + radius_field.size() || !(radius >= 0.0) ||
+          !(radius * 1e-3 <= kMaxTipRadius))
+        fail(path, line_number,
+             "'" + radius_field + "' is not a tip radius: a number of millimetres from 0 to " +
+                 fmt(kMaxTipRadius * 1e3));
+      const auto tool = static_cast<std::size_t>(tool_value) - 1;
+      if (tool >= session.tools.size()) session.tools.resize(tool + 1);
+      if (session.tools[tool].tip_radius >= 0.0)
+        fail(path, line_number, "tool " + std::to_string(tool + 1) + " has a second tip line");
+      session.tools[tool].tip_radius = radius * 1e-3;
+      continue;
+    }
     const auto fields = static_cast<int>(std::count(text.begin(), text.end(), ',')) + 1;
     if (fields != 5 && fields != 8)
       fail(path, line_number, "expected 5 or 8 comma-separated fields: time_s,tool,x_mm,y_mm,z_mm[,shaft_x,shaft_y,shaft_z]");
@@ -107,8 +140,16 @@ Session parse_session(std::istream& in, const std::string& path, const SessionLi
 
 void write_session(const Session& session, const std::string& path) {
   std::ostringstream out;
-  out << "# organsim session 1\n# time_s,tool,x_mm,y_mm,z_mm[,shaft_x,shaft_y,shaft_z] (model frame)\n";
+  const bool tips = std::any_of(session.tools.begin(), session.tools.end(),
+                                [](const Trajectory& t) { return t.tip_radius >= 0.0; });
+  out << (tips ? "# organsim session 2\n" : "# organsim session 1\n")
+      << "# time_s,tool,x_mm,y_mm,z_mm[,shaft_x,shaft_y,shaft_z] (model frame)\n";
   char line[200];
+  for (std::size_t k = 0; k < session.tools.size(); ++k)
+    if (session.tools[k].tip_radius >= 0.0) {
+      std::snprintf(line, sizeof line, "tip,%zu,%.6g\n", k + 1, session.tools[k].tip_radius * 1e3);
+      out << line;
+    }
   for (std::size_t k = 0; k < session.tools.size(); ++k)
     for (std::size_t i = 0; i < session.tools[k].times.size(); ++i) {
       const Eigen::Vector3d p = session.tools[k].positions[i] * 1e3;

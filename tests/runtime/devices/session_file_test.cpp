@@ -167,12 +167,51 @@ TEST_F(SessionFile, CrlfLineEndingsReadTheSameAsLf) {
 }
 
 TEST_F(SessionFile, AWrongOrMissingHeaderIsRejectedAtItsLine) {
-  expect_error("# organsim session 2\n0,1,0,0,0\n", 1, "first line must be '# organsim session 1'");
+  expect_error("# organsim session 3\n0,1,0,0,0\n", 1, "version '3' is not one this organsim reads (1 or 2)");
+  expect_error("# organsim session\n0,1,0,0,0\n", 1, "first line must be '# organsim session 1' or");
   expect_error("# some other file\n0,1,0,0,0\n", 1, "not an organsim session");
   expect_error("0,1,1,2,3\n", 1, "not an organsim session");
   // The header must be the first line: after a blank line it is only a comment,
   // and the first sample is where the file is found not to be a session.
   expect_error("\n# organsim session 1\n0,1,0,0,0\n", 3, "not an organsim session");
+}
+
+// Format version 2 adds `tip,TOOL,RADIUS_MM`: a tool's hemispherical end
+// (docs/session-format.md); version 1 files, without it, still read.
+TEST_F(SessionFile, Version2GivesToolsATipRadius) {
+  const std::string path = write("# organsim session 2\ntip,2,2.5\n0,1,0,0,0\n0,2,1,1,1\ntip,1,0\n");
+  const Session session = read_session(path);
+  ASSERT_EQ(session.tools.size(), 2u);
+  EXPECT_DOUBLE_EQ(session.tools[0].tip_radius, 0.0);
+  EXPECT_DOUBLE_EQ(session.tools[1].tip_radius, 2.5e-3);
+  EXPECT_LT(read_session(write(std::string(kHeader) + "0,1,0,0,0\n")).tools[0].tip_radius, 0.0) << "not given";
+
+  // Written back: version 2 with the radii, version 1 without any.
+  const std::string copy = (dir_ / "copy.session").string();
+  write_session(session, copy);
+  EXPECT_EQ(read_text(copy).rfind("# organsim session 2\n", 0), 0u);
+  const Session again = read_session(copy);
+  EXPECT_DOUBLE_EQ(again.tools[1].tip_radius, 2.5e-3);
+  EXPECT_DOUBLE_EQ(again.tools[0].tip_radius, 0.0);
+  Session without = session;
+  for (Trajectory& t : without.tools) t.tip_radius = -1.0;
+  write_session(without, copy);
+  EXPECT_EQ(read_text(copy).rfind("# organsim session 1\n", 0), 0u);
+
+  const std::string v2 = "# organsim session 2\n0,1,0,0,0\n";
+  expect_error(std::string(kHeader) + "tip,1,2.5\n0,1,0,0,0\n", 2, "needs format version 2");
+  expect_error(v2 + "tip,1\n", 3, "expected tip,TOOL,RADIUS_MM");
+  expect_error(v2 + "tip,1,-1\n", 3, "is not a tip radius");
+  expect_error(v2 + "tip,1,nan\n", 3, "is not a tip radius");
+  expect_error(v2 + "tip,1,2500\n", 3, "is not a tip radius: a number of millimetres from 0 to 50");
+  expect_error(v2 + "tip,17,2\n", 3, "tool numbers are 1 to 16");
+  expect_error(v2 + "tip,1,2\ntip,1,3\n", 4, "a second tip line");
+  try {
+    read_session(write(v2 + "tip,2,2\n"));
+    ADD_FAILURE() << "a tip for a tool without samples";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("tool 2 has no samples"), std::string::npos) << e.what();
+  }
 }
 
 TEST_F(SessionFile, AWrongFieldCountIsRejectedAtItsLine) {

@@ -39,6 +39,17 @@ fem::FactorizationFactory factorization_factory(const std::string& linear_solver
 }
 
 void add_model_tuning_options(CLI::App& app, ModelTuning& tuning) {
+  app.add_option("--tip-radius", tuning.tip_radius_mm,
+                 "The tools' end: a hemisphere of this radius on the shaft, mm (a 5 mm laparoscopic probe: 2.5; 0: a "
+                 "point tool; docs/realtime.md#contact-rule)")
+      ->check(kNonNegative)
+      ->capture_default_str();
+  app.add_option("--friction", tuning.friction,
+                 "Coulomb's friction coefficient between the tools and the organ: beyond it the organ slips under a "
+                 "tool in the real-time engine (wet serosa on steel: 0.1-0.3; static presses never slip; "
+                 "docs/realtime.md#contact-rule)")
+      ->check(kNonNegative)
+      ->capture_default_str();
   app.add_option("--fixed-radius", tuning.fixed_radius_mm,
                  "FEM models: clamp the tetrahedral nodes within this distance of the fixed point, mm (docs/fem.md)")
       ->check(kPositive)
@@ -61,6 +72,12 @@ void apply_model_tuning(const ModelTuning& tuning, fem::OrganFemOptions& fem, re
   springs.network.volume_springs = tuning.volume_springs;
   springs.simulation.region = tuning.region == "dynamic" ? springs::Region::dynamic : springs::Region::all;
   springs.simulation.threshold = tuning.region_threshold_mm * 1e-3;
+}
+
+void apply_model_tuning(const ModelTuning& tuning, realtime::EngineOptions& engine) {
+  apply_model_tuning(tuning, engine.fem, engine.springs);
+  engine.tip_radius = tuning.tip_radius_mm * 1e-3;
+  engine.friction = tuning.friction;
 }
 
 }  // namespace organsim::cli

@@ -8,6 +8,7 @@
 
 #include "organsim/fem/organ_fem.h"
 #include "organsim/realtime/deformation_model.h"
+#include "organsim/realtime/engine.h"
 
 namespace organsim::cli {
 
@@ -18,6 +19,8 @@ struct ModelTuning {
   std::string region = "all";        ///< --region all|dynamic: the springs' integrated region
   double region_threshold_mm = 1.0;  ///< --region-threshold: displacement that grows a dynamic region
   std::string linear_solver = default_linear_solver();  ///< --linear-solver: the FEM tangents' factorization
+  double tip_radius_mm = 2.5;        ///< --tip-radius: the tools' hemispherical end (0: a point)
+  double friction = realtime::EngineOptions{}.friction;  ///< --friction: Coulomb's μ between tool and organ
   static const char* default_linear_solver();
 };
 /// --linear-solver simplicial|direct: Eigen's simplicial LDLT, or (when
@@ -25,13 +28,15 @@ struct ModelTuning {
 void add_linear_solver_option(CLI::App& app, std::string& linear_solver);
 /// The factory for --linear-solver's value (null: the simplicial one).
 fem::FactorizationFactory factorization_factory(const std::string& linear_solver);
-/// --fixed-radius MM (the FEM models clamp the tetrahedral nodes within this
-/// distance of the model's fixed point), --volume-springs, --region and
-/// --region-threshold MM (the mass-spring model; docs/springs.md) and
-/// --linear-solver.
+/// --tip-radius MM (the tools' end, docs/realtime.md#contact-rule), --friction, --fixed-radius
+/// MM (the FEM models clamp the tetrahedral nodes within this distance of the
+/// model's fixed point), --volume-springs, --region and --region-threshold MM
+/// (the mass-spring model; docs/springs.md) and --linear-solver.
 void add_model_tuning_options(CLI::App& app, ModelTuning& tuning);
 /// Applies the tuning to the FEM and mass-spring options (of an engine or of
 /// realtime::ModelOptions).
 void apply_model_tuning(const ModelTuning& tuning, fem::OrganFemOptions& fem, realtime::SpringModelOptions& springs);
+/// The same for an engine, and its tools' tip radius and friction.
+void apply_model_tuning(const ModelTuning& tuning, realtime::EngineOptions& engine);
 
 }  // namespace organsim::cli

@@ -205,7 +205,7 @@ constexpr std::size_t kRingRecords = 8192;
 EngineOptions engine_options(const ReplayOptions& o, const std::string& name) {
   EngineOptions options;
   options.model = name;
-  apply_model_tuning(o.tuning, options.fem, options.springs);
+  apply_model_tuning(o.tuning, options);
   multibeam::parse_merge_rule(o.merge, options.beams.merge);  // --merge admits only the names it knows
   return options;
 }

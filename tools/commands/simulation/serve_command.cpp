@@ -81,7 +81,7 @@ int run_serve(const ServeOptions& o) {
   }
   realtime::EngineOptions options;
   options.model = o.deformation;
-  apply_model_tuning(o.tuning, options.fem, options.springs);
+  apply_model_tuning(o.tuning, options);
   realtime::Engine engine(organ, devices, options);
 
   igtlink::ServerOptions server_options = o.server;

@@ -98,6 +98,14 @@ PressResult press_beams(const organ::Organ& organ, const std::vector<ToolSpec>& 
   const Status deformed = beams.deform(displacements.data(), r.positions.data(), r.normals.data(), r.positions.size());
   r.deform_seconds = r.frame_seconds = seconds_since(deform_start);
   if (deformed != Status::ok) throw std::runtime_error(describe(deformed));
+  // The surface the tips would cut into laid onto them, as the engine's beam model does.
+  bool laid = false;
+  for (std::uint32_t i = 0; i < tools.size(); ++i) {
+    const Eigen::Vector3d action = beams.beam(i).action.position;
+    laid |= press_tip(organ, action, displacements[i], o).push_out(action + displacements[i], r.positions.data(),
+                                                                    r.positions.size());
+  }
+  if (laid) organ::compute_vertex_normals(organ, r.positions.data(), r.normals.data(), 0, r.positions.size());
   const std::vector<model::Point3>& nodes = organ.model().volume_vertices;
   r.node_positions.resize(nodes.size());
   for (std::size_t n = 0; n < nodes.size(); ++n) {
@@ -125,6 +133,7 @@ PressResult press_beams(const organ::Organ& organ, const std::vector<ToolSpec>& 
 PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& tools, const PressOptions& o,
                      fem::MaterialModel material) {
   constexpr int kMaxIterations = 40;
+  constexpr int kKeptTangents = 8;
   fem::OrganFemOptions options;
   realtime::SpringModelOptions unused;
   apply_model_tuning(o.tuning, options, unused);
@@ -140,7 +149,8 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
   const auto attach_start = std::chrono::steady_clock::now();
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
     displacements[i] = tools[i].displacement_mm * 1e-3;
-    if (!fem.attach(i, snap_to_surface(organ, tools[i], i, o)))
+    const Eigen::Vector3d at = snap_to_surface(organ, tools[i], i, o);
+    if (!fem.attach(i, at, press_tip(organ, at, displacements[i], o)))
       throw std::runtime_error(fmt::format("tool {} ({}): the nearest boundary face of the tetrahedra is clamped or "
                                            "touches another tool's",
                                            i + 1, tools[i].text));
@@ -150,24 +160,36 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
   // Newton's method to the equilibrium under `target`; an empty string, or why it failed.
   auto equilibrium = [&](const std::vector<Eigen::Vector3d>& target) -> std::string {
     double force_scale = 0.0;
+    int kept_tangent = 0;
     for (int iteration = 1;; ++iteration, ++r.frames) {
-      if (iteration > 1 && !fem.refresh_tangent())
+      // Where the tangent is singular or indefinite (a state a Newton step
+      // overshot to), the last good one carries on (modified Newton) while
+      // the iterations draw closer; only a run of such states fails.
+      if (iteration > 1 && material != fem::MaterialModel::linear && !fem.refresh_tangent() && ++kept_tangent > kKeptTangents)
         return fmt::format("the {} tangent became singular or indefinite at Newton iteration {}: the press is deeper "
                            "than the mesh can follow",
                            fem::material_name(material), iteration);
       if (fem.step(target.data()) != fem::FrameStatus::ok)
         return "the press inverts a tetrahedron even in small steps: press less deep";
       for (std::uint32_t i = 0; i < tools.size(); ++i) force_scale = std::max(force_scale, fem.contact_force(i).norm());
-      if (fem.unbalanced_force() <= 1e-9 * force_scale) return "";
+      if (fem.unbalanced_force() <= 1e-9 * force_scale && fem.contact_settled()) return "";
       if (iteration == kMaxIterations)
         return fmt::format("Newton's method did not converge in {} iterations (out of balance {:.3g} N)",
                            kMaxIterations, fem.unbalanced_force());
     }
   };
   // The whole press at once; failing that, from rest again in load steps
-  // (each equilibrium the next one's start).
+  // (each equilibrium the next one's start). A finite tip moves at most half
+  // its radius per step: a static press from rest puts it deep into the
+  // organ at once, where its contact problem has no good start.
   std::string failure;
-  for (int load_steps : {1, 4, 16}) {
+  int first = 1;
+  const double radius = o.tuning.tip_radius_mm * 1e-3;
+  // (At most 16: a tip much smaller than the press is nearly a point.)
+  if (radius > 0.0)
+    for (const Eigen::Vector3d& d : displacements)
+      first = std::clamp(static_cast<int>(std::ceil(d.norm() / (0.5 * radius))), first, 16);
+  for (int load_steps : {first, 4 * first, 16 * first}) {
     fem.reset();
     r.frames = 1;
     failure.clear();
@@ -178,7 +200,7 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
     }
     if (failure.empty()) break;
   }
-  if (!failure.empty()) throw std::runtime_error(failure + " (also in 16 load steps)");
+  if (!failure.empty()) throw std::runtime_error(failure + fmt::format(" (also in {} load steps)", 16 * first));
   r.deform_seconds = seconds_since(newton_start) / r.frames;
   // What the engine does in a frame: one iteration with the kept factor (at
   // equilibrium already, so the state stays where it is).
@@ -231,7 +253,8 @@ PressResult press_springs(const organ::Organ& organ, const std::vector<ToolSpec>
   const auto attach_start = std::chrono::steady_clock::now();
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
     displacements[i] = tools[i].displacement_mm * 1e-3;
-    if (!springs->attach(i, snap_to_surface(organ, tools[i], i, o), contacts[i]))
+    const Eigen::Vector3d at = snap_to_surface(organ, tools[i], i, o);
+    if (!springs->attach(i, at, press_tip(organ, at, displacements[i], o), contacts[i]))
       throw std::runtime_error(fmt::format("tool {} ({}): the nearest node is clamped or held by another tool", i + 1,
                                            tools[i].text));
   }
@@ -277,6 +300,16 @@ Eigen::Vector3d snap_to_surface(const organ::Organ& organ, const ToolSpec& tool,
     throw std::runtime_error(fmt::format("tool {} ({}): the point is farther than {} mm from the organ's surface",
                                          index + 1, tool.text, o.snap_distance_mm));
   return nearest.position;
+}
+
+geometry::ToolTip press_tip(const organ::Organ& organ, const Eigen::Vector3d& rest_point,
+                            const Eigen::Vector3d& displacement, const PressOptions& o) {
+  geometry::ToolTip tip;
+  tip.radius = o.tuning.tip_radius_mm * 1e-3;
+  const Eigen::Vector3d normal =
+      geometry::triangle_normal(organ.model(), organ.surface_tree().closest_point(rest_point).triangle);
+  tip.axis = displacement.dot(normal) < 0.0 ? Eigen::Vector3d(-displacement.normalized()) : normal;
+  return tip;
 }
 
 ToolSpec parse_tool(const std::string& text) {

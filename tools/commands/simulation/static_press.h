@@ -1,6 +1,10 @@
 // Static presses of a baked organ with any deformation model: each tool's
 // contact point moved by a prescribed displacement, the organ held where the
 // model holds it, and what came of it (forces, the deformed surface, timings).
+// A static press holds the organ where the tool touched it, as the engine's
+// contact rule does inside its friction cone; it never slips (a slip
+// depends on the way the tool went, which a prescribed displacement does
+// not say; docs/realtime.md#contact-rule).
 // What `poke` prints for one or two models and `compare` tabulates for all.
 #pragma once
 
@@ -11,6 +15,7 @@
 #include <Eigen/Core>
 
 #include "model_tuning.h"
+#include "organsim/geometry/tool_tip.h"
 #include "organsim/organ/organ.h"
 
 namespace organsim::cli {
@@ -77,6 +82,13 @@ void add_press_options(CLI::App& app, std::vector<std::string>& tools, PressOpti
 /// `index` is printed 1-based) when it is farther or not finite.
 Eigen::Vector3d snap_to_surface(const organ::Organ& organ, const ToolSpec& tool, std::size_t index,
                                 const PressOptions& o);
+
+/// The end of a tool pressing at `rest_point` (m) by `displacement` (m): a
+/// capsule of --tip-radius whose shaft trails the press (the probe pushed
+/// along its shaft), or lies along the surface normal where the press does
+/// not go into the organ.
+geometry::ToolTip press_tip(const organ::Organ& organ, const Eigen::Vector3d& rest_point,
+                            const Eigen::Vector3d& displacement, const PressOptions& o);
 
 /// Presses the organ with `model` (beam, springs, linear, corotational,
 /// stvk, psh): the multi-beam model's one deformation, the mass-spring model

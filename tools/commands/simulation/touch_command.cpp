@@ -53,7 +53,7 @@ int run_touch(const TouchOptions& o) {
   const std::vector<devices::HapticDevice*> tools = rig.tools();
   realtime::EngineOptions options;
   options.model = o.deformation;
-  apply_model_tuning(o.tuning, options.fem, options.springs);
+  apply_model_tuning(o.tuning, options);
   realtime::Engine engine(organ, tools, options);
   devices::OpenHapticsServo servo(*rig.library, rig.servo_devices(), engine);
   note("touch", fmt::format("{} device(s) on {} for {:g} s; the force loop runs in the HD servo scheduler",

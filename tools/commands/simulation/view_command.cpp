@@ -93,7 +93,7 @@ std::string overlay(const std::vector<Eigen::Vector3d>& forces, const std::vecto
 EngineOptions engine_options(const ViewOptions& o) {
   EngineOptions options;
   options.model = o.deformation;
-  apply_model_tuning(o.tuning, options.fem, options.springs);
+  apply_model_tuning(o.tuning, options);
   return options;
 }
 

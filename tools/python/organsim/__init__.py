@@ -31,12 +31,14 @@ def load(path):
     return _load(os.fspath(path))
 
 
-def replay(model, session, kind="beam", merge="influence", fixed_radius=0.010):
+def replay(model, session, kind="beam", merge="influence", fixed_radius=0.010, tip_radius=2.5e-3):
     """`organsim replay --fast` of a session file through the real-time engine.
 
+    tip_radius (m) is the tools' hemispherical end, as `--tip-radius` (mm) is
+    the program's; a session file's tip lines override it per tool.
     Returns a dict: times (R,) s, forces (tools, R, 3) N as sent to each device,
     in_contact (tools, R), duration s. Bit-identical to the program's forces."""
-    return _replay(model, os.fspath(session), kind, merge, fixed_radius)
+    return _replay(model, os.fspath(session), kind, merge, fixed_radius, tip_radius)
 
 
 def _number(kind):

@@ -17,29 +17,46 @@
 namespace organsim::fem {
 namespace {
 
-constexpr std::size_t kMaxContacts = 16;
+constexpr std::size_t kMaxTools = 16;
+// Eigen keeps a fixed-capacity matrix within its stack allocation limit
+// (128 KiB): W of at most 120 rows (120 sliding points, 40 point tools).
+constexpr std::size_t kMaxConstraintRows = 3 * OrganFem::kMaxHolds;
+constexpr std::size_t kMaxContactNodes = 256;
+// Candidate contact points per frame before the deepest are kept.
+constexpr std::size_t kMaxCandidates = 512;
 constexpr int kMaxStepCuts = 4;  // the smallest step tried: 1/16 of the iteration's
-using SmallMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 3 * kMaxContacts,
-                                  3 * kMaxContacts>;
-using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 3 * kMaxContacts, 1>;
+using SmallMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxConstraintRows,
+                                  kMaxConstraintRows>;
+using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxConstraintRows, 1>;
+using ToolColumns = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::ColMajor, kMaxConstraintRows, 3>;
+// Alternating projections between a face and the capsule's axis: the pair of
+// closest points of two convex sets (the hemisphere's centre is the answer
+// for every face in front of the tip, found in the first pass).
+constexpr int kClosestPairPasses = 4;
+// A boundary point deeper inside a tip than this many radii is pushed out
+// ahead of it, not to the nearest part of its surface.
+constexpr double kPiercedDepth = 0.5;
+// A boundary point a tip takes in must put at least this much of its weight
+// on nodes the tool does not hold yet.
+constexpr double kFreshWeight = 0.25;
 
 Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 
 }  // namespace
 
-/// A factorized tangent and, per tool, the response A⁻¹ H_t of the contact
+/// A factorized tangent and, per node slot, the response A⁻¹ e of the node
 /// it was solved for.
 struct OrganFem::Tangent {
   std::unique_ptr<Factorization> factorization;
-  std::vector<Eigen::MatrixX3d> responses;  ///< per tool: free dofs × 3
-  std::vector<std::uint64_t> keys;          ///< per tool: the contact generation of its response (0: none)
+  std::vector<Eigen::MatrixX3d> responses;  ///< per slot: free dofs × 3
+  std::vector<std::uint64_t> keys;          ///< per slot: the node slot generation of its response (0: none)
   Eigen::VectorXd warm_up;
   Eigen::MatrixX3d loads, warm_up3;  ///< a contact's three unit loads (one per direction)
 
-  Tangent(const SparseMatrix& pattern, std::size_t tools, std::unique_ptr<Factorization> made)
+  Tangent(const SparseMatrix& pattern, std::size_t slots, std::unique_ptr<Factorization> made)
       : factorization(std::move(made)),
-        responses(tools, Eigen::MatrixX3d::Zero(pattern.rows(), 3)),
-        keys(tools, 0),
+        responses(slots, Eigen::MatrixX3d::Zero(pattern.rows(), 3)),
+        keys(slots, 0),
         warm_up(pattern.rows()),
         loads(Eigen::MatrixX3d::Zero(pattern.rows(), 3)),
         warm_up3(pattern.rows(), 3) {
@@ -66,13 +83,13 @@ struct OrganFem::Tangent {
   }
 };
 
-/// The contacts' capacitance matrix W (active tools in `order`) and its factorization.
+/// The holds' capacitance matrix W and its factorization.
 struct OrganFem::Capacitance {
-  std::array<std::uint32_t, kMaxContacts> order{};
-  std::size_t active = 0;
-  SmallMatrix matrix, unit, inverse;
+  Eigen::Index rows = 0;
+  SmallMatrix matrix;
   Eigen::LDLT<SmallMatrix> ldlt;
   SmallVector gap, multipliers;
+  ToolColumns sums, solved;
 };
 
 /// Refactors the tangent at a snapshot of the state on its own thread. The
@@ -86,7 +103,7 @@ class OrganFem::Worker {
         system_(system),
         snapshot_(Eigen::VectorXd::Zero(system.dof_count())),
         gradient_(system.dof_count()),
-        contacts_(owner.contacts_.size()),
+        slots_(owner.node_slots_.size()),
         spare_(std::move(spare)),
         thread_([this] { run(); }) {
     system_.set_definite_tangent(true);
@@ -96,10 +113,10 @@ class OrganFem::Worker {
     thread_.join();
   }
 
-  /// Owner: starts a refresh at `state` for `contacts`.
-  void request(const Eigen::VectorXd& state, const std::vector<Contact>& contacts) noexcept {
+  /// Owner: starts a refresh at `state` for the nodes in `slots`.
+  void request(const Eigen::VectorXd& state, const std::vector<NodeSlot>& slots) noexcept {
     snapshot_ = state;  // same sizes: copies, no allocation
-    std::copy(contacts.begin(), contacts.end(), contacts_.begin());
+    std::copy(slots.begin(), slots.end(), slots_.begin());
     phase_.store(kRequested, std::memory_order_release);
   }
   /// Owner: waits for the requested refresh; true with `spare()` holding the
@@ -134,8 +151,8 @@ class OrganFem::Worker {
       }
       bool ok = system_.assemble(snapshot_, gradient_, true) < 0 && spare_->factorize(system_.tangent_free(), owner_.pressure_count());
       if (ok)
-        for (std::uint32_t t = 0; t < contacts_.size(); ++t)
-          if (contacts_[t].active) owner_.respond(*spare_, t, contacts_[t]);
+        for (std::size_t slot = 0; slot < slots_.size(); ++slot)
+          if (slots_[slot].node >= 0 && slots_[slot].held) owner_.respond(*spare_, slot, slots_[slot]);
       phase_.store(ok ? kReady : kFailed, std::memory_order_release);
     }
   }
@@ -143,7 +160,7 @@ class OrganFem::Worker {
   const OrganFem& owner_;
   ElasticitySystem system_;  // its own: assembling the tangent writes the system's matrices
   Eigen::VectorXd snapshot_, gradient_;
-  std::vector<Contact> contacts_;
+  std::vector<NodeSlot> slots_;
   std::unique_ptr<Tangent> spare_;
   std::atomic<int> phase_{kIdle};
   std::atomic<bool> stop_{false};
@@ -164,7 +181,10 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
     throw std::invalid_argument("the FEM relaxation must lie in (0, 1]");
   if (!(options.stabilization >= 0) || !std::isfinite(options.stabilization))
     throw std::invalid_argument("the psh stabilization beta must be a finite number >= 0");
-  if (tools == 0 || tools > kMaxContacts) throw std::invalid_argument("the FEM model takes 1 to 16 tools");
+  if (tools == 0 || tools > kMaxTools) throw std::invalid_argument("the FEM model takes 1 to 16 tools");
+  if (options.max_contact_nodes > kMaxContactNodes)
+    throw std::invalid_argument("the FEM model keeps responses of at most " + std::to_string(kMaxContactNodes) +
+                                " contact nodes");
 
   TetMesh mesh;
   mesh.nodes.reserve(model.volume_vertices.size());
@@ -217,6 +237,12 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
 
   displacement_dofs_ = 3 * mesh.nodes.size();
   contacts_.resize(tools);
+  node_slots_.resize(options.max_contact_nodes > 0 ? options.max_contact_nodes : std::min(kMaxContactNodes, 24 * tools));
+  slot_of_node_.assign(mesh.nodes.size(), -1);
+  holds_.resize(kMaxHolds);
+  candidates_.resize(kMaxCandidates);
+  node_tool_.assign(mesh.nodes.size(), -1);
+  node_holds_.assign(mesh.nodes.size(), 0);
   tangent_ = make_tangent(true);
   const auto start = std::chrono::steady_clock::now();
   if (!tangent_->factorize(system_->tangent_free(), pressure_count()))
@@ -227,6 +253,13 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
   boundary_ = geometry::tetrahedral_boundary(model.tetrahedra);
   node_points_ = model.volume_vertices;
   boundary_tree_ = std::make_unique<geometry::SurfaceBvh>(node_points_, boundary_.faces);
+  for (std::size_t f = 0; f < boundary_.faces.size(); ++f) {
+    const model::Triangle& face = boundary_.faces[f];
+    if (!constrained[3 * face[0]] || !constrained[3 * face[1]] || !constrained[3 * face[2]])
+      boundary_faces_.push_back(static_cast<std::int32_t>(f));
+    for (int k = 0; k < 3; ++k)
+      longest_boundary_edge_ = std::max(longest_boundary_edge_, (mesh.nodes[face[k]] - mesh.nodes[face[(k + 1) % 3]]).norm());
+  }
   surface_rest_ = model.surface_vertices;
   embedding_ = geometry::embed_surface_in_tetrahedra(model, boundary_);
 
@@ -243,14 +276,13 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
     tangent_ = make_tangent(true);
     worker_ = std::make_unique<Worker>(*this, *system_, make_tangent(true));
   }
-  update_capacitance();
 }
 
 OrganFem::~OrganFem() = default;
 
 std::unique_ptr<OrganFem::Tangent> OrganFem::make_tangent(bool realtime_solve) const {
   const MatrixKind kind = system_->has_pressure() ? MatrixKind::quasi_definite : MatrixKind::positive_definite;
-  return std::make_unique<Tangent>(system_->tangent_free(), contacts_.size(),
+  return std::make_unique<Tangent>(system_->tangent_free(), node_slots_.size(),
                                    make_factorization(factorization_, kind,
                                                       realtime_solve && realtime_solves_ ? SolveUse::realtime : SolveUse::newton));
 }
@@ -261,94 +293,325 @@ const char* OrganFem::linear_solver() const noexcept {
 
 bool OrganFem::attached(std::uint32_t tool) const noexcept { return tool < contacts_.size() && contacts_[tool].active; }
 
-Eigen::Vector3d OrganFem::gather(const Contact& contact, const Eigen::Ref<const Eigen::VectorXd>& free_values) const noexcept {
+std::size_t OrganFem::held_points(std::uint32_t tool) const noexcept {
+  std::size_t count = 0;
+  if (attached(tool))
+    for (std::size_t k = 0; k < hold_count_; ++k) count += holds_[k].tool == tool;
+  return count;
+}
+
+Eigen::Vector3d OrganFem::gather(const std::array<std::int32_t, 3>& nodes, const Eigen::Vector3d& weights,
+                                 const Eigen::Ref<const Eigen::VectorXd>& free_values) const noexcept {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < 3; ++i)
+  for (std::size_t i = 0; i < 3; ++i) {
+    if (weights[static_cast<Eigen::Index>(i)] == 0.0) continue;
     for (int k = 0; k < 3; ++k) {
-      const std::int32_t f = system_->free_index()[static_cast<std::size_t>(3 * contact.nodes[i] + k)];
-      if (f >= 0) sum[k] += contact.weights[static_cast<Eigen::Index>(i)] * free_values[f];
+      const std::int32_t f = system_->free_index()[static_cast<std::size_t>(3 * nodes[i] + k)];
+      if (f >= 0) sum[k] += weights[static_cast<Eigen::Index>(i)] * free_values[f];
     }
+  }
   return sum;
 }
 
-void OrganFem::respond(Tangent& tangent, std::uint32_t tool, const Contact& contact) const noexcept {
-  tangent.loads.setZero();
-  for (int k = 0; k < 3; ++k)
-    for (std::size_t i = 0; i < 3; ++i)
-      tangent.loads(system_->free_index()[static_cast<std::size_t>(3 * contact.nodes[i] + k)], k) =
-          contact.weights[static_cast<Eigen::Index>(i)];
-  tangent.factorization->solve3(tangent.loads, tangent.responses[tool]);
-  tangent.keys[tool] = contact.generation;
+Eigen::Vector3d OrganFem::displacement_at(const std::array<std::int32_t, 3>& nodes,
+                                          const Eigen::Vector3d& weights) const noexcept {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < 3; ++i)
+    sum += weights[static_cast<Eigen::Index>(i)] * state_.segment<3>(3 * static_cast<Eigen::Index>(nodes[i]));
+  return sum;
 }
 
-bool OrganFem::attach(std::uint32_t tool, const Eigen::Vector3d& rest_point) noexcept {
-  if (tool >= contacts_.size() || !rest_point.allFinite()) return false;
+void OrganFem::respond(Tangent& tangent, std::size_t slot, const NodeSlot& node) const noexcept {
+  tangent.loads.setZero();
+  for (int k = 0; k < 3; ++k) {
+    const std::int32_t f = system_->free_index()[static_cast<std::size_t>(3 * node.node + k)];
+    if (f >= 0) tangent.loads(f, k) = 1.0;
+  }
+  tangent.factorization->solve3(tangent.loads, tangent.responses[slot]);
+  tangent.keys[slot] = node.generation;
+}
+
+void OrganFem::respond_all(Tangent& tangent) const noexcept {
+  // The held nodes only: a slot kept for a node no hold weighs now is solved
+  // again when a hold takes it (node_slot).
+  for (std::size_t slot = 0; slot < node_slots_.size(); ++slot) {
+    const NodeSlot& n = node_slots_[slot];
+    if (n.node >= 0 && node_holds_[static_cast<std::size_t>(n.node)] > 0 && tangent.keys[slot] != n.generation)
+      respond(tangent, slot, n);
+  }
+}
+
+std::int32_t OrganFem::node_slot(std::int32_t node, std::size_t& solves) noexcept {
+  std::int32_t slot = slot_of_node_[static_cast<std::size_t>(node)];
+  if (slot >= 0) {
+    NodeSlot& n = node_slots_[static_cast<std::size_t>(slot)];
+    if (kept().keys[static_cast<std::size_t>(slot)] != n.generation) {
+      // Kept from an earlier hold, its response is the tangent's before.
+      if (realtime_solves_ && solves >= kJoinsPerFrame) return -1;
+      respond(kept(), static_cast<std::size_t>(slot), n);
+      solved_this_frame_ = true;
+      ++solves;
+    }
+    n.used_frame = frame_ + 1;
+    return slot;
+  }
+  if (realtime_solves_ && solves >= kJoinsPerFrame) return -1;
+  // A free slot, or the one least recently used by no hold.
+  std::size_t chosen = node_slots_.size();
+  for (std::size_t k = 0; k < node_slots_.size(); ++k) {
+    const NodeSlot& n = node_slots_[k];
+    if (n.node < 0) {
+      chosen = k;
+      break;
+    }
+    if (node_holds_[static_cast<std::size_t>(n.node)] == 0 &&
+        (chosen == node_slots_.size() || n.used_frame < node_slots_[chosen].used_frame))
+      chosen = k;
+  }
+  if (chosen == node_slots_.size()) return -1;
+  NodeSlot& n = node_slots_[chosen];
+  if (n.node >= 0) slot_of_node_[static_cast<std::size_t>(n.node)] = -1;
+  n.node = node;
+  n.generation = ++generations_;
+  n.used_frame = frame_ + 1;
+  slot_of_node_[static_cast<std::size_t>(node)] = static_cast<std::int32_t>(chosen);
+  respond(kept(), chosen, n);
+  solved_this_frame_ = true;
+  ++solves;
+  return static_cast<std::int32_t>(chosen);
+}
+
+bool OrganFem::add_hold(Hold hold, std::size_t& solves) noexcept {
+  if (hold_count_ == holds_.size()) {
+    ++hold_overflows_;
+    return false;
+  }
+  for (std::size_t i = 0; i < 3; ++i) {
+    hold.slots[i] = -1;
+    if (hold.weights[static_cast<Eigen::Index>(i)] == 0.0) continue;
+    hold.slots[i] = node_slot(hold.nodes[i], solves);
+    if (hold.slots[i] < 0) {
+      if (!realtime_solves_ || solves < kJoinsPerFrame) ++hold_overflows_;
+      return false;
+    }
+  }
+  for (std::size_t i = 0; i < 3; ++i)
+    if (hold.weights[static_cast<Eigen::Index>(i)] != 0.0) {
+      node_tool_[static_cast<std::size_t>(hold.nodes[i])] = static_cast<std::int16_t>(hold.tool);
+      ++node_holds_[static_cast<std::size_t>(hold.nodes[i])];
+    }
+  holds_[hold_count_++] = hold;
+  return true;
+}
+
+void OrganFem::release(std::size_t index) noexcept {
+  const Hold& h = holds_[index];
+  for (std::size_t i = 0; i < 3; ++i)
+    if (h.weights[static_cast<Eigen::Index>(i)] != 0.0) {
+      const auto node = static_cast<std::size_t>(h.nodes[i]);
+      if (--node_holds_[node] == 0) node_tool_[node] = -1;
+    }
+  holds_[index] = holds_[--hold_count_];
+}
+
+bool OrganFem::attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, const geometry::ToolTip& tip) noexcept {
+  if (tool >= contacts_.size() || !rest_point.allFinite() || !std::isfinite(tip.radius) || tip.radius < 0.0)
+    return false;
+  if (!tip.is_point() && !(std::abs(tip.axis.norm() - 1.0) < 1e-6 && std::isfinite(tip.shaft_length))) return false;
   const geometry::SurfacePoint nearest = boundary_tree_->closest_point(rest_point);
   const model::Triangle& face = boundary_.faces[nearest.triangle];
   for (std::uint32_t node : face) {
     if (system_->free_index()[3 * node] < 0) return false;  // a clamped node cannot follow a tool
-    for (std::size_t other = 0; other < contacts_.size(); ++other)
-      if (other != tool && contacts_[other].active &&
-          std::find(contacts_[other].nodes.begin(), contacts_[other].nodes.end(), static_cast<std::int32_t>(node)) !=
-              contacts_[other].nodes.end())
-        return false;
+    // Two tools holding one node would fight over it.
+    if (node_tool_[node] >= 0 && node_tool_[node] != static_cast<std::int16_t>(tool)) return false;
   }
+  detach(tool);
+  Hold h;
+  h.tool = tool;
+  h.bilateral = true;  // the first touch is held until the contact ends
+  h.nodes = {static_cast<std::int32_t>(face[0]), static_cast<std::int32_t>(face[1]), static_cast<std::int32_t>(face[2])};
+  h.weights = nearest.barycentric;
+  h.outward = -tip.axis;
+  // Its responses now, so that the frame that attaches is not the one that
+  // solves them, and its stiffness is the linearization at once.
+  std::size_t solves = 0;
+  realtime_solves_ = !realtime_solves_;  // no per-frame limit in attach
+  const bool added = add_hold(h, solves);
+  realtime_solves_ = !realtime_solves_;
+  if (!added) return false;
   Contact& c = contacts_[tool];
-  c.nodes = {static_cast<std::int32_t>(face[0]), static_cast<std::int32_t>(face[1]), static_cast<std::int32_t>(face[2])};
-  c.weights = nearest.barycentric;
-  c.rest_point = nearest.position;
-  c.generation = ++generations_;
   c.active = true;
-  c.multiplier.setZero();
-  c.target = contact_displacement(tool);
-  respond(kept(), tool, c);
-  solved_this_frame_ = true;
-  update_capacitance();
+  c.tip = tip;
+  c.origin = rest_point;
+  c.rest_point = nearest.position;
+  // The organ may be deformed here already: the tool starts where the point is.
+  c.target = displacement_at(h.nodes, h.weights);
+  assemble_capacitance();
+  update_stiffness();
   return true;
 }
 
 void OrganFem::detach(std::uint32_t tool) noexcept {
   if (!attached(tool)) return;
   contacts_[tool].active = false;
-  contacts_[tool].multiplier.setZero();
-  update_capacitance();
+  contacts_[tool].stiffness.setZero();
+  for (std::size_t k = hold_count_; k-- > 0;)
+    if (holds_[k].tool == tool) release(k);
+  assemble_capacitance();
+  update_stiffness();
 }
 
-void OrganFem::update_capacitance() noexcept {
+bool OrganFem::take_points() noexcept {
+  bool taken = false;
+  std::size_t solves = 0;
+  for (std::uint32_t tool = 0; tool < contacts_.size(); ++tool) {
+    const Contact& c = contacts_[tool];
+    if (!c.active || c.tip.is_point()) continue;
+    // The point of each boundary face nearest the capsule's axis, where it
+    // lies inside the capsule; one per node, edge or face interior.
+    const Eigen::Vector3d tip_point = c.origin + c.target;
+    const Eigen::Vector3d centre = tip_point + c.tip.radius * c.tip.axis;
+    const double reach = c.tip.radius + longest_boundary_edge_;
+    std::size_t found = 0;
+    for (std::int32_t f : boundary_faces_) {
+      const model::Triangle& face = boundary_.faces[static_cast<std::size_t>(f)];
+      std::array<Eigen::Vector3d, 3> x;
+      bool near = false;
+      for (std::size_t i = 0; i < 3; ++i) {
+        x[i] = point(node_points_[face[i]]) + state_.segment<3>(3 * static_cast<Eigen::Index>(face[i]));
+        const double along = std::clamp((x[i] - centre).dot(c.tip.axis), 0.0, c.tip.shaft_length);
+        near = near || (x[i] - centre - along * c.tip.axis).norm() < reach;
+      }
+      if (!near) continue;
+      Eigen::Vector3d on_axis = centre, weights;
+      for (int pass = 0; pass < kClosestPairPasses; ++pass) {
+        weights = geometry::closest_point_barycentric(on_axis, x[0], x[1], x[2]);
+        const Eigen::Vector3d q = weights[0] * x[0] + weights[1] * x[1] + weights[2] * x[2];
+        on_axis = centre + std::clamp((q - centre).dot(c.tip.axis), 0.0, c.tip.shaft_length) * c.tip.axis;
+      }
+      Hold k;
+      k.tool = tool;
+      double fresh = 0.0;
+      bool blocked = false;
+      for (std::size_t i = 0; i < 3; ++i) {
+        k.nodes[i] = static_cast<std::int32_t>(face[i]);
+        if (weights[static_cast<Eigen::Index>(i)] == 0.0) continue;
+        const std::int16_t owner = node_tool_[face[i]];
+        if (owner < 0) fresh += weights[static_cast<Eigen::Index>(i)];
+        blocked = blocked || (owner >= 0 && owner != static_cast<std::int16_t>(tool)) ||
+                  system_->free_index()[3 * face[i]] < 0;
+      }
+      // A point mostly on nodes the tool holds already would add a
+      // constraint theirs nearly imply (W near singular); one on another
+      // tool's would fight it.
+      if (fresh < kFreshWeight || blocked) continue;
+      const Eigen::Vector3d q = weights[0] * x[0] + weights[1] * x[1] + weights[2] * x[2];
+      Eigen::Vector3d normal;
+      double gap = c.tip.signed_distance(tip_point, q, normal);
+      if (gap >= 0.0) continue;
+      Eigen::Vector3d at = q - gap * normal;  // where it meets the capsule's surface
+      if (gap < -kPiercedDepth * c.tip.radius) {
+        // Deep inside (a tip that moved into the organ faster than the organ
+        // followed): the nearest way out may be sideways through the shaft,
+        // which would thread the surface onto it. The point goes ahead of the
+        // hemisphere instead, along −axis.
+        const Eigen::Vector3d from_centre = q - centre;
+        const double radial = (from_centre - from_centre.dot(c.tip.axis) * c.tip.axis).norm();
+        const double behind_apex = c.tip.radius - std::sqrt(std::max(c.tip.radius * c.tip.radius - radial * radial, 0.0));
+        const double ahead = (q - tip_point).dot(-c.tip.axis) + behind_apex;
+        normal = -c.tip.axis;
+        at = q - ahead * normal;
+      }
+      k.weights = weights;
+      k.outward = normal;
+      k.depth = -gap;
+      Eigen::Vector3d rest = Eigen::Vector3d::Zero();
+      for (std::size_t i = 0; i < 3; ++i) rest += weights[static_cast<Eigen::Index>(i)] * point(node_points_[face[i]]);
+      k.offset = (at - rest) - c.target;
+      if (found < candidates_.size()) {
+        candidates_[found++] = k;
+      } else {
+        ++hold_overflows_;
+        auto shallowest = std::min_element(candidates_.begin(), candidates_.end(),
+                                           [](const Hold& a, const Hold& b) { return a.depth < b.depth; });
+        if (k.depth > shallowest->depth) *shallowest = k;
+      }
+    }
+    std::sort(candidates_.begin(), candidates_.begin() + static_cast<std::ptrdiff_t>(found),
+              [](const Hold& a, const Hold& b) { return a.depth > b.depth; });
+    for (std::size_t m = 0; m < found; ++m) {
+      // Taken ones may have claimed its nodes since it was found.
+      const Hold& k = candidates_[m];
+      double fresh = 0.0;
+      for (std::size_t i = 0; i < 3; ++i)
+        if (node_tool_[static_cast<std::size_t>(k.nodes[i])] < 0) fresh += k.weights[static_cast<Eigen::Index>(i)];
+      if (fresh >= kFreshWeight && add_hold(k, solves)) taken = true;
+    }
+  }
+  return taken;
+}
+
+void OrganFem::assemble_capacitance() noexcept {
   Capacitance& w = *capacitance_;
-  w.active = 0;
-  for (std::uint32_t t = 0; t < contacts_.size(); ++t)
-    if (contacts_[t].active) w.order[w.active++] = t;
-  const Eigen::Index n = static_cast<Eigen::Index>(3 * w.active);
+  const auto n = static_cast<Eigen::Index>(3 * hold_count_);
+  w.rows = n;
   w.matrix.resize(n, n);
   if (n == 0) return;
-  for (std::size_t a = 0; a < w.active; ++a)
-    for (std::size_t b = 0; b < w.active; ++b)
-      for (int k = 0; k < 3; ++k)
-        w.matrix.block<3, 1>(static_cast<Eigen::Index>(3 * a), static_cast<Eigen::Index>(3 * b) + k) =
-            gather(contacts_[w.order[a]], kept().responses[w.order[b]].col(k));
-  // W is symmetric in exact arithmetic (and for a nonlinear tangent, nearly);
-  // the multipliers and stiffness use its symmetric part.
-  w.matrix = (0.5 * (w.matrix + w.matrix.transpose())).eval();
+  // Block (a, b) of W: hold a's displacement under unit loads at hold b.
+  Tangent& tangent = kept();
+  for (std::size_t a = 0; a < hold_count_; ++a)
+    for (std::size_t b = a; b < hold_count_; ++b) {
+      const Hold& ha = holds_[a];
+      const Hold& hb = holds_[b];
+      Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
+      for (std::size_t j = 0; j < 3; ++j) {
+        if (hb.slots[j] < 0) continue;
+        const Eigen::MatrixX3d& response = tangent.responses[static_cast<std::size_t>(hb.slots[j])];
+        for (int k = 0; k < 3; ++k)
+          block.col(k) += hb.weights[static_cast<Eigen::Index>(j)] * gather(ha.nodes, ha.weights, response.col(k));
+      }
+      w.matrix.block<3, 3>(static_cast<Eigen::Index>(3 * a), static_cast<Eigen::Index>(3 * b)) = block;
+      w.matrix.block<3, 3>(static_cast<Eigen::Index>(3 * b), static_cast<Eigen::Index>(3 * a)) = block.transpose();
+    }
+  // W is symmetric in exact arithmetic (and for a nonlinear tangent, nearly):
+  // its upper part, mirrored.
   w.ldlt.compute(w.matrix);
-  w.unit.setIdentity(n, n);
-  w.inverse = w.ldlt.solve(w.unit);
-  for (std::size_t a = 0; a < w.active; ++a)
-    contacts_[w.order[a]].stiffness =
-        w.inverse.block<3, 3>(static_cast<Eigen::Index>(3 * a), static_cast<Eigen::Index>(3 * a));
+}
+
+void OrganFem::update_stiffness() noexcept {
+  // A tool moves all its points together: its stiffness is Eᵀ W⁻¹ E, E
+  // summing the tool's blocks.
+  Capacitance& w = *capacitance_;
+  for (Contact& c : contacts_) c.stiffness.setZero();
+  if (w.rows == 0) return;
+  for (std::uint32_t tool = 0; tool < contacts_.size(); ++tool) {
+    if (!contacts_[tool].active) continue;
+    w.sums.setZero(w.rows, 3);
+    bool any = false;
+    for (std::size_t a = 0; a < hold_count_; ++a)
+      if (holds_[a].tool == tool) {
+        w.sums.block<3, 3>(static_cast<Eigen::Index>(3 * a), 0).setIdentity();
+        any = true;
+      }
+    if (!any) continue;
+    w.solved = w.ldlt.solve(w.sums);
+    for (std::size_t a = 0; a < hold_count_; ++a)
+      if (holds_[a].tool == tool) contacts_[tool].stiffness += w.solved.block<3, 3>(static_cast<Eigen::Index>(3 * a), 0);
+  }
 }
 
 void OrganFem::adopt(std::unique_ptr<Tangent>& fresh) noexcept {
   std::swap(tangent_, fresh);
   using_rest_ = false;
-  for (std::uint32_t t = 0; t < contacts_.size(); ++t)
-    if (contacts_[t].active && tangent_->keys[t] != contacts_[t].generation) respond(*tangent_, t, contacts_[t]);
-  update_capacitance();
+  respond_all(*tangent_);
+  assemble_capacitance();
+  update_stiffness();
   ++refreshes_;
 }
 
 void OrganFem::request_refresh() noexcept {
-  worker_->request(state_, contacts_);
+  for (NodeSlot& n : node_slots_) n.held = n.node >= 0 && node_holds_[static_cast<std::size_t>(n.node)] > 0;
+  worker_->request(state_, node_slots_);
   refresh_due_ = frame_ + refresh_frames_;
 }
 
@@ -368,24 +631,46 @@ bool OrganFem::refresh_tangent() {
   return ok;
 }
 
-double OrganFem::iterate() noexcept {
+double OrganFem::iterate(bool& released) noexcept {
   // Unconstrained correction Δ₀ = −A⁻¹ g, then the multipliers that make the
-  // contact points land on their targets: W λ = d − Hᵀ(u + Δ₀).
+  // held points land on their targets: W λ = d − Hᵀ(u + Δ₀). A finite tip
+  // lets go of a point whose multiplier would pull it (unilateral contact),
+  // the worst first, and solves again without it.
   Capacitance& w = *capacitance_;
   Tangent& tangent = kept();
   const Eigen::Index free = static_cast<Eigen::Index>(free_dofs_.size());
   for (Eigen::Index j = 0; j < free; ++j) rhs_[j] = -gradient_[free_dofs_[static_cast<std::size_t>(j)]];
   tangent.solve(rhs_, step_);
-  const Eigen::Index n = static_cast<Eigen::Index>(3 * w.active);
-  w.gap.resize(n);
-  for (std::size_t a = 0; a < w.active; ++a) {
-    const std::uint32_t t = w.order[a];
-    w.gap.segment<3>(static_cast<Eigen::Index>(3 * a)) =
-        contacts_[t].target - contact_displacement(t) - gather(contacts_[t], step_);
+  released = false;
+  for (;;) {
+    w.gap.resize(w.rows);
+    for (std::size_t a = 0; a < hold_count_; ++a) {
+      const Hold& h = holds_[a];
+      w.gap.segment<3>(static_cast<Eigen::Index>(3 * a)) =
+          contacts_[h.tool].target + h.offset - displacement_at(h.nodes, h.weights) - gather(h.nodes, h.weights, step_);
+    }
+    if (w.rows > 0) w.multipliers = w.ldlt.solve(w.gap);
+    std::ptrdiff_t worst = -1;
+    double pull = 0.0;
+    for (std::size_t a = 0; a < hold_count_; ++a) {
+      const double along = holds_[a].outward.dot(w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a)));
+      if (!holds_[a].bilateral && along < pull) {
+        pull = along;
+        worst = static_cast<std::ptrdiff_t>(a);
+      }
+    }
+    if (worst < 0) break;
+    release(static_cast<std::size_t>(worst));
+    assemble_capacitance();
+    released = true;
   }
-  if (n > 0) w.multipliers = w.ldlt.solve(w.gap);
-  for (std::size_t a = 0; a < w.active; ++a)
-    step_.noalias() += tangent.responses[w.order[a]] * w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a));
+  for (std::size_t a = 0; a < hold_count_; ++a) {
+    const Hold& h = holds_[a];
+    const Eigen::Vector3d force = w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a));
+    for (std::size_t j = 0; j < 3; ++j)
+      if (h.slots[j] >= 0)
+        step_.noalias() += tangent.responses[static_cast<std::size_t>(h.slots[j])] * (h.weights[static_cast<Eigen::Index>(j)] * force);
+  }
   // A step that would invert a tetrahedron (a tool pushed deeper than the
   // mesh can follow in one frame) is cut in halves; the organ then goes as far
   // toward the targets as it can, with the multipliers interpolated as the
@@ -402,20 +687,21 @@ double OrganFem::iterate() noexcept {
 }
 
 FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
-  Capacitance& w = *capacitance_;
-  for (std::size_t a = 0; a < w.active; ++a)
-    if (!displacements[w.order[a]].allFinite()) return FrameStatus::not_finite;
+  for (std::uint32_t t = 0; t < contacts_.size(); ++t)
+    if (contacts_[t].active && !displacements[t].allFinite()) return FrameStatus::not_finite;
   if (worker_ && refresh_due_ > 0 && frame_ < refresh_due_ && !solved_this_frame_ && worker_->ready()) {
-    // A contact attached after the request lacks its response in the fresh
-    // tangent: solve one per frame (none in a frame that attached one) while
-    // the tangent waits to be adopted, rather than all of them in the frame
-    // that adopts it.
+    // A node taken after the request lacks its response in the fresh
+    // tangent: solve one per frame (none in a frame that took one) while the
+    // tangent waits to be adopted, rather than all of them in the frame that
+    // adopts it.
     Tangent& fresh = *worker_->spare();
-    for (std::uint32_t t = 0; t < contacts_.size(); ++t)
-      if (contacts_[t].active && fresh.keys[t] != contacts_[t].generation) {
-        respond(fresh, t, contacts_[t]);
+    for (std::size_t slot = 0; slot < node_slots_.size(); ++slot) {
+      const NodeSlot& n = node_slots_[slot];
+      if (n.node >= 0 && node_holds_[static_cast<std::size_t>(n.node)] > 0 && fresh.keys[slot] != n.generation) {
+        respond(fresh, slot, n);
         break;
       }
+    }
   }
   solved_this_frame_ = false;
   if (worker_ && refresh_due_ > 0 && frame_ >= refresh_due_) {
@@ -423,45 +709,54 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
     worker_->release();
     refresh_due_ = 0;
   }
-  for (std::size_t a = 0; a < w.active; ++a) contacts_[w.order[a]].target = displacements[w.order[a]];
+  for (std::uint32_t t = 0; t < contacts_.size(); ++t)
+    if (contacts_[t].active) contacts_[t].target = displacements[t];
+  const bool took = take_points();
+  if (took) assemble_capacitance();
 
   const Eigen::Index free = static_cast<Eigen::Index>(free_dofs_.size());
   saved_ = state_;
-  double fraction = iterate();
+  bool released = false;
+  double fraction = iterate(released);
   if (fraction == 0.0 && rest_tangent_ && !using_rest_) {
     // A refreshed tangent that fails even in small steps (a state far from
     // the one it was made at: a tool let go) gives way to the rest tangent
     // until the worker's next one.
     using_rest_ = true;
-    for (std::uint32_t t = 0; t < contacts_.size(); ++t)
-      if (contacts_[t].active && rest_tangent_->keys[t] != contacts_[t].generation)
-        respond(*rest_tangent_, t, contacts_[t]);
-    update_capacitance();
-    fraction = iterate();
+    respond_all(*rest_tangent_);
+    assemble_capacitance();
+    bool again = false;
+    fraction = iterate(again);
+    released = released || again;
   }
+  contact_settled_ = !took && !released;
+  update_stiffness();
   if (fraction == 0.0) {
     ++frame_;
     if (worker_ && refresh_due_ == 0) request_refresh();
     return FrameStatus::inverted;
   }
-  std::array<Eigen::Vector3d, kMaxContacts> multipliers;
-  for (std::size_t a = 0; a < w.active; ++a)
-    multipliers[a] = (1.0 - fraction) * contacts_[w.order[a]].multiplier +
-                     fraction * w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a));
+  Capacitance& w = *capacitance_;
+  for (std::size_t a = 0; a < hold_count_; ++a) {
+    Hold& h = holds_[a];
+    h.force = (1.0 - fraction) * h.force + fraction * w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a));
+  }
 
   // Out of balance: internal forces minus the tools' forces, pressure rows in newtons.
   for (Eigen::Index j = 0; j < free; ++j) {
     const std::size_t d = static_cast<std::size_t>(free_dofs_[static_cast<std::size_t>(j)]);
     rhs_[j] = gradient_[static_cast<Eigen::Index>(d)] * (d < displacement_dofs_ ? 1.0 : pressure_scale_);
   }
-  for (std::size_t a = 0; a < w.active; ++a) {
-    const Contact& c = contacts_[w.order[a]];
-    for (std::size_t i = 0; i < 3; ++i)
-      for (int k = 0; k < 3; ++k)
-        rhs_[system_->free_index()[static_cast<std::size_t>(3 * c.nodes[i] + k)]] -=
-            c.weights[static_cast<Eigen::Index>(i)] * multipliers[a][k];
+  for (std::size_t a = 0; a < hold_count_; ++a) {
+    const Hold& h = holds_[a];
+    for (std::size_t i = 0; i < 3; ++i) {
+      if (h.weights[static_cast<Eigen::Index>(i)] == 0.0) continue;
+      for (int c = 0; c < 3; ++c) {
+        const std::int32_t f = system_->free_index()[static_cast<std::size_t>(3 * h.nodes[i] + c)];
+        if (f >= 0) rhs_[f] -= h.weights[static_cast<Eigen::Index>(i)] * h.force[c];
+      }
+    }
   }
-  for (std::size_t a = 0; a < w.active; ++a) contacts_[w.order[a]].multiplier = multipliers[a];
   step_cuts_ += fraction < relaxation_;
   unbalanced_ = free > 0 ? rhs_.cwiseAbs().maxCoeff() : 0.0;
   ++frame_;
@@ -472,7 +767,7 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
 void OrganFem::reset() noexcept {
   state_.setZero();
   gradient_.setZero();
-  for (Contact& c : contacts_) c.multiplier.setZero();
+  for (std::size_t k = 0; k < hold_count_; ++k) holds_[k].force.setZero();
   unbalanced_ = 0;
 }
 
@@ -481,16 +776,19 @@ Eigen::Vector3d OrganFem::contact_point(std::uint32_t tool) const noexcept {
 }
 
 Eigen::Vector3d OrganFem::contact_displacement(std::uint32_t tool) const noexcept {
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  if (tool >= contacts_.size()) return sum;
-  const Contact& c = contacts_[tool];
-  for (std::size_t i = 0; i < 3; ++i)
-    sum += c.weights[static_cast<Eigen::Index>(i)] * state_.segment<3>(3 * static_cast<Eigen::Index>(c.nodes[i]));
-  return sum;
+  if (tool >= contacts_.size()) return Eigen::Vector3d::Zero();
+  if (contacts_[tool].tip.is_point())
+    for (std::size_t k = 0; k < hold_count_; ++k)
+      if (holds_[k].tool == tool) return displacement_at(holds_[k].nodes, holds_[k].weights);
+  return contacts_[tool].target;
 }
 
 Eigen::Vector3d OrganFem::contact_force(std::uint32_t tool) const noexcept {
-  return attached(tool) ? Eigen::Vector3d(-contacts_[tool].multiplier) : Eigen::Vector3d::Zero();
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  if (!attached(tool)) return sum;
+  for (std::size_t k = 0; k < hold_count_; ++k)
+    if (holds_[k].tool == tool) sum -= holds_[k].force;
+  return sum;
 }
 
 Eigen::Matrix3d OrganFem::contact_stiffness(std::uint32_t tool) const noexcept {

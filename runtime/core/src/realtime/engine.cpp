@@ -7,6 +7,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "organsim/geometry/model_measures.h"
+#include "organsim/realtime/friction.h"
 #include "organsim/realtime/model_registry.h"
 
 namespace organsim::realtime {
@@ -55,10 +56,18 @@ Engine::Engine(const organ::Organ& organ, const std::vector<devices::HapticDevic
       moved_list_(organ.vertex_count()),
       surfaces_(rest_frame(organ)) {
   if (devices.empty() || devices.size() > kMaxTools) throw std::invalid_argument("an engine drives 1 to 16 tools");
+  for (std::size_t i = 0; i < devices.size(); ++i)
+    if (!(options.tip_radius_of(i) >= 0.0) || !std::isfinite(options.tip_radius_of(i)))
+      throw std::invalid_argument("a tool's tip radius must be a finite length >= 0");
   for (devices::HapticDevice* d : devices)
     if (d == nullptr) throw std::invalid_argument("a haptic device is missing");
   for (std::size_t i = 0; i < devices.size(); ++i) safety_[i] = ForceSafety(devices[i]->limits());
+  if (!(options.friction >= 0.0)) throw std::invalid_argument("the friction coefficient must be >= 0 (or infinity)");
   for (auto& d : displacement_) d.setZero();
+  for (auto& s : slip_) s.setZero();
+  for (auto& f : blend_offset_) f.setZero();
+  for (auto& f : model_force_) f.setZero();
+  blend_frame_.fill(-1.0);
   fault_start_.fill(-1.0);
   for (auto& f : fault_force_) f.setZero();
 }
@@ -103,14 +112,34 @@ void Engine::force_tick(double now) noexcept {
       if (seen_generation_[i] != contact.generation) {
         seen_generation_[i] = contact.generation;
         ++telemetry_[i].contacts;
+        slip_[i].setZero();
       }
       // A shaft contact needs the shaft: without it the contact point is unknown.
       if (valid && (contact.shaft_offset == 0.0 || pose.shaft.squaredNorm() > 0.0)) {
-        const Eigen::Vector3d displacement = pose.tip + contact.shaft_offset * pose.shaft - contact.action_point;
+        Eigen::Vector3d displacement = pose.tip + contact.shaft_offset * pose.shaft - contact.action_point - slip_[i];
         if (displacement.dot(contact.normal) > kReleaseMargin) {
           released_[i] = contact.generation;  // back outside: the contact ends now
         } else {
           force.noalias() = contact.force - contact.stiffness * (displacement - contact.reference);
+          // Friction: outside Coulomb's cone the organ slips under the tool.
+          slip_[i] -= slip_step(contact.stiffness, contact.normal, options_.friction, force);
+          // A fresh linearization takes over from the last one over one
+          // deformation period: the step between them (a dynamic model's
+          // motion, points taken in or let go of) is felt as a ramp.
+          if (blend_frame_[i] != contacts.time) {
+            blend_offset_[i] = blend_generation_[i] == contact.generation ? Eigen::Vector3d(model_force_[i] - force)
+                                                                            : Eigen::Vector3d::Zero();
+            blend_frame_[i] = contacts.time;
+            blend_start_[i] = now;
+            blend_generation_[i] = contact.generation;
+          }
+          const double remaining = std::clamp(1.0 - (now - blend_start_[i]) / options_.deformation_period, 0.0, 1.0);
+          force += remaining * blend_offset_[i];
+          // What the slope cannot take back (a force the model holds at any
+          // displacement, a stiffness coupling the directions, the blend)
+          // the cone clips.
+          clip_to_cone(contact.normal, options_.friction, force);
+          model_force_[i] = force;
           touching = true;
         }
       }
@@ -131,6 +160,8 @@ void Engine::force_tick(double now) noexcept {
       fault_start_[i] = -1.0;
     }
     out.released[i] = released_[i];
+    out.slips[i] = slip_[i];
+    out.slip_generation[i] = seen_generation_[i];
     const Eigen::Vector3d safe = safety_[i].filter(force, now, last_frame, dt);
     devices_[i]->write_force(now, safe, touching);
     ToolTelemetry& t = telemetry_[i];
@@ -186,7 +217,12 @@ void Engine::deformation_step(double now) noexcept {
       const model::Triangle& t = triangles[hit.triangle];
       const Eigen::Vector3d rest_point = hit.barycentric[0] * vec(rest[t[0]]) + hit.barycentric[1] * vec(rest[t[1]]) +
                                          hit.barycentric[2] * vec(rest[t[2]]);
-      if (model_->attach(tool, rest_point, linearizations_[i])) {
+      geometry::ToolTip tip;
+      tip.radius = options_.tip_radius_of(i);
+      tip.shaft_length = options_.shaft_length;
+      tip.axis = tools.shafts[i].squaredNorm() > 0.0 ? tools.shafts[i].normalized()
+                                                     : geometry::triangle_normal(organ_.model(), hit.triangle);
+      if (model_->attach(tool, rest_point, tip, linearizations_[i])) {
         contact.normal = linearizations_[i].normal;
         contact.action_point = linearizations_[i].action_point;
         publish_linearization(i);
@@ -208,7 +244,8 @@ void Engine::deformation_step(double now) noexcept {
     if (!contact.active)
       displacement_[i].setZero();
     else if (located)
-      displacement_[i] = tools.tips[i] + contact.shaft_offset * tools.shafts[i] - contact.action_point;
+      displacement_[i] = tools.tips[i] + contact.shaft_offset * tools.shafts[i] - contact.action_point -
+                         (tools.slip_generation[i] == contact.generation ? tools.slips[i] : Eigen::Vector3d::Zero());
   }
   const double dt = previous_step_ < 0.0 ? options_.deformation_period : now - previous_step_;
   previous_step_ = now;

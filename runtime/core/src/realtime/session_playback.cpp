@@ -24,7 +24,14 @@ SessionPlayback::SessionPlayback(const organ::Organ& organ, const devices::Sessi
   for (const devices::Trajectory& trajectory : session.tools)
     devices_.push_back(std::make_unique<devices::ScriptedDevice>(trajectory, options.limits, options.records_per_tool,
                                                                  options.repeat_period));
-  engine_ = std::make_unique<Engine>(organ, pointers(devices_), engine_options);
+  // A tip radius the session gives for a tool is that tool's.
+  EngineOptions with_tips = engine_options;
+  for (std::size_t k = 0; k < session.tools.size(); ++k)
+    if (session.tools[k].tip_radius >= 0.0) {
+      with_tips.tool_tip_radii.resize(session.tools.size(), -1.0);
+      with_tips.tool_tip_radii[k] = session.tools[k].tip_radius;
+    }
+  engine_ = std::make_unique<Engine>(organ, pointers(devices_), with_tips);
 }
 
 RunTimings SessionPlayback::run_fast(double duration, const std::function<void(const RunTimings&)>& after_frame) {

@@ -203,10 +203,16 @@ Eigen::Vector3d MassSpring::reaction_force(std::uint32_t node) const noexcept {
 }
 
 Eigen::Matrix3d MassSpring::contact_stiffness(std::uint32_t node) const noexcept {
+  return contact_stiffness(node, nullptr, 0);
+}
+
+Eigen::Matrix3d MassSpring::contact_stiffness(std::uint32_t node, const std::int16_t* group,
+                                              std::int16_t member) const noexcept {
   Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();
   if (node >= node_count()) return stiffness;
   const Springs& s = network_.springs;
   for (std::uint32_t e = incidence_offset_[node]; e < incidence_offset_[node + 1]; ++e) {
+    if (group != nullptr && group[incidence_other_[e]] == member) continue;
     const std::uint32_t k = incidence_spring_[e];
     const Eigen::Vector3d d = x_[node] - x_[incidence_other_[e]];
     const double l = d.norm();

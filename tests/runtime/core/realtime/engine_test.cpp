@@ -7,6 +7,7 @@
 #include <cmath>
 #include <memory>
 #include <set>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -140,7 +141,10 @@ TEST_F(CylinderEngine, ASpringsDynamicRegionReportsEveryVertexItMoves) {
   const std::size_t n = organ.vertex_count();
   std::vector<model::Point3> previous = organ.model().surface_vertices, positions(n), normals(n);
   std::array<ContactLinearization, 1> contacts{};
-  ASSERT_TRUE(model->attach(0, {spec.length, 0.0, 0.0}, contacts[0]));
+  geometry::ToolTip tip;  // a 5 mm probe pushed along the cylinder's axis into its end
+  tip.radius = 2.5e-3;
+  tip.axis = Eigen::Vector3d::UnitX();
+  ASSERT_TRUE(model->attach(0, {spec.length, 0.0, 0.0}, tip, contacts[0]));
   std::size_t most = 0, changed_total = 0;
   for (int frame = 0; frame < 90; ++frame) {
     if (frame == 45) model->detach(0);
@@ -166,7 +170,7 @@ TEST_F(CylinderEngine, ASpringsDynamicRegionReportsEveryVertexItMoves) {
   EXPECT_LT(most, n / 2);  // a region, not the organ
   // Integrating every node, the model claims nothing narrower than all.
   const std::unique_ptr<DeformationModel> everywhere = make_deformation_model("springs", organ, {}, 1);
-  ASSERT_TRUE(everywhere->attach(0, {spec.length, 0.0, 0.0}, contacts[0]));
+  ASSERT_TRUE(everywhere->attach(0, {spec.length, 0.0, 0.0}, {}, contacts[0]));
   const Eigen::Vector3d press(-0.001, 0.0, 0.0);
   ASSERT_TRUE(everywhere->step(1.0 / 60.0, &press, positions.data(), normals.data(), contacts.data()));
   std::size_t count = 1;
@@ -190,6 +194,53 @@ TEST_F(CylinderEngine, AFastToolCannotPassThroughTheOrgan) {
   EXPECT_NEAR(last.force.norm(), 0.3, 1e-9);  // clamped to the device limit
   EXPECT_GT(last.force[1], 0.0);              // back towards +y, where it came from
   EXPECT_GT(engine.safety(0).clamp_count(), 0u);
+}
+
+// A 5 mm probe (the default tip) approaches the cylinder's side, presses
+// 3 mm, slides 30 mm along it and leaves, replayed fast with every model: the
+// force sent to the device never changes by more than the onset limit allows
+// in one tick, rising or falling (it begins, slides and ends without a
+// kick), the organ slips under the tip within Coulomb's cone (tangential
+// force ≤ μ × normal force), and nothing is felt once the tip is out.
+TEST_F(CylinderEngine, AFiniteTipEntersSlidesAndLeavesWithoutAForceJump) {
+  for (const RegisteredModel* model : registered_models()) {
+    if (std::string(model->name) == "stvk") continue;  // co-rotational's large-strain sibling: same contact code
+    ScriptedDevice device(path({{0.0, {0.08, 0.045, 0.0}}, {0.3, {0.08, 0.027, 0.0}}, {0.5, {0.08, 0.027, 0.0}},
+                                {1.1, {0.11, 0.027, 0.0}}, {1.4, {0.11, 0.045, 0.0}}, {1.6, {0.11, 0.045, 0.0}}}),
+                          {}, 2000);
+    EngineOptions options;
+    options.model = model->name;
+    options.fem.fixed_radius = 0.031;  // the clamped cap
+    ASSERT_EQ(options.tip_radius, 2.5e-3);
+    Engine engine(organ, {&device}, options);
+    run_fast(engine, 1.6);
+    EXPECT_GE(engine.telemetry(0).contacts, 1u) << model->name;
+    const double step_limit = device.limits().onset_rate * 1e-3;  // N per 1 ms tick
+    double largest_step = 0.0, largest_force = 0.0;
+    Eigen::Vector3d previous = Eigen::Vector3d::Zero();
+    for (std::size_t r = 0; r < device.record_count(); ++r) {
+      const ForceRecord& f = device.record(r);
+      largest_step = std::max(largest_step, (f.force - previous).norm());
+      largest_force = std::max(largest_force, f.force.norm());
+      previous = f.force;
+      if (f.in_contact && f.time > 0.6 && f.time < 1.1) {
+        // Sliding along +x on the side: the cone about +y, widened by the
+        // 24-sided section's faces (their normals lie within 7.5° of +y).
+        const double normal = f.force.y(), tangential = std::hypot(f.force.x(), f.force.z());
+        const double widened = std::tan(std::atan(options.friction) + M_PI / 24.0);
+        EXPECT_LE(tangential, widened * normal) << model->name << " at " << f.time;
+      }
+      if (f.time > 1.45) {
+        EXPECT_EQ(f.force, Eigen::Vector3d::Zero()) << model->name << " at " << f.time;
+      }
+    }
+    RecordProperty(std::string(model->name) + "_largest_step_mN", std::to_string(largest_step * 1e3));
+    RecordProperty(std::string(model->name) + "_largest_force_mN", std::to_string(largest_force * 1e3));
+    EXPECT_GT(largest_force, step_limit) << model->name << ": the press is felt";
+    // The onset limit bounds the magnitude's growth; a turn of the force as
+    // it grows may add a little.
+    EXPECT_LE(largest_step, 1.1 * step_limit) << model->name;
+  }
 }
 
 TEST_F(CylinderEngine, AShaftPressingSidewaysMakesContactAlongTheShaft) {

@@ -5,17 +5,25 @@
 //   (psh: Mooney–Rivlin from E with its own ν and β, see OrganFemOptions).
 // - Clamp: every tetrahedral node within `fixed_radius` of the model's first
 //   fixed point is held in all three components.
-// - Tools: a tool holds the point of the tetrahedral mesh's boundary nearest to
-//   its action point; the constraint is that this material point (a barycentric
-//   combination of one boundary face's three nodes) follows the tool's
-//   displacement. One 3-vector constraint per tool, enforced exactly through a
-//   Lagrange multiplier — the force the tool applies.
+// - Tools (docs/realtime.md#contact-rule): what a tool's tip touches sticks to it.
+//   A tool holds material points of the tetrahedral mesh's boundary (each a
+//   barycentric combination of one boundary face's nodes), each made to follow
+//   the tool's displacement from where it was taken: the point nearest the
+//   action point from the first touch, and, for a tip of finite size
+//   (geometry/tool_tip.h), every boundary point that enters the tip's capsule
+//   (the point of each face nearest the capsule's axis: a node, a point of an
+//   edge or of a face's interior), taken where it meets the capsule's surface.
+//   The first touch is held both ways until the contact ends (the engine's
+//   rule); a point taken in later is let go of when the tip would pull it
+//   (unilateral contact). One 3-vector constraint per
+//   held point, enforced exactly through its Lagrange multiplier — the force
+//   the tool applies there; the tool's force is their sum.
 // - Frame: one warm-started Newton iteration with a kept tangent (modified
 //   Newton): the internal forces of the current state are evaluated with the
 //   material's full nonlinearity, the correction is solved with the LDLᵀ
 //   factorization of a tangent from a recent state, and the tools' constraints
 //   are met exactly through the capacitance matrix W = Hᵀ A⁻¹ H (H: the
-//   constraints' columns; A⁻¹ H solved once per contact and tangent). For
+//   constraints' columns; A⁻¹ H solved once per held point and tangent). For
 //   corotational and stvk a worker thread refactors the tangent at the state
 //   of frame k while the frames go on, and frame k + refresh_frames adopts it
 //   (waiting for the worker if it is late, so that a replay is deterministic):
@@ -27,9 +35,9 @@
 //   iteration per frame would refactor the tangent every frame (the liver, one
 //   thread: 0.29 s simplicial / 0.06 s direct for the displacement-only
 //   materials, 1.5 s / 0.18 s for psh; docs/fem.md).
-// - Contact force and stiffness: the tool's multiplier, and the condensed
-//   stiffness (W⁻¹)_tt of the contact with the other tools held, both refreshed
-//   every frame.
+// - Contact force and stiffness: the sum of the tool's multipliers, and the
+//   condensed stiffness Σ_ab (W⁻¹)_ab over its held points a, b (all move
+//   with the tool) with the other tools held, both refreshed every frame.
 // - Surface: every surface vertex is embedded in the tetrahedron that owns the
 //   boundary face nearest to it (barycentric weights; the baked boundary lies
 //   within the mesher's facet distance of the surface), and moves with it.
@@ -51,6 +59,7 @@
 #include "organsim/fem/material.h"
 #include "organsim/geometry/closest_point.h"
 #include "organsim/geometry/tetrahedral_embedding.h"
+#include "organsim/geometry/tool_tip.h"
 #include "organsim/model/organ_model.h"
 
 namespace organsim::fem {
@@ -87,8 +96,15 @@ struct OrganFemOptions {
   /// factory has none for the matrix kind, the simplicial one serves.
   FactorizationFactory factorization = nullptr;
   /// false: the frames may solve with factorizations whose solves allocate
-  /// (MUMPS for psh), for Newton solves outside real-time loops.
+  /// (MUMPS for psh), for Newton solves outside real-time loops; a frame then
+  /// also takes in every node that entered a tip, not at most
+  /// kJoinsPerFrame.
   bool realtime_solves = true;
+  /// Boundary nodes whose responses the tangents keep for the contacts
+  /// (three solved columns each per tangent; a finite tip needs those of the
+  /// faces it touches); 0: 24 per tool, at most 256. Beyond them a contact
+  /// point is left out (hold_overflows() counts them).
+  std::size_t max_contact_nodes = 0;
 };
 
 enum class FrameStatus : std::uint8_t {
@@ -106,11 +122,14 @@ class OrganFem {
   OrganFem(const OrganFem&) = delete;
   OrganFem& operator=(const OrganFem&) = delete;
 
-  /// Contact begins at the boundary point nearest `rest_point` (m). False
+  /// Contact begins at the boundary point nearest `rest_point` (m), where the
+  /// tool's tip touched the organ; `tip` is its end (a point by default).
+  /// The tool's displacement in step() is its tip's, from `rest_point`. False
   /// (nothing changed) for a tool index out of range, a non-finite point, a
-  /// boundary face with a clamped node, or one sharing a node with another
-  /// tool's face (the two constraints would fight over it).
-  bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point) noexcept;
+  /// boundary face with a clamped node, a node another tool holds (the two
+  /// constraints would fight over it), a tip whose radius is not finite or
+  /// whose axis is not a unit vector, or no room for another held point.
+  bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, const geometry::ToolTip& tip = {}) noexcept;
   void detach(std::uint32_t tool) noexcept;
   bool attached(std::uint32_t tool) const noexcept;
 
@@ -130,10 +149,24 @@ class OrganFem {
   /// Frames whose iteration was cut short because the whole of it would have
   /// inverted a tetrahedron (the organ then lags the tools).
   std::uint64_t step_cuts() const noexcept { return step_cuts_; }
+  /// Boundary points the tool holds (1 for a point tool, the first touch and
+  /// those a finite tip took in).
+  std::size_t held_points(std::uint32_t tool) const noexcept;
+  /// True when the last step neither took nor let go of a point: the
+  /// contact's active set is settled (a static solve converges only then).
+  bool contact_settled() const noexcept { return contact_settled_; }
+  /// Contact points left out for want of room (max_contact_nodes, kMaxHolds).
+  std::uint64_t hold_overflows() const noexcept { return hold_overflows_; }
+  /// Most new nodes a real-time frame solves responses for (one solve each);
+  /// a contact point on a node without one waits for the next frame.
+  static constexpr std::size_t kJoinsPerFrame = 4;
+  /// Most points the tools hold together (W has three rows per point).
+  static constexpr std::size_t kMaxHolds = 40;
 
-  /// The contact's rest point on the tetrahedral boundary (m).
+  /// The contact's first-touch point on the tetrahedral boundary (m).
   Eigen::Vector3d contact_point(std::uint32_t tool) const noexcept;
-  /// Where the contact point is now, from rest (m).
+  /// Where the force the tool feels holds (m): a point tool's point's
+  /// displacement; a finite tip's displacement in the last step.
   Eigen::Vector3d contact_displacement(std::uint32_t tool) const noexcept;
   /// The force the organ exerts on the tool (N) after the last step (zero right after attach).
   Eigen::Vector3d contact_force(std::uint32_t tool) const noexcept;
@@ -160,34 +193,75 @@ class OrganFem {
   double factorization_seconds() const noexcept { return factorization_seconds_; }
 
  private:
+  /// A boundary node whose response A⁻¹ e (three columns, one per direction)
+  /// the tangents keep: what every contact constraint on it is solved from.
+  struct NodeSlot {
+    std::int32_t node = -1;
+    std::uint64_t generation = 0;  ///< keys its responses in a tangent
+    std::uint64_t used_frame = 0;  ///< the last frame a constraint used it
+    bool held = false;             ///< a hold weighs it (set when a refresh is requested)
+  };
+  /// A material point of the boundary a tool holds: barycentric on a
+  /// boundary face's nodes (a weight 0 leaves a node out: a point of an edge,
+  /// or a node).
+  struct Hold {
+    std::uint32_t tool = 0;
+    bool bilateral = false;  ///< the first touch: held both ways
+    std::array<std::int32_t, 3> nodes{};
+    std::array<std::int32_t, 3> slots{};  ///< their NodeSlots (-1 for a weight 0)
+    Eigen::Vector3d weights = Eigen::Vector3d::Zero();
+    Eigen::Vector3d offset = Eigen::Vector3d::Zero();   ///< m: its target displacement less the tool's
+    Eigen::Vector3d outward = Eigen::Vector3d::Zero();  ///< unit: the direction the tip pushes it
+    Eigen::Vector3d force = Eigen::Vector3d::Zero();    ///< N the tool applies to the organ there
+    double depth = 0.0;                                 ///< m inside the tip (a candidate's)
+  };
   struct Contact {
     bool active = false;
-    std::uint64_t generation = 0;  ///< distinguishes successive contacts (responses are keyed by it)
-    std::array<std::int32_t, 3> nodes{};
+    geometry::ToolTip tip;
+    Eigen::Vector3d origin = Eigen::Vector3d::Zero();      ///< m: where the tip touched (attach's rest point)
+    Eigen::Vector3d rest_point = Eigen::Vector3d::Zero();  ///< m: the first-touch point on the boundary
+    std::array<std::int32_t, 3> nodes{};                   ///< the first-touch point's face
     Eigen::Vector3d weights = Eigen::Vector3d::Zero();
-    Eigen::Vector3d rest_point = Eigen::Vector3d::Zero();
-    Eigen::Vector3d target = Eigen::Vector3d::Zero();      ///< the displacement prescribed in the last step
-    Eigen::Vector3d multiplier = Eigen::Vector3d::Zero();  ///< force the tool applies to the organ, N
+    Eigen::Vector3d target = Eigen::Vector3d::Zero();      ///< the tool displacement of the last step
     Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();
+    std::size_t held = 0;                                  ///< constraints in the last step
   };
   struct Tangent;
   struct Capacitance;
   class Worker;
 
   /// Σ_i w_i v_{node i} of a field on free dofs (clamped dofs count as 0).
-  Eigen::Vector3d gather(const Contact& contact, const Eigen::Ref<const Eigen::VectorXd>& free_values) const noexcept;
+  Eigen::Vector3d gather(const std::array<std::int32_t, 3>& nodes, const Eigen::Vector3d& weights,
+                         const Eigen::Ref<const Eigen::VectorXd>& free_values) const noexcept;
+  /// Σ_i w_i u_{node i}: the displacement of a boundary point now (m).
+  Eigen::Vector3d displacement_at(const std::array<std::int32_t, 3>& nodes, const Eigen::Vector3d& weights) const noexcept;
   /// An empty tangent with the options' factorization, analyzed.
   std::unique_ptr<Tangent> make_tangent(bool realtime_solve) const;
-  /// A⁻¹ H_t of `contact` with `tangent` (one solve of three columns).
-  void respond(Tangent& tangent, std::uint32_t tool, const Contact& contact) const noexcept;
-  /// W of the active tools and, per tool, the condensed stiffness (W⁻¹)_tt.
-  void update_capacitance() noexcept;
-  /// Adopts `fresh` as the kept tangent: responses of contacts it lacks solved.
+  /// A⁻¹ e of `node` (held in `slot`) with `tangent` (one solve of three columns).
+  void respond(Tangent& tangent, std::size_t slot, const NodeSlot& node) const noexcept;
+  /// Solves the responses `tangent` lacks for the used node slots.
+  void respond_all(Tangent& tangent) const noexcept;
+  /// The slot of `node`'s responses, solving them when it has none and the
+  /// frame may still afford a solve (`solves` counts them); -1 otherwise.
+  std::int32_t node_slot(std::int32_t node, std::size_t& solves) noexcept;
+  /// Adds a hold (its node responses solved, `solves` counting them);
+  /// false when there is no room or no response this frame.
+  bool add_hold(Hold hold, std::size_t& solves) noexcept;
+  void release(std::size_t index) noexcept;
+  /// Finite tips: takes the boundary points inside them that weigh a node
+  /// the tool does not hold yet, deepest first. True when it took one.
+  bool take_points() noexcept;
+  /// W of the holds, factorized.
+  void assemble_capacitance() noexcept;
+  /// Per tool, the condensed stiffness Σ_ab (W⁻¹)_ab over its holds.
+  void update_stiffness() noexcept;
+  /// Adopts `fresh` as the kept tangent: responses of nodes it lacks solved.
   void adopt(std::unique_ptr<Tangent>& fresh) noexcept;
   void request_refresh() noexcept;
   /// One iteration from saved_ with the kept tangent: the fraction of it taken
-  /// (ω, ω/2 … ω/16), or 0 when even ω/16 inverts a tetrahedron (state restored).
-  double iterate() noexcept;
+  /// (ω, ω/2 … ω/16), or 0 when even ω/16 inverts a tetrahedron (state
+  /// restored). `released`: a finite tip let go of a point it would pull.
+  double iterate(bool& released) noexcept;
   Tangent& kept() noexcept { return using_rest_ ? *rest_tangent_ : *tangent_; }
   Eigen::Index pressure_count() const noexcept {
     return system_->dof_count() - static_cast<Eigen::Index>(displacement_dofs_);
@@ -207,8 +281,19 @@ class OrganFem {
   geometry::SurfaceEmbedding embedding_;  ///< each surface vertex in a tetrahedron
   // State and scratch (sized at construction).
   Eigen::VectorXd state_, saved_, gradient_, rhs_, step_;
-  std::vector<Contact> contacts_;
+  std::vector<Contact> contacts_;  ///< per tool
+  std::vector<NodeSlot> node_slots_;          ///< max_contact_nodes
+  std::vector<std::int32_t> slot_of_node_;    ///< per node: its NodeSlot, or -1
+  std::vector<std::int32_t> boundary_faces_;  ///< the boundary faces with a free node
+  double longest_boundary_edge_ = 0.0;        ///< m, at rest
+  std::vector<Hold> holds_;                   ///< capacity kMaxHolds
+  std::size_t hold_count_ = 0;
+  std::vector<Hold> candidates_;              ///< scratch for take_points
+  std::vector<std::int16_t> node_tool_;       ///< per node: the tool whose holds weigh it, or -1
+  std::vector<std::uint16_t> node_holds_;     ///< per node: how many holds weigh it
   std::uint64_t generations_ = 0;
+  bool contact_settled_ = true;
+  std::uint64_t hold_overflows_ = 0;
   std::unique_ptr<Tangent> tangent_;  ///< the kept tangent
   /// corotational and stvk: the rest tangent, kept for when a refreshed one fails
   std::unique_ptr<Tangent> rest_tangent_;

@@ -1,8 +1,8 @@
 // The seam between the real-time engine and a deformation model. The engine
 // finds contacts, runs the force loop and publishes frames; a model only
 // answers three questions, all on the deformation loop's thread:
-//   attach  — a tool touches the rest surface here: can you take it, and how
-//             stiff is the contact?
+//   attach  — a tool with this tip (geometry/tool_tip.h) touches the rest
+//             surface here: can you take it, and how stiff is the contact?
 //   step    — the attached tools' contact points are displaced so: move the
 //             surface (and say, per contact, the force and stiffness now);
 //   detach  — the tool left.
@@ -29,6 +29,7 @@
 #include <Eigen/Core>
 
 #include "organsim/fem/organ_fem.h"
+#include "organsim/geometry/tool_tip.h"
 #include "organsim/model/organ_model.h"
 #include "organsim/multibeam/multibeam.h"
 #include "organsim/springs/mass_spring.h"
@@ -49,10 +50,14 @@ class DeformationModel {
   virtual ~DeformationModel() = default;
   /// The registered name (model_registry.h): "beam", "psh", …
   virtual const char* name() const noexcept = 0;
-  /// Contact begins: `tool` touches the rest surface at `rest_point` (m). Fills
-  /// the linearization at zero displacement; false (nothing changed) when the
+  /// Contact begins: the tip of `tool` touches the rest surface at
+  /// `rest_point` (m); the tool's displacements in step() are its tip's from
+  /// there. Every model holds the organ by the same rule
+  /// (docs/realtime.md#contact-rule): what the tip touches sticks to it. Fills the
+  /// linearization at zero displacement; false (nothing changed) when the
   /// model cannot take the contact (too near the clamp, …).
-  virtual bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, ContactLinearization& contact) noexcept = 0;
+  virtual bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, const geometry::ToolTip& tip,
+                      ContactLinearization& contact) noexcept = 0;
   virtual void detach(std::uint32_t tool) noexcept = 0;
   /// Advances the model by `dt` s with the attached tools' contact-point
   /// displacements (`displacements[tool]`, m; detached tools' entries are

@@ -17,13 +17,21 @@
 // tip) crosses the surface inwards, or else when the surface moved onto the
 // tip (the tip lies less than 1 mm inside the deformed surface: a nearly
 // incompressible organ bulging under another tool). The crossing point, mapped to the rest
-// surface, is the action point and a beam is built to it; the tool's contact
-// point is the tip, or the shaft point at the crossing's distance from the tip.
+// surface, is the action point and the model attaches the tool there with its
+// tip (geometry/tool_tip.h: a capsule of the tool's tip radius whose axis is
+// the shaft, or the surface normal where the shaft is unknown); the tool's
+// contact point is the tip, or the shaft point at the crossing's distance
+// from the tip. What the tip touches sticks to it (docs/realtime.md#contact-rule).
 // The force loop renders the contact's linearization, F = F₀ − K (d − d₀) with
-// d = contact point − action point (for the multi-beam model F₀ = 0, d₀ = 0:
-// F = −K d), and ends the
-// contact as soon as the contact point is back outside the tangent plane of the
-// rest surface at the action point, (contact point − action point) · n ≥ 0.
+// d = contact point − action point − slip (for the multi-beam model F₀ = 0,
+// d₀ = 0: F = −K d), within Coulomb's friction cone: where the tangential
+// part of F exceeds μ times its normal part, the contact slips (the slip, a
+// tangential shift of where the organ is held, grows until F lies on the
+// cone; both loops use it). The organ pushes the tool, never pulls it. Each fresh linearization takes over from the
+// previous one over one deformation period (what changed between them is
+// felt as a ramp, not a step). It ends the contact as soon as the contact
+// point is back outside the tangent plane of the rest surface at the action
+// point, (contact point − action point) · n ≥ 0.
 #pragma once
 
 #include <array>
@@ -56,6 +64,19 @@ struct EngineOptions {
   double force_period = 1e-3;         ///< s
   double deformation_period = 1.0 / 60.0;  ///< s
   double shaft_length = 0.30;              ///< m, tip to handle (laparoscopic instruments: 30–36 cm)
+  /// m: the radius of every tool's hemispherical end (a 5 mm laparoscopic
+  /// probe); 0 is a point tool.
+  double tip_radius = 2.5e-3;
+  /// m, per tool: overrides tip_radius where given and ≥ 0 (a session file's tip lines).
+  std::vector<double> tool_tip_radii;
+  /// Coulomb's friction coefficient μ between the tool and the organ's
+  /// surface (wet serosa on steel: about 0.1–0.3; docs/realtime.md#contact-rule);
+  /// infinity: the organ never slips under the tool.
+  double friction = 0.2;
+  /// The tip radius of `tool` (m).
+  double tip_radius_of(std::size_t tool) const noexcept {
+    return tool < tool_tip_radii.size() && tool_tip_radii[tool] >= 0.0 ? tool_tip_radii[tool] : tip_radius;
+  }
 };
 
 /// A tool's contact as the deformation loop publishes it.
@@ -81,6 +102,8 @@ struct ToolFrame {
   std::array<Eigen::Vector3d, kMaxTools> shafts{};  ///< unit, tip to handle; zero when unknown
   std::array<bool, kMaxTools> tip_valid{};
   std::array<std::uint32_t, kMaxTools> released{};  ///< generation of the last contact the force loop ended
+  std::array<Eigen::Vector3d, kMaxTools> slips{};   ///< m: how far each contact has slipped (friction)
+  std::array<std::uint32_t, kMaxTools> slip_generation{};  ///< the contact each slip belongs to
   double time = -1.0;
 };
 
@@ -142,6 +165,12 @@ class Engine final : public devices::ForceLoop {
   std::array<std::uint32_t, kMaxTools> seen_generation_{};
   std::array<double, kMaxTools> fault_start_{};      // s, when the pose went invalid; < 0 while valid
   std::array<Eigen::Vector3d, kMaxTools> fault_force_{};  // N, the force sent just before
+  std::array<Eigen::Vector3d, kMaxTools> slip_{};         // m, of the current contact
+  // Blending a fresh linearization in: the force it replaced at the switch
+  // (less its own there), when, and for which frame and contact.
+  std::array<Eigen::Vector3d, kMaxTools> blend_offset_{}, model_force_{};
+  std::array<double, kMaxTools> blend_start_{}, blend_frame_{};
+  std::array<std::uint32_t, kMaxTools> blend_generation_{};
   double previous_tick_ = -1.0;
 
   // Deformation loop only.

@@ -136,6 +136,11 @@ class MassSpring {
   /// so that reaction_force(x + δ) ≈ reaction_force(x) − K δ. Not clamped: a
   /// compressed spring contributes a negative transverse part.
   Eigen::Matrix3d contact_stiffness(std::uint32_t node) const noexcept;
+  /// The same for a node moved together with a group of nodes (those whose
+  /// `group` entry equals `member`, per node): the springs to other members
+  /// do not stretch and are left out. Summed over the group's nodes, the
+  /// stiffness of the group moved as one.
+  Eigen::Matrix3d contact_stiffness(std::uint32_t node, const std::int16_t* group, std::int16_t member) const noexcept;
 
   /// One time step of options().dt. Once the simulation is unstable it returns
   /// blew_up and changes nothing until reset().

@@ -1,4 +1,7 @@
 // The multi-beam model (Ushiki et al.; organsim/multibeam/multibeam.h) in the engine.
+#include <cmath>
+#include <vector>
+
 #include "organsim/geometry/model_measures.h"
 #include "organsim/multibeam/multibeam.h"
 #include "organsim/realtime/model_registry.h"
@@ -8,16 +11,22 @@ namespace {
 
 /// The multi-beam model: its contact force is linear in the displacement, so
 /// the linearization at zero displacement (force 0, stiffness K) is exact and
-/// never changes during a contact.
+/// never changes during a contact. The beam has no contact surface: a tip of
+/// finite size holds the organ at its action point as a point tool does, and
+/// the surface it would cut into is laid onto it (docs/realtime.md#contact-rule).
 class BeamModel final : public DeformationModel {
  public:
   BeamModel(const organ::Organ& organ, const multibeam::MultiBeamOptions& options)
-      : organ_(organ), beams_(organ, options) {}
+      : organ_(organ), beams_(organ, options), tips_(options.max_tools) {}
 
   const char* name() const noexcept override { return "beam"; }
 
-  bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, ContactLinearization& contact) noexcept override {
+  bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, const geometry::ToolTip& tip,
+              ContactLinearization& contact) noexcept override {
+    if (tool >= tips_.size() || !std::isfinite(tip.radius) || tip.radius < 0.0) return false;
+    if (!tip.is_point() && !(std::abs(tip.axis.norm() - 1.0) < 1e-6)) return false;
     if (beams_.attach(tool, rest_point) != multibeam::Status::ok) return false;
+    tips_[tool] = tip;
     const multibeam::ToolBeam& beam = beams_.beam(tool);
     contact.action_point = beam.action.position;
     contact.normal = geometry::triangle_normal(organ_.model(), beam.action.triangle);
@@ -31,12 +40,20 @@ class BeamModel final : public DeformationModel {
 
   bool step(double, const Eigen::Vector3d* displacements, model::Point3* positions, model::Point3* normals,
             ContactLinearization*) noexcept override {
-    return beams_.deform(displacements, positions, normals, organ_.vertex_count()) == multibeam::Status::ok;
+    const std::size_t n = organ_.vertex_count();
+    if (beams_.deform(displacements, positions, normals, n) != multibeam::Status::ok) return false;
+    bool laid = false;
+    for (std::uint32_t tool = 0; tool < tips_.size(); ++tool)
+      if (beams_.beam(tool).attached && !tips_[tool].is_point())
+        laid |= tips_[tool].push_out(beams_.beam(tool).action.position + displacements[tool], positions, n);
+    if (laid) organ::compute_vertex_normals(organ_, positions, normals, 0, n);
+    return true;
   }
 
  private:
   const organ::Organ& organ_;
   multibeam::MultiBeam beams_;
+  std::vector<geometry::ToolTip> tips_;  // per tool
 };
 
 }  // namespace

@@ -18,8 +18,9 @@ class FemModel final : public DeformationModel {
 
   const char* name() const noexcept override { return name_; }
 
-  bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, ContactLinearization& contact) noexcept override {
-    if (!fem_.attach(tool, rest_point)) return false;
+  bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, const geometry::ToolTip& tip,
+              ContactLinearization& contact) noexcept override {
+    if (!fem_.attach(tool, rest_point, tip)) return false;
     contact.action_point = rest_point;
     contact.normal = geometry::triangle_normal(organ_.model(), organ_.surface_tree().closest_point(rest_point).triangle);
     linearize(tool, contact);

@@ -1,7 +1,6 @@
 // The mass-spring model (He et al.; organsim/springs/mass_spring.h) in the engine.
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -14,55 +13,71 @@
 namespace organsim::realtime {
 namespace {
 
-Eigen::Vector3d vec(const model::Point3& p) { return {p[0], p[1], p[2]}; }
-
-/// The mass-spring model on the organ's surface (docs/springs.md): a tool holds
-/// the surface node nearest its action point at the action point's displaced
-/// position; the node's spring forces are the contact force, their Jacobian
-/// the contact stiffness.
+/// The mass-spring model on the organ's surface (docs/springs.md): a tool
+/// holds the surface node nearest its action point at the action point's
+/// displaced position until the contact ends and, with a tip of finite size,
+/// every free surface node that enters the tip's capsule, where it met the
+/// capsule's surface, letting go of such a node when it pulls on it
+/// (docs/realtime.md#contact-rule). The held nodes' spring
+/// forces are the contact force, the Jacobian of the group moved as one the
+/// contact stiffness.
 class SpringModel final : public DeformationModel {
  public:
   SpringModel(const organ::Organ& organ, const SpringModelOptions& options, std::size_t tools)
       : organ_(organ),
         options_(options),
         simulation_(make_simulation(organ.model(), options)),
-        held_(tools, kNone),
+        tools_(tools),
+        holds_(kHoldsPerTool * tools),
+        holder_(simulation_.node_count(), kFree),
         moved_mark_(organ.vertex_count(), 0),
         moved_(organ.vertex_count()) {}
 
   const char* name() const noexcept override { return "springs"; }
 
-  bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, ContactLinearization& contact) noexcept override {
-    if (tool >= held_.size() || !rest_point.allFinite()) return false;
+  bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, const geometry::ToolTip& tip,
+              ContactLinearization& contact) noexcept override {
+    if (tool >= tools_.size() || !rest_point.allFinite() || !std::isfinite(tip.radius) || tip.radius < 0.0) return false;
+    if (!tip.is_point() && !(std::abs(tip.axis.norm() - 1.0) < 1e-6)) return false;
     const geometry::SurfacePoint at = organ_.surface_tree().closest_point(rest_point);
     const model::Triangle& triangle = organ_.model().surface_triangles[at.triangle];
     Eigen::Index corner = 0;
     at.barycentric.maxCoeff(&corner);
     const std::uint32_t node = triangle[static_cast<std::size_t>(corner)];
     if (simulation_.network().fixed[node]) return false;  // a clamped node cannot be moved
-    for (std::uint32_t other : held_)
-      if (other == node) return false;  // one tool per node
-    held_[tool] = node;
-    contact.action_point = vec(organ_.model().surface_vertices[node]);
+    if (holder_[node] != kFree && holder_[node] != static_cast<std::int16_t>(tool)) return false;  // one tool per node
+    detach(tool);
+    Tool& t = tools_[tool];
+    t.attached = true;
+    t.tip = tip;
+    t.origin = simulation_.network().rest[node];
+    t.displacement = simulation_.position(node) - t.origin;
+    hold(tool, node, Eigen::Vector3d::Zero(), -tip.axis, true);
+    contact.action_point = t.origin;
     contact.normal = geometry::triangle_normal(organ_.model(), at.triangle);
-    linearize(node, contact);
+    linearize(tool, contact);
     return true;
   }
 
   void detach(std::uint32_t tool) noexcept override {
-    if (tool >= held_.size() || held_[tool] == kNone) return;
-    simulation_.release(held_[tool]);
-    held_[tool] = kNone;
+    if (tool >= tools_.size() || !tools_[tool].attached) return;
+    for (Hold& h : holds_)
+      if (h.used && h.tool == tool) let_go(h);
+    tools_[tool].attached = false;
   }
 
   bool step(double dt, const Eigen::Vector3d* displacements, model::Point3* positions, model::Point3* normals,
             ContactLinearization* contacts) noexcept override {
     if (!(dt > 0.0) || !std::isfinite(dt)) return false;
-    for (std::size_t tool = 0; tool < held_.size(); ++tool) {
-      if (held_[tool] == kNone) continue;
+    for (std::uint32_t tool = 0; tool < tools_.size(); ++tool) {
+      if (!tools_[tool].attached) continue;
       if (!displacements[tool].allFinite()) return false;
-      simulation_.hold(held_[tool], simulation_.network().rest[held_[tool]] + displacements[tool]);
+      tools_[tool].displacement = displacements[tool];
     }
+    update_holds();
+    for (const Hold& h : holds_)
+      if (h.used)
+        simulation_.hold(h.node, simulation_.network().rest[h.node] + tools_[h.tool].displacement + h.offset);
     const double steps = std::clamp(std::round(dt / simulation_.options().dt), 1.0,
                                     static_cast<double>(options_.max_steps_per_frame));
     begin_moved();
@@ -85,8 +100,8 @@ class SpringModel final : public DeformationModel {
       positions[v] = {x[0], x[1], x[2]};
     }
     organ::compute_vertex_normals(organ_, positions, normals, 0, n);
-    for (std::size_t tool = 0; tool < held_.size(); ++tool)
-      if (held_[tool] != kNone) linearize(held_[tool], contacts[tool]);
+    for (std::uint32_t tool = 0; tool < tools_.size(); ++tool)
+      if (tools_[tool].attached) linearize(tool, contacts[tool]);
     return true;
   }
 
@@ -111,8 +126,71 @@ class SpringModel final : public DeformationModel {
   std::size_t active_nodes() const noexcept override { return active_nodes_; }
 
  private:
-  static constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
   static constexpr double kStableFraction = 0.8;
+  static constexpr std::int16_t kFree = -1;
+  /// Nodes one tool may hold (a 2.5 mm tip buried 5 mm in a surface of 1 mm
+  /// edges holds about 80); a node beyond them is not held.
+  static constexpr std::size_t kHoldsPerTool = 128;
+  /// N: a finite tip lets go of a node it pulls on by more than this.
+  static constexpr double kPullTolerance = 1e-9;
+
+  struct Tool {
+    bool attached = false;
+    geometry::ToolTip tip;
+    Eigen::Vector3d origin = Eigen::Vector3d::Zero();        ///< m: the first node's rest position (the action point)
+    Eigen::Vector3d displacement = Eigen::Vector3d::Zero();  ///< m: the tip's, from origin
+  };
+  struct Hold {
+    bool used = false;
+    bool first = false;  ///< the node the tip touched first: held until the contact ends
+    std::uint32_t tool = 0, node = 0;
+    Eigen::Vector3d offset = Eigen::Vector3d::Zero();   ///< m: the node's target displacement less the tool's
+    Eigen::Vector3d outward = Eigen::Vector3d::Zero();  ///< unit: where the tip pushes it
+  };
+
+  void hold(std::uint32_t tool, std::uint32_t node, const Eigen::Vector3d& offset, const Eigen::Vector3d& outward,
+            bool first = false) noexcept {
+    for (Hold& h : holds_)
+      if (!h.used) {
+        h = {true, first, tool, node, offset, outward};
+        holder_[node] = static_cast<std::int16_t>(tool);
+        return;
+      }
+  }
+  void let_go(Hold& h) noexcept {
+    simulation_.release(h.node);
+    holder_[h.node] = kFree;
+    h.used = false;
+  }
+  std::size_t holds_of(std::uint32_t tool) const noexcept {
+    std::size_t count = 0;
+    for (const Hold& h : holds_) count += h.used && h.tool == tool;
+    return count;
+  }
+
+  /// Finite tips: let go of the nodes they pull on, take in the free surface
+  /// nodes inside them.
+  void update_holds() noexcept {
+    for (Hold& h : holds_)
+      if (h.used && !h.first && -simulation_.reaction_force(h.node).dot(h.outward) < -kPullTolerance) let_go(h);
+    const auto& rest = simulation_.network().rest;
+    for (std::uint32_t tool = 0; tool < tools_.size(); ++tool) {
+      const Tool& t = tools_[tool];
+      if (!t.attached || t.tip.is_point()) continue;
+      const Eigen::Vector3d tip_now = t.origin + t.displacement;
+      std::size_t held = holds_of(tool);
+      for (std::uint32_t node = 0; node < organ_.vertex_count() && held < kHoldsPerTool; ++node) {
+        if (holder_[node] != kFree || simulation_.network().fixed[node]) continue;
+        Eigen::Vector3d normal;
+        const Eigen::Vector3d& x = simulation_.position(node);
+        const double distance = t.tip.signed_distance(tip_now, x, normal);
+        if (distance >= 0.0) continue;
+        hold(tool, node, (x - distance * normal) - rest[node] - t.displacement, normal);
+        ++held;
+      }
+    }
+  }
+
 
   /// The simulation at options.simulation.dt, or at a smaller step where the
   /// network's stiffest mode needs one (kStableFraction of the integrator's limit).
@@ -135,8 +213,8 @@ class SpringModel final : public DeformationModel {
     for (std::size_t k = 0; k < moved_count_; ++k) moved_mark_[moved_[k]] = 0;
     moved_count_ = 0;
     moved_all_ = options_.simulation.region != springs::Region::dynamic;
-    for (std::uint32_t node : held_)
-      if (node != kNone) note_moved(&node, 1);
+    for (const Hold& h : holds_)
+      if (h.used) note_moved(&h.node, 1);
   }
   void note_moved(const std::uint32_t* nodes, std::size_t count) noexcept {
     if (moved_all_) return;
@@ -147,14 +225,26 @@ class SpringModel final : public DeformationModel {
       }
   }
 
-  void linearize(std::uint32_t node, ContactLinearization& contact) const noexcept {
-    contact.displacement = simulation_.position(node) - simulation_.network().rest[node];
-    contact.force = simulation_.reaction_force(node);
+  /// The tool's held nodes as one: the sum of their reactions, the stiffness
+  /// of the group moved together, and the tool displacement their places
+  /// agree with.
+  void linearize(std::uint32_t tool, ContactLinearization& contact) const noexcept {
+    Eigen::Vector3d force = Eigen::Vector3d::Zero(), displacement = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();
+    int count = 0;
+    for (const Hold& h : holds_)
+      if (h.used && h.tool == tool) {
+        force += simulation_.reaction_force(h.node);
+        stiffness += simulation_.contact_stiffness(h.node, holder_.data(), static_cast<std::int16_t>(tool));
+        displacement += simulation_.position(h.node) - simulation_.network().rest[h.node] - h.offset;
+        ++count;
+      }
+    contact.force = force;
+    contact.displacement = count > 0 ? Eigen::Vector3d(displacement / count) : tools_[tool].displacement;
     // Compressed springs make the Jacobian indefinite (their geometric term
     // 1 − l⁰/l is negative); rendered as is, such a direction would push the
     // hand further in. The device gets the positive part.
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(
-        0.5 * (simulation_.contact_stiffness(node) + simulation_.contact_stiffness(node).transpose()));
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(0.5 * (stiffness + stiffness.transpose()));
     contact.stiffness = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() *
                         eigen.eigenvectors().transpose();
   }
@@ -162,7 +252,9 @@ class SpringModel final : public DeformationModel {
   const organ::Organ& organ_;
   SpringModelOptions options_;
   springs::MassSpring simulation_;
-  std::vector<std::uint32_t> held_;  // per tool: the node it holds, or kNone
+  std::vector<Tool> tools_;
+  std::vector<Hold> holds_;           // slots, kHoldsPerTool per tool
+  std::vector<std::int16_t> holder_;  // per network node: the tool holding it, or kFree
   std::uint64_t instabilities_ = 0;
   std::vector<std::uint8_t> moved_mark_;  // per surface vertex
   std::vector<std::uint32_t> moved_;

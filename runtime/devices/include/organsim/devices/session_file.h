@@ -20,6 +20,9 @@ struct Trajectory {
   std::vector<double> times;
   std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>> positions;
   std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>> shafts;  ///< empty, or one per time
+  /// m: the radius of the tool's hemispherical end (a `tip` line, format
+  /// version 2); negative when the file does not say (the command's --tip-radius).
+  double tip_radius = -1.0;
 };
 
 struct Session {
@@ -44,7 +47,12 @@ Session read_session(const std::string& path, const SessionLimits& limits = {});
 /// The same from a stream; `name` (the file's path) starts each error message.
 Session parse_session(std::istream& in, const std::string& name, const SessionLimits& limits = {});
 
-/// Writes a session file (for tools that make sessions).
+/// m: the largest tip radius a session may give (a 10 cm wide instrument end
+/// is a unit mistake).
+constexpr double kMaxTipRadius = 0.05;
+
+/// Writes a session file (for tools that make sessions): format version 2
+/// when a tool has a tip radius, else 1 (which every organsim reads).
 void write_session(const Session& session, const std::string& path);
 
 }  // namespace organsim::devices

@@ -1,0 +1,61 @@
+// The end of a tool: a rigid capsule, a hemisphere of radius R on a shaft of
+// the same radius (a laparoscopic probe's blunt end: R = 2.5 mm). The tool's
+// tip is the capsule's foremost point; the hemisphere's centre lies R behind
+// it along the shaft. R = 0 is a point. docs/realtime.md#contact-rule says how every
+// deformation model holds the organ with it. Units: metres.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+
+#include <cstddef>
+
+#include <Eigen/Core>
+
+#include "organsim/model/organ_model.h"
+
+namespace organsim::geometry {
+
+struct ToolTip {
+  double radius = 0.0;                               ///< m; 0: a point tool
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();    ///< unit, from the tip towards the handle
+  double shaft_length = 0.30;                        ///< m of shaft behind the hemisphere that can touch
+
+  bool is_point() const noexcept { return !(radius > 0.0); }
+
+  /// Where `point` lies against the capsule whose foremost point is `tip`:
+  /// its distance outside the capsule's surface (m, negative inside) and the
+  /// surface's outward unit normal nearest it (radially away from the axis;
+  /// along −axis for a point on the axis below the hemisphere's centre).
+  double signed_distance(const Eigen::Vector3d& tip, const Eigen::Vector3d& point, Eigen::Vector3d& normal) const noexcept {
+    const Eigen::Vector3d centre = tip + radius * axis;
+    const double along = std::clamp((point - centre).dot(axis), 0.0, shaft_length);
+    const Eigen::Vector3d radial = point - (centre + along * axis);
+    const double distance = radial.norm();
+    if (distance > 1e-12 * std::max(radius, 1e-3)) {
+      normal = radial / distance;
+    } else {
+      // On the axis: the nearest surface point is the foremost one.
+      normal = -axis;
+    }
+    return distance - radius;
+  }
+
+  /// Moves every point inside the capsule whose foremost point is `tip` onto
+  /// its surface (along signed_distance's normal); true when one moved.
+  bool push_out(const Eigen::Vector3d& tip, model::Point3* points, std::size_t count) const noexcept {
+    bool moved = false;
+    for (std::size_t v = 0; v < count; ++v) {
+      const Eigen::Vector3d x(points[v][0], points[v][1], points[v][2]);
+      Eigen::Vector3d normal;
+      const double distance = signed_distance(tip, x, normal);
+      if (distance >= 0.0) continue;
+      const Eigen::Vector3d on = x - distance * normal;
+      points[v] = {on[0], on[1], on[2]};
+      moved = true;
+    }
+    return moved;
+  }
+};
+
+}  // namespace organsim::geometry
