@@ -116,7 +116,7 @@ void Engine::force_tick(double now) noexcept {
       }
       // A shaft contact needs the shaft: without it the contact point is unknown.
       if (valid && (contact.shaft_offset == 0.0 || pose.shaft.squaredNorm() > 0.0)) {
-        Eigen::Vector3d displacement = pose.tip + contact.shaft_offset * pose.shaft - contact.action_point - slip_[i];
+        const Eigen::Vector3d displacement = pose.tip + contact.shaft_offset * pose.shaft - contact.action_point - slip_[i];
         if (displacement.dot(contact.normal) > kReleaseMargin) {
           released_[i] = contact.generation;  // back outside: the contact ends now
         } else {

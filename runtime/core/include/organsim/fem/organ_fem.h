@@ -220,11 +220,8 @@ class OrganFem {
     geometry::ToolTip tip;
     Eigen::Vector3d origin = Eigen::Vector3d::Zero();      ///< m: where the tip touched (attach's rest point)
     Eigen::Vector3d rest_point = Eigen::Vector3d::Zero();  ///< m: the first-touch point on the boundary
-    std::array<std::int32_t, 3> nodes{};                   ///< the first-touch point's face
-    Eigen::Vector3d weights = Eigen::Vector3d::Zero();
     Eigen::Vector3d target = Eigen::Vector3d::Zero();      ///< the tool displacement of the last step
     Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();
-    std::size_t held = 0;                                  ///< constraints in the last step
   };
   struct Tangent;
   struct Capacitance;
