@@ -210,7 +210,14 @@ std::map<std::string, std::string> provenance_parameters(const BakeOptions& o, c
   p["facet_distance_mm"] = fmt::format("{}", o.tetrahedra.facet_distance_mm);
   p["facet_angle_deg"] = fmt::format("{}", o.tetrahedra.facet_angle_deg);
   p["radius_edge_ratio"] = fmt::format("{}", o.tetrahedra.radius_edge_ratio);
-  p["mesh_optimization"] = o.tetrahedra.optimize ? "lloyd+exude" : "none";
+  p["mesh_optimization"] = o.tetrahedra.optimize ? "sliver removal" : "none";
+  if (!o.tetrahedra.refinements.empty()) {
+    std::string places;
+    for (const LocalRefinement& r : o.tetrahedra.refinements)
+      places += fmt::format("{}{:.2f},{:.2f},{:.2f} mm within {} mm at {} mm", places.empty() ? "" : "; ",
+                            r.centre[0] * 1e3, r.centre[1] * 1e3, r.centre[2] * 1e3, r.radius_mm, r.size_mm);
+    p["tetrahedra_refined"] = places;
+  }
   if (o.beam_tables) {
     p["stations"] = fmt::format("{}", o.beams.stations);
     p["section_samples_per_side"] = fmt::format("{}", o.beams.samples_per_side);

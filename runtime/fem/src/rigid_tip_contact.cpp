@@ -104,9 +104,20 @@ ContactSolution press_rigid_tip(const ContactProblem& problem, const RigidTip& t
   };
 
   Eigen::VectorXd u_candidates = Eigen::VectorXd::Zero(3 * c_count);  // m, 3 per candidate
-  auto position = [&](Eigen::Index k) {
-    return Eigen::Vector3d(mesh.nodes[static_cast<std::size_t>(candidates[static_cast<std::size_t>(k)])] +
-                           u_candidates.segment<3>(3 * k));
+  // Candidate k's gap to the tip (m) and the tip's normal there, by the
+  // problem's kinematics.
+  auto gap_of = [&](Eigen::Index k, Eigen::Vector3d& normal) {
+    const Eigen::Vector3d& x = mesh.nodes[static_cast<std::size_t>(candidates[static_cast<std::size_t>(k)])];
+    const Eigen::Vector3d u = u_candidates.segment<3>(3 * k);
+    if (problem.kinematics == ContactKinematics::finite) return tip.gap(x + u, normal);
+    const Eigen::Vector3d from_centre = x - tip.centre;
+    const double across = (from_centre - from_centre.dot(tip.axis) * tip.axis).norm();
+    normal = tip.axis;
+    if (across > tip.radius) return std::numeric_limits<double>::infinity();
+    const double face = tip.shape == RigidTip::Shape::sphere
+                            ? std::sqrt(tip.radius * tip.radius - across * across)
+                            : 0.0;  // how far the tip's front reaches beyond its centre along the axis
+    return (from_centre + u).dot(tip.axis) - face;
   };
   // A node joins when it lies inside the tip by more than this; it is
   // numerical noise below (m).
@@ -114,7 +125,7 @@ ContactSolution press_rigid_tip(const ContactProblem& problem, const RigidTip& t
   std::vector<Eigen::Index> active;  // places among the candidates
   Eigen::Vector3d normal;
   for (Eigen::Index k = 0; k < c_count; ++k)
-    if (tip.gap(position(k), normal) < -tolerance) active.push_back(k);
+    if (gap_of(k, normal) < -tolerance) active.push_back(k);
 
   Eigen::VectorXd lambda;
   std::vector<Eigen::Vector3d> normals;
@@ -128,7 +139,7 @@ ContactSolution press_rigid_tip(const ContactProblem& problem, const RigidTip& t
     for (Eigen::Index j = 0; j < m; ++j) {
       const Eigen::Index k = active[static_cast<std::size_t>(j)];
       Eigen::Vector3d& nj = normals[static_cast<std::size_t>(j)];
-      const double gap = tip.gap(position(k), nj);
+      const double gap = gap_of(k, nj);
       b[j] = nj.dot(u_candidates.segment<3>(3 * k)) - gap;
       w.col(j) = columns_of(candidates[static_cast<std::size_t>(k)]) * nj;
     }
@@ -152,7 +163,7 @@ ContactSolution press_rigid_tip(const ContactProblem& problem, const RigidTip& t
     std::vector<Eigen::Index> sorted = active;
     std::sort(sorted.begin(), sorted.end());
     for (Eigen::Index k = 0; k < c_count; ++k)
-      if (!std::binary_search(sorted.begin(), sorted.end(), k) && tip.gap(position(k), normal) < -tolerance) {
+      if (!std::binary_search(sorted.begin(), sorted.end(), k) && gap_of(k, normal) < -tolerance) {
         active.push_back(k);
         changed = true;
       }

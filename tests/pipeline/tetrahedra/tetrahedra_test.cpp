@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
+#include <limits>
 #include <map>
 #include <string>
 
@@ -87,6 +89,61 @@ TEST(Tetrahedra, IsDeterministic) {
   const geometry::TetrahedralMesh a = make_tetrahedra(surface, options), b = make_tetrahedra(surface, options);
   EXPECT_EQ(a.vertices, b.vertices);
   EXPECT_EQ(a.tetrahedra, b.tetrahedra);
+}
+
+// Mean edge length (mm) of the tetrahedra whose centroid lies within
+// [near, far) mm of `centre`.
+double mean_edge_mm(const geometry::TetrahedralMesh& mesh, const Eigen::Vector3d& centre, double near, double far) {
+  double sum = 0.0;
+  int edges = 0;
+  for (const model::Tetrahedron& t : mesh.tetrahedra) {
+    Eigen::Vector3d p[4], centroid = Eigen::Vector3d::Zero();
+    for (int i = 0; i < 4; ++i) {
+      p[i] = Eigen::Vector3d(mesh.vertices[t[i]][0], mesh.vertices[t[i]][1], mesh.vertices[t[i]][2]) * 1e3;
+      centroid += 0.25 * p[i];
+    }
+    const double distance = (centroid - centre).norm();
+    if (distance < near || distance >= far) continue;
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j, ++edges) sum += (p[i] - p[j]).norm();
+  }
+  return edges > 0 ? sum / edges : 0.0;
+}
+
+// Where a tool presses, finer cells: about the refinement's size within its
+// radius, the mesh unchanged far from it, the volume and the quality goals kept.
+TEST(Tetrahedra, RefinementMakesTheCellsFineAroundAPointOnly) {
+  const geometry::SurfaceMesh surface = ellipsoid_surface();
+  const auto at = std::max_element(surface.vertices.begin(), surface.vertices.end(),
+                                   [](const model::Point3& a, const model::Point3& b) { return a[0] < b[0]; });
+  const Eigen::Vector3d centre_mm = Eigen::Vector3d((*at)[0], (*at)[1], (*at)[2]) * 1e3;
+  TetrahedraOptions uniform, refined;
+  uniform.tet_size_mm = refined.tet_size_mm = 8.0;
+  refined.refinements.push_back({*at, 6.0, 2.0});
+  const geometry::TetrahedralMesh coarse = make_tetrahedra(surface, uniform), fine = make_tetrahedra(surface, refined);
+  const double coarse_near = mean_edge_mm(coarse, centre_mm, 0.0, 6.0), fine_near = mean_edge_mm(fine, centre_mm, 0.0, 6.0);
+  RecordProperty("mean_edge_near_mm", std::to_string(fine_near));
+  EXPECT_LT(fine_near, 0.4 * coarse_near);
+  EXPECT_LT(fine_near, 2.0 * 2.0) << "Mesh_3's size bounds circumradii: edges up to about 1.6 times";
+  const double far = 8.0 / kRefinementGrading + 6.0 + 10.0;  // beyond where the cells grow back to 8 mm
+  EXPECT_NEAR(mean_edge_mm(fine, centre_mm, far, 1e9), mean_edge_mm(coarse, centre_mm, far, 1e9),
+              0.1 * mean_edge_mm(coarse, centre_mm, far, 1e9));
+  const TetrahedralQuality q = measure_quality(fine);
+  EXPECT_GT(q.tetrahedra, measure_quality(coarse).tetrahedra);
+  EXPECT_NEAR(q.total_volume_m3, geometry::enclosed_volume(surface.vertices, surface.triangles),
+              1e-6 * q.total_volume_m3);
+  EXPECT_GE(q.min_dihedral_deg, kMinDihedralGoalDeg);
+  EXPECT_LE(q.max_radius_edge_ratio, kMaxRadiusEdgeGoal);
+  const geometry::TetrahedralMesh again = make_tetrahedra(surface, refined);
+  EXPECT_EQ(again.vertices, fine.vertices);
+  EXPECT_EQ(again.tetrahedra, fine.tetrahedra);
+
+  TetrahedraOptions bad = refined;
+  bad.refinements[0].size_mm = 0.0;
+  EXPECT_THROW(make_tetrahedra(surface, bad), std::runtime_error);
+  bad.refinements[0].size_mm = 2.0;
+  bad.refinements[0].centre[1] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(make_tetrahedra(surface, bad), std::runtime_error);
 }
 
 TEST(Tetrahedra, QualityOfARegularTetrahedron) {

@@ -58,6 +58,7 @@ QuarterBlock quarter_block(double contact_radius, double fine) {
   p.material.model = MaterialModel::linear;
   p.material.young_modulus = kYoung;
   p.material.poisson_ratio = kPoisson;
+  p.kinematics = ContactKinematics::small;  // the closed forms' problem
   for (std::size_t n = 0; n < p.mesh.nodes.size(); ++n) {
     const Eigen::Vector3d& x = p.mesh.nodes[n];
     const auto node = static_cast<std::int32_t>(n);
@@ -109,8 +110,8 @@ constexpr double kRadius = 2.5e-3;  // m: a laparoscopic probe's 5 mm blunt end
 
 // Hertz's sphere at d/R = 0.1, the end of its range (Sneddon's exact sphere
 // gives 1 % less there), on meshes of 3, 4.5 and 6.75 cells per contact
-// radius under the tip: the force falls towards Hertz's (1.085, 1.075, 1.063
-// of it; 1.058 at 10 cells, SphereAtTenCellsPerContactRadius), O(h) as a
+// radius under the tip: the force falls towards Hertz's (1.050, 1.036, 1.023
+// of it; SphereAtTenCellsPerContactRadius for 10 cells), O(h) as a
 // node-to-sphere contact's edge allows, while a point tool's force falls in
 // proportion to the cells' size: it has no limit to converge to.
 TEST(RigidTipContact, SphereConvergesTowardsHertzWhileAPointToolDoesNot) {
@@ -133,16 +134,18 @@ TEST(RigidTipContact, SphereConvergesTowardsHertzWhileAPointToolDoesNot) {
     EXPECT_LT(point[k], 0.75 * point[k - 1]) << "a point has no finite indentation stiffness";
   }
   EXPECT_NEAR(sphere[2] / sphere[1], 1.0, 0.03) << "the two finest meshes";
-  EXPECT_NEAR(sphere.back() / reference, 1.0, 0.07);
+  EXPECT_NEAR(sphere.back() / reference, 1.0, 0.05);
 }
 
-// The finest mesh of the series, 94 s on a 2-core machine: not in every run.
+// The finest mesh of the series, 70 s on a 2-core machine: not in every run.
 // build/tests/contact_tests --gtest_also_run_disabled_tests --gtest_filter='*TenCells*'
 TEST(RigidTipContact, DISABLED_SphereAtTenCellsPerContactRadius) {
   const double depth = 0.1 * kRadius, a = std::sqrt(kRadius * depth);
-  const double ratio = sphere_force(quarter_block(a, a / 10.0), kRadius, depth) / hertz_force(kRadius, depth);
+  const QuarterBlock block = quarter_block(a, a / 10.0);
+  const double ratio = sphere_force(block, kRadius, depth) / hertz_force(kRadius, depth);
   RecordProperty("sphere_over_hertz_1000", std::to_string(ratio));
-  EXPECT_NEAR(ratio, 1.0, 0.06);
+  RecordProperty("point_force_mN_1000", std::to_string(point_force(block, depth) * 1e3));
+  EXPECT_NEAR(ratio, 1.0, 0.03);
 }
 
 TEST(RigidTipContact, SphereFollowsHertzThreeHalvesPower) {
@@ -151,8 +154,23 @@ TEST(RigidTipContact, SphereFollowsHertzThreeHalvesPower) {
   const double shallow = sphere_force(block, kRadius, 0.05 * kRadius);
   const double deep = sphere_force(block, kRadius, 0.1 * kRadius);
   RecordProperty("shallow_over_hertz", std::to_string(shallow / hertz_force(kRadius, 0.05 * kRadius)));
-  EXPECT_NEAR(shallow / hertz_force(kRadius, 0.05 * kRadius), 1.0, 0.1);
+  EXPECT_NEAR(shallow / hertz_force(kRadius, 0.05 * kRadius), 1.0, 0.05);
   EXPECT_NEAR(deep / shallow, std::pow(2.0, 1.5), 0.05 * std::pow(2.0, 1.5));
+}
+
+// The organ models measure the gap at the displaced nodes: the surface drawn
+// in towards the axis under the sphere (u_r ≈ −0.12 d at the contact's edge
+// for ν = 0.3) meets it deeper, a few per cent more force than the linear
+// theory's problem.
+TEST(RigidTipContact, FiniteKinematicsMeetTheSphereDeeper) {
+  const double depth = 0.1 * kRadius, a = std::sqrt(kRadius * depth);
+  QuarterBlock block = quarter_block(a, a / 4.5);
+  const double small = sphere_force(block, kRadius, depth);
+  block.problem.kinematics = ContactKinematics::finite;
+  const double finite = sphere_force(block, kRadius, depth);
+  RecordProperty("finite_over_small", std::to_string(finite / small));
+  EXPECT_GT(finite / small, 1.01);
+  EXPECT_LT(finite / small, 1.08);
 }
 
 TEST(RigidTipContact, FlatPunchMatchesBoussinesq) {

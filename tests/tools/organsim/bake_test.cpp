@@ -86,6 +86,29 @@ TEST_F(Cli, BakeWithoutBeamTablesSkipsTheStageAndKeepsEverythingElse) {
   EXPECT_FALSE(fs::exists(dir_ / "zero.organ"));
 }
 
+TEST_F(Cli, BakeRefinesTheTetrahedraWhereAsked) {
+  // --refine-at: more, finer tetrahedra around a surface point, the surface
+  // and the volume unchanged, the places in the provenance.
+  const fs::path plain = dir_ / "plain.organ", refined = dir_ / "refined.organ";
+  ASSERT_EQ(run_organsim("bake " + quick_phantom_bake(plain) + " --no-beam-tables", dir_).exit_code, 0);
+  const model::ModelReadResult before = model::read_organ_model_file(plain.string());
+  ASSERT_TRUE(before) << before.error;
+  const model::Point3 at = before.model->surface_vertices.front();
+  const std::string place = std::to_string(at[0] * 1e3) + "," + std::to_string(at[1] * 1e3) + "," + std::to_string(at[2] * 1e3);
+  const CommandRun run = run_organsim(
+      "bake " + quick_phantom_bake(refined) + " --no-beam-tables --refine-at " + place + " --refine-size 3 --json", dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const model::ModelReadResult after = model::read_organ_model_file(refined.string());
+  ASSERT_TRUE(after) << after.error;
+  EXPECT_GT(after.model->tetrahedra.size(), before.model->tetrahedra.size() + 100);
+  EXPECT_EQ(after.model->surface_vertices, before.model->surface_vertices);
+  EXPECT_NE(after.model->provenance.parameters.at("tetrahedra_refined").find("at 3 mm"), std::string::npos);
+  EXPECT_EQ(before.model->provenance.parameters.count("tetrahedra_refined"), 0u);
+  const nlohmann::json j = nlohmann::json::parse(run.out);
+  EXPECT_NEAR(j["tetrahedra"]["volume_ml"].get<double>(), j["surface"]["volume_ml"].get<double>(),
+              1e-4 * j["surface"]["volume_ml"].get<double>());
+}
+
 TEST_F(Cli, NoPatientTagReachesTheModelTheReportOrTheLog) {
   // A DICOM series with a known patient name, ID and birth date.
   const pipeline::Phantom phantom = pipeline::make_phantom(pipeline::PhantomOptions{});
@@ -195,6 +218,8 @@ TEST_F(Cli, BakeBadInputsFailWithOneLineAndLeaveNoModel) {
       {ct + " --seed -65,5,0 --fixed-point 150,150,90", "outside the organ"},
       {ct + " --seed -65,5,0 --poisson-ratio 0.5", "--poisson-ratio"},
       {ct + " --seed -65,5,0 --facet-distance 0", "--facet-distance"},
+      {ct + " --seed -65,5,0 --refine-at 1,2", "--refine-at 1,2"},
+      {ct + " --seed -65,5,0 --refine-at nan,0,0", "finite centre"},
   };
   for (const auto& [arguments, fragment] : cases) {
     const CommandRun run = run_organsim("bake " + arguments + quick, dir_);

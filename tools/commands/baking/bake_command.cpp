@@ -25,6 +25,8 @@ struct BakeCommandOptions {
   std::string output_path;
   SegmentationCommandOptions segmentation;
   std::vector<double> fixed_point_mm, fixed_point_voxel;
+  std::vector<std::string> refine_at;  // X,Y,Z (LPS, mm) each
+  double refine_radius_mm = 10.0, refine_size_mm = 1.25;
   double closing_radius_mm = -1.0;  // < 0: the default of the segmentation method
   bool no_beam_tables = false;
   bool json = false;
@@ -151,6 +153,11 @@ pipeline::BakeResult bake_model(BakeCommandOptions& o, const pipeline::BakeProgr
   if (!o.fixed_point_mm.empty())
     b.fixed_point_mm = std::array<double, 3>{o.fixed_point_mm[0], o.fixed_point_mm[1], o.fixed_point_mm[2]};
   if (!o.fixed_point_voxel.empty()) b.fixed_point_voxel = to_voxel(o.fixed_point_voxel, "--fixed-point-voxel");
+  for (const std::string& at : o.refine_at)
+  {
+    const std::array<double, 3> mm = parse_xyz(at, "--refine-at " + at);
+    b.tetrahedra.refinements.push_back({{mm[0] * 1e-3, mm[1] * 1e-3, mm[2] * 1e-3}, o.refine_radius_mm, o.refine_size_mm});
+  }
   if (o.closing_radius_mm >= 0.0) b.label_closing_radius_mm = b.seeded.closing_radius_mm = o.closing_radius_mm;
   b.beam_tables = !o.no_beam_tables;
   b.program_version = kProgramVersion;
@@ -192,6 +199,14 @@ void add_bake_options(CLI::App& app, const std::shared_ptr<BakeCommandOptions>& 
   app.add_option("--surface-vertices", b.surface.target_vertices, "Simulation surface size (vertices)")
       ->capture_default_str();
   app.add_option("--tet-size", b.tetrahedra.tet_size_mm, "Tetrahedron size, mm")->capture_default_str();
+  app.add_option("--refine-at", o->refine_at,
+                 "Finer tetrahedra around X,Y,Z (LPS, mm), e.g. where a tool presses; repeat for more places "
+                 "(docs/fem.md#a-tool-of-finite-size)");
+  app.add_option("--refine-radius", o->refine_radius_mm, "Around each --refine-at: the radius of the fine cells, mm")
+      ->check(kNonNegative)->capture_default_str();
+  app.add_option("--refine-size", o->refine_size_mm,
+                 "Around each --refine-at: the fine cells' size, mm (growing 0.3 mm per mm beyond the radius)")
+      ->check(CLI::PositiveNumber)->capture_default_str();
   app.add_option("--facet-distance", b.tetrahedra.facet_distance_mm,
                  "Largest distance of a boundary facet from the surface, mm")->capture_default_str();
   app.add_option("--stations", b.beams.stations, "Beam stations (sections per beam)")->capture_default_str();

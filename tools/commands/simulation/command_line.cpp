@@ -135,6 +135,22 @@ CLI::Validator number_check(const char* description, bool (*accept)(double)) {
 const CLI::Validator kPositive = number_check("a positive number", [](double v) { return v > 0.0; });
 const CLI::Validator kNonNegative = number_check("a number >= 0", [](double v) { return v >= 0.0; });
 
+std::array<double, 3> parse_xyz(const std::string& text, const std::string& context) {
+  std::array<double, 3> v{};
+  std::size_t start = 0;
+  for (int k = 0; k < 3; ++k) {
+    const std::size_t end = k < 2 ? text.find(',', start) : text.size();
+    if (end == std::string::npos) throw std::runtime_error(context + ": expected X,Y,Z in millimetres");
+    const std::string field = text.substr(start, end - start);
+    char* stop = nullptr;
+    v[static_cast<std::size_t>(k)] = std::strtod(field.c_str(), &stop);
+    if (field.empty() || stop != field.c_str() + field.size())
+      throw std::runtime_error(context + ": '" + field + "' is not a number; expected X,Y,Z in millimetres");
+    start = end + 1;
+  }
+  return v;
+}
+
 const std::vector<std::string>& deformation_model_names() {
   static const std::vector<std::string> names = [] {
     std::vector<std::string> registered;

@@ -7,6 +7,7 @@
 //     shown) and `--verbose` (extra detail on stderr) on every subcommand.
 #pragma once
 
+#include <array>
 #include <map>
 #include <string>
 
@@ -49,6 +50,11 @@ void detail(const std::string& command, const std::string& message);
 /// print the whole double range).
 extern const CLI::Validator kPositive;     ///< a finite number > 0
 extern const CLI::Validator kNonNegative;  ///< a finite number ≥ 0
+
+/// Parses "X,Y,Z", three numbers (NaN and infinity pass: the caller says
+/// what a point that is not finite means); throws std::runtime_error starting
+/// with `context` (the option and its whole value) and saying what is wrong.
+std::array<double, 3> parse_xyz(const std::string& text, const std::string& context);
 
 /// The names --model accepts: the registered models (realtime/model_registry.h).
 const std::vector<std::string>& deformation_model_names();

@@ -18,20 +18,8 @@ namespace organsim::cli {
 namespace {
 
 Eigen::Vector3d parse_triple(const std::string& text, const std::string& whole) {
-  Eigen::Vector3d v;
-  std::size_t start = 0;
-  for (int k = 0; k < 3; ++k) {
-    const std::size_t end = k < 2 ? text.find(',', start) : text.size();
-    if (end == std::string::npos)
-      throw std::runtime_error("--tool " + whole + ": expected X,Y,Z/DX,DY,DZ in millimetres");
-    const std::string field = text.substr(start, end - start);
-    char* stop = nullptr;
-    v[k] = std::strtod(field.c_str(), &stop);
-    if (field.empty() || stop != field.c_str() + field.size())
-      throw std::runtime_error("--tool " + whole + ": '" + field + "' is not a number; expected X,Y,Z/DX,DY,DZ in mm");
-    start = end + 1;
-  }
-  return v;
+  const std::array<double, 3> v = parse_xyz(text, "--tool " + whole + " (X,Y,Z/DX,DY,DZ)");
+  return {v[0], v[1], v[2]};
 }
 
 /// The force law the engine's 1 kHz loop evaluates for a model that is not a

@@ -11,8 +11,25 @@
 
 namespace organsim::pipeline {
 
+/// Finer tetrahedra around a point: cells and boundary facets of `size_mm`
+/// within `radius_mm` of `centre` (the model frame, m), growing by
+/// kRefinementGrading mm per mm beyond it until they reach the mesh's size.
+/// Where a tool of finite size presses, its force converges once the cells
+/// under it are about half its radius (docs/fem.md#a-tool-of-finite-size).
+struct LocalRefinement {
+  model::Point3 centre{};  ///< m
+  double radius_mm = 10.0;
+  double size_mm = 1.25;
+};
+
+/// How fast the cells grow away from a refinement (mm of size per mm of
+/// distance): gentle enough that Mesh_3's radius–edge bound keeps the
+/// transition free of badly shaped tetrahedra.
+constexpr double kRefinementGrading = 0.3;
+
 struct TetrahedraOptions {
   double tet_size_mm = 8.0;              ///< target edge length scale: cell size and facet size, mm
+  std::vector<LocalRefinement> refinements;  ///< finer cells around these points
   double facet_distance_mm = 0.4;        ///< largest distance of a boundary facet from the surface, mm
   double facet_angle_deg = 25.0;         ///< smallest boundary-facet angle (Mesh_3's facet_angle)
   double radius_edge_ratio = 3.0;        ///< largest circumradius / shortest edge of a tetrahedron

@@ -11,8 +11,9 @@
 // that force (N). The multipliers solve the condensed system
 //     (Nᵀ K⁻¹ N) λ = b,   u = K⁻¹ N λ,
 // one solve with K's factor per active node. A node whose λᵢ pulls (< 0)
-// leaves A, a node inside the tip joins it, and a sphere's normals follow the
-// displaced nodes, until nothing changes. The force on the tool is −Σ λᵢ nᵢ.
+// leaves A, a node inside the tip joins it, and (finite kinematics) a sphere's
+// normals follow the displaced nodes, until nothing changes. The force on the
+// tool is −Σ λᵢ nᵢ.
 // Verified against Hertz (sphere) and Boussinesq (flat punch):
 // tests/runtime/fem/rigid_tip_contact_test.cpp, docs/fem.md.
 #pragma once
@@ -47,12 +48,25 @@ struct RigidTip {
   double gap(const Eigen::Vector3d& y, Eigen::Vector3d& normal) const noexcept;
 };
 
+/// Where the gap is measured.
+enum class ContactKinematics : std::uint8_t {
+  /// At the displaced nodes, along the tip's normal there: what the organ
+  /// models do; a node drawn sideways under a sphere meets it deeper.
+  finite,
+  /// Hertz's and Boussinesq's linear theory: along the pressing axis, at the
+  /// nodes' undeformed place across it (the sideways displacement ignored).
+  /// Their closed forms are for this problem; at d/R = 0.1 with ν = 0.3 the
+  /// finite gap gives about 4 % more force.
+  small,
+};
+
 struct ContactProblem {
   TetMesh mesh;
   Material material;                            ///< linear only
   std::vector<std::int32_t> fixed;              ///< nodes held in all three components
   std::vector<PrescribedDisplacement> rollers;  ///< components held at zero (symmetry planes); values must be 0
   std::vector<std::int32_t> candidates;         ///< nodes that may touch the tip (the boundary's); empty: every node
+  ContactKinematics kinematics = ContactKinematics::finite;
 };
 
 struct ContactSolution {
