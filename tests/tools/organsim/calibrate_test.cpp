@@ -87,6 +87,59 @@ TEST_F(Cli, CalibrationLowersTheHeldOutErrorAndIsDeterministic) {
             default_beam["models"]["beam"]["mean_difference"].get<double>());
 }
 
+// --evaluate: the fast models against the reference on presses spread over
+// the organ, straight and tilted, at each depth; the reference on the
+// model's own tetrahedra or re-meshed finer around each site.
+TEST_F(Cli, EvaluateMeasuresTheFastModelsOnPressesNoFitSaw) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const CommandRun run = run_organsim(
+      "calibrate " + model + " --evaluate --sites 2 --depths 2,3 --fixed-radius 31 --reference-cells 0 --json", dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json j = nlohmann::json::parse(run.out);
+  EXPECT_EQ(j["sites"], 2);
+  EXPECT_EQ(j["tip_radius_mm"], 2.5);
+  ASSERT_EQ(j["presses"].size(), 8u);  // 2 sites x (straight, tilted) x 2 depths
+  double straight_log_squares = 0.0;
+  int straight = 0;
+  for (const nlohmann::json& p : j["presses"]) {
+    ASSERT_TRUE(p["reference_solved"].get<bool>()) << p.dump();
+    EXPECT_EQ(p["reference_tetrahedra"], testing::make_cylinder_model({}).tetrahedra.size());
+    for (const char* fast : {"beam", "springs"}) {
+      ASSERT_TRUE(p[fast].contains("force_ratio")) << p.dump();
+      EXPECT_GE(p[fast]["direction_error_deg"].get<double>(), 0.0);
+      EXPECT_LE(p[fast]["direction_error_deg"].get<double>(), 180.0);
+    }
+    if (p["direction"] == "straight" && p["depth_mm"] == 2.0) {
+      straight_log_squares += std::pow(std::log(p["beam"]["force_ratio"].get<double>()), 2);
+      ++straight;
+    }
+  }
+  const nlohmann::json& beam = j["summary"]["beam"]["by_depth_mm"]["2"]["straight"];
+  EXPECT_EQ(beam["presses"], 2);
+  EXPECT_NEAR(beam["force_factor"].get<double>(), std::exp(std::sqrt(straight_log_squares / straight)), 1e-9);
+  EXPECT_GE(j["summary"]["springs"]["all"]["force_factor"].get<double>(), 1.0);
+
+  // Re-meshed around the site: more tetrahedra, and the check on finer cells.
+  const CommandRun refined = run_organsim("calibrate " + model +
+                                              " --evaluate --sites 1 --depths 2 --fixed-radius 31 --reference-cells 4 "
+                                              "--check-cells 3 --json",
+                                          dir_);
+  ASSERT_EQ(refined.exit_code, 0) << refined.err;
+  const nlohmann::json r = nlohmann::json::parse(refined.out);
+  ASSERT_EQ(r["presses"].size(), 2u);
+  EXPECT_EQ(r["reference_cells_mm"], 4.0);
+  for (const nlohmann::json& p : r["presses"]) {
+    ASSERT_TRUE(p["reference_solved"].get<bool>()) << p.dump();
+    EXPECT_EQ(p.contains("check_force_n"), p["direction"] == "straight") << p.dump();
+  }
+  const CommandRun table = run_organsim("calibrate " + model +
+                                            " --evaluate --sites 1 --depths 2 --fixed-radius 31 --reference-cells 0",
+                                        dir_);
+  ASSERT_EQ(table.exit_code, 0) << table.err;
+  EXPECT_NE(table.out.find("| beam    |   2 mm | straight  |"), std::string::npos) << table.out;
+}
+
 TEST_F(Cli, CalibrateBadInputFailsWithOneLine) {
   const std::string model = (dir_ / "cylinder.organ").string();
   model::write_organ_model_file(testing::make_cylinder_model({}), model);
@@ -97,6 +150,9 @@ TEST_F(Cli, CalibrateBadInputFailsWithOneLine) {
       {model, 2},                                         // no output
       {(dir_ / "missing.organ").string() + out, 1},       // no model
       {model + out + " --presses 6 --depth 3", 1},        // the default 10 mm clamp holds one node: no press solves
+      {model + out + " --evaluate", 2},                   // nothing to write
+      {model + " --evaluate --depths 0", 2},              // no depth
+      {model + " --evaluate --sites 0", 2},               // no site
   };
   for (const auto& [arguments, code] : cases) {
     const CommandRun run = run_organsim("calibrate " + arguments + " --quiet", dir_);

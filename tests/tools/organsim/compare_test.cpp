@@ -13,6 +13,7 @@
 #include <vtkXMLUnstructuredGridReader.h>
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <utility>
 #include <vector>
@@ -49,6 +50,13 @@ TEST_F(Cli, CompareMeasuresEveryModelAgainstTheReference) {
     EXPECT_GT(m["forces_n"][0][2].get<double>(), 0.0) << name;  // pressed along −z: pushed back along +z
     EXPECT_GT(m["frame_time_ms"].get<double>(), 0.0) << name;
     EXPECT_GT(m["force_tick_us"].get<double>(), 0.0) << name;
+    // exp(|ln(|F| / |F_ref|)|) for one tool: 1 for the reference itself.
+    const double ratio = std::hypot(m["forces_n"][0][0].get<double>(), m["forces_n"][0][1].get<double>(),
+                                    m["forces_n"][0][2].get<double>()) /
+                         std::hypot(j["models"]["psh"]["forces_n"][0][0].get<double>(),
+                                    j["models"]["psh"]["forces_n"][0][1].get<double>(),
+                                    j["models"]["psh"]["forces_n"][0][2].get<double>());
+    EXPECT_NEAR(m["force_factor"].get<double>(), std::max(ratio, 1.0 / ratio), 1e-9) << name;
     if (name == "psh") continue;
     // Every other model deforms differently from the nearly incompressible FEM,
     // by less than the 5 mm press (3.6 % of this bounding box's diagonal).

@@ -51,9 +51,6 @@ void add_command(CLI::App& app, CommandTable& table, const char* name, const cha
 }
 
 void add_simulation_commands(CLI::App& app, CommandTable& table) {
-  add_command(app, table, "calibrate",
-              "Fit the multi-beam and mass-spring models' attenuation and stiffness to a FEM reference on this organ",
-              add_calibrate_command);
   add_command(app, table, "compare",
               "Press the organ the same way with every deformation model and measure each against a reference (psh)",
               add_compare_command);

@@ -26,12 +26,13 @@ using CommandTable = std::map<const CLI::App*, Command>;
 void add_command(CLI::App& app, CommandTable& table, const char* name, const char* description,
                  Command (*add_subcommand)(CLI::App&));
 
-/// fem, info, plot, poke, replay, serve, springs, touch, view: the commands that load a
+/// compare, export, fem, info, plot, poke, replay, serve, springs, touch, view: the commands that load a
 /// model and simulate it (and plot what they wrote). They link the runtime,
 /// never the offline pipeline.
 void add_simulation_commands(CLI::App& app, CommandTable& table);
-/// bake, segment, phantom: the commands that run the offline pipeline
-/// (baking_commands.cpp, in the target that links the pipeline).
+/// bake, segment, phantom, calibrate: the commands that run the offline
+/// pipeline (baking_commands.cpp, in the target that links the pipeline;
+/// calibrate re-meshes the organ around each press for its reference).
 void add_baking_commands(CLI::App& app, CommandTable& table);
 
 /// Parses the command line, runs the chosen command and applies the

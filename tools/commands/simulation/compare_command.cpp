@@ -3,6 +3,7 @@
 // same presses, each measured against a reference model (Ogata et al.'s Table 5
 // measure: nodal displacement differences normalized by the bounding box).
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
@@ -173,6 +174,7 @@ int run_compare(CompareOptions o) {
     std::string head = fmt::format("| {:<12} | {:<7} | {:>7} | {:>7} | {:>27} | {:>12} |", "model", "on", "mean", "max",
                                    "mean x / y / z", "surface mean");
     for (std::size_t i = 0; i < tools.size(); ++i) head += fmt::format(" {:>14} |", fmt::format("tool {} |F| (N)", i + 1));
+    head += fmt::format(" {:>7} |", "force x");
     head += fmt::format(" {:>9} | {:>10} | {:>15} |", "volume", "frame (ms)", "force tick (us)");
     std::cout << head << '\n';
   }
@@ -181,6 +183,7 @@ int run_compare(CompareOptions o) {
     const Versus& d = versus[m].measure;
     const Deformation shape = measure(organ, r);
     const double volume_change = 100.0 * (shape.deformed_volume - shape.rest_volume) / shape.rest_volume;
+    const double factor = force_factor(r, reference);
     nlohmann::json forces = nlohmann::json::array();
     for (const ToolResult& t : r.tools) forces.push_back({t.force[0], t.force[1], t.force[2]});
     j["models"][models[m]] = {{"mean_difference", d.mean},
@@ -190,6 +193,7 @@ int run_compare(CompareOptions o) {
                               {"surface_mean_difference", versus[m].surface.mean},
                               {"surface_max_difference", versus[m].surface.max},
                               {"forces_n", forces},
+                              {"force_factor", std::isfinite(factor) ? nlohmann::json(factor) : nlohmann::json()},
                               {"volume_change_percent", volume_change},
                               {"volume_of", shape.volume_of_tetrahedra ? "tetrahedra" : "surface"},
                               {"frame_time_ms", r.frame_seconds * 1e3},
@@ -206,6 +210,7 @@ int run_compare(CompareOptions o) {
                                   100 * d.per_axis[0], 100 * d.per_axis[1], 100 * d.per_axis[2],
                                   100 * versus[m].surface.mean);
     for (const ToolResult& t : r.tools) row += fmt::format(" {:>14.4f} |", t.force.norm());
+    row += std::isfinite(factor) ? fmt::format(" {:>6.2f}x |", factor) : fmt::format(" {:>7} |", "-");
     row += fmt::format(" {:>+8.3f}% | {:>10.3f} | {:>15.3f} |", volume_change, r.frame_seconds * 1e3,
                        r.force_seconds * 1e6);
     std::cout << row << '\n';
@@ -217,7 +222,8 @@ int run_compare(CompareOptions o) {
     std::cout << j.dump() << '\n';
     return 0;
   }
-  std::cout << "\nframe: what the real-time engine computes per 60 Hz frame at the pressed state: the multi-beam\n"
+  std::cout << "\nforce x: the factor the tool forces are off the reference's, exp(sqrt(mean ln^2(|F| / |F_ref|))).\n"
+               "frame: what the real-time engine computes per 60 Hz frame at the pressed state: the multi-beam\n"
                "deformation, the mass-spring model's 1/60 s of steps, one FEM iteration with the kept factor; force\n"
                "tick: the force law the 1 kHz loop evaluates per tool. Setups:\n";
   for (std::size_t m = 0; m < models.size(); ++m) std::cout << fmt::format("{:<14}{}\n", models[m], results[m].summary);

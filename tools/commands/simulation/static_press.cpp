@@ -4,6 +4,7 @@
 #include <cmath>
 #include <algorithm>
 #include <cstdlib>
+#include <limits>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -177,6 +178,7 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
   if (radius > 0.0)
     for (const Eigen::Vector3d& d : displacements)
       first = std::clamp(static_cast<int>(std::ceil(d.norm() / (0.5 * radius))), first, 16);
+  double reached = 0.0;  // the largest fraction of the press any attempt balanced
   for (int load_steps : {first, 4 * first, 16 * first}) {
     fem.reset();
     r.frames = 1;
@@ -185,10 +187,13 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
       std::vector<Eigen::Vector3d> target = displacements;
       for (Eigen::Vector3d& d : target) d *= static_cast<double>(step) / load_steps;
       failure = equilibrium(target);
+      if (failure.empty()) reached = std::max(reached, static_cast<double>(step) / load_steps);
     }
     if (failure.empty()) break;
   }
-  if (!failure.empty()) throw std::runtime_error(failure + fmt::format(" (also in {} load steps)", 16 * first));
+  if (!failure.empty())
+    throw std::runtime_error(failure + fmt::format(" (also in {} load steps; balanced up to {:.0f} % of the press)",
+                                                   16 * first, 100 * reached));
   r.deform_seconds = seconds_since(newton_start) / r.frames;
   // What the engine does in a frame: one iteration with the kept factor (at
   // equilibrium already, so the state stays where it is).
@@ -391,6 +396,17 @@ Eigen::Vector3d bounding_box_extent(const std::vector<model::Point3>& points) {
     high = high.cwiseMax(x);
   }
   return high - low;
+}
+
+double force_factor(const PressResult& press, const PressResult& reference) {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < press.tools.size() && i < reference.tools.size(); ++i) {
+    const double ratio = press.tools[i].force.norm() / reference.tools[i].force.norm();
+    if (!(ratio > 0.0) || !std::isfinite(ratio)) return std::numeric_limits<double>::quiet_NaN();
+    sum += std::log(ratio) * std::log(ratio);
+  }
+  return press.tools.empty() ? std::numeric_limits<double>::quiet_NaN()
+                             : std::exp(std::sqrt(sum / static_cast<double>(press.tools.size())));
 }
 
 Comparison compare_presses(const PressResult& press, const PressResult& reference, const Eigen::Vector3d& extent) {

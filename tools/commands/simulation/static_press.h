@@ -136,4 +136,9 @@ Eigen::Vector3d bounding_box_extent(const std::vector<model::Point3>& points);
 
 Comparison compare_presses(const PressResult& press, const PressResult& reference, const Eigen::Vector3d& extent);
 
+/// The factor by which a press's tool forces are typically off the
+/// reference's, exp(√mean ln²(|F| / |F_ref|)) over the tools (1: the same;
+/// 2: twice or half); NaN where a force is zero.
+double force_factor(const PressResult& press, const PressResult& reference);
+
 }  // namespace organsim::cli

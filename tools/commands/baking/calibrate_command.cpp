@@ -27,6 +27,8 @@
 
 #include "command_line.h"
 #include "organsim/model/model_file.h"
+#include "held_out_evaluation.h"
+#include "press_plan.h"
 #include "static_press.h"
 
 namespace organsim::cli {
@@ -39,6 +41,8 @@ struct CalibrateOptions {
   double depth_mm = 5.0;
   std::uint32_t seed = 1;
   bool json = false;
+  bool evaluate = false;
+  EvaluationOptions evaluation;
   PressOptions press = settled_long_enough();
   /// The mass-spring presses held 6 s (the engine's 2 s settle a unit-scale
   /// network; a fitted softer one rings longer, and an unsettled press would
@@ -51,37 +55,6 @@ struct CalibrateOptions {
 };
 
 Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
-
-/// Surface vertices (runtime numbering) to press: spread by farthest-point
-/// sampling from a seeded start, among the vertices far enough from the
-/// clamp that every model can take the press (a quarter of the way from the
-/// clamp ball to the farthest vertex).
-std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std::uint32_t seed,
-                                       double clamp_radius) {
-  const std::vector<model::Point3>& vertices = organ.model().surface_vertices;
-  double farthest = 0.0;
-  for (const model::Point3& v : vertices) farthest = std::max(farthest, (point(v) - organ.fixed_point()).norm());
-  const double nearest_allowed = clamp_radius + 0.25 * (farthest - clamp_radius);
-  std::vector<std::uint32_t> candidates;
-  for (std::uint32_t v = 0; v < vertices.size(); ++v)
-    if ((point(vertices[v]) - organ.fixed_point()).norm() >= nearest_allowed) candidates.push_back(v);
-  if (candidates.size() < static_cast<std::size_t>(count))
-    throw std::runtime_error(fmt::format("the organ has {} surface vertices away from the clamp, fewer than --presses {}",
-                                         candidates.size(), count));
-  std::mt19937 random(seed);
-  std::vector<std::uint32_t> sites{candidates[random() % candidates.size()]};
-  std::vector<double> distance(candidates.size(), std::numeric_limits<double>::infinity());
-  while (sites.size() < static_cast<std::size_t>(count)) {
-    const Eigen::Vector3d last = point(vertices[sites.back()]);
-    std::size_t best = 0;
-    for (std::size_t c = 0; c < candidates.size(); ++c) {
-      distance[c] = std::min(distance[c], (point(vertices[candidates[c]]) - last).norm());
-      if (distance[c] > distance[best]) best = c;
-    }
-    sites.push_back(candidates[best]);
-  }
-  return sites;
-}
 
 /// One press of the calibration: the reference's answer and what the fast
 /// models need to be refitted without pressing again.
@@ -207,21 +180,13 @@ model::OrganModel with_material(model::OrganModel model, const model::Material& 
 /// no attenuation). A press the reference cannot solve is left out with a warning.
 void press_probes(const CalibrateOptions& o, const organ::Organ& organ, const organ::Organ& unit_organ,
                   std::vector<Probe>& fit, std::vector<Probe>& held_out) {
-  std::vector<model::Point3> normals(organ.vertex_count());
-  organ::compute_vertex_normals(organ, organ.model().surface_vertices.data(), normals.data(), 0, organ.vertex_count());
+  const std::vector<Eigen::Vector3d> normals = rest_normals(organ);
   const std::vector<std::uint32_t> sites = press_sites(organ, o.presses, o.seed, o.press.tuning.fixed_radius_mm * 1e-3);
   for (std::size_t k = 0; k < sites.size(); ++k) {
-    const Eigen::Vector3d at = point(organ.model().surface_vertices[sites[k]]) * 1e3;
     // Straight in, or tilted 45° along one of two tangents in turn: the organ
     // is pressed and dragged in use, and a fit to one kind would not transfer.
-    const Eigen::Vector3d normal = point(normals[sites[k]]);
-    Eigen::Index least = 0;
-    normal.cwiseAbs().minCoeff(&least);
-    const Eigen::Vector3d tangent = normal.cross(Eigen::Vector3d::Unit(least)).normalized();
-    const Eigen::Vector3d tilts[3] = {Eigen::Vector3d::Zero(), tangent, normal.cross(tangent)};
-    const Eigen::Vector3d by = o.depth_mm * (tilts[k % 3] - normal).normalized();
     Probe p;
-    p.tool = {fmt::format("{:.2f},{:.2f},{:.2f}/{:.3f},{:.3f},{:.3f}", at[0], at[1], at[2], by[0], by[1], by[2]), at, by};
+    p.tool = site_press(organ, sites[k], normals[sites[k]], static_cast<PressTilt>(k % 3), o.depth_mm);
     note("calibrate", fmt::format("press {} of {}: {} with {}", k + 1, sites.size(), p.tool.text, o.reference));
     try {
       p.reference = press(o.reference, organ, {p.tool}, o.press);
@@ -364,6 +329,17 @@ void print_table(const CalibrateOptions& o, const CalibrationOutcome& c) {
 }
 
 int run_calibrate(CalibrateOptions o) {
+  if (o.evaluate) {
+    EvaluationOptions& e = o.evaluation;
+    e.model_path = o.model_path;
+    e.reference = o.reference;
+    e.seed = o.seed;
+    e.json = o.json;
+    e.press = o.press;
+    e.press.command = "calibrate";
+    return run_evaluation(e);
+  }
+  if (o.output_path.empty()) throw CLI::ValidationError("--output", "give the calibrated model file to write (or --evaluate)");
   if (o.presses < 4 || o.presses > 256) throw CLI::ValidationError("--presses", "must be 4 to 256 (half fit, half held out)");
   o.press.command = "calibrate";
   const model::OrganModel original = load_simulation_model("calibrate", o.model_path, {o.reference, "beam", "springs"});
@@ -405,7 +381,7 @@ int run_calibrate(CalibrateOptions o) {
 Command add_calibrate_command(CLI::App& app) {
   auto o = std::make_shared<CalibrateOptions>();
   app.add_option("model", o->model_path, "Model file (.organ)")->required();
-  app.add_option("-o,--output", o->output_path, "The calibrated model file to write")->required();
+  app.add_option("-o,--output", o->output_path, "The calibrated model file to write (not with --evaluate)");
   app.add_option("--reference", o->reference, "The FEM model the fast models are fitted to")
       ->check(CLI::IsMember({"psh", "corotational"}))
       ->capture_default_str();
@@ -422,7 +398,26 @@ Command add_calibrate_command(CLI::App& app) {
                  "Mass-spring model: seconds each press is held before the force is read")
       ->check(kPositive)
       ->capture_default_str();
-  app.add_flag("--json", o->json, "Print the fitted values and the held-out errors as one JSON object");
+  app.add_flag("--evaluate", o->evaluate,
+               "Fit nothing: measure the model's multi-beam and mass-spring forces against the reference on presses "
+               "spread over the organ (--sites, --depths), the reference re-meshed finely around each press")
+      ->excludes("--output");
+  app.add_option("--sites", o->evaluation.sites, "--evaluate: sites spread over the surface, each pressed straight in and "
+                                                  "tilted 45 degrees (1-256)")
+      ->check(CLI::Range(1, 256))
+      ->capture_default_str();
+  app.add_option("--depths", o->evaluation.depths_mm, "--evaluate: press depths, mm, comma-separated")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--reference-cells", o->evaluation.refine_size_mm,
+                 "--evaluate: the reference's cells under each press, mm (default: half the tip's radius, where its "
+                 "force no longer depends on the mesh; 0: the model's own tetrahedra)")
+      ->check(kNonNegative);
+  app.add_option("--check-cells", o->evaluation.check_size_mm,
+                 "--evaluate: also press straight in on cells of this size, mm, and print how much the reference "
+                 "changed (its convergence)")
+      ->check(kNonNegative);
+  app.add_flag("--json", o->json, "Print the fitted values and the held-out errors (or the evaluation) as one JSON object");
   return [o] { return run_calibrate(*o); };
 }
 

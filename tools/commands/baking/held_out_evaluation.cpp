@@ -1,0 +1,311 @@
+#include "held_out_evaluation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "command_line.h"
+#include "press_plan.h"
+#include "refined_reference.h"
+
+namespace organsim::cli {
+namespace {
+
+constexpr double kDegreesPerRadian = 57.29577951308232;
+const char* const kFastModels[] = {"beam", "springs"};
+
+/// One fast model's answer to one press, against the reference's.
+struct FastAnswer {
+  bool solved = false;
+  std::string error;
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();  ///< N
+  double log_ratio = 0.0;                           ///< ln(|F| / |F_ref|)
+  double direction_error_deg = 0.0;                 ///< angle between F and F_ref
+  double surface_difference = 0.0;                  ///< mean over the surface vertices, of the bounding box diagonal
+};
+
+struct PressRecord {
+  std::size_t site = 0;      ///< 0-based among the sites
+  std::uint32_t vertex = 0;  ///< surface vertex (runtime numbering)
+  PressTilt tilt = PressTilt::straight;
+  double depth_mm = 0.0;
+  ToolSpec tool;
+  bool reference_solved = false;
+  std::string reference_error;
+  Eigen::Vector3d reference_force = Eigen::Vector3d::Zero();  ///< N
+  std::size_t reference_tetrahedra = 0;
+  std::optional<Eigen::Vector3d> check_force;  ///< N, the reference on the --check-refinement cells
+  std::map<std::string, FastAnswer> fast;
+};
+
+double angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b)) * kDegreesPerRadian;
+}
+
+/// The reference organ for the presses at one site: re-meshed around it, or
+/// the model's own.
+std::unique_ptr<organ::Organ> reference_organ(const model::OrganModel& model, const Eigen::Vector3d& site,
+                                              double size_mm, double radius_mm) {
+  if (size_mm <= 0.0) return std::make_unique<organ::Organ>(model);
+  return std::make_unique<organ::Organ>(refined_at(model, site, size_mm, radius_mm));
+}
+
+FastAnswer answer(const std::string& name, const organ::Organ& organ, const PressRecord& r, const PressResult& reference,
+                  const PressOptions& o, const Eigen::Vector3d& extent) {
+  FastAnswer a;
+  try {
+    const PressResult fast = press(name, organ, {r.tool}, o);
+    a.force = fast.tools[0].force;
+    a.solved = a.force.norm() > 0.0;
+    if (!a.solved) {
+      a.error = "no force";
+      return a;
+    }
+    a.log_ratio = std::log(a.force.norm() / r.reference_force.norm());
+    a.direction_error_deg = angle_deg(a.force, r.reference_force);
+    a.surface_difference = compare_presses(fast, reference, extent).surface.mean;
+  } catch (const std::runtime_error& e) {
+    a.error = e.what();
+  }
+  return a;
+}
+
+/// A group of presses' figures for one model: the force factor
+/// exp(√mean ln²(|F|/|F_ref|)), the direction error and the surface
+/// displacement difference.
+struct Summary {
+  std::size_t presses = 0, unsolved = 0;
+  double factor = 0.0, direction_mean_deg = 0.0, direction_max_deg = 0.0, difference_mean = 0.0;
+};
+
+template <typename Keep>
+Summary summarize(const std::vector<PressRecord>& records, const std::string& model, Keep keep) {
+  Summary s;
+  double log_squares = 0.0;
+  for (const PressRecord& r : records) {
+    if (!r.reference_solved || !keep(r)) continue;
+    const FastAnswer& a = r.fast.at(model);
+    if (!a.solved) {
+      ++s.unsolved;
+      continue;
+    }
+    ++s.presses;
+    log_squares += a.log_ratio * a.log_ratio;
+    s.direction_mean_deg += a.direction_error_deg;
+    s.direction_max_deg = std::max(s.direction_max_deg, a.direction_error_deg);
+    s.difference_mean += a.surface_difference;
+  }
+  if (s.presses == 0) return s;
+  const double n = static_cast<double>(s.presses);
+  s.factor = std::exp(std::sqrt(log_squares / n));
+  s.direction_mean_deg /= n;
+  s.difference_mean /= n;
+  return s;
+}
+
+nlohmann::json summary_json(const Summary& s) {
+  return {{"presses", s.presses},
+          {"unsolved", s.unsolved},
+          {"force_factor", s.factor},
+          {"direction_error_mean_deg", s.direction_mean_deg},
+          {"direction_error_max_deg", s.direction_max_deg},
+          {"mean_difference", s.difference_mean}};
+}
+
+nlohmann::json vector_json(const Eigen::Vector3d& v) { return nlohmann::json::array({v.x(), v.y(), v.z()}); }
+
+const char* tilt_name(PressTilt tilt) { return tilt == PressTilt::straight ? "straight" : "tilted"; }
+
+void print_json(const EvaluationOptions& o, double refine_size_mm, std::size_t sites,
+                const std::vector<PressRecord>& records) {
+  nlohmann::json presses = nlohmann::json::array(), summary;
+  for (const PressRecord& r : records) {
+    nlohmann::json p = {{"site", r.site + 1},
+                        {"vertex", r.vertex},
+                        {"tool", r.tool.text},
+                        {"direction", tilt_name(r.tilt)},
+                        {"depth_mm", r.depth_mm},
+                        {"reference_solved", r.reference_solved}};
+    if (!r.reference_solved) {
+      p["reference_error"] = r.reference_error;
+    } else {
+      p["reference_force_n"] = vector_json(r.reference_force);
+      p["reference_tetrahedra"] = r.reference_tetrahedra;
+      if (r.check_force) p["check_force_n"] = vector_json(*r.check_force);
+      for (const auto& [name, a] : r.fast) {
+        if (!a.solved) {
+          p[name] = {{"error", a.error}};
+          continue;
+        }
+        p[name] = {{"force_n", vector_json(a.force)},
+                   {"force_ratio", std::exp(a.log_ratio)},
+                   {"direction_error_deg", a.direction_error_deg},
+                   {"mean_difference", a.surface_difference}};
+      }
+    }
+    presses.push_back(std::move(p));
+  }
+  for (const char* model : kFastModels) {
+    nlohmann::json by_depth;
+    for (const double depth : o.depths_mm) {
+      auto at = [&](const PressRecord& r) { return r.depth_mm == depth; };
+      by_depth[fmt::format("{:g}", depth)] = {
+          {"all", summary_json(summarize(records, model, at))},
+          {"straight", summary_json(summarize(records, model, [&](const PressRecord& r) {
+             return at(r) && r.tilt == PressTilt::straight;
+           }))},
+          {"tilted", summary_json(summarize(records, model, [&](const PressRecord& r) {
+             return at(r) && r.tilt != PressTilt::straight;
+           }))}};
+    }
+    summary[model] = {{"by_depth_mm", by_depth},
+                      {"all", summary_json(summarize(records, model, [](const PressRecord&) { return true; }))}};
+  }
+  const nlohmann::json j = {{"model", o.model_path},
+                            {"reference", o.reference},
+                            {"tip_radius_mm", o.press.tuning.tip_radius_mm},
+                            {"reference_cells_mm", refine_size_mm},
+                            {"check_cells_mm", o.check_size_mm},
+                            {"seed", o.seed},
+                            {"sites", sites},
+                            {"depths_mm", o.depths_mm},
+                            {"summary", summary},
+                            {"presses", presses}};
+  std::cout << j.dump() << '\n';
+}
+
+void print_table(const EvaluationOptions& o, double refine_size_mm, std::size_t sites,
+                 const std::vector<PressRecord>& records) {
+  std::size_t failed = 0;
+  for (const PressRecord& r : records) failed += !r.reference_solved;
+  std::cout << fmt::format(
+      "{:<14}{} against {} on {}: {} sites (seed {}), each pressed straight in and tilted 45 degrees, {} presses; tip "
+      "radius {:g} mm\n",
+      "evaluate", o.model_path, o.reference,
+      refine_size_mm > 0.0 ? fmt::format("tetrahedra re-meshed to {:g} mm around each site", refine_size_mm)
+                           : std::string("the model's own tetrahedra"),
+      sites, o.seed, records.size(), o.press.tuning.tip_radius_mm);
+  for (const PressRecord& r : records)
+    if (!r.reference_solved)
+      std::cout << fmt::format("{:<14}site {} {} {:g} mm ({}): {}\n", "unsolved", r.site + 1, tilt_name(r.tilt),
+                               r.depth_mm, r.tool.text, r.reference_error);
+  std::cout << fmt::format(
+      "\nforce factor exp(sqrt(mean ln^2(|F| / |F_ref|))), the factor the forces are typically off by; direction: "
+      "angle between F and F_ref (mean / max); displacement: mean surface vertex difference, % of the bounding box "
+      "diagonal ({} of {} presses solved by the reference)\n\n",
+      records.size() - failed, records.size());
+  std::cout << "| model   | depth | direction | presses | force factor | direction mean / max | displacement |\n";
+  for (const char* model : kFastModels)
+    for (const double depth : o.depths_mm)
+      for (const char* direction : {"straight", "tilted", "all"}) {
+        const Summary s = summarize(records, model, [&](const PressRecord& r) {
+          const std::string name = tilt_name(r.tilt);
+          return r.depth_mm == depth && (std::string(direction) == "all" || name == direction);
+        });
+        std::cout << fmt::format("| {:<7} | {:>3g} mm | {:<9} | {:>7} | {:>11.2f}x | {:>8.1f} / {:>5.1f} deg | {:>11.2f}% |\n",
+                                 model, depth, direction, s.presses, s.factor, s.direction_mean_deg,
+                                 s.direction_max_deg, 100 * s.difference_mean);
+      }
+  bool any_check = false;
+  for (const PressRecord& r : records)
+    if (r.check_force) {
+      if (!any_check)
+        std::cout << fmt::format("\nthe reference under refinement, straight presses: |F| on {:g} mm cells, on {:g} "
+                                 "mm cells, change\n",
+                                 refine_size_mm, o.check_size_mm);
+      any_check = true;
+      std::cout << fmt::format("{:<14}site {:>2} {:>4g} mm: {:.4f} N, {:.4f} N, {:+.1f} %\n", "refinement", r.site + 1,
+                               r.depth_mm, r.reference_force.norm(), r.check_force->norm(),
+                               100 * (r.check_force->norm() / r.reference_force.norm() - 1));
+    }
+}
+
+}  // namespace
+
+int run_evaluation(const EvaluationOptions& o) {
+  if (o.depths_mm.empty()) throw CLI::ValidationError("--depths", "give at least one depth");
+  for (const double d : o.depths_mm)
+    if (!(d > 0.0 && std::isfinite(d))) throw CLI::ValidationError("--depths", "each depth must be a positive number of mm");
+  const model::OrganModel model = load_simulation_model("calibrate", o.model_path, {o.reference, "beam", "springs"});
+  const organ::Organ organ(model);
+  const Eigen::Vector3d extent = bounding_box_extent(model.surface_vertices);
+  const std::vector<Eigen::Vector3d> normals = rest_normals(organ);
+  const std::vector<std::uint32_t> sites = press_sites(organ, o.sites, o.seed, o.press.tuning.fixed_radius_mm * 1e-3);
+  const double radius_mm = o.press.tuning.tip_radius_mm;
+  const double refine_size_mm = o.refine_size_mm < 0.0 ? 0.5 * radius_mm : o.refine_size_mm;
+  // The tip's whole path and what it takes in, with a margin: cells of the
+  // refinement size within the deepest press plus two radii of the site.
+  const double refine_radius_mm = *std::max_element(o.depths_mm.begin(), o.depths_mm.end()) + 2.0 * radius_mm;
+  // A mass-spring press held longer for a softened network (calibrate's rule).
+  PressOptions settled = o.press;
+  settled.settle_seconds *=
+      std::min(5.0, 1.0 / std::sqrt(std::min(1.0, model.material.spring_stiffness_scale)));
+
+  std::vector<PressRecord> records;
+  for (std::size_t k = 0; k < sites.size(); ++k) {
+    const Eigen::Vector3d at(model.surface_vertices[sites[k]][0], model.surface_vertices[sites[k]][1],
+                             model.surface_vertices[sites[k]][2]);
+    const std::unique_ptr<organ::Organ> reference = reference_organ(model, at, refine_size_mm, refine_radius_mm);
+    const std::unique_ptr<organ::Organ> check =
+        o.check_size_mm > 0.0 ? reference_organ(model, at, o.check_size_mm, refine_radius_mm) : nullptr;
+    for (const PressTilt tilt : {PressTilt::straight, static_cast<PressTilt>(1 + k % 2)})
+      for (const double depth : o.depths_mm) {
+        PressRecord r;
+        r.site = k;
+        r.vertex = sites[k];
+        r.tilt = tilt;
+        r.depth_mm = depth;
+        r.tool = site_press(organ, sites[k], normals[sites[k]], tilt, depth);
+        r.reference_tetrahedra = reference->model().tetrahedra.size();
+        note("calibrate", fmt::format("site {} of {}, {} {:g} mm: {} with {} ({} tetrahedra)", k + 1, sites.size(),
+                                      tilt_name(tilt), depth, r.tool.text, o.reference, r.reference_tetrahedra));
+        PressResult pressed;
+        try {
+          pressed = press(o.reference, *reference, {r.tool}, o.press);
+          r.reference_force = pressed.tools[0].force;
+          r.reference_solved = r.reference_force.norm() > 0.0;
+          if (!r.reference_solved) r.reference_error = "the reference gave no force";
+        } catch (const std::runtime_error& e) {
+          r.reference_error = e.what();
+        }
+        if (!r.reference_solved) {
+          warn("calibrate", fmt::format("site {} {} {:g} mm: the reference did not solve: {}", k + 1, tilt_name(tilt),
+                                        depth, r.reference_error));
+          records.push_back(std::move(r));
+          continue;
+        }
+        // The surfaces compare vertex by vertex; the tetrahedra differ.
+        pressed.node_positions.clear();
+        for (const char* name : kFastModels)
+          r.fast[name] = answer(name, organ, r, pressed, std::string(name) == "springs" ? settled : o.press, extent);
+        if (check && tilt == PressTilt::straight) {
+          try {
+            r.check_force = press(o.reference, *check, {r.tool}, o.press).tools[0].force;
+          } catch (const std::runtime_error& e) {
+            warn("calibrate", fmt::format("site {} {:g} mm on {:g} mm cells: {}", k + 1, depth, o.check_size_mm, e.what()));
+          }
+        }
+        detail("calibrate", fmt::format("|F| {} {:.4f} N, beam {:.4f} N, springs {:.4f} N", o.reference,
+                                        r.reference_force.norm(), r.fast["beam"].force.norm(),
+                                        r.fast["springs"].force.norm()));
+        records.push_back(std::move(r));
+      }
+  }
+  if (std::none_of(records.begin(), records.end(), [](const PressRecord& r) { return r.reference_solved; }))
+    throw std::runtime_error(fmt::format("none of the {} presses could be solved by {}: press less deep (--depths)",
+                                         records.size(), o.reference));
+  if (o.json)
+    print_json(o, refine_size_mm, sites.size(), records);
+  else
+    print_table(o, refine_size_mm, sites.size(), records);
+  return 0;
+}
+
+}  // namespace organsim::cli

@@ -1,0 +1,64 @@
+#include "press_plan.h"
+
+#include <algorithm>
+#include <limits>
+#include <random>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace organsim::cli {
+namespace {
+
+Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
+
+}  // namespace
+
+std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std::uint32_t seed, double clamp_radius) {
+  const std::vector<model::Point3>& vertices = organ.model().surface_vertices;
+  double farthest = 0.0;
+  for (const model::Point3& v : vertices) farthest = std::max(farthest, (point(v) - organ.fixed_point()).norm());
+  const double nearest_allowed = clamp_radius + 0.25 * (farthest - clamp_radius);
+  std::vector<std::uint32_t> candidates;
+  for (std::uint32_t v = 0; v < vertices.size(); ++v)
+    if ((point(vertices[v]) - organ.fixed_point()).norm() >= nearest_allowed) candidates.push_back(v);
+  if (candidates.size() < static_cast<std::size_t>(count))
+    throw std::runtime_error(fmt::format("the organ has {} surface vertices away from the clamp, fewer than the {} "
+                                         "presses asked for",
+                                         candidates.size(), count));
+  std::mt19937 random(seed);
+  std::vector<std::uint32_t> sites{candidates[random() % candidates.size()]};
+  std::vector<double> distance(candidates.size(), std::numeric_limits<double>::infinity());
+  while (sites.size() < static_cast<std::size_t>(count)) {
+    const Eigen::Vector3d last = point(vertices[sites.back()]);
+    std::size_t best = 0;
+    for (std::size_t c = 0; c < candidates.size(); ++c) {
+      distance[c] = std::min(distance[c], (point(vertices[candidates[c]]) - last).norm());
+      if (distance[c] > distance[best]) best = c;
+    }
+    sites.push_back(candidates[best]);
+  }
+  return sites;
+}
+
+ToolSpec site_press(const organ::Organ& organ, std::uint32_t site, const Eigen::Vector3d& normal, PressTilt tilt,
+                    double depth_mm) {
+  const Eigen::Vector3d at = point(organ.model().surface_vertices[site]) * 1e3;
+  Eigen::Index least = 0;
+  normal.cwiseAbs().minCoeff(&least);
+  const Eigen::Vector3d tangent = normal.cross(Eigen::Vector3d::Unit(least)).normalized();
+  const Eigen::Vector3d tilts[3] = {Eigen::Vector3d::Zero(), tangent, normal.cross(tangent)};
+  const Eigen::Vector3d by = depth_mm * (tilts[static_cast<int>(tilt)] - normal).normalized();
+  return {fmt::format("{:.2f},{:.2f},{:.2f}/{:.3f},{:.3f},{:.3f}", at[0], at[1], at[2], by[0], by[1], by[2]), at, by};
+}
+
+std::vector<Eigen::Vector3d> rest_normals(const organ::Organ& organ) {
+  std::vector<model::Point3> normals(organ.vertex_count());
+  organ::compute_vertex_normals(organ, organ.model().surface_vertices.data(), normals.data(), 0, organ.vertex_count());
+  std::vector<Eigen::Vector3d> result;
+  result.reserve(normals.size());
+  for (const model::Point3& n : normals) result.push_back(point(n));
+  return result;
+}
+
+}  // namespace organsim::cli

@@ -1,0 +1,35 @@
+// Where and how `calibrate` presses an organ: sites spread over its surface
+// (seeded, reproducible) and, at each, a press straight in or tilted 45°.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "organsim/organ/organ.h"
+#include "static_press.h"
+
+namespace organsim::cli {
+
+/// `count` surface vertices (runtime numbering) spread by farthest-point
+/// sampling from a start `seed` picks, among the vertices far enough from the
+/// clamp ball (`clamp_radius`, m) that every model can take the press: a
+/// quarter of the way from it to the farthest vertex. Throws
+/// std::runtime_error when there are fewer such vertices than `count`.
+std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std::uint32_t seed, double clamp_radius);
+
+/// How a press at a site goes in.
+enum class PressTilt : int {
+  straight = 0,  ///< along the inward normal
+  tangent_a = 1,  ///< 45° from it, towards the first tangent
+  tangent_b = 2,  ///< 45° from it, towards the second
+};
+
+/// A press of `depth_mm` at surface vertex `site`, whose outward unit normal
+/// is `normal`, tilted as asked.
+ToolSpec site_press(const organ::Organ& organ, std::uint32_t site, const Eigen::Vector3d& normal, PressTilt tilt,
+                    double depth_mm);
+
+/// Every surface vertex's outward unit normal at rest.
+std::vector<Eigen::Vector3d> rest_normals(const organ::Organ& organ);
+
+}  // namespace organsim::cli

@@ -1,0 +1,25 @@
+#include "refined_reference.h"
+
+#include <stdexcept>
+#include <string>
+
+#include "organsim/pipeline/tetrahedra.h"
+
+namespace organsim::cli {
+
+model::OrganModel refined_at(const model::OrganModel& model, const Eigen::Vector3d& site, double size_mm,
+                             double radius_mm) {
+  pipeline::TetrahedraOptions options;
+  const auto given = model.provenance.parameters.find("tet_size_mm");
+  if (given != model.provenance.parameters.end()) options.tet_size_mm = std::stod(given->second);
+  options.refinements.push_back({{site.x(), site.y(), site.z()}, radius_mm, size_mm});
+  const geometry::TetrahedralMesh mesh =
+      pipeline::make_tetrahedra({model.surface_vertices, model.surface_triangles}, options);
+  model::OrganModel refined = model;
+  refined.volume_vertices = mesh.vertices;
+  refined.tetrahedra = mesh.tetrahedra;
+  refined.beams = {};
+  return refined;
+}
+
+}  // namespace organsim::cli
