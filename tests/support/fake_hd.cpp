@@ -6,6 +6,7 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -33,6 +34,7 @@ struct Device {
   bool frame_failed = false;
   std::atomic<unsigned> error{0};  // set by fakehd_fail: every hdGetError reports it, as for a lost device
   std::vector<ForceSample> forces;
+  std::atomic<double> latest_force{0.0};  // |F| of the last force set, N: readable while the scheduler runs
 };
 
 constexpr int kDevices = 4;
@@ -122,6 +124,7 @@ void hdSetDoublev(HDenum what, const double* values) {
   if (what != kCurrentForce) return;
   if (!d.in_frame || !d.force_output) frame_errors.fetch_add(1);
   d.forces.push_back({{values[0], values[1], values[2]}, d.frame_time, d.frame_failed});
+  d.latest_force.store(std::sqrt(values[0] * values[0] + values[1] * values[1] + values[2] * values[2]));
 }
 
 void hdStartScheduler() {
@@ -167,6 +170,8 @@ void fakehd_fail(HHD device, unsigned code) { devices[device].error.store(code);
 std::uint64_t fakehd_ticks() { return ticks.load(); }
 int fakehd_frame_errors() { return frame_errors.load(); }
 std::size_t fakehd_force_count(HHD device) { return devices[device].forces.size(); }
+// |F| of the last force the device was given (N); safe while the scheduler runs.
+double fakehd_latest_force(HHD device) { return devices[device].latest_force.load(); }
 void fakehd_force(HHD device, std::size_t i, double* newtons) {
   for (int k = 0; k < 3; ++k) newtons[k] = devices[device].forces[i].newtons[k];
 }

@@ -109,28 +109,38 @@ TEST(OpenHaptics, ADeviceThatFailsMidSessionFadesItsForceWhileTheOtherGoesOn) {
     return f.norm();
   };
 
+  const auto latest_force = control<double (*)(unsigned)>("fakehd_latest_force");
+
   realtime::Engine engine(organ, {&lost, &steady}, {});
   OpenHapticsServo servo(library, {&lost, &steady}, engine);
   const auto begin = std::chrono::steady_clock::now();
-  bool failed = false, recovered = false;
+  // The fault comes once both tools have held their press for 0.15 s (on a
+  // loaded machine a contact may begin late), lasts 0.4 s, and the run goes
+  // on 0.6 s after it.
+  constexpr double kHolding = 0.05, kHeldFor = 0.15, kFaultFor = 0.4, kAfter = 0.6, kGiveUp = 5.0;
+  double holding_since = -1.0, failed_at = -1.0, recovered_at_time = -1.0;
   servo.start();
   auto next = begin;
   while (true) {
     const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
-    if (t > 1.6) break;
-    if (!failed && t > 0.6) {
+    if (t > kGiveUp || (recovered_at_time >= 0.0 && t > recovered_at_time + kAfter)) break;
+    const bool holding = latest_force(lost.handle()) > kHolding && latest_force(steady.handle()) > kHolding;
+    if (!holding) holding_since = -1.0;
+    else if (holding_since < 0.0) holding_since = t;
+    if (failed_at < 0.0 && t > 0.6 && holding_since >= 0.0 && t > holding_since + kHeldFor) {
       fail(lost.handle(), 0x0302);  // HD_COMM_ERROR
-      failed = true;
+      failed_at = t;
     }
-    if (!recovered && t > 1.0) {
+    if (failed_at >= 0.0 && recovered_at_time < 0.0 && t > failed_at + kFaultFor) {
       fail(lost.handle(), 0);
-      recovered = true;
+      recovered_at_time = t;
     }
     engine.deformation_step(t);
     next += std::chrono::microseconds(16667);
     std::this_thread::sleep_until(next);
   }
   servo.stop();
+  ASSERT_GE(recovered_at_time, 0.0) << "the two tools never both held their press";
 
   // The frames in which the device reported the error: one run of them.
   const std::size_t end = force_count(lost.handle());
