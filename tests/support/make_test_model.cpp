@@ -22,6 +22,8 @@ int main(int argc, char** argv) {
   app.add_option("--rings", cylinder.rings, "Cylinder rings along")->capture_default_str();
   app.add_option("--vertices", sphere_vertices, "Sphere surface vertices")->capture_default_str();
   app.add_option("--stations", stations, "Beam stations")->capture_default_str();
+  bool sites = false;
+  app.add_flag("--site-compliance", sites, "Add uniform site compliances and a depth curve (format 1.2's SITE section)");
   CLI11_PARSE(app, argc, argv);
   try {
     organsim::model::OrganModel model;
@@ -33,6 +35,7 @@ int main(int argc, char** argv) {
     } else {
       model = organsim::testing::make_sphere_model(sphere_vertices, stations);
     }
+    if (sites) organsim::testing::add_uniform_site_compliance(model, 0.02);
     organsim::model::write_organ_model_file(model, output);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "organsim-test-model: error: %s\n", e.what());

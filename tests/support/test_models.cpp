@@ -186,4 +186,12 @@ model::OrganModel make_sphere_model(std::size_t vertex_count, std::uint32_t stat
   return m;
 }
 
+void add_uniform_site_compliance(model::OrganModel& model, double compliance) {
+  model.sites.young_modulus = model.material.young_modulus;
+  model.sites.poisson_ratio = 0.49;
+  model.sites.compliance.assign(model.surface_vertices.size(), {compliance, compliance, compliance, 0.0, 0.0, 0.0});
+  model.sites.depth_curve = {{{0.0, 1.0}}, {{0.003, 1.5}}};
+  model.sites.curve_tip_radius = 2.5e-3;
+}
+
 }  // namespace organsim::testing

@@ -29,4 +29,9 @@ model::OrganModel make_cylinder_model(const CylinderSpec& spec);
 /// for load and throughput benchmarks where only the sizes matter.
 model::OrganModel make_sphere_model(std::size_t vertex_count, std::uint32_t stations);
 
+/// Isotropic site compliances of `compliance` m/N at every surface vertex (the
+/// reference's E, ν = 0.49) and a depth curve rising from 1 to 1.5 at 3 mm (tip
+/// 2.5 mm): the fast models then give the site law's force (docs/matching.md).
+void add_uniform_site_compliance(model::OrganModel& model, double compliance);
+
 }  // namespace organsim::testing

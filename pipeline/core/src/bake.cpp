@@ -301,6 +301,20 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
     const std::string problem = model::validate_organ_model(model);
     if (!problem.empty()) throw std::runtime_error("the baked model is not valid: " + problem);
   });
+  if (o.site_compliance)
+    clock.run("site compliance", [&] {
+      try {
+        model.sites = compute_site_compliance(model, o.sites, &report.sites);
+        model.provenance.parameters["site_compliance"] =
+            fmt::format("psh at rest, nu {}, beta {}, clamp {} mm, patch {:.2f} mm", o.sites.poisson_ratio,
+                        o.sites.stabilization, o.sites.fixed_radius * 1e3, report.sites.patch_radius * 1e3);
+      } catch (const std::invalid_argument& e) {
+        // The FEM models cannot hold this organ with their default clamp
+        // either: the model is still good for every other use.
+        report.sites_skipped = e.what();
+        model.provenance.parameters["site_compliance"] = "none: " + report.sites_skipped;
+      }
+    });
   if (!o.output_path.empty()) model::write_organ_model_file(model, o.output_path);
   intermediates.commit();
   return result;

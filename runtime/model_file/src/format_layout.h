@@ -51,9 +51,13 @@ inline constexpr std::uint32_t kMaterialFieldsV1 = 5;
 /// Format 1.1 added the beam and spring stiffness scales (1 when absent).
 inline constexpr std::uint32_t kMaterialFieldsV1_1 = 7;
 inline constexpr std::uint32_t kBeamFieldsV1 = 7;
+/// Format 1.2's site compliance: reals per vertex (a symmetric 3×3 matrix),
+/// and the most depth-curve points a file may hold.
+inline constexpr std::uint32_t kSiteFieldsV1_2 = 6;
+inline constexpr std::uint64_t kMaxDepthCurvePoints = 256;
 
 enum class Section { Metadata, SurfaceVertices, SurfaceTriangles, SurfaceTexcoords,
-                     VolumeVertices, Tetrahedra, FixedPoints, Material, BeamTables };
+                     VolumeVertices, Tetrahedra, FixedPoints, Material, BeamTables, SiteCompliance };
 
 struct SectionDescription {
   Section id;
@@ -73,6 +77,7 @@ inline constexpr SectionDescription kSections[] = {
     {Section::FixedPoints, "FIXP", "fixed points", true},
     {Section::Material, "MATL", "material", true},
     {Section::BeamTables, "BEAM", "beam tables", false},
+    {Section::SiteCompliance, "SITE", "site compliance", false},
 };
 
 inline const SectionDescription& describe(Section id) {

@@ -116,6 +116,15 @@ std::vector<std::uint8_t> encode_section(Section id, const OrganModel& m) {
           w.put<double>(v);
       break;
     }
+    case Section::SiteCompliance: {
+      const SiteCompliance& sites = m.sites;
+      w.put<std::uint32_t>(format::kSiteFieldsV1_2);
+      w.put<std::uint32_t>(0);
+      for (double v : {sites.young_modulus, sites.poisson_ratio, sites.curve_tip_radius}) w.put<double>(v);
+      w.put_array(sites.depth_curve);
+      w.put_array(sites.compliance);
+      break;
+    }
   }
   return w.take();
 }
@@ -126,6 +135,7 @@ bool section_present(Section id, const OrganModel& m) {
     case Section::VolumeVertices: return !m.volume_vertices.empty();
     case Section::Tetrahedra: return !m.tetrahedra.empty();
     case Section::BeamTables: return !m.beams.empty();
+    case Section::SiteCompliance: return !m.sites.empty();
     default: return true;
   }
 }
@@ -261,6 +271,31 @@ void read_material(const std::uint8_t* data, std::size_t size, Material& mat) {
   // Fields beyond those known (a newer minor version's) are skipped; known
   // fields a 1.0 file lacks keep their defaults.
   for (std::uint32_t f = 0; f < std::min<std::uint32_t>(fields, std::size(targets)); ++f) r.get(*targets[f]);
+}
+
+void read_sites(const std::uint8_t* data, std::size_t size, SiteCompliance& sites) {
+  const Section id = Section::SiteCompliance;
+  PayloadReader r(data, size);
+  std::uint32_t fields = 0, reserved = 0;
+  if (!r.get(fields) || !r.get(reserved) || !r.get(sites.young_modulus) || !r.get(sites.poisson_ratio) ||
+      !r.get(sites.curve_tip_radius))
+    fail_section(id, std::string("payload too short for its header; ") + kDamagedAdvice);
+  if (fields != format::kSiteFieldsV1_2)
+    fail_section(id, "field count " + std::to_string(fields) + " is not " + std::to_string(format::kSiteFieldsV1_2) +
+                         "; " + kDamagedAdvice);
+  std::uint64_t points = 0;
+  if (!r.get(points) || points > format::kMaxDepthCurvePoints || points > r.remaining() / (2 * sizeof(double)))
+    fail_section(id, "the depth curve's point count is missing or exceeds " +
+                         std::to_string(format::kMaxDepthCurvePoints) + " or the payload; " + kDamagedAdvice);
+  sites.depth_curve.resize(static_cast<std::size_t>(points));
+  for (auto& point : sites.depth_curve) r.get(point[0]), r.get(point[1]);
+  std::uint64_t vertices = 0;
+  constexpr std::size_t kVertexBytes = format::kSiteFieldsV1_2 * sizeof(double);
+  if (!r.get(vertices) || vertices > r.remaining() / kVertexBytes || vertices * kVertexBytes != r.remaining())
+    fail_section(id, "the vertex count does not match the payload of " + std::to_string(size) + " bytes; " +
+                         kDamagedAdvice);
+  sites.compliance.resize(static_cast<std::size_t>(vertices));
+  if (vertices > 0) std::memcpy(sites.compliance.data(), r.here(), static_cast<std::size_t>(vertices) * kVertexBytes);
 }
 
 // Returns whether every value is plausible (checked chunk by chunk as it is
@@ -569,6 +604,8 @@ OrganModel read_sections(const std::uint8_t* data, const SectionIndex& index, co
                        " vertices but the surface has " + std::to_string(m.surface_vertices.size()) + "; " +
                        kDamagedAdvice);
   }
+  if (index.has(Section::SiteCompliance))
+    read_sites(payload(Section::SiteCompliance), bytes(Section::SiteCompliance), m.sites);
   if (const auto issue = find_model_issue(m, beams_plausible))
     fail_section(issue->section, issue->message + "; " + kDamagedAdvice);
   return m;

@@ -38,6 +38,44 @@ bool is_lower_hex(const std::string& s) {
   return true;
 }
 
+/// What is wrong with the site compliance, or "".
+std::string site_compliance_issue(const OrganModel& m) {
+  const SiteCompliance& sites = m.sites;
+  if (sites.empty()) {
+    if (!sites.depth_curve.empty()) return "a depth curve without site compliances";
+    return {};
+  }
+  if (sites.compliance.size() != m.surface_vertices.size())
+    return "there are " + std::to_string(sites.compliance.size()) + " site compliances for " +
+           std::to_string(m.surface_vertices.size()) + " surface vertices";
+  if (!(std::isfinite(sites.young_modulus) && sites.young_modulus > 0))
+    return "the reference's Young's modulus must be a positive number of pascals";
+  if (!(std::isfinite(sites.poisson_ratio) && sites.poisson_ratio > 0 && sites.poisson_ratio < 0.5))
+    return "the reference's Poisson's ratio must lie in (0, 0.5)";
+  for (std::size_t v = 0; v < sites.compliance.size(); ++v) {
+    const std::array<double, 6>& c = sites.compliance[v];
+    bool finite = true;
+    for (double x : c) finite &= std::isfinite(x);
+    // A positive semi-definite matrix has no negative diagonal entry and no
+    // 2×2 principal minor below zero (a loose test that catches garbage).
+    if (!finite || c[0] < 0 || c[1] < 0 || c[2] < 0 || c[3] * c[3] > c[0] * c[1] * (1 + 1e-9) + 1e-300 ||
+        c[4] * c[4] > c[0] * c[2] * (1 + 1e-9) + 1e-300 || c[5] * c[5] > c[1] * c[2] * (1 + 1e-9) + 1e-300)
+      return "the compliance of vertex " + std::to_string(v) + " is not finite or not positive semi-definite";
+  }
+  if (!(std::isfinite(sites.curve_tip_radius) && sites.curve_tip_radius >= 0))
+    return "the depth curve's tip radius must be a length >= 0";
+  if (!sites.depth_curve.empty() && !(sites.curve_tip_radius > 0))
+    return "a depth curve needs the tip radius it was fitted with";
+  double last = -1.0;
+  for (const auto& [depth, factor] : sites.depth_curve) {
+    if (!(std::isfinite(depth) && depth > last && depth >= 0))
+      return "the depth curve's depths must be finite, >= 0 and increasing";
+    if (!(std::isfinite(factor) && factor > 0)) return "the depth curve's factors must be positive numbers";
+    last = depth;
+  }
+  return {};
+}
+
 }  // namespace
 
 // One pass with no chain of dependent additions (a running sum of x - x, the
@@ -114,6 +152,8 @@ std::optional<ModelIssue> find_model_issue(const OrganModel& m, bool beam_values
   if (!(std::isfinite(mat.beam_stiffness_scale) && mat.beam_stiffness_scale > 0 &&
         std::isfinite(mat.spring_stiffness_scale) && mat.spring_stiffness_scale > 0))
     return issue(format::Section::Material, "the beam and spring stiffness scales must be positive");
+
+  if (auto e = site_compliance_issue(m); !e.empty()) return issue(format::Section::SiteCompliance, e);
 
   const BeamTables& b = m.beams;
   if (b.empty()) {

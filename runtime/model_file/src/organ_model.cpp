@@ -85,6 +85,11 @@ bool BeamTables::operator==(const BeamTables& o) const {
   return stations_per_beam == o.stations_per_beam && sections == o.sections;
 }
 
+bool SiteCompliance::operator==(const SiteCompliance& o) const {
+  return young_modulus == o.young_modulus && poisson_ratio == o.poisson_ratio && compliance == o.compliance &&
+         depth_curve == o.depth_curve && curve_tip_radius == o.curve_tip_radius;
+}
+
 bool ModelProvenance::operator==(const ModelProvenance& o) const {
   return coordinate_frame == o.coordinate_frame && program_version == o.program_version &&
          input_sha256 == o.input_sha256 && parameters == o.parameters;
@@ -94,7 +99,8 @@ bool OrganModel::operator==(const OrganModel& o) const {
   return provenance == o.provenance && surface_vertices == o.surface_vertices &&
          surface_triangles == o.surface_triangles && surface_texcoords == o.surface_texcoords &&
          volume_vertices == o.volume_vertices && tetrahedra == o.tetrahedra &&
-         fixed_points == o.fixed_points && material == o.material && beams == o.beams;
+         fixed_points == o.fixed_points && material == o.material && beams == o.beams &&
+         sites == o.sites;
 }
 
 std::string validate_organ_model(const OrganModel& model) {

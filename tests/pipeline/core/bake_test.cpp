@@ -54,7 +54,8 @@ TEST_F(Bake, PhantomFromASeedGivesAValidModelWithConsistentVolumes) {
   const BakeReport& r = result.report;
   EXPECT_EQ(model::validate_organ_model(m), "");
   EXPECT_EQ(stages, (std::vector<std::string>{"read CT", "segment", "fixed point", "surface", "tetrahedra",
-                                               "beam tables", "assemble"}));
+                                               "beam tables", "assemble", "site compliance"}));
+  EXPECT_EQ(m.sites.compliance.size(), m.surface_vertices.size());  // the portal-vein clamp holds the phantom
   EXPECT_EQ(r.stage_seconds.size(), stages.size());
 
   // Volumes: tetrahedra and surface within 3 % of the mask; the mask near the

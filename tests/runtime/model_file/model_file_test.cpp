@@ -36,6 +36,12 @@ model::OrganModel small_model() {
   m.provenance.parameters["label"] = "liver, värde 1";
   m.material.beam_stiffness_scale = 1.25;
   m.material.spring_stiffness_scale = 0.8;
+  m.sites.young_modulus = 5000.0;
+  m.sites.poisson_ratio = 0.49;
+  for (std::size_t v = 0; v < m.surface_vertices.size(); ++v)
+    m.sites.compliance.push_back({0.3 + 1e-3 * v, 0.2, 0.1, 0.01, -0.02, 0.005});
+  m.sites.depth_curve = {{{0.0, 1.0}}, {{0.005, 1.4}}, {{0.010, 2.1}}};
+  m.sites.curve_tip_radius = 0.0025;
   return m;
 }
 
@@ -76,7 +82,7 @@ TEST(ModelFile, RoundTripOfEverySection) {
   EXPECT_TRUE(*r.model == model);
   std::set<std::string> tags;
   for (const auto& s : r.file.sections) tags.insert(s.tag);
-  EXPECT_EQ(tags, (std::set<std::string>{"META", "SVRT", "STRI", "SUVC", "TVRT", "TETS", "FIXP", "MATL", "BEAM"}));
+  EXPECT_EQ(tags, (std::set<std::string>{"META", "SVRT", "STRI", "SUVC", "TVRT", "TETS", "FIXP", "MATL", "BEAM", "SITE"}));
   EXPECT_EQ(r.file.version.major, 1);
   EXPECT_EQ(r.file.file_bytes, bytes.size());
 }
@@ -87,6 +93,7 @@ TEST(ModelFile, RoundTripWithoutOptionalSections) {
   model.volume_vertices.clear();
   model.tetrahedra.clear();
   model.beams = {};
+  model.sites = {};
   model.provenance.parameters.clear();
   model.provenance.input_sha256.clear();
   const auto bytes = model::serialize_organ_model(model);
@@ -163,7 +170,7 @@ TEST(ModelFile, TruncationInsideHeaderAndTable) {
 TEST(ModelFile, TruncationAtAndInsideEverySection) {
   const auto bytes = encoded();
   const auto sections = list_sections(bytes);
-  ASSERT_EQ(sections.size(), 9u);
+  ASSERT_EQ(sections.size(), 10u);
   for (const auto& s : sections) {
     EXPECT_ERROR(std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + s.offset),
                  "truncated at the start of section '" + s.tag + "'");
@@ -210,7 +217,7 @@ TEST(ModelFile, FutureMajorVersionIsRefusedWithBothVersions) {
   poke<std::uint16_t>(bytes, 8, 2);
   poke<std::uint16_t>(bytes, 10, 3);
   refresh_checksums(bytes);
-  EXPECT_ERROR(bytes, "format version 2.3 but this organsim reads format 1.1");
+  EXPECT_ERROR(bytes, "format version 2.3 but this organsim reads format 1.2");
 }
 
 TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
@@ -218,7 +225,7 @@ TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
   const auto suvc = find_section(bytes, "SUVC");
   std::memcpy(bytes.data() + suvc.table_entry, "XTRA", 4);
   refresh_checksums(bytes);
-  EXPECT_ERROR(bytes, "section 'XTRA' is unknown in a format 1.1 file");
+  EXPECT_ERROR(bytes, "section 'XTRA' is unknown in a format 1.2 file");
 
   poke<std::uint16_t>(bytes, 10, model::kModelFormatVersion.minor + 1);
   refresh_checksums(bytes);
@@ -244,6 +251,50 @@ TEST(ModelFile, FormatOnePointZeroMaterialHasUnitStiffnessScales) {
   EXPECT_EQ(r.model->material.attenuation_beta, small_model().material.attenuation_beta);
   EXPECT_EQ(r.model->material.beam_stiffness_scale, 1.0);
   EXPECT_EQ(r.model->material.spring_stiffness_scale, 1.0);
+}
+
+TEST(ModelFile, FormatOnePointOneFileWithoutSiteCompliancesLoads) {
+  // A 1.1 writer knew no SITE section: the model loads without site data.
+  model::OrganModel without = small_model();
+  without.sites = {};
+  auto bytes = model::serialize_organ_model(without);
+  poke<std::uint16_t>(bytes, 10, 1);
+  refresh_checksums(bytes);
+  const model::ModelReadResult r = model::parse_organ_model(bytes.data(), bytes.size(), "x");
+  ASSERT_TRUE(r) << r.error;
+  EXPECT_EQ(r.file.version.minor, 1);
+  EXPECT_TRUE(r.model->sites.empty());
+  EXPECT_TRUE(*r.model == without);
+}
+
+TEST(ModelFile, ImplausibleSiteCompliancesAreRefused) {
+  const auto original = encoded();
+  const auto site = find_section(original, "SITE");
+  // Header: fields, reserved, E, nu, curve tip radius; the curve (count, pairs); the vertices (count, 6 reals each).
+  const std::size_t curve = site.offset + 8 + 3 * 8;
+  const std::size_t first_vertex = curve + 8 + 3 * 16 + 8;
+  auto check = [&](std::size_t at, double value, const std::string& text) {
+    auto bytes = original;
+    poke<double>(bytes, at, value);
+    refresh_checksums(bytes);
+    EXPECT_ERROR(bytes, "section 'SITE' (site compliance): ");
+    EXPECT_ERROR(bytes, text);
+  };
+  check(site.offset + 8, -5.0, "Young's modulus");
+  check(site.offset + 16, 0.5, "Poisson's ratio");
+  check(curve + 8 + 16, 0.0, "increasing");              // the second depth equals the first
+  check(curve + 8 + 8, -1.0, "factors");                 // the first factor
+  check(first_vertex, std::nan(""), "vertex 0");
+  check(first_vertex + 8, -0.1, "vertex 0");              // yy < 0
+  check(first_vertex + 24, 10.0, "positive semi-definite");  // xy² > xx yy
+  auto count = original;
+  poke<std::uint64_t>(count, curve, 1000);
+  refresh_checksums(count);
+  EXPECT_ERROR(count, "depth curve's point count");
+  auto vertices = original;
+  poke<std::uint64_t>(vertices, first_vertex - 8, 3);
+  refresh_checksums(vertices);
+  EXPECT_ERROR(vertices, "vertex count does not match");
 }
 
 TEST(ModelFile, ByteOrderAndScalarSizes) {

@@ -55,6 +55,41 @@ TEST_F(Cli, BakeIsByteIdenticalAcrossRuns) {
   EXPECT_TRUE(read_bytes(dir_ / "a.organ") == read_bytes(dir_ / "b.organ"));
 }
 
+// The site compliances (docs/matching.md): the phantom at the default
+// tetrahedron size, clamped at its portal-vein entry, gets them, the same
+// bytes with one thread or all; --no-site-compliance leaves only them out;
+// the quick bake's 12 mm tetrahedra, which the FEM clamp cannot hold, get
+// none and the report says why.
+TEST_F(Cli, BakeStoresSiteCompliancesTheSameWhateverTheThreads) {
+  const std::string phantom = (fs::path(ORGANSIM_DATA_SAMPLES) / "phantom_ct.nii.gz").string() +
+                              " --seed -65,5,0 --fixed-point -29.76,16.10,-70.96 --no-beam-tables";
+  const fs::path all = dir_ / "all.organ", one = dir_ / "one.organ", none = dir_ / "none.organ";
+  const CommandRun run = run_organsim("bake " + phantom + " -o " + all.string() + " --json", dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json j = nlohmann::json::parse(run.out);
+  ASSERT_TRUE(j["site_compliance"]["computed"].get<bool>()) << run.out;
+  EXPECT_GT(j["site_compliance"]["boundary_nodes"].get<int>(), 100);
+  EXPECT_GT(j["seconds"]["stages"]["site compliance"].get<double>(), 0.0);
+  ASSERT_EQ(run_organsim("bake " + phantom + " -o " + one.string() + " --threads 1", dir_).exit_code, 0);
+  EXPECT_TRUE(read_bytes(all) == read_bytes(one));
+  ASSERT_EQ(run_organsim("bake " + phantom + " -o " + none.string() + " --no-site-compliance", dir_).exit_code, 0);
+  const model::OrganModel with = *model::read_organ_model_file(all.string()).model;
+  model::OrganModel without = *model::read_organ_model_file(none.string()).model;
+  ASSERT_EQ(with.sites.compliance.size(), with.surface_vertices.size());
+  EXPECT_TRUE(without.sites.empty());
+  without.sites = with.sites;
+  without.provenance.parameters["site_compliance"] = with.provenance.parameters.at("site_compliance");
+  EXPECT_TRUE(without == with);
+  const CommandRun info = run_organsim("info " + all.string(), dir_);
+  EXPECT_NE(info.out.find("site compliance the FEM reference's normal stiffness"), std::string::npos) << info.out;
+
+  const CommandRun quick = run_organsim("bake " + quick_phantom_bake(dir_ / "quick.organ") + " --json", dir_);
+  ASSERT_EQ(quick.exit_code, 0) << quick.err;
+  const nlohmann::json q = nlohmann::json::parse(quick.out);
+  EXPECT_FALSE(q["site_compliance"]["computed"].get<bool>());
+  EXPECT_NE(q["site_compliance"]["reason"].get<std::string>().find("clamp radius"), std::string::npos) << quick.out;
+}
+
 TEST_F(Cli, BakeWithoutBeamTablesSkipsTheStageAndKeepsEverythingElse) {
   // --no-beam-tables: no beam-table stage and no tables in the file; the rest
   // of the model (surface, tetrahedra, material) is the full bake's, array for

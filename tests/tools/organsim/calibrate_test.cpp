@@ -14,6 +14,7 @@
 
 #include "cli_fixture.h"
 #include "organsim/model/model_file.h"
+#include "organsim/pipeline/site_compliance.h"
 #include "test_models.h"
 
 namespace organsim {
@@ -138,6 +139,50 @@ TEST_F(Cli, EvaluateMeasuresTheFastModelsOnPressesNoFitSaw) {
                                         dir_);
   ASSERT_EQ(table.exit_code, 0) << table.err;
   EXPECT_NE(table.out.find("| beam    |   2 mm | straight  |"), std::string::npos) << table.out;
+}
+
+// A model with site compliances: calibrate fits the site law's depth curve
+// to the reference's presses at other sites than --evaluate's with the same
+// seed; pressed again at the curve's own sites, the fast models (which give
+// the site law's force) are off by exactly the curve's scatter, their mean
+// log error being zero at each depth.
+TEST_F(Cli, CalibrateFitsTheSiteLawsDepthCurve) {
+  model::OrganModel cylinder = testing::make_cylinder_model({});
+  pipeline::SiteComplianceOptions sites;
+  sites.fixed_radius = 0.031;
+  cylinder.sites = pipeline::compute_site_compliance(cylinder, sites);
+  const std::string model = (dir_ / "cylinder.organ").string(), fitted = (dir_ / "fitted.organ").string();
+  model::write_organ_model_file(cylinder, model);
+  const std::string curve = " --curve-sites 1 --depths 2,3 --reference-cells 0";
+  const CommandRun run = run_organsim("calibrate " + model + " -o " + fitted + kCalibration + curve + " --json", dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json j = nlohmann::json::parse(run.out);
+  ASSERT_EQ(j["depth_curve"].size(), 2u) << run.out;
+  EXPECT_EQ(j["depth_curve_presses"]["pressed"], 4);  // one site, straight and tilted, two depths
+  EXPECT_EQ(j["depth_curve_presses"]["solved"], 4);
+  const model::ModelReadResult read = model::read_organ_model_file(fitted);
+  ASSERT_TRUE(read) << read.error;
+  const model::SiteCompliance& written = read.model->sites;
+  ASSERT_EQ(written.depth_curve.size(), 2u);
+  EXPECT_EQ(written.curve_tip_radius, 2.5e-3);
+  EXPECT_EQ(written.compliance, cylinder.sites.compliance);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_DOUBLE_EQ(written.depth_curve[i][0] * 1e3, j["depth_curve"][i]["depth_mm"].get<double>());
+    EXPECT_DOUBLE_EQ(written.depth_curve[i][1], j["depth_curve"][i]["factor"].get<double>());
+  }
+  const CommandRun evaluated =
+      run_organsim("calibrate " + fitted + " --evaluate --sites 1 --seed 1001 --depths 2,3 --fixed-radius 31 "
+                   "--reference-cells 0 --json",
+                   dir_);
+  ASSERT_EQ(evaluated.exit_code, 0) << evaluated.err;
+  const nlohmann::json e = nlohmann::json::parse(evaluated.out);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const std::string depth = i == 0 ? "2" : "3";
+    for (const char* fast : {"beam", "springs"})
+      EXPECT_NEAR(e["summary"][fast]["by_depth_mm"][depth]["all"]["force_factor"].get<double>(),
+                  j["depth_curve"][i]["scatter"].get<double>(), 1e-6)
+          << fast << " at " << depth << " mm";
+  }
 }
 
 TEST_F(Cli, CalibrateBadInputFailsWithOneLine) {

@@ -29,6 +29,8 @@ struct BakeCommandOptions {
   double refine_radius_mm = 10.0, refine_size_mm = 1.25;
   double closing_radius_mm = -1.0;  // < 0: the default of the segmentation method
   bool no_beam_tables = false;
+  bool no_site_compliance = false;
+  double site_patch_mm = 0.0;
   bool json = false;
 };
 
@@ -99,6 +101,16 @@ nlohmann::ordered_json report_json(const pipeline::BakeReport& r, const model::O
                      {"min_volume_mm3", q.min_volume_m3 * 1e9},
                      {"warnings", r.tetrahedra_warnings}};
   j["beams"] = {{"stations", r.stations}, {"sections", r.beam_sections}};
+  if (model.sites.empty())
+    j["site_compliance"] = {{"computed", false}, {"reason", r.sites_skipped.empty() ? "--no-site-compliance" : r.sites_skipped}};
+  else
+    j["site_compliance"] = {{"computed", true},
+                            {"boundary_nodes", r.sites.boundary_nodes},
+                            {"patch_radius_mm", r.sites.patch_radius * 1e3},
+                            {"unknowns", r.sites.unknowns},
+                            {"factor_entries", r.sites.factor_entries},
+                            {"factorization_seconds", r.sites.factorization_seconds},
+                            {"solve_seconds", r.sites.solve_seconds}};
   nlohmann::ordered_json stages;
   for (const auto& [stage, seconds] : r.stage_seconds) stages[stage] = seconds;
   j["seconds"] = {{"stages", stages}, {"total", r.total_seconds}};
@@ -136,6 +148,15 @@ void print_report(const pipeline::BakeReport& r, const model::OrganModel& model,
     fmt::print("beam tables     {} stations x {} beams\n", r.stations, r.surface_vertices);
   else
     fmt::print("beam tables     none (--no-beam-tables): every model but --model beam runs on it\n");
+  if (r.sites.unknowns > 0)
+    fmt::print("site compliance {} boundary nodes solved, patch {:.1f} mm; {} unknowns, factor {:.1f} M entries; "
+               "factorization {:.2f} s, solves {:.2f} s\n",
+               r.sites.boundary_nodes, r.sites.patch_radius * 1e3, r.sites.unknowns, r.sites.factor_entries * 1e-6,
+               r.sites.factorization_seconds, r.sites.solve_seconds);
+  else if (!r.sites_skipped.empty())
+    fmt::print("site compliance none: {}; the fast models give their own forces\n", r.sites_skipped);
+  else
+    fmt::print("site compliance none (--no-site-compliance): the fast models give their own forces\n");
   fmt::print("material        E {} Pa, nu {}, rho {} kg/m³, alpha {:.4g}, beta {} 1/m\n", model.material.young_modulus,
              model.material.poisson_ratio, model.material.density, model.material.attenuation_alpha,
              model.material.attenuation_beta);
@@ -160,6 +181,9 @@ pipeline::BakeResult bake_model(BakeCommandOptions& o, const pipeline::BakeProgr
   }
   if (o.closing_radius_mm >= 0.0) b.label_closing_radius_mm = b.seeded.closing_radius_mm = o.closing_radius_mm;
   b.beam_tables = !o.no_beam_tables;
+  b.site_compliance = !o.no_site_compliance;
+  b.sites.threads = b.beams.threads;
+  b.sites.patch_radius = o.site_patch_mm * 1e-3;
   b.program_version = kProgramVersion;
   b.output_path = o.output_path;
   return pipeline::bake(b, progress);
@@ -212,8 +236,16 @@ void add_bake_options(CLI::App& app, const std::shared_ptr<BakeCommandOptions>& 
   app.add_option("--stations", b.beams.stations, "Beam stations (sections per beam)")->capture_default_str();
   app.add_flag("--no-beam-tables", o->no_beam_tables,
                "Bake no beam tables: faster; the model runs every deformation model but the multi-beam one");
+  app.add_flag("--no-site-compliance", o->no_site_compliance,
+               "Bake no site compliances: the multi-beam and mass-spring models then give their own forces, not the "
+               "FEM reference's (docs/matching.md)");
+  app.add_option("--site-patch", o->site_patch_mm,
+                 "Site compliances: the radius of the surface patch each site's load is spread over, mm (0: twice the "
+                 "median boundary edge; docs/matching.md)")
+      ->check(kNonNegative)
+      ->capture_default_str();
   app.add_option("--section-samples", b.beams.samples_per_side, "Section sampling grid per side")->capture_default_str();
-  app.add_option("--threads", b.beams.threads, "Threads for the beam tables (0: all cores)")->capture_default_str();
+  app.add_option("--threads", b.beams.threads, "Threads for the beam tables and the site compliances (0: all cores)")->capture_default_str();
   app.add_option("--young-modulus", b.material.young_modulus, "E, Pa")->capture_default_str();
   app.add_option("--poisson-ratio", b.material.poisson_ratio, "nu")->capture_default_str();
   app.add_option("--density", b.material.density, "rho, kg/m³")->capture_default_str();

@@ -27,6 +27,7 @@
 
 #include "command_line.h"
 #include "organsim/model/model_file.h"
+#include "depth_curve_fit.h"
 #include "held_out_evaluation.h"
 #include "press_plan.h"
 #include "static_press.h"
@@ -42,7 +43,8 @@ struct CalibrateOptions {
   std::uint32_t seed = 1;
   bool json = false;
   bool evaluate = false;
-  EvaluationOptions evaluation;
+  EvaluationOptions evaluation;  ///< also the depth curve's depths and reference cells
+  int curve_sites = 6;
   PressOptions press = settled_long_enough();
   /// The mass-spring presses held 6 s (the engine's 2 s settle a unit-scale
   /// network; a fitted softer one rings longer, and an unsettled press would
@@ -55,6 +57,9 @@ struct CalibrateOptions {
 };
 
 Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
+
+/// The depth curve's sites start from --seed plus this.
+constexpr std::uint32_t kCurveSeedOffset = 1000;
 
 /// One press of the calibration: the reference's answer and what the fast
 /// models need to be refitted without pressing again.
@@ -271,6 +276,7 @@ struct CalibrationOutcome {
   model::Material before, after;
   std::vector<std::string> kept;
   HeldOutError error_before, error_after;
+  DepthCurveFit curve;  ///< empty without site compliances
 };
 
 void print_json(const CalibrateOptions& o, const CalibrationOutcome& c) {
@@ -296,6 +302,14 @@ void print_json(const CalibrateOptions& o, const CalibrationOutcome& c) {
                       {"kept", c.kept},
                       {"held_out_before", errors(c.error_before)},
                       {"held_out_after", errors(c.error_after)}};
+  nlohmann::json curve = nlohmann::json::array();
+  for (std::size_t i = 0; i < c.curve.curve.size(); ++i)
+    curve.push_back({{"depth_mm", c.curve.curve[i][0] * 1e3},
+                     {"factor", c.curve.curve[i][1]},
+                     {"scatter", c.curve.scatter[i]}});
+  j["depth_curve"] = curve;
+  j["depth_curve_presses"] = {{"pressed", c.curve.presses}, {"solved", c.curve.solved},
+                              {"reference_cells_mm", c.curve.refine_size_mm}};
   std::cout << j.dump() << '\n';
 }
 
@@ -312,6 +326,15 @@ void print_table(const CalibrateOptions& o, const CalibrationOutcome& c) {
   for (const std::string& k : c.kept)
     std::cout << fmt::format("{:<14}{}: the fitted value would raise the held-out error; the model's value is kept\n",
                              "kept", k);
+  if (!c.curve.curve.empty()) {
+    std::string points;
+    for (std::size_t i = 0; i < c.curve.curve.size(); ++i)
+      points += fmt::format("{}{:g} mm x {:.3g} (scatter x {:.3g})", points.empty() ? "" : ", ", c.curve.curve[i][0] * 1e3,
+                            c.curve.curve[i][1], c.curve.scatter[i]);
+    std::cout << fmt::format("{:<14}the reference's force over the site law's linear one: {}; {} of {} presses solved "
+                             "on {:g} mm cells\n",
+                             "depth curve", points, c.curve.solved, c.curve.presses, c.curve.refine_size_mm);
+  }
   std::cout << fmt::format("\nheld-out presses against {}: mean nodal displacement difference (% of the bounding box "
                            "diagonal); force factor exp(sqrt(mean ln^2(|F| / |F_ref|))), the factor the forces are "
                            "typically off by (fitted); force error sqrt(sum |F - F_ref|^2 / sum |F_ref|^2)\n\n",
@@ -362,6 +385,23 @@ int run_calibrate(CalibrateOptions o) {
 
   // What the user gets: every held-out press again with both materials.
   model::OrganModel calibrated = with_material(original, c.after);
+  if (!original.sites.empty() && o.curve_sites > 0 && o.press.tuning.tip_radius_mm > 0.0) {
+    DepthCurveOptions curve;
+    curve.sites = o.curve_sites;
+    curve.depths_mm = o.evaluation.depths_mm;
+    // Other sites than `calibrate --evaluate --seed N` presses: those the
+    // evaluation measures are held out from the curve.
+    curve.seed = o.seed + kCurveSeedOffset;
+    curve.refine_size_mm = o.evaluation.refine_size_mm;
+    curve.reference = o.reference;
+    curve.press = o.press;
+    c.curve = fit_depth_curve(original, curve);
+    calibrated.sites.depth_curve = c.curve.curve;
+    calibrated.sites.curve_tip_radius = o.press.tuning.tip_radius_mm * 1e-3;
+    calibrated.provenance.parameters["calibration_depth_curve"] =
+        fmt::format("{} on {:g} mm cells, {} sites, {} of {} presses solved, tip {:g} mm", o.reference,
+                    c.curve.refine_size_mm, o.curve_sites, c.curve.solved, c.curve.presses, o.press.tuning.tip_radius_mm);
+  }
   note("calibrate", "measuring the held-out presses before and after");
   c.error_before = measure_held_out(organ, held_out, o.press, extent);
   const organ::Organ calibrated_organ(calibrated);
@@ -406,11 +446,17 @@ Command add_calibrate_command(CLI::App& app) {
                                                   "tilted 45 degrees (1-256)")
       ->check(CLI::Range(1, 256))
       ->capture_default_str();
-  app.add_option("--depths", o->evaluation.depths_mm, "--evaluate: press depths, mm, comma-separated")
+  app.add_option("--curve-sites", o->curve_sites,
+                 "A model with site compliances: sites spread over the surface whose presses (straight and tilted, at "
+                 "each of --depths) fit the site law's depth curve (0: none; docs/matching.md)")
+      ->check(CLI::Range(0, 256))
+      ->capture_default_str();
+  app.add_option("--depths", o->evaluation.depths_mm, "--evaluate and the depth curve: press depths, mm, comma-separated")
       ->delimiter(',')
       ->capture_default_str();
   app.add_option("--reference-cells", o->evaluation.refine_size_mm,
-                 "--evaluate: the reference's cells under each press, mm (default: half the tip's radius, where its "
+                 "--evaluate and the depth curve: the reference's cells under each press, mm (default: half the tip's "
+                 "radius, where its "
                  "force no longer depends on the mesh; 0: the model's own tetrahedra)")
       ->check(kNonNegative);
   app.add_option("--check-cells", o->evaluation.check_size_mm,

@@ -1,4 +1,5 @@
 // `organsim info MODEL [--json] [--beam V]`: what a model file holds.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -11,6 +12,7 @@
 #include "organsim/geometry/model_measures.h"
 #include "organsim/model/beam_frame.h"
 #include "organsim/model/model_file.h"
+#include "organsim/organ/site_law.h"
 
 namespace organsim::cli {
 namespace {
@@ -50,6 +52,39 @@ nlohmann::json beam_json(const model::OrganModel& m, std::size_t v) {
   }
   beam["stations"] = stations;
   return beam;
+}
+
+/// The site compliances in a few numbers: the reference's normal stiffness
+/// under a tip of kTipRadius at every vertex (its quantiles) and the depth curve.
+nlohmann::json sites_json(const model::OrganModel& m) {
+  const model::SiteCompliance& sites = m.sites;
+  if (sites.empty()) return nullptr;
+  constexpr double kTipRadius = 0.0025;  // m: the default tool's end
+  std::vector<Eigen::Vector3d> normals(m.surface_vertices.size(), Eigen::Vector3d::Zero());
+  auto at = [&](std::uint32_t v) { return Eigen::Vector3d(m.surface_vertices[v][0], m.surface_vertices[v][1], m.surface_vertices[v][2]); };
+  for (const model::Triangle& t : m.surface_triangles) {
+    const Eigen::Vector3d n = (at(t[1]) - at(t[0])).cross(at(t[2]) - at(t[0]));
+    for (std::uint32_t v : t) normals[v] += n;
+  }
+  std::vector<double> stiffness;
+  for (std::size_t v = 0; v < normals.size(); ++v) {
+    const auto& c = sites.compliance[v];
+    Eigen::Matrix3d organ;
+    organ << c[0], c[3], c[4], c[3], c[1], c[5], c[4], c[5], c[2];
+    const Eigen::Vector3d n = normals[v].normalized();
+    const Eigen::Matrix3d total = organ + organ::punch_compliance(sites.young_modulus, sites.poisson_ratio, kTipRadius, n);
+    stiffness.push_back(n.dot(total.inverse() * n));
+  }
+  std::sort(stiffness.begin(), stiffness.end());
+  auto quantile = [&](double q) { return stiffness[static_cast<std::size_t>(q * static_cast<double>(stiffness.size() - 1))]; };
+  nlohmann::json curve = nlohmann::json::array();
+  for (const auto& [depth, factor] : sites.depth_curve) curve.push_back({{"depth_m", depth}, {"factor", factor}});
+  return {{"reference_young_modulus_pa", sites.young_modulus},
+          {"reference_poisson_ratio", sites.poisson_ratio},
+          {"normal_stiffness_n_per_m_at_2_5_mm_tip", {{"min", quantile(0.0)}, {"p10", quantile(0.1)}, {"median", quantile(0.5)},
+                                                       {"p90", quantile(0.9)}, {"max", quantile(1.0)}}},
+          {"depth_curve", curve},
+          {"depth_curve_tip_radius_m", sites.curve_tip_radius}};
 }
 
 nlohmann::json summary_json(const InfoOptions& o, const model::ModelReadResult& read) {
@@ -93,6 +128,7 @@ nlohmann::json summary_json(const InfoOptions& o, const model::ModelReadResult& 
   j["provenance"] = {{"program_version", m.provenance.program_version},
                      {"input_sha256", m.provenance.input_sha256},
                      {"parameters", m.provenance.parameters}};
+  j["site_compliance"] = sites_json(m);
   if (o.beam_vertex >= 0) j["beam"] = beam_json(m, static_cast<std::size_t>(o.beam_vertex));
   return j;
 }
@@ -139,6 +175,23 @@ void print_text(const nlohmann::json& j) {
   fmt::print("beam tables     {}\n", c["beam_stations"].get<unsigned>() > 0
                                         ? fmt::format("{} stations per surface vertex", c["beam_stations"].get<unsigned>())
                                         : std::string("none"));
+  if (const auto& sites = j["site_compliance"]; sites.is_null()) {
+    fmt::print("site compliance none: the fast models give their own forces (docs/matching.md)\n");
+  } else {
+    const auto& k = sites["normal_stiffness_n_per_m_at_2_5_mm_tip"];
+    fmt::print("site compliance the FEM reference's normal stiffness under a 2.5 mm tip {:.3g} (p10) / {:.3g} (median) / "
+               "{:.3g} (p90) N/m; ",
+               k["p10"].get<double>(), k["median"].get<double>(), k["p90"].get<double>());
+    if (sites["depth_curve"].empty()) {
+      fmt::print("no depth curve (linear law; organsim calibrate fits one)\n");
+    } else {
+      std::string curve;
+      for (const auto& point : sites["depth_curve"])
+        curve += fmt::format("{}{:g} mm x {:.3g}", curve.empty() ? "" : ", ", point["depth_m"].get<double>() * 1e3,
+                             point["factor"].get<double>());
+      fmt::print("depth curve {} (tip {:g} mm)\n", curve, sites["depth_curve_tip_radius_m"].get<double>() * 1e3);
+    }
+  }
   const auto& prov = j["provenance"];
   const std::string sha = prov["input_sha256"].get<std::string>();
   fmt::print("written by      organsim {}\n", prov["program_version"].get<std::string>());

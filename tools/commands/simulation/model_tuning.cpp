@@ -63,6 +63,9 @@ void add_model_tuning_options(CLI::App& app, ModelTuning& tuning) {
                  "springs, dynamic region: a node displaced beyond this activates its neighbours, mm")
       ->check(kPositive)
       ->capture_default_str();
+  app.add_flag("--unmatched", tuning.unmatched,
+               "beam, springs: the model's own contact force, not the FEM reference's site law that a model with "
+               "site compliances gives a tool of finite size (docs/matching.md)");
   add_linear_solver_option(app, tuning.linear_solver);
 }
 
@@ -72,12 +75,14 @@ void apply_model_tuning(const ModelTuning& tuning, fem::OrganFemOptions& fem, re
   springs.network.volume_springs = tuning.volume_springs;
   springs.simulation.region = tuning.region == "dynamic" ? springs::Region::dynamic : springs::Region::all;
   springs.simulation.threshold = tuning.region_threshold_mm * 1e-3;
+  springs.match_sites = !tuning.unmatched;
 }
 
 void apply_model_tuning(const ModelTuning& tuning, realtime::EngineOptions& engine) {
   apply_model_tuning(tuning, engine.fem, engine.springs);
   engine.tip_radius = tuning.tip_radius_mm * 1e-3;
   engine.friction = tuning.friction;
+  engine.beams.match_sites = !tuning.unmatched;
 }
 
 }  // namespace organsim::cli

@@ -21,6 +21,7 @@ struct ModelTuning {
   std::string linear_solver = default_linear_solver();  ///< --linear-solver: the FEM tangents' factorization
   double tip_radius_mm = 2.5;        ///< --tip-radius: the tools' hemispherical end (0: a point)
   double friction = realtime::EngineOptions{}.friction;  ///< --friction: Coulomb's μ between tool and organ
+  bool unmatched = false;            ///< --unmatched: the fast models' own forces, not the site law's
   static const char* default_linear_solver();
 };
 /// --linear-solver simplicial|direct: Eigen's simplicial LDLT, or (when
@@ -31,7 +32,8 @@ fem::FactorizationFactory factorization_factory(const std::string& linear_solver
 /// --tip-radius MM (the tools' end, docs/realtime.md#contact-rule), --friction, --fixed-radius
 /// MM (the FEM models clamp the tetrahedral nodes within this distance of the
 /// model's fixed point), --volume-springs, --region and --region-threshold MM
-/// (the mass-spring model; docs/springs.md) and --linear-solver.
+/// (the mass-spring model; docs/springs.md), --unmatched (docs/matching.md) and
+/// --linear-solver.
 void add_model_tuning_options(CLI::App& app, ModelTuning& tuning);
 /// Applies the tuning to the FEM and mass-spring options (of an engine or of
 /// realtime::ModelOptions).

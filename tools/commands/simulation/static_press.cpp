@@ -60,6 +60,7 @@ PressResult press_beams(const organ::Organ& organ, const std::vector<ToolSpec>& 
   parse_beam_theory(o.theory, options.beam.theory);
   options.beam.centroid_offsets = o.sections == "eccentric";
   options.snap_distance = o.snap_distance_mm * 1e-3;
+  options.match_sites = !o.tuning.unmatched;
   MultiBeam beams(organ, options);
 
   PressResult r;
@@ -68,7 +69,7 @@ PressResult press_beams(const organ::Organ& organ, const std::vector<ToolSpec>& 
   const auto attach_start = std::chrono::steady_clock::now();
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
     displacements[i] = tools[i].displacement_mm * 1e-3;
-    const Status status = beams.attach(i, tools[i].point_mm * 1e-3);
+    const Status status = beams.attach(i, tools[i].point_mm * 1e-3, o.tuning.tip_radius_mm * 1e-3);
     if (status != Status::ok) throw std::runtime_error(fmt::format("tool {} ({}): {}", i + 1, tools[i].text, describe(status)));
     if (!displacements[i].allFinite())
       throw std::runtime_error(fmt::format("tool {} ({}): {}", i + 1, tools[i].text, describe(Status::not_finite)));

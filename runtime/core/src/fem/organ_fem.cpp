@@ -167,6 +167,41 @@ class OrganFem::Worker {
   std::thread thread_;
 };
 
+TetMesh tet_mesh_of(const model::OrganModel& model) {
+  TetMesh mesh;
+  mesh.nodes.reserve(model.volume_vertices.size());
+  for (const model::Point3& p : model.volume_vertices) mesh.nodes.push_back(point(p));
+  mesh.tetrahedra.reserve(model.tetrahedra.size());
+  for (const model::Tetrahedron& t : model.tetrahedra)
+    mesh.tetrahedra.push_back({static_cast<std::int32_t>(t[0]), static_cast<std::int32_t>(t[1]),
+                               static_cast<std::int32_t>(t[2]), static_cast<std::int32_t>(t[3])});
+  return mesh;
+}
+
+std::vector<bool> clamped_dofs(const model::OrganModel& model, double fixed_radius) {
+  if (model.fixed_points.empty()) throw std::invalid_argument("the model has no fixed point to clamp the FEM model at");
+  // The clamp: a ball of nodes; three of them not on one line hold the body.
+  const Eigen::Vector3d fixed_point = point(model.fixed_points[0]);
+  std::vector<bool> constrained(3 * model.volume_vertices.size(), false);
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> clamped;
+  for (std::size_t n = 0; n < model.volume_vertices.size(); ++n)
+    if (const Eigen::Vector3d at = point(model.volume_vertices[n]); (at - fixed_point).norm() <= fixed_radius) {
+      clamped.push_back(at);
+      mean += at;
+      constrained[3 * n] = constrained[3 * n + 1] = constrained[3 * n + 2] = true;
+    }
+  Eigen::Matrix3d spread = Eigen::Matrix3d::Zero();
+  if (!clamped.empty()) mean /= static_cast<double>(clamped.size());
+  for (const Eigen::Vector3d& at : clamped) spread += (at - mean) * (at - mean).transpose();
+  const Eigen::Vector3d spread_eigen = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(spread).eigenvalues();
+  if (clamped.size() < 3 || !(std::sqrt(std::max(spread_eigen[1], 0.0)) > 1e-3 * fixed_radius))
+    throw std::invalid_argument("only " + std::to_string(clamped.size()) +
+                                " tetrahedral node(s) lie within the clamp radius of the fixed point, not three off "
+                                "one line: raise the clamp radius (--fixed-radius)");
+  return constrained;
+}
+
 OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const OrganFemOptions& options,
                    std::size_t tools)
     : capacitance_(std::make_unique<Capacitance>()) {
@@ -186,34 +221,9 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
     throw std::invalid_argument("the FEM model keeps responses of at most " + std::to_string(kMaxContactNodes) +
                                 " contact nodes");
 
-  TetMesh mesh;
-  mesh.nodes.reserve(model.volume_vertices.size());
-  for (const model::Point3& p : model.volume_vertices) mesh.nodes.push_back(point(p));
-  mesh.tetrahedra.reserve(model.tetrahedra.size());
-  for (const model::Tetrahedron& t : model.tetrahedra)
-    mesh.tetrahedra.push_back({static_cast<std::int32_t>(t[0]), static_cast<std::int32_t>(t[1]),
-                               static_cast<std::int32_t>(t[2]), static_cast<std::int32_t>(t[3])});
-
-  // The clamp: a ball of nodes; three of them not on one line hold the body.
-  const Eigen::Vector3d fixed_point = point(model.fixed_points[0]);
-  std::vector<bool> constrained(3 * mesh.nodes.size(), false);
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  std::vector<std::size_t> clamped;
-  for (std::size_t n = 0; n < mesh.nodes.size(); ++n)
-    if ((mesh.nodes[n] - fixed_point).norm() <= options.fixed_radius) {
-      clamped.push_back(n);
-      mean += mesh.nodes[n];
-      constrained[3 * n] = constrained[3 * n + 1] = constrained[3 * n + 2] = true;
-    }
-  clamped_nodes_ = clamped.size();
-  Eigen::Matrix3d spread = Eigen::Matrix3d::Zero();
-  if (!clamped.empty()) mean /= static_cast<double>(clamped.size());
-  for (std::size_t n : clamped) spread += (mesh.nodes[n] - mean) * (mesh.nodes[n] - mean).transpose();
-  const Eigen::Vector3d spread_eigen = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(spread).eigenvalues();
-  if (clamped.size() < 3 || !(std::sqrt(std::max(spread_eigen[1], 0.0)) > 1e-3 * options.fixed_radius))
-    throw std::invalid_argument("only " + std::to_string(clamped.size()) +
-                                " tetrahedral node(s) lie within the clamp radius of the fixed point, not three off "
-                                "one line: raise the clamp radius (--fixed-radius)");
+  const TetMesh mesh = tet_mesh_of(model);
+  const std::vector<bool> constrained = clamped_dofs(model, options.fixed_radius);
+  clamped_nodes_ = static_cast<std::size_t>(std::count(constrained.begin(), constrained.end(), true)) / 3;
 
   const double young = model.material.young_modulus, poisson = model.material.poisson_ratio;
   const Material law = material == MaterialModel::mooney_rivlin

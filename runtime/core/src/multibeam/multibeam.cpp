@@ -99,7 +99,7 @@ MultiBeam::MultiBeam(const organ::Organ& organ, const MultiBeamOptions& options)
   }
 }
 
-Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point) noexcept {
+Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point, double tip_radius) noexcept {
   if (tool >= options_.max_tools) return Status::too_many_tools;
   ToolBeam& beam = tools_[tool];
   if (beam.attached) ++contact_generation_;
@@ -170,7 +170,9 @@ Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point) noexc
   beam.frame.col(0) = x;
   beam.frame.col(1) = y;
   beam.frame.col(2) = z;
-  beam.stiffness = beam.frame * solvers_[tool].tip_stiffness() * beam.frame.transpose();
+  beam.matched = options_.match_sites && beam.law.set(organ_, action, tip_radius);
+  beam.stiffness = beam.matched ? beam.law.stiffness()
+                                : Eigen::Matrix3d(beam.frame * solvers_[tool].tip_stiffness() * beam.frame.transpose());
   beam.attached = true;
   ++contact_generation_;
   return Status::ok;
@@ -194,7 +196,11 @@ ORGANSIM_FORCE_CLONES Status MultiBeam::force(std::uint32_t tool, const Eigen::V
     force_on_tool.setZero();
     return status;
   }
-  force_on_tool.noalias() = -(tools_[tool].stiffness * tip_displacement);
+  const ToolBeam& beam = tools_[tool];
+  if (beam.matched)
+    force_on_tool = beam.law.force(tip_displacement);
+  else
+    force_on_tool.noalias() = -(beam.stiffness * tip_displacement);
   return Status::ok;
 }
 

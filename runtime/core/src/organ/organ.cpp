@@ -44,6 +44,7 @@ model::OrganModel surface_in_morton_order(model::OrganModel model, std::vector<s
   const std::size_t stations = model.beams.stations_per_beam;
   if (stations > 0 && model.beams.sections.size() == n * stations)
     model.beams.sections = model::SectionTable(gathered(std::as_const(model.beams.sections), stations));
+  if (model.sites.compliance.size() == n) model.sites.compliance = gathered(model.sites.compliance, 1);
   for (model::Triangle& t : model.surface_triangles)
     for (std::uint32_t& v : t) v = new_index[v];
   return model;
@@ -169,6 +170,8 @@ Organ::Organ(model::OrganModel model)
     for (std::size_t i = 0; i < n + kPadding; ++i) rest_[k][i] = model_.surface_vertices[std::min(i, n - 1)][k];
   }
   multibeam::kernels::selected();  // picks the instruction set now, not in the first real-time call
+  rest_normals_.resize(n);
+  compute_vertex_normals(*this, model_.surface_vertices.data(), rest_normals_.data(), 0, n);
 }
 
 void compute_vertex_normals(const Organ& organ, const model::Point3* positions, model::Point3* normals, std::size_t first,

@@ -76,29 +76,35 @@ TEST(RealTime, AttachForceAndDeformAllocateNothing) {
 TEST(RealTime, EngineLoopsAllocateNothingWithEveryModel) {
   const testing::CylinderSpec spec;
   const organ::Organ organ(testing::make_cylinder_model(spec));
+  model::OrganModel with_sites = testing::make_cylinder_model(spec);  // the fast models give the site law's force
+  testing::add_uniform_site_compliance(with_sites, 0.01);
+  const organ::Organ matched(std::move(with_sites));
   devices::Trajectory press, side;
   press.times = {0.0, 0.3, 0.6};
   press.positions = {{0.16, 0.0, 0.0}, {0.144, 0.002, 0.0}, {0.16, 0.0, 0.0}};
   side.times = {0.0, 0.2, 0.6};
   side.positions = {{0.08, 0.04, 0.0}, {0.08, 0.026, 0.0}, {0.08, 0.04, 0.0}};
-  // Every registered model (model_registry.h), and the springs also with a
-  // dynamic region (partial refits of the contact tree) and with volume springs.
-  enum class Springs { plain, dynamic_region, volume };
-  std::vector<std::pair<std::string, Springs>> variants;
+  // Every registered model (model_registry.h), the springs also with a
+  // dynamic region (partial refits of the contact tree) and with volume
+  // springs, and the fast models matched to a site law.
+  enum class Variant { plain, dynamic_region, volume, matched };
+  std::vector<std::pair<std::string, Variant>> variants;
   for (const realtime::RegisteredModel* model : realtime::registered_models())
-    variants.emplace_back(model->name, Springs::plain);
+    variants.emplace_back(model->name, Variant::plain);
   ASSERT_GE(variants.size(), 6u);
-  variants.emplace_back("springs", Springs::dynamic_region);
-  variants.emplace_back("springs", Springs::volume);
+  variants.emplace_back("springs", Variant::dynamic_region);
+  variants.emplace_back("springs", Variant::volume);
+  variants.emplace_back("beam", Variant::matched);
+  variants.emplace_back("springs", Variant::matched);
   for (const auto& [kind, variant] : variants) {
     devices::ScriptedDevice a(press, {}, 1000), b(side, {}, 1000);
     realtime::EngineOptions options;
     options.model = kind;
-    if (variant == Springs::dynamic_region) options.springs.simulation.region = springs::Region::dynamic;
-    options.springs.network.volume_springs = variant == Springs::volume;
+    if (variant == Variant::dynamic_region) options.springs.simulation.region = springs::Region::dynamic;
+    options.springs.network.volume_springs = variant == Variant::volume;
     options.fem.fixed_radius = 0.031;  // the cylinder's clamped cap
     options.fem.refresh_frames = 3;  // tangents adopted during the test
-    realtime::Engine engine(organ, {&a, &b}, options);
+    realtime::Engine engine(variant == Variant::matched ? matched : organ, {&a, &b}, options);
     const long before = allocations;
     for (int tick = 0; tick <= 600; ++tick) {
       if (tick % 17 == 0) engine.deformation_step(tick * 1e-3);  // contacts begin, deform, end

@@ -19,6 +19,7 @@
 #include "organsim/pipeline/beam_baking.h"
 #include "organsim/pipeline/ct_image.h"
 #include "organsim/pipeline/seeded_segmentation.h"
+#include "organsim/pipeline/site_compliance.h"
 #include "organsim/pipeline/surface.h"
 #include "organsim/pipeline/tetrahedra.h"
 
@@ -48,6 +49,11 @@ struct BakeOptions {
   /// the multi-beam model's alone (and the slowest stage but segmentation);
   /// every other deformation model runs on it, `--model beam` refuses it.
   bool beam_tables = true;
+  /// False (--no-site-compliance): the model carries no site compliances, and
+  /// the fast models give their own forces, not the FEM reference's
+  /// (docs/matching.md).
+  bool site_compliance = true;
+  SiteComplianceOptions sites;
   model::Material material = model::liver_default_material();
 
   std::string program_version;     ///< written into the model's provenance
@@ -78,6 +84,8 @@ struct BakeReport {
   double tetrahedra_volume_ml = 0.0;
   std::uint32_t stations = 0;      ///< 0: baked without beam tables
   std::size_t beam_sections = 0;
+  SiteComplianceReport sites;  ///< when the model has site compliances (sites.unknowns > 0)
+  std::string sites_skipped;   ///< why the site compliances were not computed (the FEM clamp cannot hold the organ)
   std::vector<std::pair<std::string, double>> stage_seconds;  ///< in pipeline order
   double total_seconds = 0.0;
 };

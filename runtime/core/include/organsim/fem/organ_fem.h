@@ -107,6 +107,15 @@ struct OrganFemOptions {
   std::size_t max_contact_nodes = 0;
 };
 
+/// The model's tetrahedra as a FEM mesh (m).
+TetMesh tet_mesh_of(const model::OrganModel& model);
+
+/// The FEM models' clamp: per displacement component (3 per tetrahedral
+/// node), true for the nodes within `fixed_radius` (m) of the model's first
+/// fixed point. Throws std::invalid_argument with one line when the model
+/// has no fixed point or fewer than three such nodes off one line.
+std::vector<bool> clamped_dofs(const model::OrganModel& model, double fixed_radius);
+
 enum class FrameStatus : std::uint8_t {
   ok,
   not_finite,  ///< a tool displacement is not finite: nothing changed

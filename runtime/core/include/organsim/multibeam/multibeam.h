@@ -44,6 +44,7 @@
 #include "organsim/multibeam/clamped_beam.h"
 #include "organsim/multibeam/influence.h"
 #include "organsim/multibeam/status.h"
+#include "organsim/organ/site_law.h"
 
 namespace organsim::multibeam {
 
@@ -54,6 +55,10 @@ struct MultiBeamOptions {
   double snap_distance = 0.010;    ///< m: farthest a tool point may be from the surface
   double merge_distance = 0.001;   ///< m: action points closer than this share one influence weight
   double min_beam_length = 0.002;  ///< m: shorter beams (action point at the clamp) are refused
+  /// A tool of finite size on a model with site compliances gets the FEM
+  /// reference's force (organsim/organ/site_law.h, docs/matching.md) instead
+  /// of its beam's; false: always the beam's.
+  bool match_sites = true;
 };
 
 /// One tool's beam, fixed from attach() to detach().
@@ -62,7 +67,11 @@ struct ToolBeam {
   geometry::SurfacePoint action;                                    ///< action point on the rest surface
   double length = 0.0;                                    ///< beam length, m
   Eigen::Matrix3d frame = Eigen::Matrix3d::Identity();    ///< columns: beam x, y, z (world)
-  Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();    ///< condensed tip stiffness K (world), N/m
+  /// K (world, N/m): the beam's condensed tip stiffness, or the site law's
+  /// at small depth when `matched`.
+  Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();
+  bool matched = false;  ///< the force is the site law's (MultiBeamOptions::match_sites)
+  organ::SiteLaw law;    ///< valid when `matched`
 };
 
 /// The names the command line and the Python module use: "influence" or
@@ -94,14 +103,17 @@ class MultiBeam {
   const float* offset_y() const noexcept { return offset_[1].data(); }
   const float* offset_z() const noexcept { return offset_[2].data(); }
 
-  /// Contact begins: snaps `point` (m) to the surface and builds tool's beam.
-  Status attach(std::uint32_t tool, const Eigen::Vector3d& point) noexcept;
+  /// Contact begins: snaps `point` (m) to the surface and builds tool's beam;
+  /// a tool end of radius `tip_radius` (m; 0: a point) gets the site law
+  /// where the model has one (MultiBeamOptions::match_sites).
+  Status attach(std::uint32_t tool, const Eigen::Vector3d& point, double tip_radius = 0.0) noexcept;
   /// Contact ends.
   void detach(std::uint32_t tool) noexcept;
   const ToolBeam& beam(std::uint32_t tool) const noexcept { return tools_[tool]; }
 
   /// Force on the tool (N, world) when its action point is displaced by
-  /// `tip_displacement` (m, world): −K d. Zero force unless the status is ok.
+  /// `tip_displacement` (m, world): −K d, or the site law's −g(|d|) K d when
+  /// matched. Zero force unless the status is ok.
   Status force(std::uint32_t tool, const Eigen::Vector3d& tip_displacement, Eigen::Vector3d& force_on_tool) const noexcept;
 
   /// Deformed vertex positions (m) and unit normals for the tip displacements of

@@ -65,6 +65,8 @@ class Organ {
   /// (terms that are zero).
   const std::vector<std::uint32_t>& ring_row_offsets() const noexcept { return ring_row_offsets_; }
   const std::vector<std::uint32_t>& ring_rows() const noexcept { return ring_rows_; }
+  /// Each vertex's unit normal at rest (compute_vertex_normals of the rest shape).
+  const std::vector<model::Point3>& rest_normals() const noexcept { return rest_normals_; }
   /// file_vertex_index()[v]: the model file's index of surface vertex v.
   const std::vector<std::uint32_t>& file_vertex_index() const noexcept { return file_index_; }
   /// Rest positions (m) as three coordinate arrays, padded with kPadding
@@ -83,6 +85,7 @@ class Organ {
   std::vector<std::uint32_t> ring_row_offsets_;
   std::vector<std::uint32_t> ring_rows_;
   std::vector<double> rest_[3];
+  std::vector<model::Point3> rest_normals_;
 };
 
 /// Area-weighted vertex normals (unit; zero for an isolated vertex) of the

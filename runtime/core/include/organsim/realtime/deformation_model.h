@@ -99,6 +99,10 @@ struct SpringModelOptions {
   /// At most this many simulation steps per deformation frame (the model falls
   /// behind real time beyond it rather than overrun the frame).
   std::uint32_t max_steps_per_frame = 40;
+  /// A tool of finite size on a model with site compliances gets the FEM
+  /// reference's force (organsim/organ/site_law.h, docs/matching.md) instead
+  /// of the network's reaction; false: always the network's.
+  bool match_sites = true;
 
   /// Symplectic Euler at 1 ms, and no gravity: the CT shows the organ under
   /// its own weight, so its shape is the rest state (as for the multi-beam

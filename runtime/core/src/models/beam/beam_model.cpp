@@ -9,11 +9,13 @@
 namespace organsim::realtime {
 namespace {
 
-/// The multi-beam model: its contact force is linear in the displacement, so
-/// the linearization at zero displacement (force 0, stiffness K) is exact and
-/// never changes during a contact. The beam has no contact surface: a tip of
-/// finite size holds the organ at its action point as a point tool does, and
-/// the surface it would cut into is laid onto it (docs/realtime.md#contact-rule).
+/// The multi-beam model: its beam's contact force is linear in the
+/// displacement, so the linearization at zero displacement (force 0,
+/// stiffness K) is exact and never changes during a contact; a matched
+/// contact's site law (docs/matching.md) is linearized again at every frame.
+/// The beam has no contact surface: a tip of finite size holds the organ at
+/// its action point as a point tool does, and the surface it would cut into
+/// is laid onto it (docs/realtime.md#contact-rule).
 class BeamModel final : public DeformationModel {
  public:
   BeamModel(const organ::Organ& organ, const multibeam::MultiBeamOptions& options)
@@ -25,7 +27,7 @@ class BeamModel final : public DeformationModel {
               ContactLinearization& contact) noexcept override {
     if (tool >= tips_.size() || !std::isfinite(tip.radius) || tip.radius < 0.0) return false;
     if (!tip.is_point() && !(std::abs(tip.axis.norm() - 1.0) < 1e-6)) return false;
-    if (beams_.attach(tool, rest_point) != multibeam::Status::ok) return false;
+    if (beams_.attach(tool, rest_point, tip.radius) != multibeam::Status::ok) return false;
     tips_[tool] = tip;
     const multibeam::ToolBeam& beam = beams_.beam(tool);
     contact.action_point = beam.action.position;
@@ -39,9 +41,16 @@ class BeamModel final : public DeformationModel {
   void detach(std::uint32_t tool) noexcept override { beams_.detach(tool); }
 
   bool step(double, const Eigen::Vector3d* displacements, model::Point3* positions, model::Point3* normals,
-            ContactLinearization*) noexcept override {
+            ContactLinearization* contacts) noexcept override {
     const std::size_t n = organ_.vertex_count();
     if (beams_.deform(displacements, positions, normals, n) != multibeam::Status::ok) return false;
+    for (std::uint32_t tool = 0; tool < tips_.size(); ++tool) {
+      const multibeam::ToolBeam& beam = beams_.beam(tool);
+      if (!beam.attached || !beam.matched) continue;
+      contacts[tool].displacement = displacements[tool];
+      contacts[tool].force = beam.law.force(displacements[tool]);
+      contacts[tool].stiffness = beam.law.tangent(displacements[tool]);
+    }
     bool laid = false;
     for (std::uint32_t tool = 0; tool < tips_.size(); ++tool)
       if (beams_.beam(tool).attached && !tips_[tool].is_point())

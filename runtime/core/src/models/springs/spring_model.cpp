@@ -7,6 +7,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "organsim/geometry/model_measures.h"
+#include "organsim/organ/site_law.h"
 #include "organsim/realtime/model_registry.h"
 #include "organsim/springs/mass_spring.h"
 
@@ -52,6 +53,7 @@ class SpringModel final : public DeformationModel {
     t.tip = tip;
     t.origin = simulation_.network().rest[node];
     t.displacement = simulation_.position(node) - t.origin;
+    t.matched = options_.match_sites && t.law.set(organ_, at, tip.radius);
     hold(tool, node, Eigen::Vector3d::Zero(), -tip.axis, true);
     contact.action_point = t.origin;
     contact.normal = geometry::triangle_normal(organ_.model(), at.triangle);
@@ -138,6 +140,8 @@ class SpringModel final : public DeformationModel {
     bool attached = false;
     geometry::ToolTip tip;
     Eigen::Vector3d origin = Eigen::Vector3d::Zero();        ///< m: the first node's rest position (the action point)
+    bool matched = false;  ///< the contact's force is the site law's (SpringModelOptions::match_sites)
+    organ::SiteLaw law;
     Eigen::Vector3d displacement = Eigen::Vector3d::Zero();  ///< m: the tip's, from origin
   };
   struct Hold {
@@ -229,6 +233,12 @@ class SpringModel final : public DeformationModel {
   /// of the group moved together, and the tool displacement their places
   /// agree with.
   void linearize(std::uint32_t tool, ContactLinearization& contact) const noexcept {
+    if (const Tool& t = tools_[tool]; t.matched) {
+      contact.displacement = t.displacement;
+      contact.force = t.law.force(t.displacement);
+      contact.stiffness = t.law.tangent(t.displacement);
+      return;
+    }
     Eigen::Vector3d force = Eigen::Vector3d::Zero(), displacement = Eigen::Vector3d::Zero();
     Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();
     int count = 0;

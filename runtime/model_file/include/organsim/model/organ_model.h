@@ -124,6 +124,32 @@ struct BeamTables {
   bool operator==(const BeamTables& other) const;
 };
 
+/// The FEM reference's contact law at every surface site, for the fast models
+/// to give its force (docs/matching.md). A tool of radius R pressing at a site
+/// meets two compliances in series: the organ's, as a body held at its clamp
+/// (how far the surface patch under the tool moves per newton: a lobe
+/// bending, the clamp near or far), and the local indentation of the patch by
+/// a rigid end of radius R (Boussinesq's and Mindlin's punch), which depends
+/// on R alone. The file keeps the first, so that any tip radius gets its law;
+/// the second is added at run time (organsim/organ/site_law.h).
+struct SiteCompliance {
+  double young_modulus = 0.0;  ///< E of the reference material, Pa (> 0)
+  double poisson_ratio = 0.0;  ///< ν of the reference material, in (0, 0.5)
+  /// Per surface vertex, the organ's compliance under a tool there without
+  /// the tip's local indentation: a symmetric positive semi-definite 3×3
+  /// matrix (m/N, model frame) stored as xx, yy, zz, xy, xz, yz. Empty: the
+  /// model has no site data.
+  std::vector<std::array<double, 6>> compliance;
+  /// The reference's force relative to the linear law, as pairs (depth m,
+  /// factor > 0), depths increasing from 0: F(d) = g(|d|) F_linear(d), g
+  /// linear between the pairs and held beyond the last. Empty: g = 1.
+  /// Fitted by `organsim calibrate` for a tip of radius `curve_tip_radius`.
+  std::vector<std::array<double, 2>> depth_curve;
+  double curve_tip_radius = 0.0;  ///< m; 0 when there is no depth curve
+  bool empty() const { return compliance.empty(); }
+  bool operator==(const SiteCompliance& other) const;
+};
+
 /// Where the model came from. Never holds patient-identifying information: the
 /// input image is identified only by the SHA-256 of its voxel values.
 struct ModelProvenance {
@@ -146,6 +172,7 @@ struct OrganModel {
   std::vector<Point3> fixed_points;        ///< (Nf × 3), Nf >= 1; beams are clamped at fixed_points[0]
   Material material;
   BeamTables beams;
+  SiteCompliance sites;  ///< per-site contact law of the FEM reference (format 1.2), or empty
 
   bool operator==(const OrganModel& other) const;
 };

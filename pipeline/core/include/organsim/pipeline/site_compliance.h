@@ -1,0 +1,54 @@
+// The FEM reference's compliance at every surface site of a baked organ
+// (model::SiteCompliance; docs/matching.md): what lets the fast models give
+// the reference's force wherever a tool touches.
+//
+// One factorization of the pressure-stabilized hyperelastic (PSH) model's
+// stiffness at rest — its small-strain limit, the saddle-point matrix
+// [K G; Gᵀ −C] — on the model's own tetrahedra, clamped as the FEM models
+// clamp them, and one solve per boundary node and direction: the boundary's
+// Green's function, kept between nodes closer than two patch radii. A site's
+// compliance is that of a uniform traction over the boundary patch within
+// the patch radius b of the site (lumped node areas as weights): the mean
+// patch displacement per newton, C_patch. The patch is made wide enough for
+// the tetrahedra to resolve (b = twice the median boundary edge), so C_patch
+// holds the organ's compliance plus the patch's own local indentation, which
+// is that of a uniform disk on a half-space (organ::disk_compliance, with the
+// disk of the patch's area) and is taken off: what remains, C_organ, is how
+// far the organ as a held body gives under a tool there, independent of the
+// tool's size and of the mesh where the mesh resolves the patch. At run time
+// the tip's own punch compliance is added back (organ/site_law.h).
+//
+// Deterministic: every solve is independent of the others, so the result is
+// byte-identical whatever the number of threads.
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+#include "organsim/model/organ_model.h"
+
+namespace organsim::pipeline {
+
+struct SiteComplianceOptions {
+  double fixed_radius = 0.010;      ///< m: the FEM models' clamp (fem::OrganFemOptions)
+  double poisson_ratio = 0.49;      ///< the PSH reference's ν (fem::OrganFemOptions::psh_poisson_ratio)
+  double stabilization = 100.0;     ///< the PSH reference's β
+  double patch_radius = 0.0;        ///< m; 0: twice the median boundary edge
+  unsigned threads = 0;             ///< 0: one per hardware thread
+};
+
+struct SiteComplianceReport {
+  double patch_radius = 0.0;        ///< m, as used
+  std::size_t boundary_nodes = 0;   ///< solved (free boundary nodes within a patch)
+  std::size_t unknowns = 0;         ///< of the factorized matrix (displacements and pressures)
+  std::size_t factor_entries = 0;   ///< below the diagonal of its LDLᵀ factor
+  double factorization_seconds = 0.0, solve_seconds = 0.0;
+};
+
+/// The site compliances of `model` (its surface, tetrahedra, fixed point and
+/// E). Throws std::invalid_argument with one line when the model has no
+/// tetrahedra, the clamp does not hold it, or the options are out of range.
+model::SiteCompliance compute_site_compliance(const model::OrganModel& model, const SiteComplianceOptions& options,
+                                             SiteComplianceReport* report = nullptr);
+
+}  // namespace organsim::pipeline

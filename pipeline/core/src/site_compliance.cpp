@@ -1,0 +1,266 @@
+#include "organsim/pipeline/site_compliance.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <thread>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SparseCholesky>
+
+#include "organsim/fem/elasticity_system.h"
+#include "organsim/fem/material.h"
+#include "organsim/fem/organ_fem.h"
+#include "organsim/geometry/tetrahedral_embedding.h"
+#include "organsim/organ/site_law.h"
+
+namespace organsim::pipeline {
+namespace {
+
+Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+/// Points bucketed in cubes of a given size, for the neighbours within a
+/// few cubes of a place.
+class PointGrid {
+ public:
+  PointGrid(const std::vector<Eigen::Vector3d>& points, double cell) : points_(points), cell_(cell) {
+    for (std::size_t i = 0; i < points.size(); ++i) cells_[key(cell_of(points[i]))].push_back(static_cast<std::uint32_t>(i));
+  }
+  /// Indices of the points within `radius` of `at`, in increasing order.
+  std::vector<std::uint32_t> within(const Eigen::Vector3d& at, double radius) const {
+    std::vector<std::uint32_t> found;
+    const Eigen::Vector3i c = cell_of(at);
+    const int reach = static_cast<int>(std::ceil(radius / cell_));
+    for (int i = -reach; i <= reach; ++i)
+      for (int j = -reach; j <= reach; ++j)
+        for (int k = -reach; k <= reach; ++k) {
+          const auto it = cells_.find(key(c + Eigen::Vector3i(i, j, k)));
+          if (it == cells_.end()) continue;
+          for (std::uint32_t p : it->second)
+            if ((points_[p] - at).norm() <= radius) found.push_back(p);
+        }
+    std::sort(found.begin(), found.end());
+    return found;
+  }
+
+ private:
+  Eigen::Vector3i cell_of(const Eigen::Vector3d& p) const { return (p / cell_).array().floor().cast<int>(); }
+  static std::uint64_t key(const Eigen::Vector3i& c) {
+    return (static_cast<std::uint64_t>(c[0] + (1 << 20)) << 42) | (static_cast<std::uint64_t>(c[1] + (1 << 20)) << 21) |
+           static_cast<std::uint64_t>(c[2] + (1 << 20));
+  }
+  const std::vector<Eigen::Vector3d>& points_;
+  double cell_;
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;
+};
+
+/// Solves with an LDLᵀ factor for a block of kBlock right-hand sides at once,
+/// each row's kBlock values side by side: the factor, whose reading is what
+/// a sparse triangular solve costs, is read once per block instead of once
+/// per right-hand side. Every column gets the same operations in the same
+/// order as alone, so a result does not depend on the block it was solved in.
+class BlockSolver {
+ public:
+  static constexpr int kBlock = 24;
+  using Block = Eigen::Matrix<double, Eigen::Dynamic, kBlock, Eigen::RowMajor>;
+
+  explicit BlockSolver(const Eigen::SimplicialLDLT<fem::SparseMatrix, Eigen::Lower>& factor)
+      : lower_(factor.matrixL().nestedExpression()),
+        inverse_diagonal_(factor.vectorD().cwiseInverse()),
+        permutation_(factor.permutationP()) {}
+
+  /// Overwrites `x` (rows: unknowns, in the matrix's order) with A⁻¹ x.
+  void solve(Block& x) const {
+    const Eigen::Index n = x.rows();
+    Block y(n, kBlock);
+    for (Eigen::Index i = 0; i < n; ++i) y.row(permutation_.indices()[i]) = x.row(i);
+    const int* outer = lower_.outerIndexPtr();
+    const int* inner = lower_.innerIndexPtr();
+    const double* value = lower_.valuePtr();
+    for (Eigen::Index j = 0; j < n; ++j) {  // L z = P x, column by column
+      const Eigen::Matrix<double, 1, kBlock> zj = y.row(j);
+      for (int p = outer[j]; p < outer[j + 1]; ++p)
+        if (inner[p] > j) y.row(inner[p]).noalias() -= value[p] * zj;
+    }
+    for (Eigen::Index j = 0; j < n; ++j) y.row(j) *= inverse_diagonal_[j];
+    for (Eigen::Index j = n - 1; j >= 0; --j) {  // Lᵀ w = D⁻¹ z, row by row of Lᵀ
+      Eigen::Matrix<double, 1, kBlock> wj = y.row(j);
+      for (int p = outer[j]; p < outer[j + 1]; ++p)
+        if (inner[p] > j) wj.noalias() -= value[p] * y.row(inner[p]);
+      y.row(j) = wj;
+    }
+    for (Eigen::Index i = 0; i < n; ++i) x.row(i) = y.row(permutation_.indices()[i]);
+  }
+  std::size_t factor_entries() const { return static_cast<std::size_t>(lower_.nonZeros()); }
+
+ private:
+  const fem::SparseMatrix& lower_;
+  Eigen::VectorXd inverse_diagonal_;
+  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> permutation_;
+};
+
+/// Area-weighted outward unit normal of every surface vertex.
+std::vector<Eigen::Vector3d> vertex_normals(const model::OrganModel& m) {
+  std::vector<Eigen::Vector3d> normals(m.surface_vertices.size(), Eigen::Vector3d::Zero());
+  for (const model::Triangle& t : m.surface_triangles) {
+    const Eigen::Vector3d a = point(m.surface_vertices[t[0]]), b = point(m.surface_vertices[t[1]]),
+                          c = point(m.surface_vertices[t[2]]);
+    const Eigen::Vector3d twice_area_normal = (b - a).cross(c - a);
+    for (std::uint32_t v : t) normals[v] += twice_area_normal;
+  }
+  for (Eigen::Vector3d& n : normals) n = n.norm() > 0 ? Eigen::Vector3d(n.normalized()) : Eigen::Vector3d::UnitZ();
+  return normals;
+}
+
+std::array<double, 6> packed(const Eigen::Matrix3d& c) {
+  return {c(0, 0), c(1, 1), c(2, 2), c(0, 1), c(0, 2), c(1, 2)};
+}
+
+}  // namespace
+
+model::SiteCompliance compute_site_compliance(const model::OrganModel& model, const SiteComplianceOptions& o,
+                                             SiteComplianceReport* report) {
+  if (model.tetrahedra.empty() || model.volume_vertices.empty())
+    throw std::invalid_argument("site compliances need the model's tetrahedra");
+  if (!(o.poisson_ratio > 0 && o.poisson_ratio < 0.5)) throw std::invalid_argument("the reference's Poisson's ratio must lie in (0, 0.5)");
+  if (!(o.stabilization >= 0) || !std::isfinite(o.stabilization))
+    throw std::invalid_argument("the reference's stabilization must be a finite number >= 0");
+  if (!(o.patch_radius >= 0) || !std::isfinite(o.patch_radius)) throw std::invalid_argument("the patch radius must be a length >= 0");
+  if (!(o.fixed_radius > 0) || !std::isfinite(o.fixed_radius)) throw std::invalid_argument("the clamp radius must be a length > 0");
+
+  // The PSH stiffness at rest, clamped as the FEM models clamp it.
+  const fem::TetMesh mesh = fem::tet_mesh_of(model);
+  const std::vector<bool> clamped = fem::clamped_dofs(model, o.fixed_radius);
+  const double young = model.material.young_modulus;
+  fem::ElasticitySystem system(mesh, fem::Material::mooney_rivlin_from_young(young, o.poisson_ratio, o.stabilization),
+                               clamped);
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(system.dof_count()), gradient(system.dof_count());
+  system.assemble(state, gradient, true);
+  const auto factorization_start = std::chrono::steady_clock::now();
+  // Quasi-definite: an LDLᵀ without pivoting exists for every symmetric ordering.
+  const Eigen::SimplicialLDLT<fem::SparseMatrix, Eigen::Lower> factor(system.tangent_free());
+  if (factor.info() != Eigen::Success)
+    throw std::invalid_argument("the FEM stiffness at rest is singular: the clamp does not hold the organ (raise the clamp radius)");
+  const double factorization_seconds = seconds_since(factorization_start);
+
+  // The free boundary nodes, their lumped areas, and the patch radius.
+  const geometry::TetrahedralBoundary boundary = geometry::tetrahedral_boundary(model.tetrahedra);
+  std::vector<double> area(mesh.nodes.size(), 0.0);
+  std::vector<double> edges;
+  for (const model::Triangle& f : boundary.faces) {
+    const Eigen::Vector3d a = mesh.nodes[f[0]], b = mesh.nodes[f[1]], c = mesh.nodes[f[2]];
+    const double third = (b - a).cross(c - a).norm() / 6.0;
+    for (std::uint32_t n : f) area[n] += third;
+    edges.push_back((b - a).norm());
+  }
+  std::nth_element(edges.begin(), edges.begin() + static_cast<std::ptrdiff_t>(edges.size() / 2), edges.end());
+  const double patch = o.patch_radius > 0 ? o.patch_radius : 2.0 * edges[edges.size() / 2];
+  std::vector<std::uint32_t> nodes;  // free boundary nodes
+  std::vector<Eigen::Vector3d> places;
+  for (std::size_t n = 0; n < mesh.nodes.size(); ++n)
+    if (area[n] > 0 && !clamped[3 * n]) {
+      nodes.push_back(static_cast<std::uint32_t>(n));
+      places.push_back(mesh.nodes[n]);
+    }
+  const PointGrid grid(places, patch);
+
+  // Each surface vertex's patch: the free boundary nodes within b.
+  const std::size_t vertices = model.surface_vertices.size();
+  std::vector<std::vector<std::uint32_t>> patches(vertices);
+  std::vector<char> needed(nodes.size(), 0);
+  for (std::size_t v = 0; v < vertices; ++v) {
+    patches[v] = grid.within(point(model.surface_vertices[v]), patch);
+    for (std::uint32_t p : patches[v]) needed[p] = 1;
+  }
+
+  // The boundary's Green's function between needed nodes closer than 2b:
+  // per node a, for each such node b, the 3×3 displacement of b per unit
+  // force at a (column: the force's direction).
+  struct Response {
+    std::uint32_t node;
+    Eigen::Matrix3d displacement;
+  };
+  std::vector<std::vector<Response>> green(nodes.size());
+  std::vector<std::uint32_t> solved;
+  for (std::uint32_t a = 0; a < nodes.size(); ++a)
+    if (needed[a]) solved.push_back(a);
+  const std::vector<std::int32_t>& free_index = system.free_index();
+  const auto solve_start = std::chrono::steady_clock::now();
+  // Blocks of BlockSolver::kBlock / 3 nodes (three directions each), in a
+  // fixed order: the threads take whole blocks.
+  const BlockSolver solver(factor);
+  constexpr int kNodesPerBlock = BlockSolver::kBlock / 3;
+  std::atomic<std::size_t> next{0};
+  auto work = [&] {
+    BlockSolver::Block block(system.free_count(), BlockSolver::kBlock);
+    for (std::size_t first; (first = kNodesPerBlock * next.fetch_add(1)) < solved.size();) {
+      const std::size_t count = std::min<std::size_t>(kNodesPerBlock, solved.size() - first);
+      block.setZero();
+      for (std::size_t m = 0; m < count; ++m)
+        for (int k = 0; k < 3; ++k) block(free_index[3 * nodes[solved[first + m]] + k], static_cast<int>(3 * m) + k) = 1.0;
+      solver.solve(block);
+      for (std::size_t m = 0; m < count; ++m) {
+        const std::uint32_t a = solved[first + m];
+        for (std::uint32_t b : grid.within(places[a], 2.0 * patch)) {
+          if (!needed[b]) continue;
+          Response r{b, Eigen::Matrix3d::Zero()};
+          for (int k = 0; k < 3; ++k)
+            r.displacement.row(k) = block.row(free_index[3 * nodes[b] + k]).segment<3>(static_cast<Eigen::Index>(3 * m));
+          green[a].push_back(r);
+        }
+      }
+    }
+  };
+  const unsigned threads = std::max(1u, o.threads > 0 ? o.threads : std::thread::hardware_concurrency());
+  std::vector<std::thread> pool;
+  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+  const double solve_seconds = seconds_since(solve_start);
+
+  // Each site: the patch's mean displacement per unit force, less the
+  // patch's own indentation.
+  const std::vector<Eigen::Vector3d> normals = vertex_normals(model);
+  model::SiteCompliance sites;
+  sites.young_modulus = young;
+  sites.poisson_ratio = o.poisson_ratio;
+  sites.compliance.resize(vertices);
+  std::vector<double> weight(nodes.size(), 0.0);
+  for (std::size_t v = 0; v < vertices; ++v) {
+    double total = 0.0;
+    for (std::uint32_t p : patches[v]) total += area[nodes[p]];
+    if (!(total > 0.0)) {
+      sites.compliance[v] = {};  // at the clamp: the organ does not give
+      continue;
+    }
+    for (std::uint32_t p : patches[v]) weight[p] = area[nodes[p]] / total;
+    Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
+    for (std::uint32_t a : patches[v])
+      for (const Response& r : green[a]) c += weight[a] * weight[r.node] * r.displacement;
+    for (std::uint32_t p : patches[v]) weight[p] = 0.0;
+    c = 0.5 * (c + c.transpose()) -
+        organ::disk_compliance(young, o.poisson_ratio, std::sqrt(total / M_PI), normals[v]);
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(c);
+    c = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() * eigen.eigenvectors().transpose();
+    sites.compliance[v] = packed(c);
+  }
+  if (report) {
+    report->patch_radius = patch;
+    report->boundary_nodes = solved.size();
+    report->unknowns = static_cast<std::size_t>(system.free_count());
+    report->factor_entries = solver.factor_entries();
+    report->factorization_seconds = factorization_seconds;
+    report->solve_seconds = solve_seconds;
+  }
+  return sites;
+}
+
+}  // namespace organsim::pipeline

@@ -1,0 +1,69 @@
+#include "depth_curve_fit.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "command_line.h"
+#include "organsim/organ/site_law.h"
+#include "press_plan.h"
+#include "refined_reference.h"
+
+namespace organsim::cli {
+
+DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOptions& o) {
+  DepthCurveFit fit;
+  const double radius_mm = o.press.tuning.tip_radius_mm;
+  if (model.sites.empty() || !(radius_mm > 0.0) || o.sites <= 0) return fit;
+  const organ::Organ organ(model);
+  const std::vector<Eigen::Vector3d> normals = rest_normals(organ);
+  const std::vector<std::uint32_t> sites = press_sites(organ, o.sites, o.seed, o.press.tuning.fixed_radius_mm * 1e-3);
+  fit.refine_size_mm = o.refine_size_mm < 0.0 ? 0.5 * radius_mm : o.refine_size_mm;
+  const double refine_radius_mm = *std::max_element(o.depths_mm.begin(), o.depths_mm.end()) + 2.0 * radius_mm;
+  std::map<double, std::vector<double>> log_ratios;  // per depth (mm)
+  for (std::size_t k = 0; k < sites.size(); ++k) {
+    const Eigen::Vector3d at(model.surface_vertices[sites[k]][0], model.surface_vertices[sites[k]][1],
+                             model.surface_vertices[sites[k]][2]);
+    const organ::Organ reference(fit.refine_size_mm > 0.0 ? refined_at(model, at, fit.refine_size_mm, refine_radius_mm)
+                                                          : model);
+    for (const PressTilt tilt : {PressTilt::straight, static_cast<PressTilt>(1 + k % 2)})
+      for (const double depth : o.depths_mm) {
+        const ToolSpec tool = site_press(organ, sites[k], normals[sites[k]], tilt, depth);
+        ++fit.presses;
+        note("calibrate", fmt::format("depth curve: site {} of {}, {:g} mm: {} with {} ({} tetrahedra)", k + 1,
+                                      sites.size(), depth, tool.text, o.reference, reference.model().tetrahedra.size()));
+        Eigen::Vector3d force;
+        try {
+          force = press(o.reference, reference, {tool}, o.press).tools[0].force;
+        } catch (const std::runtime_error& e) {
+          warn("calibrate", fmt::format("depth curve: site {} {:g} mm left out: {}", k + 1, depth, e.what()));
+          continue;
+        }
+        organ::SiteLaw law;
+        const geometry::SurfacePoint touched = organ.surface_tree().closest_point(tool.point_mm * 1e-3);
+        if (!(force.norm() > 0.0) || !law.set(organ, touched, radius_mm * 1e-3)) continue;
+        const Eigen::Vector3d linear = law.stiffness() * (tool.displacement_mm * 1e-3);
+        log_ratios[depth].push_back(std::log(force.norm() / linear.norm()));
+        ++fit.solved;
+      }
+  }
+  if (fit.solved == 0)
+    throw std::runtime_error(fmt::format("none of the {} depth-curve presses could be solved by {}: press less deep "
+                                         "(--depths)",
+                                         fit.presses, o.reference));
+  for (const auto& [depth, logs] : log_ratios) {  // std::map: increasing depth
+    double mean = 0.0;
+    for (double l : logs) mean += l;
+    mean /= static_cast<double>(logs.size());
+    double spread = 0.0;
+    for (double l : logs) spread += (l - mean) * (l - mean);
+    fit.curve.push_back({depth * 1e-3, std::exp(mean)});
+    fit.scatter.push_back(std::exp(std::sqrt(spread / static_cast<double>(logs.size()))));
+  }
+  return fit;
+}
+
+}  // namespace organsim::cli

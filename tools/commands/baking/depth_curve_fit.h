@@ -1,0 +1,42 @@
+// `organsim calibrate`'s depth curve (docs/matching.md): how much the FEM
+// reference's force at depth d exceeds the site law's linear one, −K d, for a
+// tool of the calibrated radius. Measured with the reference pressed on the
+// organ re-meshed finely around each press (as `calibrate --evaluate` does),
+// at sites spread over the organ, straight in and tilted 45°; the curve's
+// factor at each depth is the geometric mean of the presses' ratios
+// |F_ref| / |K d| (what minimizes the typical factor off, as for the
+// stiffness scales).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "organsim/model/organ_model.h"
+#include "static_press.h"
+
+namespace organsim::cli {
+
+struct DepthCurveOptions {
+  int sites = 6;                                  ///< 0: no curve
+  std::vector<double> depths_mm{2.0, 5.0, 10.0};  ///< the curve's depths
+  std::uint32_t seed = 1;
+  double refine_size_mm = -1.0;  ///< the reference's cells under each press: < 0 half the tip's radius; 0 the model's own
+  std::string reference = "psh";
+  PressOptions press;
+};
+
+struct DepthCurveFit {
+  std::vector<std::array<double, 2>> curve;  ///< (depth m, factor): depths where a press solved
+  std::size_t presses = 0, solved = 0;
+  double refine_size_mm = 0.0;               ///< as used
+  /// Per curve depth: how far the presses scatter about the factor,
+  /// exp(√mean ln²(ratio / factor)) (1: the linear law's site-to-site shape is the reference's).
+  std::vector<double> scatter;
+};
+
+/// The depth curve of `model` (which has site compliances) for the tip of
+/// `o.press.tuning.tip_radius_mm`. Throws std::runtime_error when no press solves.
+DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOptions& o);
+
+}  // namespace organsim::cli
