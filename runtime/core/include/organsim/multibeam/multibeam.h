@@ -20,7 +20,9 @@
 //   with its barycentric weights as frame-independent section tensors;
 //   refused (at_fixed_point) when shorter than `min_beam_length`;
 // - force on the tool for a tip displacement d: −K d, K the condensed tip
-//   stiffness (the organ pushes back);
+//   stiffness (the organ pushes back); for a tool of finite size on a model
+//   with site compliances, the FEM reference's site law instead
+//   (organ/site_law.h, docs/matching.md);
 // - distortion of vertex x by beam i: t = projection of x on the beam axis,
 //   clamped to [0, 1]; s(x) = u(t) + θ(t) × q + ½ θ(t) × (θ(t) × q), q = x − b(t)
 //   (plane sections stay plane and, to second order, rigid); u(t) Hermite
