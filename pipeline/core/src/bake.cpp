@@ -102,6 +102,8 @@ void check_options(const BakeOptions& o) {
     throw std::runtime_error(fmt::format("--stations must lie in 1..4096 (got {}); to bake a model without beam tables "
                                          "(every model but the multi-beam one runs on it), pass --no-beam-tables",
                                          o.beams.stations));
+  if (!(o.clamp_cells_mm >= 0.0 && std::isfinite(o.clamp_cells_mm)))
+    throw std::runtime_error(fmt::format("--clamp-cells must be a non-negative number of mm (got {})", o.clamp_cells_mm));
   if (o.surface.target_vertices < 100)
     throw std::runtime_error(fmt::format("--surface-vertices must be at least 100 (got {})", o.surface.target_vertices));
 }
@@ -211,6 +213,8 @@ std::map<std::string, std::string> provenance_parameters(const BakeOptions& o, c
   p["facet_angle_deg"] = fmt::format("{}", o.tetrahedra.facet_angle_deg);
   p["radius_edge_ratio"] = fmt::format("{}", o.tetrahedra.radius_edge_ratio);
   p["mesh_optimization"] = o.tetrahedra.optimize ? "sliver removal" : "none";
+  p["clamp_cells_mm"] = fmt::format("{}", o.clamp_cells_mm);
+  p["clamp_radius_mm"] = fmt::format("{}", o.sites.fixed_radius * 1e3);
   if (!o.tetrahedra.refinements.empty()) {
     std::string places;
     for (const LocalRefinement& r : o.tetrahedra.refinements)
@@ -265,7 +269,13 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
   report.surface_volume_ml = geometry::enclosed_volume(surface.vertices, surface.triangles) * kMillilitresPerCubicMetre;
 
   const geometry::TetrahedralMesh tetrahedra = clock.run("tetrahedra", [&] {
-    geometry::TetrahedralMesh meshed = make_tetrahedra(surface, o.tetrahedra);
+    TetrahedraOptions options = o.tetrahedra;
+    if (o.clamp_cells_mm > 0.0)
+      options.refinements.push_back(clamp_refinement({report.fixed_point_mm[0] * kMetresPerMillimetre,
+                                                      report.fixed_point_mm[1] * kMetresPerMillimetre,
+                                                      report.fixed_point_mm[2] * kMetresPerMillimetre},
+                                                     o.sites.fixed_radius, o.clamp_cells_mm));
+    geometry::TetrahedralMesh meshed = make_tetrahedra(surface, options);
     if (intermediates.wanted()) mesh_io::write_tetrahedra_vtu(meshed, intermediates.stage("tetrahedra.vtu", ".vtu"));
     return meshed;
   });

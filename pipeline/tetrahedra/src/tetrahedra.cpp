@@ -143,6 +143,10 @@ void canonicalize(geometry::TetrahedralMesh& mesh) {
 
 }  // namespace
 
+LocalRefinement clamp_refinement(const model::Point3& fixed_point, double clamp_radius_m, double size_mm) {
+  return {fixed_point, clamp_radius_m / kMillimetre, size_mm};
+}
+
 geometry::TetrahedralMesh make_tetrahedra(const geometry::SurfaceMesh& surface, const TetrahedraOptions& options) {
   check_options(options);
   const CgalSurface input = to_cgal(surface);

@@ -193,7 +193,7 @@ std::int64_t ElasticitySystem::assemble(const Eigen::VectorXd& x, Eigen::VectorX
     if (nonlinear && !(J > 0)) return static_cast<std::int64_t>(e);
     const double pressure = has_pressure() ? x[static_cast<Eigen::Index>(3 * nodes + e)] : 0.0;
     evaluate_material(constitutive, F, pressure, P, tangent ? &A : nullptr);
-    if (tangent && definite_tangent_ && !has_pressure()) {
+    if (tangent && definite_tangent_) {
       const Eigen::SelfAdjointEigenSolver<Matrix9d> eigen(A);
       A = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() * eigen.eigenvectors().transpose();
     }

@@ -2,6 +2,7 @@
 // synthetic volumes: what it makes, that it is deterministic, and its errors.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <limits>
 #include <fstream>
@@ -42,6 +43,18 @@ class Bake : public organsim::testing::TempDirectoryTest {
 };
 
 double relative_difference(double value, double reference) { return std::abs(value / reference - 1.0); }
+
+/// The tetrahedral nodes the FEM models' clamp holds: those within 10 mm of
+/// the fixed point. The bake meshes that ball with 2.5 mm cells
+/// (BakeOptions::clamp_cells_mm), so which nodes it holds no longer hangs on
+/// the meshing.
+std::size_t clamped_nodes(const model::OrganModel& m) {
+  const model::Point3& fixed = m.fixed_points.at(0);
+  std::size_t clamped = 0;
+  for (const model::Point3& v : m.volume_vertices)
+    clamped += std::hypot(v[0] - fixed[0], v[1] - fixed[1], v[2] - fixed[2]) <= 0.010;
+  return clamped;
+}
 
 TEST_F(Bake, PhantomFromASeedGivesAValidModelWithConsistentVolumes) {
   BakeOptions o = phantom_options();
@@ -162,6 +175,9 @@ TEST_F(Bake, RealCtWithItsLiverLabelNifti) {
   EXPECT_GE(r.tetrahedra.min_dihedral_deg, kMinDihedralGoalDeg) << "no slivers on a real liver";
   EXPECT_LE(r.tetrahedra.max_radius_edge_ratio, kMaxRadiusEdgeGoal);
   EXPECT_TRUE(r.tetrahedra_warnings.empty());
+  EXPECT_GE(clamped_nodes(result.model), 80u) << "the FEM clamp's ball resolved (8 mm cells put 4 nodes in it)";
+  EXPECT_EQ(result.model.provenance.parameters.at("clamp_cells_mm"), "2.5");
+  RecordProperty("clamped_nodes", std::to_string(clamped_nodes(result.model)));
   RecordProperty("tet_volume_error", std::to_string(r.tetrahedra_volume_ml / r.mask_volume_ml - 1));
   RecordProperty("min_dihedral_deg", std::to_string(r.tetrahedra.min_dihedral_deg));
   RecordProperty("max_radius_edge_ratio", std::to_string(r.tetrahedra.max_radius_edge_ratio));
@@ -184,6 +200,9 @@ TEST_F(Bake, RealCtDicomSeriesWithAFlippedLabelMap) {
   EXPECT_GE(r.tetrahedra.min_dihedral_deg, kMinDihedralGoalDeg) << "no slivers on a real liver";
   EXPECT_LE(r.tetrahedra.max_radius_edge_ratio, kMaxRadiusEdgeGoal);
   EXPECT_TRUE(r.tetrahedra_warnings.empty());
+  EXPECT_GE(clamped_nodes(result.model), 80u) << "the FEM clamp's ball resolved (8 mm cells put 4 nodes in it)";
+  EXPECT_EQ(result.model.provenance.parameters.at("clamp_cells_mm"), "2.5");
+  RecordProperty("clamped_nodes", std::to_string(clamped_nodes(result.model)));
   RecordProperty("tet_volume_error", std::to_string(r.tetrahedra_volume_ml / r.mask_volume_ml - 1));
   RecordProperty("min_dihedral_deg", std::to_string(r.tetrahedra.min_dihedral_deg));
   RecordProperty("max_radius_edge_ratio", std::to_string(r.tetrahedra.max_radius_edge_ratio));

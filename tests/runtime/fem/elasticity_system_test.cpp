@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+
 #include <random>
 
 namespace organsim::fem {
@@ -81,6 +83,34 @@ TEST(ElasticitySystem, TangentBlocksAreTheGradientsDerivative) {
       }
     }
   }
+}
+
+// Where PSH's exact tangent is indefinite (a pressure larger than the shear
+// modulus makes p ∂²J/∂F² dominate), the definite tangent the static presses
+// fall back to projects the displacement block to positive semi-definite and
+// keeps the pressure coupling and the pressure block: still [K G; Gᵀ −C].
+TEST(ElasticitySystem, PshDefiniteTangentKeepsTheSaddleFormWithADefiniteDisplacementBlock) {
+  const TetMesh mesh = box_mesh({2, 2, 2}, {0.01, 0.01, 0.01});
+  ElasticitySystem system(mesh, material_for(MaterialModel::mooney_rivlin, 10), some_constraints(mesh));
+  Eigen::VectorXd x = random_state(system, 3), gradient(system.dof_count());
+  const Eigen::Index displacement_dofs = static_cast<Eigen::Index>(3 * mesh.nodes.size());
+  x.tail(x.size() - displacement_dofs).array() *= 60.0;  // pressures of ±3e5 Pa, µ ≈ 3.4e4 Pa
+  const auto& index = system.free_index();
+  Eigen::Index free_displacements = 0;
+  for (Eigen::Index d = 0; d < displacement_dofs; ++d) free_displacements += index[static_cast<std::size_t>(d)] >= 0;
+  const auto blocks = [&](bool definite) {
+    system.set_definite_tangent(definite);
+    EXPECT_EQ(system.assemble(x, gradient, true), -1);
+    return Eigen::MatrixXd(system.tangent_free());
+  };
+  const Eigen::MatrixXd exact = blocks(false), definite = blocks(true);
+  // The free displacements come first in the free numbering, the pressures after them.
+  const auto uu = [&](const Eigen::MatrixXd& m) { return m.topLeftCorner(free_displacements, free_displacements); };
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> exact_uu(uu(exact)), definite_uu(uu(definite));
+  EXPECT_LT(exact_uu.eigenvalues().minCoeff(), 0.0) << "the state should make the exact block indefinite";
+  EXPECT_GT(definite_uu.eigenvalues().minCoeff(), -1e-10 * definite_uu.eigenvalues().cwiseAbs().maxCoeff());
+  const Eigen::Index rest = exact.rows() - free_displacements;
+  EXPECT_EQ(exact.bottomRows(rest), definite.bottomRows(rest)) << "pressure coupling and C unchanged";
 }
 
 TEST(ElasticitySystem, StabilizationJoinsEachInteriorFaceOnce) {

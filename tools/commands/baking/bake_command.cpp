@@ -231,6 +231,10 @@ void add_bake_options(CLI::App& app, const std::shared_ptr<BakeCommandOptions>& 
   app.add_option("--refine-size", o->refine_size_mm,
                  "Around each --refine-at: the fine cells' size, mm (growing 0.3 mm per mm beyond the radius)")
       ->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--clamp-cells", b.clamp_cells_mm,
+                 "The tetrahedra's size over the FEM models' clamp (within 10 mm of the fixed point), mm (0: the "
+                 "--tet-size there too; docs/fem.md#the-clamp)")
+      ->check(kNonNegative)->capture_default_str();
   app.add_option("--facet-distance", b.tetrahedra.facet_distance_mm,
                  "Largest distance of a boundary facet from the surface, mm")->capture_default_str();
   app.add_option("--stations", b.beams.stations, "Beam stations (sections per beam)")->capture_default_str();

@@ -106,7 +106,10 @@ class OrganFem::Worker {
         slots_(owner.node_slots_.size()),
         spare_(std::move(spare)),
         thread_([this] { run(); }) {
-    system_.set_definite_tangent(true);
+    // PSH keeps its exact tangent here: its saddle-point form factorizes
+    // wherever the state is stable, and projecting every element's tangent
+    // (a 9 × 9 eigen-decomposition each) would slow every refresh.
+    system_.set_definite_tangent(!system.has_pressure());
   }
   ~Worker() {
     stop_.store(true, std::memory_order_release);
@@ -283,8 +286,17 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
     // the worker's first tangent takes the place of the empty one.
     rest_tangent_ = std::move(tangent_);
     using_rest_ = true;
+    // The two tangents the frames and the worker trade are factorized once
+    // here, at rest, the worker's by one refresh on its own thread, so that
+    // their memory and the worker's working memory are touched at set-up and
+    // not by the first refreshes mid-session (page faults in the loops, and
+    // resident memory that grew by a factor's size over the first seconds).
     tangent_ = make_tangent(true);
+    tangent_->factorize(system_->tangent_free(), pressure_count());
     worker_ = std::make_unique<Worker>(*this, *system_, make_tangent(true));
+    worker_->request(state_, node_slots_);
+    worker_->wait();
+    worker_->release();
   }
 }
 
@@ -633,7 +645,7 @@ bool OrganFem::refresh_tangent() {
   for (bool definite : {false, true}) {
     system_->set_definite_tangent(definite);
     ok = system_->assemble(state_, gradient_, true) < 0 && fresh->factorize(system_->tangent_free(), pressure_count());
-    if (ok || system_->has_pressure()) break;
+    if (ok) break;
   }
   system_->set_definite_tangent(false);
   if (ok) adopt(fresh);

@@ -44,6 +44,13 @@ struct BakeOptions {
 
   SurfaceOptions surface;
   TetrahedraOptions tetrahedra;
+  /// The FEM models hold the organ by the nodes within their clamp radius
+  /// of the fixed point (10 mm, SiteComplianceOptions::fixed_radius): the
+  /// tetrahedra are refined to cells of this size there (mm; 0: not), so that
+  /// the clamp is a ball the mesh resolves rather than the handful of nodes
+  /// 8 mm cells put in it, which moved the FEM reference's force by up to
+  /// 20 % from one meshing to the next (docs/fem.md#the-clamp).
+  double clamp_cells_mm = 2.5;
   BeamBakingOptions beams;
   /// False (--no-beam-tables): the model carries no beam tables, which are
   /// the multi-beam model's alone (and the slowest stage but segmentation);

@@ -27,6 +27,11 @@ struct LocalRefinement {
 /// transition free of badly shaped tetrahedra.
 constexpr double kRefinementGrading = 0.3;
 
+/// The refinement that resolves the FEM models' clamp, the nodes within
+/// `clamp_radius_m` of the fixed point (m): cells of `size_mm` over the whole
+/// held ball, so that which nodes it holds no longer depends on the meshing.
+LocalRefinement clamp_refinement(const model::Point3& fixed_point, double clamp_radius_m, double size_mm);
+
 struct TetrahedraOptions {
   double tet_size_mm = 8.0;              ///< target edge length scale: cell size and facet size, mm
   std::vector<LocalRefinement> refinements;  ///< finer cells around these points

@@ -60,7 +60,9 @@ class ElasticitySystem {
   /// tangent of a displacement-only material is positive definite wherever the
   /// body is held: what an iteration that keeps a tangent for several steps
   /// needs. Off by default (the exact Hessian: Newton's quadratic convergence).
-  /// Ignored for mooney-rivlin.
+  /// For mooney-rivlin the projected part is the displacement block's (the
+  /// isochoric stress and the pressure's geometric term); the pressure
+  /// coupling and C stay, so the tangent stays quasi-definite.
   void set_definite_tangent(bool definite) noexcept { definite_tangent_ = definite; }
 
   const SparseMatrix& tangent_free() const noexcept { return free_free_; }
