@@ -268,13 +268,13 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
   report.surface_area_cm2 = geometry::surface_area(surface.vertices, surface.triangles) * 1e4;
   report.surface_volume_ml = geometry::enclosed_volume(surface.vertices, surface.triangles) * kMillilitresPerCubicMetre;
 
+  const model::Point3 fixed_point_m{report.fixed_point_mm[0] * kMetresPerMillimetre,
+                             report.fixed_point_mm[1] * kMetresPerMillimetre,
+                             report.fixed_point_mm[2] * kMetresPerMillimetre};
   const geometry::TetrahedralMesh tetrahedra = clock.run("tetrahedra", [&] {
     TetrahedraOptions options = o.tetrahedra;
     if (o.clamp_cells_mm > 0.0)
-      options.refinements.push_back(clamp_refinement({report.fixed_point_mm[0] * kMetresPerMillimetre,
-                                                      report.fixed_point_mm[1] * kMetresPerMillimetre,
-                                                      report.fixed_point_mm[2] * kMetresPerMillimetre},
-                                                     o.sites.fixed_radius, o.clamp_cells_mm));
+      options.refinements.push_back(clamp_refinement(fixed_point_m, o.sites.fixed_radius, o.clamp_cells_mm));
     geometry::TetrahedralMesh meshed = make_tetrahedra(surface, options);
     if (intermediates.wanted()) mesh_io::write_tetrahedra_vtu(meshed, intermediates.stage("tetrahedra.vtu", ".vtu"));
     return meshed;
@@ -284,9 +284,6 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
   report.volume_vertices = tetrahedra.vertices.size();
   report.tetrahedra_volume_ml = report.tetrahedra.total_volume_m3 * kMillilitresPerCubicMetre;
 
-  const model::Point3 fixed_point_m{report.fixed_point_mm[0] * kMetresPerMillimetre,
-                             report.fixed_point_mm[1] * kMetresPerMillimetre,
-                             report.fixed_point_mm[2] * kMetresPerMillimetre};
   model::OrganModel& model = result.model;
   if (o.beam_tables)
     model.beams = clock.run("beam tables", [&] {
