@@ -151,6 +151,36 @@ void Solve(benchmark::State& state) {
   state.counters["x_memory_limit"] = organsim::bench::times_memory_limit(bytes);
 }
 
+/// The solve a real-time frame of OrganFem makes (fem/organ_fem.h): the
+/// factorization it keeps for a nonlinear material (SolveUse::realtime_iteration:
+/// CHOLMOD's supernodal LLᵀ for the displacement-only materials where the
+/// direct library is built, otherwise and for PSH the simplicial LDLᵀ with
+/// supernodal solves in single precision), one right-hand side or a
+/// contact's three.
+void FrameSolve(benchmark::State& state) {
+  Setup s(static_cast<int>(state.range(0)), kMaterials[state.range(1)]);
+  s.system->assemble(s.state, s.gradient, true);
+  const MatrixKind kind = s.system->has_pressure() ? MatrixKind::quasi_definite : MatrixKind::positive_definite;
+#ifdef ORGANSIM_HAVE_FEM_DIRECT
+  const auto factorization = make_factorization(direct_factorization, kind, SolveUse::realtime_iteration);
+#else
+  const auto factorization = make_factorization(nullptr, kind, SolveUse::realtime_iteration);
+#endif
+  factorization->analyze(s.system->tangent_free());
+  if (!factorization->factorize(s.system->tangent_free())) state.SkipWithError("factorization failed");
+  const Eigen::MatrixX3d rhs = Eigen::MatrixX3d::Ones(s.system->free_count(), 3);
+  Eigen::MatrixX3d x(s.system->free_count(), 3);
+  for (auto _ : state) {
+    if (state.range(2) == 3)
+      factorization->solve3(rhs, x);
+    else
+      factorization->solve(rhs.col(0), x.col(0));
+    benchmark::DoNotOptimize(x.data());
+  }
+  state.counters["nnz(L)"] = static_cast<double>(factorization->factor_nonzeros());
+  state.SetLabel(factorization->name());
+}
+
 /// One full Newton iteration: gradient and tangent, factorization, solve.
 void NewtonIteration(benchmark::State& state) {
   Setup s(static_cast<int>(state.range(0)), kMaterials[state.range(1)]);
@@ -226,11 +256,19 @@ void SolverArguments(benchmark::internal::Benchmark* b) {
       for (int solver = 0; solver < kSolvers; ++solver) b->Args({mesh, material, solver});
 }
 
+void FrameSolveArguments(benchmark::internal::Benchmark* b) {
+  b->ArgNames({"mesh", "material", "columns"})->Unit(benchmark::kMillisecond);
+  for (int mesh = 0; mesh < meshes(); ++mesh)
+    for (int material : {1, 3})
+      for (int columns : {1, 3}) b->Args({mesh, material, columns});
+}
+
 BENCHMARK(Gradient)->Apply(Arguments);
 BENCHMARK(Tangent)->Apply(Arguments);
 BENCHMARK(Factorize)->Apply(SolverArguments)->Iterations(2);
 BENCHMARK(Solve)->Apply(SolverArguments);
 BENCHMARK(NewtonIteration)->Apply(SolverArguments)->Iterations(3);
+BENCHMARK(FrameSolve)->Apply(FrameSolveArguments);
 
 // Only with a baked model (it is the liver's figure).
 const bool press_registered =

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "organsim/fem/direct_factorizations.h"
+#include "organsim/fem/supernodal_solve.h"
 
 #include "solver_threads.h"
 
@@ -68,7 +69,7 @@ class CholmodFactorization final : public Factorization {
 
   Eigen::Index negative_pivots() const noexcept override { return 0; }
 
-  // Solves walk the supernodal factor with our own loops (supernodal_solve)
+  // Solves walk the supernodal factor with our own loops (supernodal_solve.h)
   // rather than cholmod_solve2: CHOLMOD's solves call OpenBLAS, whose
   // triangular solve takes its buffer pool's lock on every call and whose
   // small-matrix GEMM (three columns) allocates; a real-time loop may do
@@ -80,7 +81,7 @@ class CholmodFactorization final : public Factorization {
     }
     const int* perm = static_cast<const int*>(factor_->Perm);
     for (Eigen::Index k = 0; k < rows_; ++k) permuted_(k, 0) = rhs[perm[k]];
-    supernodal_solve<1>();
+    supernodal_solve(view_, nullptr, permuted_, 1, below_);
     for (Eigen::Index k = 0; k < rows_; ++k) solution[perm[k]] = permuted_(k, 0);
   }
 
@@ -92,7 +93,7 @@ class CholmodFactorization final : public Factorization {
     }
     const int* perm = static_cast<const int*>(factor_->Perm);
     for (Eigen::Index k = 0; k < rows_; ++k) permuted_.row(k) = rhs.row(perm[k]);
-    supernodal_solve<3>();
+    supernodal_solve(view_, nullptr, permuted_, 3, below_);
     for (Eigen::Index k = 0; k < rows_; ++k) solution.row(perm[k]) = permuted_.row(k);
   }
 
@@ -101,108 +102,22 @@ class CholmodFactorization final : public Factorization {
   const char* name() const noexcept override { return "supernodal LLT (CHOLMOD)"; }
 
  private:
-  /// A supernode s: columns first..first + columns − 1 of L, stored as a dense
-  /// column-major rows × columns block whose first `columns` rows are those
-  /// columns' own (the diagonal triangle) and whose other rows are listed in
-  /// row_index (the rows below).
-  struct Supernode {
-    Eigen::Index first, columns, rows;
-    const int* row_index;
-    const double* values;
-  };
-
-  Supernode supernode(std::size_t s) const noexcept {
-    const int* super = static_cast<const int*>(factor_->super);
-    const int* pi = static_cast<const int*>(factor_->pi);
-    const int* px = static_cast<const int*>(factor_->px);
-    return {super[s], super[s + 1] - super[s], pi[s + 1] - pi[s], static_cast<const int*>(factor_->s) + pi[s],
-            static_cast<const double*>(factor_->x) + px[s]};
-  }
-
   void size_workspace() {
-    Eigen::Index most_below = 0;
-    for (std::size_t s = 0; s < factor_->nsuper; ++s) {
-      const Supernode node = supernode(s);
-      most_below = std::max(most_below, node.rows - node.columns);
-    }
+    view_ = {factor_->nsuper,
+             static_cast<const int*>(factor_->super),
+             static_cast<const int*>(factor_->pi),
+             static_cast<const int*>(factor_->px),
+             static_cast<const int*>(factor_->s),
+             static_cast<const double*>(factor_->x)};
     permuted_.resize(rows_, 3);
-    below_.resize(most_below, 3);
-  }
-
-  /// Solves L Lᵀ Y = Y for the first K columns of permuted_, in place.
-  template <int K>
-  void supernodal_solve() noexcept {
-    double* y[K];
-    double* t[K];
-    for (int c = 0; c < K; ++c) y[c] = permuted_.col(c).data(), t[c] = below_.col(c).data();
-    const std::size_t supernodes = factor_->nsuper;
-
-    // L Y = Y: each supernode's diagonal triangle, then its rows below as
-    // L₂₁ Y₁ gathered in t and subtracted where they belong.
-    for (std::size_t s = 0; s < supernodes; ++s) {
-      const Supernode node = supernode(s);
-      const Eigen::Index n = node.columns, below = node.rows - n;
-      for (Eigen::Index j = 0; j < n; ++j) {
-        const double* column = node.values + j * node.rows;
-        for (int c = 0; c < K; ++c) {
-          double* yc = y[c] + node.first;
-          const double pivot = yc[j] /= column[j];
-          for (Eigen::Index i = j + 1; i < n; ++i) yc[i] -= column[i] * pivot;
-        }
-      }
-      if (below == 0) continue;
-      for (int c = 0; c < K; ++c) std::fill(t[c], t[c] + below, 0.0);
-      Eigen::Index j = 0;
-      for (; j + 4 <= n; j += 4) {  // four columns per sweep: a quarter of the passes over t
-        const double* l0 = node.values + j * node.rows + n;
-        const double* l1 = l0 + node.rows;
-        const double* l2 = l1 + node.rows;
-        const double* l3 = l2 + node.rows;
-        for (int c = 0; c < K; ++c) {
-          const double* yj = y[c] + node.first + j;
-          const double y0 = yj[0], y1 = yj[1], y2 = yj[2], y3 = yj[3];
-          double* tc = t[c];
-          for (Eigen::Index i = 0; i < below; ++i) tc[i] += (l0[i] * y0 + l1[i] * y1) + (l2[i] * y2 + l3[i] * y3);
-        }
-      }
-      for (; j < n; ++j) {
-        const double* l0 = node.values + j * node.rows + n;
-        for (int c = 0; c < K; ++c) {
-          const double y0 = y[c][node.first + j];
-          double* tc = t[c];
-          for (Eigen::Index i = 0; i < below; ++i) tc[i] += l0[i] * y0;
-        }
-      }
-      const int* rows = node.row_index + n;
-      for (int c = 0; c < K; ++c)
-        for (Eigen::Index i = 0; i < below; ++i) y[c][rows[i]] -= t[c][i];
-    }
-
-    // Lᵀ Y = Y, supernodes in reverse: the rows below (solved already)
-    // gathered in t, Y₁ −= L₂₁ᵀ t, then the diagonal triangle transposed.
-    for (std::size_t s = supernodes; s-- > 0;) {
-      const Supernode node = supernode(s);
-      const Eigen::Index n = node.columns, below = node.rows - n;
-      const int* rows = node.row_index + n;
-      for (int c = 0; c < K; ++c)
-        for (Eigen::Index i = 0; i < below; ++i) t[c][i] = y[c][rows[i]];
-      for (Eigen::Index j = n; j-- > 0;) {
-        const double* column = node.values + j * node.rows;
-        const Eigen::Map<const Eigen::VectorXd> under(column + n, below), triangle(column + j + 1, n - j - 1);
-        for (int c = 0; c < K; ++c) {
-          double& x = y[c][node.first + j];
-          x -= under.dot(Eigen::Map<const Eigen::VectorXd>(t[c], below)) +
-               triangle.dot(Eigen::Map<const Eigen::VectorXd>(y[c] + node.first + j + 1, n - j - 1));
-          x /= column[j];
-        }
-      }
-    }
+    below_.resize(std::max<Eigen::Index>(view_.most_rows_below(), 1), 3);
   }
 
   cholmod_common common_{};
   cholmod_factor* factor_ = nullptr;
   Eigen::Index rows_ = 0;
   bool factorized_ = false;
+  SupernodalView<double> view_;
   Eigen::MatrixX3d permuted_, below_;  // the solves' workspace, sized at factorize()
 };
 

@@ -188,7 +188,9 @@ std::unique_ptr<Factorization> direct_factorization(MatrixKind kind, SolveUse us
     case SolveUse::newton: return make_mumps_factorization();
     case SolveUse::preconditioner:
       return kind == MatrixKind::quasi_definite ? make_single_precision_mumps_factorization() : make_mumps_factorization();
-    case SolveUse::realtime: return kind == MatrixKind::positive_definite ? make_cholmod_factorization() : nullptr;
+    case SolveUse::realtime:
+    case SolveUse::realtime_iteration:
+      return kind == MatrixKind::positive_definite ? make_cholmod_factorization() : nullptr;
   }
   return nullptr;
 }

@@ -1,5 +1,6 @@
 // The simplicial factorization: solves positive definite and quasi-definite
-// (PSH) tangents, reports their inertia, and refuses a singular one; a pivot
+// (PSH) tangents with its supernodal solves, again after a refactorization,
+// reports their inertia, and refuses a singular one; a pivot
 // is judged against its own row (pressure rows are 1e-15 of displacement rows).
 #include "organsim/fem/factorization.h"
 
@@ -30,13 +31,15 @@ struct BoxTangent {
   Eigen::Index pressures() const { return system->has_pressure() ? static_cast<Eigen::Index>(mesh.tetrahedra.size()) : 0; }
 };
 
-void expect_solves(Factorization& f, const SparseMatrix& matrix) {
+/// Solves to `accuracy` (relative backward error; the three-column solve as
+/// the one-column ones to round-off).
+void expect_solves(Factorization& f, const SparseMatrix& matrix, double accuracy = 1e-12) {
   const Eigen::VectorXd rhs = Eigen::VectorXd::LinSpaced(matrix.rows(), -1.0, 2.0);
   Eigen::VectorXd solution(matrix.rows());
   f.solve(rhs, solution);
   // Backward error: the rows carry different units, so the residual is
   // judged against ‖A‖‖x‖ + ‖b‖, not against ‖b‖ alone.
-  EXPECT_LT((matrix * solution - rhs).norm(), 1e-12 * (matrix.norm() * solution.norm() + rhs.norm()));
+  EXPECT_LT((matrix * solution - rhs).norm(), accuracy * (matrix.norm() * solution.norm() + rhs.norm()));
   // Three right-hand sides at once: each column as its own solve gives it.
   Eigen::MatrixX3d rhs3(matrix.rows(), 3), solution3(matrix.rows(), 3);
   rhs3 << rhs, -2.0 * rhs, Eigen::VectorXd::Ones(matrix.rows());
@@ -59,7 +62,38 @@ TEST(Factorization, SimplicialSolvesDefiniteAndQuasiDefiniteTangentsWithTheirIne
     EXPECT_TRUE(f->realtime_solve());
     EXPECT_GT(f->factor_nonzeros(), static_cast<std::size_t>(box.matrix().nonZeros() / 2));
     expect_solves(*f, box.matrix());
+    // Refactorized with other values on the same pattern (the tangent worker's
+    // refreshes): the solves follow the new factor.
+    SparseMatrix stiffer = box.matrix();
+    stiffer.diagonal() *= 1.5;
+    ASSERT_TRUE(f->factorize(stiffer));
+    expect_solves(*f, stiffer);
   }
+}
+
+TEST(Factorization, SimplicialInSinglePrecisionSolvesToSinglePrecision) {
+  for (const Material& material : {Material::from_young(MaterialModel::corotational, 5000, 0.45),
+                                   Material::mooney_rivlin_from_young(5000, 0.49, 100)}) {
+    const BoxTangent box(material, true);
+    const auto single = make_simplicial_factorization(true), full = make_simplicial_factorization();
+    for (Factorization* f : {single.get(), full.get()}) {
+      f->analyze(box.matrix());
+      ASSERT_TRUE(f->factorize(box.matrix()));
+    }
+    EXPECT_EQ(single->negative_pivots(), box.pressures());
+    expect_solves(*single, box.matrix(), 1e-6);
+    // Within single precision's reach of the double-precision solve, and not
+    // the same (the factor really is kept in single precision).
+    const Eigen::VectorXd rhs = Eigen::VectorXd::LinSpaced(box.matrix().rows(), -1.0, 2.0);
+    Eigen::VectorXd x_single(rhs.size()), x_full(rhs.size());
+    single->solve(rhs, x_single);
+    full->solve(rhs, x_full);
+    EXPECT_LT((x_single - x_full).norm(), 1e-5 * x_full.norm()) << material_name(material.model);
+    EXPECT_GT((x_single - x_full).norm(), 1e-12 * x_full.norm()) << material_name(material.model);
+  }
+  const FactorizationFactory none = [](MatrixKind, SolveUse) -> std::unique_ptr<Factorization> { return nullptr; };
+  EXPECT_STREQ(make_factorization(none, MatrixKind::quasi_definite, SolveUse::realtime_iteration)->name(),
+               make_simplicial_factorization(true)->name());
 }
 
 TEST(Factorization, SimplicialRefusesTheTangentOfABodyNotHeld) {

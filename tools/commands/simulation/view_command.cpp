@@ -144,6 +144,7 @@ void view_phantom(const organ::Organ& organ, const HapticRig& rig, ViewRun& run)
   const ViewOptions& o = run.options;
   const std::vector<HapticDevice*> pointers = rig.tools();
   Engine engine(organ, pointers, engine_options(o));
+  engine.set_reproducible(false);  // real time: a frame never waits for the FEM tangent worker
   OpenHapticsServo servo(*rig.library, rig.servo_devices(), engine);
   vtkNew<vtkRenderWindowInteractor> interactor;
   vtkNew<vtkInteractorStyleTrackballCamera> style;
@@ -186,6 +187,7 @@ void view_mouse(const organ::Organ& organ, ViewRun& run) {
   std::vector<HapticDevice*> pointers;
   for (StreamedTool& t : tools) pointers.push_back(&t);
   Engine engine(organ, pointers, engine_options(o));
+  engine.set_reproducible(false);  // real time: a frame never waits for the FEM tangent worker
   vtkNew<vtkRenderWindowInteractor> interactor;
   vtkNew<viewer::ToolStyle> style;
   style->attach(tools, run.scene);

@@ -133,6 +133,8 @@ class OrganFem::Worker {
   /// Owner: true when the requested refresh is done and usable (the owner
   /// may then work on `spare()`), without waiting.
   bool ready() const noexcept { return phase_.load(std::memory_order_acquire) == kReady; }
+  /// Owner: true when the requested refresh is done, usable or not.
+  bool finished() const noexcept { return phase_.load(std::memory_order_acquire) != kRequested; }
   std::unique_ptr<Tangent>& spare() noexcept { return spare_; }
   /// Owner: the result is taken; the worker may be asked again.
   void release() noexcept { phase_.store(kIdle, std::memory_order_release); }
@@ -304,9 +306,13 @@ OrganFem::~OrganFem() = default;
 
 std::unique_ptr<OrganFem::Tangent> OrganFem::make_tangent(bool realtime_solve) const {
   const MatrixKind kind = system_->has_pressure() ? MatrixKind::quasi_definite : MatrixKind::positive_definite;
+  // The nonlinear materials' frames iterate on their own residual: a factor
+  // in single precision serves them; a linear frame is the exact solution.
+  const SolveUse use = !(realtime_solve && realtime_solves_)                ? SolveUse::newton
+                       : system_->material().model == MaterialModel::linear ? SolveUse::realtime
+                                                                             : SolveUse::realtime_iteration;
   return std::make_unique<Tangent>(system_->tangent_free(), node_slots_.size(),
-                                   make_factorization(factorization_, kind,
-                                                      realtime_solve && realtime_solves_ ? SolveUse::realtime : SolveUse::newton));
+                                   make_factorization(factorization_, kind, use));
 }
 
 const char* OrganFem::linear_solver() const noexcept {
@@ -727,9 +733,13 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
   }
   solved_this_frame_ = false;
   if (worker_ && refresh_due_ > 0 && frame_ >= refresh_due_) {
-    if (worker_->wait()) adopt(worker_->spare());
-    worker_->release();
-    refresh_due_ = 0;
+    if (reproducible_ || worker_->finished()) {
+      if (worker_->wait()) adopt(worker_->spare());
+      worker_->release();
+      refresh_due_ = 0;
+    } else if (frame_ == refresh_due_) {
+      ++late_refreshes_;
+    }
   }
   for (std::uint32_t t = 0; t < contacts_.size(); ++t)
     if (contacts_[t].active) contacts_[t].target = displacements[t];

@@ -94,6 +94,7 @@ Percentiles percentiles(std::vector<double> samples) {
 
 RunTimings run_fast(Engine& engine, double duration, const std::function<void(const RunTimings&)>& after_frame) {
   RunTimings timings;
+  engine.set_reproducible(true);
   const EngineOptions& o = engine.options();
   const std::size_t ticks = ticks_for(duration, o.force_period);
   const auto wall_start = std::chrono::steady_clock::now();
@@ -118,6 +119,7 @@ RunTimings run_fast(Engine& engine, double duration, const std::function<void(co
 
 RunTimings run_realtime(Engine& engine, double duration, const std::function<bool(const RunTimings&)>& poll) {
   RunTimings timings;
+  engine.set_reproducible(false);  // a frame never waits for the FEM tangent worker
   const EngineOptions& o = engine.options();
   const std::size_t force_ticks = ticks_for(duration, o.force_period);
   const std::size_t frames = ticks_for(duration, o.deformation_period);

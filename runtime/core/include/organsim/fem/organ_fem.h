@@ -26,7 +26,9 @@
 //   constraints' columns; A⁻¹ H solved once per held point and tangent). For
 //   corotational and stvk a worker thread refactors the tangent at the state
 //   of frame k while the frames go on, and frame k + refresh_frames adopts it
-//   (waiting for the worker if it is late, so that a replay is deterministic):
+//   (waiting for the worker if it is late, so that a replay is deterministic;
+//   in real-time loops the first frame after that finds it done,
+//   set_reproducible):
 //   the asynchronous tangent of Courtecuisse et al. (2014). The iteration's
 //   step is scaled by `relaxation` (½) for the nonlinear materials; a frame whose
 //   iteration fails with a refreshed tangent retries with the rest tangent,
@@ -155,6 +157,14 @@ class OrganFem {
   bool refresh_tangent();
   /// Tangents adopted since construction (the rest tangent not counted).
   std::uint64_t tangent_refreshes() const noexcept { return refreshes_; }
+  /// true (the default): the frame that is to adopt a refreshed tangent waits
+  /// for the worker when it is late, so that a replay is reproducible; false
+  /// (real-time loops): it goes on with the kept tangent and a later frame
+  /// adopts the fresh one once the worker is done (a loaded machine then
+  /// refreshes less often instead of overrunning frames).
+  void set_reproducible(bool reproducible) noexcept { reproducible_ = reproducible; }
+  /// Frames that found the worker's tangent late and went on without it.
+  std::uint64_t late_refreshes() const noexcept { return late_refreshes_; }
   /// Frames whose iteration was cut short because the whole of it would have
   /// inverted a tetrahedron (the organ then lags the tools).
   std::uint64_t step_cuts() const noexcept { return step_cuts_; }
@@ -310,7 +320,8 @@ class OrganFem {
   std::uint32_t refresh_frames_ = 0;
   std::uint64_t frame_ = 0, refresh_due_ = 0;
   bool solved_this_frame_ = false;  // a contact's response was solved since the last step
-  std::uint64_t refreshes_ = 0, step_cuts_ = 0;
+  std::uint64_t refreshes_ = 0, step_cuts_ = 0, late_refreshes_ = 0;
+  bool reproducible_ = true;
   double unbalanced_ = 0;
   double relaxation_ = 1;
   double pressure_scale_ = 1;  ///< κ / h̄: pressure rows (m³) to newtons in unbalanced_force()

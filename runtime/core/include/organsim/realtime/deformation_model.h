@@ -90,6 +90,12 @@ class DeformationModel {
   /// Nodes the last step() integrated (the mass-spring model's active
   /// region); 0 for models that have no such notion.
   virtual std::size_t active_nodes() const noexcept { return 0; }
+  /// true (the default): background work a step takes up (the FEM tangent
+  /// worker's refactorization) is waited for when it is late, so that a run
+  /// gives the same forces every time (fast replays); false: a step goes on
+  /// with what it has and takes the work up when it is done (the real-time
+  /// loops, where waiting would overrun the frame). Between runs only.
+  virtual void set_reproducible(bool reproducible) noexcept { (void)reproducible; }
 };
 
 /// How the mass-spring model runs inside the engine (docs/springs.md).

@@ -137,6 +137,11 @@ class Engine final : public devices::ForceLoop {
   void force_tick(double now) noexcept override;
   /// One deformation-loop iteration at time `now` (s).
   void deformation_step(double now) noexcept;
+  /// Whether the model waits for its late background work (reproducible runs:
+  /// run_fast) or goes on without it (real-time loops: run_realtime, the
+  /// viewer's and the devices' loops); DeformationModel::set_reproducible.
+  /// Before the loops run.
+  void set_reproducible(bool reproducible) noexcept { model_->set_reproducible(reproducible); }
 
   std::size_t tool_count() const noexcept { return devices_.size(); }
   const EngineOptions& options() const noexcept { return options_; }
