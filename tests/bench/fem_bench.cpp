@@ -155,8 +155,8 @@ void Solve(benchmark::State& state) {
 /// factorization it keeps for a nonlinear material (SolveUse::realtime_iteration:
 /// CHOLMOD's supernodal LLᵀ for the displacement-only materials where the
 /// direct library is built, otherwise and for PSH the simplicial LDLᵀ with
-/// supernodal solves in single precision), one right-hand side or a
-/// contact's three.
+/// supernodal solves in single precision, in CHOLMOD's ordering where the
+/// direct library is built), one right-hand side or a contact's three.
 void FrameSolve(benchmark::State& state) {
   Setup s(static_cast<int>(state.range(0)), kMaterials[state.range(1)]);
   s.system->assemble(s.state, s.gradient, true);

@@ -125,4 +125,26 @@ class CholmodFactorization final : public Factorization {
 
 std::unique_ptr<Factorization> make_cholmod_factorization() { return std::make_unique<CholmodFactorization>(); }
 
+void cholmod_ordering(const SparseMatrix& matrix, Eigen::VectorXi& permutation) {
+  detail::use_one_solver_thread();
+  cholmod_common common{};
+  cholmod_start(&common);
+  common.print = 0;
+  common.error_handler = nullptr;
+  SparseMatrix compressed = matrix;
+  compressed.makeCompressed();
+  cholmod_sparse a = view(compressed);
+  cholmod_factor* symbolic = cholmod_analyze(&a, &common);
+  // CHOLMOD factors A(Perm, Perm): row Perm[k] of A is row k of P A Pᵀ.
+  permutation.resize(matrix.rows());
+  if (symbolic && symbolic->Perm) {
+    const int* perm = static_cast<const int*>(symbolic->Perm);
+    for (Eigen::Index k = 0; k < matrix.rows(); ++k) permutation[perm[k]] = static_cast<int>(k);
+  } else {
+    for (Eigen::Index k = 0; k < matrix.rows(); ++k) permutation[k] = static_cast<int>(k);
+  }
+  cholmod_free_factor(&symbolic, &common);
+  cholmod_finish(&common);
+}
+
 }  // namespace organsim::fem

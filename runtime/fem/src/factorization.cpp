@@ -18,26 +18,38 @@ namespace {
 template <typename Scalar>
 class SimplicialFactorization final : public Factorization {
  public:
+  explicit SimplicialFactorization(Ordering ordering) : ordering_(ordering) {}
+
   void analyze(const SparseMatrix& matrix) override {
-    ldlt_.analyzePattern(matrix);
+    // P A Pᵀ is factorized; the ordering is ours (AMD, as Eigen's own, or the
+    // one given), so that it can be another library's.
+    if (ordering_) {
+      ordering_(matrix, order_);
+      permutation_.indices() = order_;
+    } else {
+      Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> inverse;
+      Eigen::AMDOrdering<int>()(matrix, inverse);
+      permutation_ = inverse.inverse();
+      order_ = permutation_.indices();
+    }
+    permuted_ = matrix.selfadjointView<Eigen::Lower>().twistedBy(permutation_);
+    ldlt_.analyzePattern(permuted_);
     scratch_.resize(matrix.rows(), 3);
-    diagonal_.resize(matrix.rows());
     first_.clear();  // the supernodes follow the factor's row structure, known after its first factorization
   }
 
   bool factorize(const SparseMatrix& matrix) override {
-    ldlt_.factorize(matrix);
+    permuted_ = matrix.selfadjointView<Eigen::Lower>().twistedBy(permutation_);
+    ldlt_.factorize(permuted_);
     if (ldlt_.info() != Eigen::Success) return false;
     // A pivot is zero when it is negligible next to its own row's diagonal
     // entry: rows carry different units (N/m for displacements, m³/Pa for
     // pressures, 1e-15 apart on the liver), so one threshold for all would
     // call every pressure pivot zero.
     const Eigen::VectorXd& pivots = ldlt_.vectorD();
-    const auto& permutation = ldlt_.permutationP().indices();
-    diagonal_ = matrix.diagonal();
     for (Eigen::Index i = 0; i < pivots.size(); ++i) {
-      const double d = pivots[permutation[i]];
-      if (!std::isfinite(d) || !(std::abs(d) > 1e-13 * std::abs(diagonal_[i]))) return false;
+      const double d = pivots[i];
+      if (!std::isfinite(d) || !(std::abs(d) > 1e-13 * std::abs(permuted_.coeff(i, i)))) return false;
     }
     negative_ = (pivots.array() < 0).count();
     if (first_.empty()) find_supernodes();
@@ -49,17 +61,15 @@ class SimplicialFactorization final : public Factorization {
 
   // P A Pᵀ = L D Lᵀ: x = Pᵀ L⁻ᵀ D⁻¹ L⁻¹ P b.
   void solve(const Eigen::Ref<const Eigen::VectorXd>& rhs, Eigen::Ref<Eigen::VectorXd> solution) noexcept override {
-    const auto& permutation = ldlt_.permutationP().indices();
-    for (Eigen::Index i = 0; i < rhs.size(); ++i) scratch_(permutation[i], 0) = rhs[i];
+    for (Eigen::Index i = 0; i < rhs.size(); ++i) scratch_(order_[i], 0) = rhs[i];
     supernodal_solve(view_, ldlt_.vectorD().data(), scratch_, 1, below_);
-    for (Eigen::Index i = 0; i < rhs.size(); ++i) solution[i] = scratch_(permutation[i], 0);
+    for (Eigen::Index i = 0; i < rhs.size(); ++i) solution[i] = scratch_(order_[i], 0);
   }
 
   void solve3(const Eigen::Ref<const Eigen::MatrixX3d>& rhs, Eigen::Ref<Eigen::MatrixX3d> solution) noexcept override {
-    const auto& permutation = ldlt_.permutationP().indices();
-    for (Eigen::Index i = 0; i < rhs.rows(); ++i) scratch_.row(permutation[i]) = rhs.row(i);
+    for (Eigen::Index i = 0; i < rhs.rows(); ++i) scratch_.row(order_[i]) = rhs.row(i);
     supernodal_solve(view_, ldlt_.vectorD().data(), scratch_, 3, below_);
-    for (Eigen::Index i = 0; i < rhs.rows(); ++i) solution.row(i) = scratch_.row(permutation[i]);
+    for (Eigen::Index i = 0; i < rhs.rows(); ++i) solution.row(i) = scratch_.row(order_[i]);
   }
 
   bool realtime_solve() const noexcept override { return true; }
@@ -67,8 +77,12 @@ class SimplicialFactorization final : public Factorization {
     return static_cast<std::size_t>(ldlt_.matrixL().nestedExpression().nonZeros());
   }
   const char* name() const noexcept override {
-    return sizeof(Scalar) == sizeof(double) ? "simplicial LDLT (Eigen, AMD ordering), supernodal solves"
-                                            : "simplicial LDLT (Eigen, AMD ordering), supernodal solves in single precision";
+    constexpr bool single = sizeof(Scalar) == sizeof(float);
+    if (ordering_)
+      return single ? "simplicial LDLT (Eigen, the direct library's ordering), supernodal solves in single precision"
+                    : "simplicial LDLT (Eigen, the direct library's ordering), supernodal solves";
+    return single ? "simplicial LDLT (Eigen, AMD ordering), supernodal solves in single precision"
+                  : "simplicial LDLT (Eigen, AMD ordering), supernodal solves";
   }
 
  private:
@@ -124,20 +138,23 @@ class SimplicialFactorization final : public Factorization {
     }
   }
 
-  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt_;
+  Ordering ordering_ = nullptr;
+  Eigen::VectorXi order_;  ///< P: row i of A is row order_[i] of P A Pᵀ
+  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> permutation_;
+  SparseMatrix permuted_;  ///< P A Pᵀ, both triangles
+  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::NaturalOrdering<int>> ldlt_;
   std::vector<int> first_, rows_, value_start_, row_index_;
   std::vector<Scalar> values_;
   SupernodalView<Scalar> view_;
   Eigen::MatrixX3d scratch_, below_;
-  Eigen::VectorXd diagonal_;
   Eigen::Index negative_ = 0;
 };
 
 }  // namespace
 
-std::unique_ptr<Factorization> make_simplicial_factorization(bool single_precision) {
-  if (single_precision) return std::make_unique<SimplicialFactorization<float>>();
-  return std::make_unique<SimplicialFactorization<double>>();
+std::unique_ptr<Factorization> make_simplicial_factorization(bool single_precision, Ordering ordering) {
+  if (single_precision) return std::make_unique<SimplicialFactorization<float>>(ordering);
+  return std::make_unique<SimplicialFactorization<double>>(ordering);
 }
 
 std::unique_ptr<Factorization> make_factorization(FactorizationFactory factory, MatrixKind kind, SolveUse use) {

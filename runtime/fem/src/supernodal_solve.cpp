@@ -4,7 +4,7 @@ namespace organsim::fem {
 namespace {
 
 template <int K, typename Scalar>
-inline void solve_columns(const SupernodalView<Scalar>& l, const double* pivots, Eigen::Ref<Eigen::MatrixX3d> y,
+ORGANSIM_SUPERNODAL_INLINE void solve_columns(const SupernodalView<Scalar>& l, const double* pivots, Eigen::Ref<Eigen::MatrixX3d> y,
                           Eigen::Ref<Eigen::MatrixX3d> below) noexcept {
   supernodal_forward<K>(l, y, below);
   if (pivots)
@@ -14,7 +14,7 @@ inline void solve_columns(const SupernodalView<Scalar>& l, const double* pivots,
 }
 
 template <typename Scalar>
-inline void solve_any(const SupernodalView<Scalar>& l, const double* pivots, Eigen::Ref<Eigen::MatrixX3d> y,
+ORGANSIM_SUPERNODAL_INLINE void solve_any(const SupernodalView<Scalar>& l, const double* pivots, Eigen::Ref<Eigen::MatrixX3d> y,
                       int columns, Eigen::Ref<Eigen::MatrixX3d> below) noexcept {
   if (columns == 3)
     solve_columns<3>(l, pivots, y, below);

@@ -100,6 +100,12 @@ TEST(DirectFactorizations, AgreeWithSimplicialAndCountNegativePivots) {
       EXPECT_LT((solve_with(*cholmod, m, rhs) - reference).norm(), 1e-8 * reference.norm());
       EXPECT_TRUE(cholmod->realtime_solve());
     }
+    // The simplicial factorization in CHOLMOD's ordering (the real-time PSH
+    // frames'): the same solution, inertia and no more fill than AMD's.
+    const auto ordered = make_simplicial_factorization(false, cholmod_ordering);
+    EXPECT_LT((solve_with(*ordered, m, rhs) - reference).norm(), 1e-8 * reference.norm());
+    EXPECT_EQ(ordered->negative_pivots(), static_cast<Eigen::Index>(pressures));
+    EXPECT_LE(ordered->factor_nonzeros(), simplicial->factor_nonzeros() * 11 / 10) << material_name(material.model);
   }
 }
 
@@ -123,8 +129,13 @@ TEST(DirectFactorizations, CholmodRefusesAnIndefiniteMatrixAndMumpsCountsItsNega
 }
 
 TEST(DirectFactorizations, TheFactoryGivesRealTimeSolvesOnlyWhereItCanAndApproximationsOnlyToGmres) {
-  EXPECT_EQ(direct_factorization(MatrixKind::quasi_definite, SolveUse::realtime), nullptr);
-  EXPECT_TRUE(direct_factorization(MatrixKind::positive_definite, SolveUse::realtime)->realtime_solve());
+  for (const MatrixKind kind : {MatrixKind::positive_definite, MatrixKind::quasi_definite})
+    for (const SolveUse use : {SolveUse::realtime, SolveUse::realtime_iteration}) {
+      EXPECT_TRUE(direct_factorization(kind, use)->realtime_solve());
+      EXPECT_TRUE(direct_factorization(kind, use)->exact());
+    }
+  EXPECT_STREQ(direct_factorization(MatrixKind::quasi_definite, SolveUse::realtime_iteration)->name(),
+               make_simplicial_factorization(true, cholmod_ordering)->name());
   for (const MatrixKind kind : {MatrixKind::positive_definite, MatrixKind::quasi_definite}) {
     EXPECT_FALSE(direct_factorization(kind, SolveUse::newton)->realtime_solve());
     EXPECT_TRUE(direct_factorization(kind, SolveUse::newton)->exact());

@@ -84,12 +84,17 @@ enum class SolveUse : std::uint8_t {
 /// simplicial one).
 using FactorizationFactory = std::unique_ptr<Factorization> (*)(MatrixKind kind, SolveUse use);
 
-/// Eigen's SimplicialLDLT with AMD ordering: every kind, real-time solves
-/// through supernodes copied from its factor (supernodal_solve.h), kept in
-/// double precision, or in single precision when `single_precision` (solves
-/// to about 1e-7 relative; exact() still true: no refinement is needed for
-/// SolveUse::realtime_iteration).
-std::unique_ptr<Factorization> make_simplicial_factorization(bool single_precision = false);
+/// A fill-reducing ordering of a symmetric matrix's pattern (both triangles
+/// stored): the permutation P whose P A Pᵀ is factorized, as the indices of
+/// Eigen's PermutationMatrix (row i of A is row permutation[i] of P A Pᵀ).
+using Ordering = void (*)(const SparseMatrix& matrix, Eigen::VectorXi& permutation);
+
+/// Eigen's simplicial LDLᵀ (no pivoting: every kind), ordered by `ordering`
+/// (null: AMD, Eigen's), with real-time solves through supernodes copied from
+/// its factor (supernodal_solve.h) kept in double precision, or in single
+/// precision when `single_precision` (solves to about 1e-7 relative; exact()
+/// still true: no refinement is needed for SolveUse::realtime_iteration).
+std::unique_ptr<Factorization> make_simplicial_factorization(bool single_precision = false, Ordering ordering = nullptr);
 
 /// `factory`'s factorization for `kind`, or the simplicial one when the
 /// factory is null or has none that fits (in single precision for

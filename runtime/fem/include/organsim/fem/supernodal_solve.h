@@ -17,6 +17,14 @@
 
 #include <Eigen/Core>
 
+// Inlined into every caller, so that the copies compiled for AVX2
+// (supernodal_solve.cpp) are AVX2 code throughout.
+#if defined(__GNUC__)
+#define ORGANSIM_SUPERNODAL_INLINE inline __attribute__((always_inline))
+#else
+#define ORGANSIM_SUPERNODAL_INLINE inline
+#endif
+
 namespace organsim::fem {
 
 /// A supernodal lower triangular factor L (CHOLMOD's layout, referred to, not
@@ -50,7 +58,7 @@ namespace detail {
 /// order: eight partial sums per column (lanes the compiler vectorizes
 /// without reassociating), then the rest, then the lanes.
 template <int K, typename Scalar>
-inline void dots(const Scalar* a, double* const* b, Eigen::Index count, double* out) noexcept {
+ORGANSIM_SUPERNODAL_INLINE void dots(const Scalar* a, double* const* b, Eigen::Index count, double* out) noexcept {
   constexpr Eigen::Index kLanes = 8;
   double lane[K][kLanes] = {};
   Eigen::Index i = 0;
@@ -71,7 +79,7 @@ inline void dots(const Scalar* a, double* const* b, Eigen::Index count, double* 
 /// Y = L⁻¹ Y for the first K columns of `y` (L's row order), in place;
 /// `below` holds at least most_rows_below() rows and K columns.
 template <int K, typename Scalar>
-inline void supernodal_forward(const SupernodalView<Scalar>& l, Eigen::Ref<Eigen::MatrixX3d> y_columns,
+ORGANSIM_SUPERNODAL_INLINE void supernodal_forward(const SupernodalView<Scalar>& l, Eigen::Ref<Eigen::MatrixX3d> y_columns,
                         Eigen::Ref<Eigen::MatrixX3d> below_columns) noexcept {
   double* y[K];
   double* t[K];
@@ -121,7 +129,7 @@ inline void supernodal_forward(const SupernodalView<Scalar>& l, Eigen::Ref<Eigen
 
 /// Y = L⁻ᵀ Y for the first K columns of `y`, in place (workspace as above).
 template <int K, typename Scalar>
-inline void supernodal_backward(const SupernodalView<Scalar>& l, Eigen::Ref<Eigen::MatrixX3d> y_columns,
+ORGANSIM_SUPERNODAL_INLINE void supernodal_backward(const SupernodalView<Scalar>& l, Eigen::Ref<Eigen::MatrixX3d> y_columns,
                          Eigen::Ref<Eigen::MatrixX3d> below_columns) noexcept {
   double* y[K];
   double* t[K];
