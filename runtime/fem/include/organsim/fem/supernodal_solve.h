@@ -8,8 +8,9 @@
 // solve reads it as streams (the FEM factors' supernodes of 3 columns and
 // more — a node's three displacements at least — make most of the factor
 // dense blocks). CHOLMOD's supernodal factor is laid out this way
-// (direct_factorizations.h); SupernodalFactor builds the same layout from a
-// simplicial LDLᵀ factor (factorization.cpp), in double or single precision.
+// (direct_factorizations.h); the simplicial factorization copies its LDLᵀ
+// factor into the same layout (factorization.cpp), in double or single
+// precision.
 #pragma once
 
 #include <algorithm>
@@ -179,7 +180,8 @@ ORGANSIM_SUPERNODAL_INLINE void supernodal_backward(const SupernodalView<Scalar>
 /// Y = (L D Lᵀ)⁻¹ Y for the first `columns` (1 or 3) columns of `y`, in
 /// place; `pivots` is D (null: L Lᵀ, L's own diagonal). The loops above,
 /// compiled for the widest instruction set the CPU runs (AVX2 and FMA, or the
-/// baseline): the portable build's baseline SSE2 code took twice as long.
+/// baseline; PSH's double-precision solve on the liver: 17.7 ms in the
+/// portable build's SSE2 code, 14.1 ms with AVX2).
 void supernodal_solve(const SupernodalView<double>& l, const double* pivots, Eigen::Ref<Eigen::MatrixX3d> y,
                       int columns, Eigen::Ref<Eigen::MatrixX3d> below) noexcept;
 void supernodal_solve(const SupernodalView<float>& l, const double* pivots, Eigen::Ref<Eigen::MatrixX3d> y,
