@@ -75,6 +75,13 @@ ORGANSIM_SUPERNODAL_INLINE void dots(const Scalar* a, double* const* b, Eigen::I
     out[c] = sum;
   }
 }
+/// The first K columns of the right-hand sides and of the workspace.
+template <int K>
+ORGANSIM_SUPERNODAL_INLINE void column_pointers(Eigen::Ref<Eigen::MatrixX3d>& y_columns,
+                                                Eigen::Ref<Eigen::MatrixX3d>& below_columns, double** y,
+                                                double** t) noexcept {
+  for (int c = 0; c < K; ++c) y[c] = y_columns.col(c).data(), t[c] = below_columns.col(c).data();
+}
 }  // namespace detail
 
 /// Y = L⁻¹ Y for the first K columns of `y` (L's row order), in place;
@@ -84,7 +91,7 @@ ORGANSIM_SUPERNODAL_INLINE void supernodal_forward(const SupernodalView<Scalar>&
                         Eigen::Ref<Eigen::MatrixX3d> below_columns) noexcept {
   double* y[K];
   double* t[K];
-  for (int c = 0; c < K; ++c) y[c] = y_columns.col(c).data(), t[c] = below_columns.col(c).data();
+  detail::column_pointers<K>(y_columns, below_columns, y, t);
   // Each supernode's diagonal triangle, then its rows below as L₂₁ Y₁
   // gathered in t and subtracted where they belong.
   for (std::size_t s = 0; s < l.supernodes; ++s) {
@@ -134,7 +141,7 @@ ORGANSIM_SUPERNODAL_INLINE void supernodal_backward(const SupernodalView<Scalar>
                          Eigen::Ref<Eigen::MatrixX3d> below_columns) noexcept {
   double* y[K];
   double* t[K];
-  for (int c = 0; c < K; ++c) y[c] = y_columns.col(c).data(), t[c] = below_columns.col(c).data();
+  detail::column_pointers<K>(y_columns, below_columns, y, t);
   // Supernodes in reverse: the rows below (solved already) gathered in t,
   // Y₁ −= L₂₁ᵀ t (four columns per sweep over t), then the diagonal
   // triangle transposed.
