@@ -11,15 +11,28 @@
 // (16 bytes per entry: value and index). PshPress (with a baked model) is
 // issue 16's figure: fem_paper's press of the model's top (top_press_problem)
 // with PSH (E = 1 MPa, ν = 0.49, β = 100), solved as `organsim fem` solves it
-// (kept factorization and GMRES), timed per Newton iteration.
+// (kept factorization and GMRES), timed per Newton iteration. FrameEstimate
+// (with ORGANSIM_BENCH_ESTIMATE_MODELS, a comma-separated list of baked
+// models) checks the frame time a FEM model estimates when it is set up
+// (DeformationModel::estimated_frame_seconds, what `replay` warns with)
+// against the p50 of the frames of a 5 mm press: within a factor of 2;
+// PeerStep (same list) times the interactive step of Vega FEM's simulator
+// (stiffness_warping_peer.h) beside our co-rotational frames on that mesh.
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <memory>
+#include <sstream>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include <benchmark/benchmark.h>
 
 #include "machine_limits.h"
+#include "stiffness_warping_peer.h"
 
 #include "organsim/fem/elasticity_system.h"
 #include "organsim/fem/factorization.h"
@@ -27,6 +40,7 @@
 #include "organsim/fem/tet_mesh.h"
 #include "organsim/model/model_file.h"
 #include "organsim/organ/organ.h"
+#include "organsim/realtime/model_registry.h"
 #ifdef ORGANSIM_HAVE_FEM_DIRECT
 #include "organsim/fem/direct_factorizations.h"
 #endif
@@ -235,6 +249,148 @@ void PshPress(benchmark::State& state) {
   state.SetLabel(solution.linear_solver);
 }
 
+/// A press at the surface vertex farthest from the clamp: a 2.5 mm tip
+/// driven 5 mm in along the normal over 60 frames and held for 60.
+struct Press {
+  static constexpr int kFrames = 120, kRampFrames = 60;
+  std::size_t site = 0;
+  Eigen::Vector3d point, normal;
+
+  explicit Press(const organsim::organ::Organ& organ) {
+    const auto& vertices = organ.model().surface_vertices;
+    const auto& fixed = organ.model().fixed_points[0];
+    double farthest = -1.0;
+    for (std::size_t v = 0; v < vertices.size(); ++v) {
+      const double d = std::hypot(vertices[v][0] - fixed[0], vertices[v][1] - fixed[1], vertices[v][2] - fixed[2]);
+      if (d > farthest) farthest = d, site = v;
+    }
+    std::vector<organsim::model::Point3> normals(vertices.size());
+    organsim::organ::compute_vertex_normals(organ, vertices.data(), normals.data(), 0, vertices.size());
+    point = {vertices[site][0], vertices[site][1], vertices[site][2]};
+    normal = {normals[site][0], normals[site][1], normals[site][2]};
+  }
+  /// Of the press's full depth, how much frame `frame` asks for.
+  static double ramp(int frame) { return std::min(1.0, (frame + 1.0) / kRampFrames); }
+};
+
+/// Each frame of the press through `model` as the engine steps it (s), and
+/// the force the tool applied to the organ at the end (N).
+std::vector<double> press_frames(organsim::realtime::DeformationModel& model, const organsim::organ::Organ& organ,
+                                 const Press& press, Eigen::Vector3d& applied) {
+  organsim::geometry::ToolTip tip;
+  tip.radius = 2.5e-3;
+  tip.axis = press.normal;
+  std::array<organsim::realtime::ContactLinearization, organsim::multibeam::kMaxTools> contacts{};
+  if (!model.attach(0, press.point, tip, contacts[0])) throw std::runtime_error("the press site refused the contact");
+  std::vector<organsim::model::Point3> positions(organ.vertex_count()), normals(organ.vertex_count());
+  std::vector<double> frames;
+  for (int frame = 0; frame < Press::kFrames; ++frame) {
+    const Eigen::Vector3d displacement = -5e-3 * Press::ramp(frame) * press.normal;
+    const auto start = std::chrono::steady_clock::now();
+    model.step(1.0 / 60.0, &displacement, positions.data(), normals.data(), contacts.data());
+    frames.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  }
+  applied = -contacts[0].force;
+  model.detach(0);
+  return frames;
+}
+
+double quantile(std::vector<double> samples, double q) {
+  std::sort(samples.begin(), samples.end());
+  return samples[std::min(samples.size() - 1, static_cast<std::size_t>(q * static_cast<double>(samples.size())))];
+}
+
+organsim::organ::Organ read_organ(const std::string& path) {
+  auto read = organsim::model::read_organ_model_file(path);
+  if (!read) throw std::runtime_error(read.error);
+  return organsim::organ::Organ(std::move(*read.model));
+}
+
+/// The options `replay` runs the FEM models with: the direct library's
+/// factorizations where it is built.
+organsim::realtime::ModelOptions replay_options() {
+  organsim::realtime::ModelOptions options;
+#ifdef ORGANSIM_HAVE_FEM_DIRECT
+  options.fem.factorization = direct_factorization;
+#endif
+  return options;
+}
+
+/// The frame time a FEM model estimates when it is set up against the p50
+/// of the press's frames (real-time mode: a frame does not wait for the
+/// tangent worker): within a factor of 2.
+void FrameEstimate(benchmark::State& state, const std::string& path, const char* model_name) {
+  const organsim::organ::Organ organ = read_organ(path);
+  const auto setup_start = std::chrono::steady_clock::now();
+  auto model = organsim::realtime::make_deformation_model(model_name, organ, replay_options(), 1);
+  const double setup_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - setup_start).count();
+  model->set_reproducible(false);
+  const Press press(organ);
+  std::vector<double> frames;
+  Eigen::Vector3d applied;
+  for (auto _ : state) frames = press_frames(*model, organ, press, applied);
+  const double p50 = quantile(frames, 0.5), estimate = model->estimated_frame_seconds();
+  state.counters["tets"] = static_cast<double>(organ.model().tetrahedra.size());
+  state.counters["setup_s"] = setup_seconds;
+  state.counters["p50_ms"] = p50 * 1e3;
+  state.counters["p99_ms"] = quantile(frames, 0.99) * 1e3;
+  state.counters["estimate_ms"] = estimate * 1e3;
+  state.counters["estimate/p50"] = estimate / p50;
+  if (!(estimate > 0.5 * p50 && estimate < 2.0 * p50))
+    state.SkipWithError("the set-up's frame estimate is off the frames' p50 by more than a factor of 2");
+}
+
+/// Vega FEM's interactive co-rotational step (stiffness_warping_peer.h) on
+/// the same tetrahedra and clamp as our co-rotational model, loaded at the
+/// press site's nearest node by the force our model's press ended with
+/// (ramped and held as the press), beside our frames of that press.
+void PeerStep(benchmark::State& state, const std::string& path) {
+  const organsim::organ::Organ organ = read_organ(path);
+  const organsim::realtime::ModelOptions options = replay_options();
+  auto ours = organsim::realtime::make_deformation_model("corotational", organ, options, 1);
+  ours->set_reproducible(false);
+  const Press press(organ);
+  Eigen::Vector3d applied;
+  const std::vector<double> our_frames = press_frames(*ours, organ, press, applied);
+
+  TetMesh mesh;
+  for (const auto& p : organ.model().volume_vertices) mesh.nodes.emplace_back(p[0], p[1], p[2]);
+  for (const auto& t : organ.model().tetrahedra)
+    mesh.tetrahedra.push_back({static_cast<std::int32_t>(t[0]), static_cast<std::int32_t>(t[1]),
+                               static_cast<std::int32_t>(t[2]), static_cast<std::int32_t>(t[3])});
+  const auto& f = organ.model().fixed_points[0];
+  const Eigen::Vector3d fixed(f[0], f[1], f[2]);
+  std::vector<bool> clamped(3 * mesh.nodes.size(), false);
+  std::size_t loaded = 0;
+  for (std::size_t n = 0; n < mesh.nodes.size(); ++n) {
+    if ((mesh.nodes[n] - fixed).norm() <= options.fem.fixed_radius) clamped[3 * n] = clamped[3 * n + 1] = clamped[3 * n + 2] = true;
+    if ((mesh.nodes[n] - press.point).norm() < (mesh.nodes[loaded] - press.point).norm()) loaded = n;
+  }
+  organsim::bench::PeerOptions peer_options;
+  peer_options.young_modulus = organ.model().material.young_modulus;
+  peer_options.poisson_ratio = organ.model().material.poisson_ratio;
+  organsim::bench::StiffnessWarpingPeer peer(mesh, clamped, peer_options);
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(3 * mesh.nodes.size())), v = q, external = q;
+  std::vector<double> peer_steps;
+  double iterations = 0;
+  for (auto _ : state) {
+    for (int frame = 0; frame < Press::kFrames; ++frame) {
+      external.segment<3>(static_cast<Eigen::Index>(3 * loaded)) = Press::ramp(frame) * applied;
+      const auto start = std::chrono::steady_clock::now();
+      iterations += peer.step(q, v, external);
+      peer_steps.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    }
+  }
+  const double ours_p50 = quantile(our_frames, 0.5), peer_p50 = quantile(peer_steps, 0.5);
+  state.counters["tets"] = static_cast<double>(organ.model().tetrahedra.size());
+  state.counters["peer_p50_ms"] = peer_p50 * 1e3;
+  state.counters["peer_p99_ms"] = quantile(peer_steps, 0.99) * 1e3;
+  state.counters["peer_cg_iterations"] = iterations / static_cast<double>(peer_steps.size());
+  state.counters["ours_p50_ms"] = ours_p50 * 1e3;
+  state.counters["ours_p99_ms"] = quantile(our_frames, 0.99) * 1e3;
+  state.counters["peer/ours"] = peer_p50 / ours_p50;
+}
+
 int meshes() { return bench_model() ? 3 : 2; }
 
 void Arguments(benchmark::internal::Benchmark* b) {
@@ -274,6 +430,23 @@ BENCHMARK(FrameSolve)->Apply(FrameSolveArguments);
 const bool press_registered =
     bench_model() &&
     benchmark::RegisterBenchmark("PshPress", PshPress)->Unit(benchmark::kMillisecond)->UseManualTime()->Iterations(1);
+
+const bool estimates_registered = [] {
+  const char* list = std::getenv("ORGANSIM_BENCH_ESTIMATE_MODELS");
+  if (list == nullptr) return false;
+  std::stringstream paths(list);
+  for (std::string path; std::getline(paths, path, ',');) {
+    for (const char* name : {"corotational", "psh"})
+      benchmark::RegisterBenchmark(("FrameEstimate/" + std::string(name) + "/" + path).c_str(),
+                                   [path, name](benchmark::State& state) { FrameEstimate(state, path, name); })
+          ->Unit(benchmark::kMillisecond)
+          ->Iterations(1);
+    benchmark::RegisterBenchmark(("PeerStep/" + path).c_str(), [path](benchmark::State& state) { PeerStep(state, path); })
+        ->Unit(benchmark::kMillisecond)
+        ->Iterations(1);
+  }
+  return true;
+}();
 
 }  // namespace
 

@@ -124,8 +124,11 @@ TEST_F(Cli, ReplayFastIsBitIdenticalAndReportsTheDocumentedKeys) {
     ASSERT_EQ(replay.exit_code, 0) << replay.err;
     const nlohmann::json j = nlohmann::json::parse(replay.out);
     for (const char* key : {"model", "session", "mode", "merge", "duration_s", "wall_s", "tools", "force_loop",
-                            "deformation_loop", "refused_contacts", "forces_csv", "frames"})
+                            "deformation_loop", "refused_contacts", "forces_csv", "frames", "setup"})
       EXPECT_TRUE(j.contains(key)) << key;
+    EXPECT_GT(j["setup"]["seconds"].get<double>(), 0.0);
+    EXPECT_GT(j["setup"]["resident_mib"].get<double>(), 1.0);
+    EXPECT_TRUE(j["setup"]["estimated_frame_ms"].is_null());  // the multi-beam model bounds its own frame
     for (const char* key : {"tool", "contacts", "peak_force_n", "clamped_ticks", "watchdog_ticks", "non_finite_forces"})
       EXPECT_TRUE(j["tools"][1].contains(key)) << key;
     for (const char* key : {"ticks", "period", "compute", "deadline_misses", "realtime_priority"})
@@ -210,6 +213,8 @@ TEST_F(Cli, ReplayWithEveryFemModelIsBitIdenticalAndPushesBack) {
       ASSERT_EQ(replay.exit_code, 0) << name << ": " << replay.err;
       const nlohmann::json j = nlohmann::json::parse(replay.out);
       EXPECT_EQ(j["deformation_model"], name);
+      // What the frames are expected to take here, timed at set-up.
+      EXPECT_GT(j["setup"]["estimated_frame_ms"].get<double>(), 0.0) << name;
       for (int tool = 0; tool < 2; ++tool) {
         EXPECT_EQ(j["tools"][tool]["contacts"], 1) << name << " tool " << tool;
         EXPECT_GT(j["tools"][tool]["peak_force_n"].get<double>(), 0.001) << name << " tool " << tool;

@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "organsim/model/model_file.h"
+#include "organsim/realtime/engine.h"
 #include "organsim/realtime/model_registry.h"
 #include "organsim/version.h"
 
@@ -199,6 +200,17 @@ model::OrganModel load_simulation_model(const std::string& command, const std::s
 
 void warn(const std::string& command, const std::string& message) {
   std::fprintf(stderr, "organsim %s: warning: %s\n", command.c_str(), message.c_str());
+}
+
+void warn_if_frames_overrun(const std::string& command, const realtime::Engine& engine) {
+  const double frame = engine.model().estimated_frame_seconds(), period = engine.options().deformation_period;
+  if (!(frame > period)) return;
+  warn(command, fmt::format("the {} model's frames are estimated at {:.1f} ms on this machine (one assembly and one "
+                            "solve on {} tetrahedra, timed at set-up), longer than the {:.1f} ms deformation period: "
+                            "frames will be dropped and the organ will lag the tools. Bake the model with a coarser "
+                            "--tet-size, or choose a faster --model (docs/fem.md#finer-meshes)",
+                            engine.model().name(), frame * 1e3, engine.organ().model().tetrahedra.size(),
+                            period * 1e3));
 }
 
 }  // namespace organsim::cli

@@ -16,6 +16,10 @@
 #include "commands.h"
 #include "organsim/model/organ_model.h"
 
+namespace organsim::realtime {
+class Engine;
+}
+
 namespace organsim::cli {
 
 /// The subcommands registered on an app and the function that runs each.
@@ -75,5 +79,9 @@ model::OrganModel load_simulation_model(const std::string& command, const std::s
                                         const std::vector<std::string>& models);
 /// "organsim COMMAND: warning: MESSAGE" on stderr, always.
 void warn(const std::string& command, const std::string& message);
+/// Warns, before a session starts, when the engine's deformation model is
+/// estimated from its set-up (DeformationModel::estimated_frame_seconds) to
+/// need more than one deformation period per frame, and says what to do.
+void warn_if_frames_overrun(const std::string& command, const realtime::Engine& engine);
 
 }  // namespace organsim::cli

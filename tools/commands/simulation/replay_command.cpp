@@ -194,6 +194,9 @@ struct ModelRun {
   std::vector<std::uint64_t> clamped, watchdog, non_finite;  ///< force-safety ticks per tool
   RunTimings timings;
   std::uint64_t refused = 0, instabilities = 0;
+  double setup_seconds = 0.0;     ///< building the engine: the model's set-up (FEM: ordering, factorization)
+  double resident_mib = 0.0;      ///< this process's resident memory after the set-up (--json)
+  double estimated_frame = 0.0;   ///< s, the model's own estimate from its set-up (0: none)
 
   const std::vector<std::unique_ptr<ScriptedDevice>>& devices() const { return playback->devices(); }
 };
@@ -232,8 +235,13 @@ ModelRun run_model(const ReplayOptions& o, const std::string& name, const organ:
   playback.repeat_period = o.repeat_for > 0.0 ? session.duration : 0.0;
   ModelRun run;
   run.name = name;
+  const auto setup_start = std::chrono::steady_clock::now();
   run.playback = std::make_unique<SessionPlayback>(organ, session, engine_options(o, name), playback);
+  run.setup_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - setup_start).count();
+  run.resident_mib = resident_mib();
   const Engine& engine = run.playback->engine();
+  run.estimated_frame = engine.model().estimated_frame_seconds();
+  if (!o.fast) warn_if_frames_overrun("replay", engine);
   const double duration = o.repeat_for > 0.0 ? o.repeat_for : session.duration;
   ProgressReporter progress(o.progress, name, o.json);
   auto take = [&](const RunTimings& so_far) {
@@ -289,6 +297,10 @@ void print_json(const ReplayOptions& o, const Session& session, const ModelRun& 
   j["deformation_loop"] = {{"frames", timings.deformation_computes.count()},
                            {"dropped", timings.deformation_frames_dropped},
                            {"compute", timing_json(timings.deformation_computes.percentiles())}};
+  j["setup"] = {{"seconds", run.setup_seconds},
+                {"resident_mib", run.resident_mib},
+                {"estimated_frame_ms", run.estimated_frame > 0.0 ? nlohmann::json(run.estimated_frame * 1e3)
+                                                                  : nlohmann::json(nullptr)}};
   j["refused_contacts"] = run.refused;
   j["deformation_model"] = run.name;
   j["instabilities"] = run.instabilities;
@@ -347,6 +359,11 @@ void print_text(const ReplayOptions& o, const Session& session, const std::vecto
     const Percentiles deform = run.timings.deformation_computes.percentiles();
     return fmt::format("{} frames, compute p50 {:.3f} ms, p99 {:.3f} ms", run.timings.deformation_computes.count(),
                        deform.p50 * 1e3, deform.p99 * 1e3);
+  });
+  row("set-up", [&](const ModelRun& run) {
+    return fmt::format("{:.2f} s{}", run.setup_seconds,
+                       run.estimated_frame > 0.0 ? fmt::format(", frame estimate {:.1f} ms", run.estimated_frame * 1e3)
+                                                 : std::string());
   });
   if (!o.forces_path.empty()) std::cout << fmt::format("{:<16}{}\n", "forces", o.forces_path);
   if (!o.frames_dir.empty())

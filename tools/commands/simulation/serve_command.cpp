@@ -83,6 +83,7 @@ int run_serve(const ServeOptions& o) {
   options.model = o.deformation;
   apply_model_tuning(o.tuning, options);
   realtime::Engine engine(organ, devices, options);
+  warn_if_frames_overrun("serve", engine);
 
   igtlink::ServerOptions server_options = o.server;
   server_options.shaft_from_rotation = !o.no_shaft;

@@ -56,6 +56,7 @@ int run_touch(const TouchOptions& o) {
   apply_model_tuning(o.tuning, options);
   realtime::Engine engine(organ, tools, options);
   engine.set_reproducible(false);  // real time: a frame never waits for the FEM tangent worker
+  warn_if_frames_overrun("touch", engine);
   devices::OpenHapticsServo servo(*rig.library, rig.servo_devices(), engine);
   note("touch", fmt::format("{} device(s) on {} for {:g} s; the force loop runs in the HD servo scheduler",
                             owned.size(), o.model_path, o.seconds));

@@ -106,6 +106,7 @@ void view_session(const organ::Organ& organ, const Session& session, ViewRun& ru
   playback_options.records_per_tool = 16;  // the view reads poses, not the recorded forces
   SessionPlayback playback(organ, session, engine_options(o), playback_options);
   Engine& engine = playback.engine();
+  warn_if_frames_overrun("view", engine);
   const auto& scripted = playback.devices();
   const double frame_period = engine.options().deformation_period;
   const auto wall_start = std::chrono::steady_clock::now();
@@ -145,6 +146,7 @@ void view_phantom(const organ::Organ& organ, const HapticRig& rig, ViewRun& run)
   const std::vector<HapticDevice*> pointers = rig.tools();
   Engine engine(organ, pointers, engine_options(o));
   engine.set_reproducible(false);  // real time: a frame never waits for the FEM tangent worker
+  warn_if_frames_overrun("view", engine);
   OpenHapticsServo servo(*rig.library, rig.servo_devices(), engine);
   vtkNew<vtkRenderWindowInteractor> interactor;
   vtkNew<vtkInteractorStyleTrackballCamera> style;
@@ -188,6 +190,7 @@ void view_mouse(const organ::Organ& organ, ViewRun& run) {
   for (StreamedTool& t : tools) pointers.push_back(&t);
   Engine engine(organ, pointers, engine_options(o));
   engine.set_reproducible(false);  // real time: a frame never waits for the FEM tangent worker
+  warn_if_frames_overrun("view", engine);
   vtkNew<vtkRenderWindowInteractor> interactor;
   vtkNew<viewer::ToolStyle> style;
   style->attach(tools, run.scene);

@@ -210,6 +210,11 @@ class OrganFem {
   const char* linear_solver() const noexcept;
   /// Seconds the factorization of the rest tangent took (at construction).
   double factorization_seconds() const noexcept { return factorization_seconds_; }
+  /// What a real-time frame's iteration is expected to take on this machine
+  /// (s): one gradient assembly and one solve with the frames' tangent, timed
+  /// at construction (the fastest of three). A frame that takes in contact
+  /// points adds a solve of three columns per new node (kJoinsPerFrame at most).
+  double estimated_frame_seconds() const noexcept { return estimated_frame_seconds_; }
 
  private:
   /// A boundary node whose response A⁻¹ e (three columns, one per direction)
@@ -271,6 +276,8 @@ class OrganFem {
   void assemble_capacitance() noexcept;
   /// Per tool, the condensed stiffness Σ_ab (W⁻¹)_ab over its holds.
   void update_stiffness() noexcept;
+  /// The fastest of three timings of a frame's assembly and solve (s).
+  double time_frame_work();
   /// Adopts `fresh` as the kept tangent: responses of nodes it lacks solved.
   void adopt(std::unique_ptr<Tangent>& fresh) noexcept;
   void request_refresh() noexcept;
@@ -288,6 +295,7 @@ class OrganFem {
   bool realtime_solves_ = true;
   std::size_t clamped_nodes_ = 0;
   double factorization_seconds_ = 0;
+  double estimated_frame_seconds_ = 0;
   std::vector<std::int32_t> free_dofs_;  ///< per free index, its dof
   std::size_t displacement_dofs_ = 0;
   std::vector<model::Point3> node_points_;

@@ -96,6 +96,12 @@ class DeformationModel {
   /// with what it has and takes the work up when it is done (the real-time
   /// loops, where waiting would overrun the frame). Between runs only.
   virtual void set_reproducible(bool reproducible) noexcept { (void)reproducible; }
+  /// What one step() is expected to take on this machine (s), measured when
+  /// the model was set up, so that a caller can say before a session starts
+  /// that the frames will not fit the deformation period; 0 when the model
+  /// makes no such estimate (the multi-beam and mass-spring models bound
+  /// their own work per frame).
+  virtual double estimated_frame_seconds() const noexcept { return 0.0; }
 };
 
 /// How the mass-spring model runs inside the engine (docs/springs.md).

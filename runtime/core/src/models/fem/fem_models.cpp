@@ -48,6 +48,7 @@ class FemModel final : public DeformationModel {
 
   std::uint64_t instabilities() const noexcept override { return instabilities_; }
   void set_reproducible(bool reproducible) noexcept override { fem_.set_reproducible(reproducible); }
+  double estimated_frame_seconds() const noexcept override { return fem_.estimated_frame_seconds(); }
 
   bool volume_node_positions(model::Point3* positions, std::size_t capacity) const noexcept override {
     if (capacity < organ_.model().volume_vertices.size()) return false;
