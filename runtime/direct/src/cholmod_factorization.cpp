@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "organsim/fem/direct_factorizations.h"
 #include "organsim/fem/supernodal_solve.h"
@@ -31,7 +32,7 @@ cholmod_sparse view(const SparseMatrix& matrix) {
 
 class CholmodFactorization final : public Factorization {
  public:
-  CholmodFactorization() {
+  explicit CholmodFactorization(bool single_precision) : single_(single_precision) {
     detail::use_one_solver_thread();
     cholmod_start(&common_);
     common_.supernodal = CHOLMOD_SUPERNODAL;
@@ -81,7 +82,7 @@ class CholmodFactorization final : public Factorization {
     }
     const int* perm = static_cast<const int*>(factor_->Perm);
     for (Eigen::Index k = 0; k < rows_; ++k) permuted_(k, 0) = rhs[perm[k]];
-    supernodal_solve(view_, nullptr, permuted_, 1, below_);
+    solve_permuted(1);
     for (Eigen::Index k = 0; k < rows_; ++k) solution[perm[k]] = permuted_(k, 0);
   }
 
@@ -93,13 +94,15 @@ class CholmodFactorization final : public Factorization {
     }
     const int* perm = static_cast<const int*>(factor_->Perm);
     for (Eigen::Index k = 0; k < rows_; ++k) permuted_.row(k) = rhs.row(perm[k]);
-    supernodal_solve(view_, nullptr, permuted_, 3, below_);
+    solve_permuted(3);
     for (Eigen::Index k = 0; k < rows_; ++k) solution.row(perm[k]) = permuted_.row(k);
   }
 
   bool realtime_solve() const noexcept override { return true; }
   std::size_t factor_nonzeros() const noexcept override { return static_cast<std::size_t>(common_.lnz); }
-  const char* name() const noexcept override { return "supernodal LLT (CHOLMOD)"; }
+  const char* name() const noexcept override {
+    return single_ ? "supernodal LLT (CHOLMOD), solves in single precision" : "supernodal LLT (CHOLMOD)";
+  }
 
  private:
   void size_workspace() {
@@ -109,10 +112,30 @@ class CholmodFactorization final : public Factorization {
              static_cast<const int*>(factor_->px),
              static_cast<const int*>(factor_->s),
              static_cast<const double*>(factor_->x)};
+    if (single_) {
+      // Half the bytes a solve reads (it is bound by reading the factor);
+      // the copy is sized once, at the first factorization.
+      const auto* values = static_cast<const double*>(factor_->x);
+      single_values_.resize(factor_->xsize);
+      std::transform(values, values + factor_->xsize, single_values_.begin(),
+                     [](double v) { return static_cast<float>(v); });
+      single_view_ = {view_.supernodes, view_.first, view_.rows, view_.value_start, view_.row_index,
+                      single_values_.data()};
+    }
     permuted_.resize(rows_, 3);
     below_.resize(std::max<Eigen::Index>(view_.most_rows_below(), 1), 3);
   }
 
+  void solve_permuted(int columns) noexcept {
+    if (single_)
+      supernodal_solve(single_view_, nullptr, permuted_, columns, below_);
+    else
+      supernodal_solve(view_, nullptr, permuted_, columns, below_);
+  }
+
+  bool single_;
+  std::vector<float> single_values_;
+  SupernodalView<float> single_view_;
   cholmod_common common_{};
   cholmod_factor* factor_ = nullptr;
   Eigen::Index rows_ = 0;
@@ -123,7 +146,9 @@ class CholmodFactorization final : public Factorization {
 
 }  // namespace
 
-std::unique_ptr<Factorization> make_cholmod_factorization() { return std::make_unique<CholmodFactorization>(); }
+std::unique_ptr<Factorization> make_cholmod_factorization(bool single_precision) {
+  return std::make_unique<CholmodFactorization>(single_precision);
+}
 
 void cholmod_ordering(const SparseMatrix& matrix, Eigen::VectorXi& permutation) {
   detail::use_one_solver_thread();

@@ -190,7 +190,7 @@ std::unique_ptr<Factorization> direct_factorization(MatrixKind kind, SolveUse us
       return kind == MatrixKind::quasi_definite ? make_single_precision_mumps_factorization() : make_mumps_factorization();
     case SolveUse::realtime:
     case SolveUse::realtime_iteration:
-      if (kind == MatrixKind::positive_definite) return make_cholmod_factorization();
+      if (kind == MatrixKind::positive_definite) return make_cholmod_factorization(use == SolveUse::realtime_iteration);
       return make_simplicial_factorization(use == SolveUse::realtime_iteration, cholmod_ordering);
   }
   return nullptr;

@@ -152,14 +152,20 @@ Matrix3d polar_rotation(const Matrix3d& F) noexcept {
   // scaling (Higham 1986), R ← ½ (ζ R + R⁻ᵀ/ζ), ζ = |det R|^(−1/3): quadratic
   // convergence to the rotation when det F > 0, in a handful of 3×3 inversions
   // (an SVD costs several times more; the co-rotational forces need one per
-  // tetrahedron and frame).
+  // tetrahedron and frame). Once quadratic, an iterate's distance to the
+  // rotation is about half the square of the step that made it: a step under
+  // 1e-7 leaves it within 1e-14, so the iteration stops there rather than
+  // take one more step to see it change by nothing. Within 1e-3 of det R = 1
+  // the scale is within 4e-4 of 1, the unscaled step converges as fast, and
+  // the cube root (a quarter of the co-rotational gradient's time) is skipped.
   Matrix3d R = F;
   for (int iteration = 0; iteration < 30; ++iteration) {
-    const double zeta = std::cbrt(1.0 / std::abs(R.determinant()));
+    const double determinant = R.determinant();
+    const double zeta = std::abs(std::abs(determinant) - 1.0) < 1e-3 ? 1.0 : std::cbrt(1.0 / std::abs(determinant));
     const Matrix3d next = 0.5 * (zeta * R + R.inverse().transpose() / zeta);
     const double change = (next - R).cwiseAbs().maxCoeff();
     R = next;
-    if (change < 1e-13) break;
+    if (change < 1e-7) break;
   }
   return R;
 }

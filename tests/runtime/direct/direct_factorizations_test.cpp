@@ -99,6 +99,13 @@ TEST(DirectFactorizations, AgreeWithSimplicialAndCountNegativePivots) {
       const auto cholmod = make_cholmod_factorization();
       EXPECT_LT((solve_with(*cholmod, m, rhs) - reference).norm(), 1e-8 * reference.norm());
       EXPECT_TRUE(cholmod->realtime_solve());
+      // Its single-precision solves (the displacement-only materials' real-time
+      // frames): the factor rounded to float, the sums kept in double.
+      const auto single = make_cholmod_factorization(true);
+      const double error = (solve_with(*single, m, rhs) - reference).norm() / reference.norm();
+      EXPECT_LT(error, 1e-5) << material_name(material.model);
+      EXPECT_GT(error, 0.0) << "the solve should read the rounded copy";
+      EXPECT_TRUE(single->realtime_solve());
     }
     // The simplicial factorization in CHOLMOD's ordering (the real-time PSH
     // frames'): the same solution, inertia and no more fill than AMD's.

@@ -36,7 +36,10 @@
 
 namespace organsim::fem {
 
-std::unique_ptr<Factorization> make_cholmod_factorization();
+/// CHOLMOD's supernodal LLᵀ; with `single_precision`, the solves read a
+/// single-precision copy of the factor (for SolveUse::realtime_iteration:
+/// frames that iterate on their own residual).
+std::unique_ptr<Factorization> make_cholmod_factorization(bool single_precision = false);
 /// CHOLMOD's fill-reducing ordering (the better of AMD and METIS for the
 /// pattern), as an Ordering for make_simplicial_factorization: on the shipped
 /// liver's PSH tangent 5.0 M factor entries against AMD's 6.7 M.
@@ -47,7 +50,8 @@ std::unique_ptr<Factorization> make_single_precision_mumps_factorization();
 
 /// The FactorizationFactory of this library: MUMPS for Newton solves (single
 /// precision for quasi-definite matrices where GMRES refines the solves),
-/// CHOLMOD for real-time solves of positive definite matrices, and for
+/// CHOLMOD for real-time solves of positive definite matrices (solved in
+/// single precision for SolveUse::realtime_iteration), and for
 /// real-time solves of quasi-definite ones (no supernodal LDLᵀ without
 /// pivoting here) the simplicial one ordered by cholmod_ordering.
 std::unique_ptr<Factorization> direct_factorization(MatrixKind kind, SolveUse use);
