@@ -367,9 +367,14 @@ Eigen::Vector3d OrganFem::displacement_at(const std::array<std::int32_t, 3>& nod
 
 void OrganFem::respond(Tangent& tangent, std::size_t slot, const NodeSlot& node) const noexcept {
   tangent.loads.setZero();
-  for (int k = 0; k < 3; ++k) {
-    const std::int32_t f = system_->free_index()[static_cast<std::size_t>(3 * node.node + k)];
-    if (f >= 0) tangent.loads(f, k) = 1.0;
+  for (std::size_t i = 0; i < 3; ++i) {
+    const double weight = node.point ? node.point_weights[static_cast<Eigen::Index>(i)] : (i == 0 ? 1.0 : 0.0);
+    if (weight == 0.0) continue;
+    const std::int32_t at = node.point ? node.point_nodes[i] : node.node;
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t f = system_->free_index()[static_cast<std::size_t>(3 * at + k)];
+      if (f >= 0) tangent.loads(f, k) += weight;
+    }
   }
   tangent.factorization->solve3(tangent.loads, tangent.responses[slot]);
   tangent.keys[slot] = node.generation;
@@ -400,18 +405,7 @@ std::int32_t OrganFem::node_slot(std::int32_t node, std::size_t& solves) noexcep
     return slot;
   }
   if (realtime_solves_ && solves >= kJoinsPerFrame) return -1;
-  // A free slot, or the one least recently used by no hold.
-  std::size_t chosen = node_slots_.size();
-  for (std::size_t k = 0; k < node_slots_.size(); ++k) {
-    const NodeSlot& n = node_slots_[k];
-    if (n.node < 0) {
-      chosen = k;
-      break;
-    }
-    if (node_holds_[static_cast<std::size_t>(n.node)] == 0 &&
-        (chosen == node_slots_.size() || n.used_frame < node_slots_[chosen].used_frame))
-      chosen = k;
-  }
+  const std::size_t chosen = free_slot();
   if (chosen == node_slots_.size()) return -1;
   NodeSlot& n = node_slots_[chosen];
   if (n.node >= 0) slot_of_node_[static_cast<std::size_t>(n.node)] = -1;
@@ -425,13 +419,46 @@ std::int32_t OrganFem::node_slot(std::int32_t node, std::size_t& solves) noexcep
   return static_cast<std::int32_t>(chosen);
 }
 
-bool OrganFem::add_hold(Hold hold, std::size_t& solves) noexcept {
+std::size_t OrganFem::free_slot() const noexcept {
+  std::size_t chosen = node_slots_.size();
+  for (std::size_t k = 0; k < node_slots_.size(); ++k) {
+    const NodeSlot& n = node_slots_[k];
+    if (n.node < 0) return k;
+    // A point's slot is freed with its hold (release), never taken over.
+    if (!n.point && node_holds_[static_cast<std::size_t>(n.node)] == 0 &&
+        (chosen == node_slots_.size() || n.used_frame < node_slots_[chosen].used_frame))
+      chosen = k;
+  }
+  return chosen;
+}
+
+bool OrganFem::add_hold(Hold hold, std::size_t& solves, bool as_point) noexcept {
   if (hold_count_ == holds_.size()) {
     ++hold_overflows_;
     return false;
   }
-  for (std::size_t i = 0; i < 3; ++i) {
-    hold.slots[i] = -1;
+  hold.point_slot = -1;
+  hold.slots = {-1, -1, -1};
+  if (as_point) {
+    const std::size_t chosen = free_slot();
+    if (chosen == node_slots_.size()) {
+      ++hold_overflows_;
+      return false;
+    }
+    NodeSlot& n = node_slots_[chosen];
+    if (n.node >= 0) slot_of_node_[static_cast<std::size_t>(n.node)] = -1;
+    n.point = true;
+    n.point_nodes = hold.nodes;
+    n.point_weights = hold.weights;
+    n.node = hold.nodes[hold.weights[0] != 0.0 ? 0 : hold.weights[1] != 0.0 ? 1 : 2];
+    n.generation = ++generations_;
+    n.used_frame = frame_ + 1;
+    respond(kept(), chosen, n);
+    solved_this_frame_ = true;
+    ++solves;
+    hold.point_slot = static_cast<std::int32_t>(chosen);
+  }
+  for (std::size_t i = 0; i < 3 && !as_point; ++i) {
     if (hold.weights[static_cast<Eigen::Index>(i)] == 0.0) continue;
     hold.slots[i] = node_slot(hold.nodes[i], solves);
     if (hold.slots[i] < 0) {
@@ -450,6 +477,7 @@ bool OrganFem::add_hold(Hold hold, std::size_t& solves) noexcept {
 
 void OrganFem::release(std::size_t index) noexcept {
   const Hold& h = holds_[index];
+  if (h.point_slot >= 0) node_slots_[static_cast<std::size_t>(h.point_slot)] = NodeSlot{};
   for (std::size_t i = 0; i < 3; ++i)
     if (h.weights[static_cast<Eigen::Index>(i)] != 0.0) {
       const auto node = static_cast<std::size_t>(h.nodes[i]);
@@ -476,12 +504,10 @@ bool OrganFem::attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, con
   h.nodes = {static_cast<std::int32_t>(face[0]), static_cast<std::int32_t>(face[1]), static_cast<std::int32_t>(face[2])};
   h.weights = nearest.barycentric;
   h.outward = -tip.axis;
-  // Its responses now, so that the frame that attaches is not the one that
-  // solves them, and its stiffness is the linearization at once.
+  // Its response now, so that its stiffness is the linearization at once:
+  // the point's as a whole, one solve (its nodes' would take three).
   std::size_t solves = 0;
-  realtime_solves_ = !realtime_solves_;  // no per-frame limit in attach
-  const bool added = add_hold(h, solves);
-  realtime_solves_ = !realtime_solves_;
+  const bool added = add_hold(h, solves, true);
   if (!added) return false;
   Contact& c = contacts_[tool];
   c.active = true;
@@ -608,12 +634,10 @@ void OrganFem::assemble_capacitance() noexcept {
       const Hold& ha = holds_[a];
       const Hold& hb = holds_[b];
       Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
-      for (std::size_t j = 0; j < 3; ++j) {
-        if (hb.slots[j] < 0) continue;
-        const Eigen::MatrixX3d& response = tangent.responses[static_cast<std::size_t>(hb.slots[j])];
-        for (int k = 0; k < 3; ++k)
-          block.col(k) += hb.weights[static_cast<Eigen::Index>(j)] * gather(ha.nodes, ha.weights, response.col(k));
-      }
+      for_each_response(hb, [&](std::size_t slot, double weight) {
+        const Eigen::MatrixX3d& response = tangent.responses[slot];
+        for (int k = 0; k < 3; ++k) block.col(k) += weight * gather(ha.nodes, ha.weights, response.col(k));
+      });
       w.matrix.block<3, 3>(static_cast<Eigen::Index>(3 * a), static_cast<Eigen::Index>(3 * b)) = block;
       w.matrix.block<3, 3>(static_cast<Eigen::Index>(3 * b), static_cast<Eigen::Index>(3 * a)) = block.transpose();
     }
@@ -711,9 +735,9 @@ double OrganFem::iterate(bool& released) noexcept {
   for (std::size_t a = 0; a < hold_count_; ++a) {
     const Hold& h = holds_[a];
     const Eigen::Vector3d force = w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a));
-    for (std::size_t j = 0; j < 3; ++j)
-      if (h.slots[j] >= 0)
-        step_.noalias() += tangent.responses[static_cast<std::size_t>(h.slots[j])] * (h.weights[static_cast<Eigen::Index>(j)] * force);
+    for_each_response(h, [&](std::size_t slot, double weight) {
+      step_.noalias() += tangent.responses[slot] * (weight * force);
+    });
   }
   // A step that would invert a tetrahedron (a tool pushed deeper than the
   // mesh can follow in one frame) is cut in halves; the organ then goes as far

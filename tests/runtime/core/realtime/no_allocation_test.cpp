@@ -78,7 +78,7 @@ TEST(RealTime, EngineLoopsAllocateNothingWithEveryModel) {
   const organ::Organ organ(testing::make_cylinder_model(spec));
   model::OrganModel with_sites = testing::make_cylinder_model(spec);  // the fast models give the site law's force
   testing::add_uniform_site_compliance(with_sites, 0.01);
-  const organ::Organ matched(std::move(with_sites));
+  const organ::Organ matched_organ(std::move(with_sites));
   devices::Trajectory press, side;
   press.times = {0.0, 0.3, 0.6};
   press.positions = {{0.16, 0.0, 0.0}, {0.144, 0.002, 0.0}, {0.16, 0.0, 0.0}};
@@ -104,7 +104,7 @@ TEST(RealTime, EngineLoopsAllocateNothingWithEveryModel) {
     options.springs.network.volume_springs = variant == Variant::volume;
     options.fem.fixed_radius = 0.031;  // the cylinder's clamped cap
     options.fem.refresh_frames = 3;  // tangents adopted during the test
-    realtime::Engine engine(variant == Variant::matched ? matched : organ, {&a, &b}, options);
+    realtime::Engine engine(variant == Variant::matched ? matched_organ : organ, {&a, &b}, options);
     const long before = allocations;
     for (int tick = 0; tick <= 600; ++tick) {
       if (tick % 17 == 0) engine.deformation_step(tick * 1e-3);  // contacts begin, deform, end

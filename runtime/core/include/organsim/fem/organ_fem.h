@@ -219,8 +219,13 @@ class OrganFem {
  private:
   /// A boundary node whose response A⁻¹ e (three columns, one per direction)
   /// the tangents keep: what every contact constraint on it is solved from.
+  /// Or, for a first touch, the response A⁻¹ Σ wᵢ eᵢ of its hold's point as a
+  /// whole (`point`): one solve where its three nodes' would take three.
   struct NodeSlot {
-    std::int32_t node = -1;
+    std::int32_t node = -1;        ///< the node; for a point, its first weighted node (-1: free)
+    bool point = false;            ///< the load is the point's, not the node's
+    std::array<std::int32_t, 3> point_nodes{};
+    Eigen::Vector3d point_weights = Eigen::Vector3d::Zero();
     std::uint64_t generation = 0;  ///< keys its responses in a tangent
     std::uint64_t used_frame = 0;  ///< the last frame a constraint used it
     bool held = false;             ///< a hold weighs it (set when a refresh is requested)
@@ -232,7 +237,8 @@ class OrganFem {
     std::uint32_t tool = 0;
     bool bilateral = false;  ///< the first touch: held both ways
     std::array<std::int32_t, 3> nodes{};
-    std::array<std::int32_t, 3> slots{};  ///< their NodeSlots (-1 for a weight 0)
+    std::array<std::int32_t, 3> slots{};  ///< their NodeSlots (-1 for a weight 0, and with `point_slot`)
+    std::int32_t point_slot = -1;         ///< the NodeSlot of the point's own response (first touch), or -1
     Eigen::Vector3d weights = Eigen::Vector3d::Zero();
     Eigen::Vector3d offset = Eigen::Vector3d::Zero();   ///< m: its target displacement less the tool's
     Eigen::Vector3d outward = Eigen::Vector3d::Zero();  ///< unit: the direction the tip pushes it
@@ -265,9 +271,22 @@ class OrganFem {
   /// The slot of `node`'s responses, solving them when it has none and the
   /// frame may still afford a solve (`solves` counts them); -1 otherwise.
   std::int32_t node_slot(std::int32_t node, std::size_t& solves) noexcept;
-  /// Adds a hold (its node responses solved, `solves` counting them);
-  /// false when there is no room or no response this frame.
-  bool add_hold(Hold hold, std::size_t& solves) noexcept;
+  /// Adds a hold (its node responses solved, `solves` counting them; with
+  /// `as_point`, the point's one response instead); false when there is no
+  /// room or no response this frame.
+  bool add_hold(Hold hold, std::size_t& solves, bool as_point = false) noexcept;
+  /// A free slot, or the one least recently used by no hold; node_slots_.size() when none.
+  std::size_t free_slot() const noexcept;
+  /// Calls `term(response slot, weight)` for each response a hold is made of.
+  template <typename Term>
+  static void for_each_response(const Hold& hold, Term term) noexcept {
+    if (hold.point_slot >= 0) {
+      term(static_cast<std::size_t>(hold.point_slot), 1.0);
+      return;
+    }
+    for (std::size_t j = 0; j < 3; ++j)
+      if (hold.slots[j] >= 0) term(static_cast<std::size_t>(hold.slots[j]), hold.weights[static_cast<Eigen::Index>(j)]);
+  }
   void release(std::size_t index) noexcept;
   /// Finite tips: takes the boundary points inside them that weigh a node
   /// the tool does not hold yet, deepest first. True when it took one.
