@@ -301,7 +301,9 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
     worker_->wait();
     worker_->release();
   }
-  estimated_frame_seconds_ = time_frame_work();
+  // Only a model that runs frames needs the estimate (a static press's
+  // Newton solver would time work it never does).
+  if (realtime_solves_) estimated_frame_seconds_ = time_frame_work();
 }
 
 double OrganFem::time_frame_work() {

@@ -214,6 +214,7 @@ class OrganFem {
   /// (s): one gradient assembly and one solve with the frames' tangent, timed
   /// at construction (the fastest of three). A frame that takes in contact
   /// points adds a solve of three columns per new node (kJoinsPerFrame at most).
+  /// 0 without real-time solves (OrganFemOptions::realtime_solves false).
   double estimated_frame_seconds() const noexcept { return estimated_frame_seconds_; }
 
  private:
