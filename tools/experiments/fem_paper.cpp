@@ -2,13 +2,17 @@
 // comparison on a baked liver (docs/fem.md):
 //   1. PSH with β = 0 against CalculiX (the paper checked against ADINA) at
 //      ρ = 510 and 5.1 kg/m³: mean and largest nodal difference;
-//   2. Table 5: linear, co-rotational and St. VK against PSH (ρ = 500, β = 100);
+//   2. Table 5: linear, co-rotational and St. VK against PSH (ρ = 500, β = 100),
+//      in the paper's measure and ours, and again with each of our choices the
+//      paper does not share changed to the paper's (κ, the held nodes, h);
 //   3. Table 6: assembly and solve time of one Newton iteration, relative to
 //      the co-rotational assembly;
-//   4. Figs. 3–4: the pressure field for β = 0, 1, 10, 100, 1000 (its
+//   4. Figs. 3–4: the pressure field for β = 0, 1, 10, 100, 1000, Newton
+//      started from p = 0 and from the paper's 300 Pa (its
 //      face-to-face oscillation, a CSV of pressure per element, and the
 //      deformed tubes coloured by pressure, tube_pressure_3d.png);
-//   5. Fig. 5: the sag at ρ = 5000 (tube_sag_3d.png);
+//   5. Fig. 5: the sag at ρ = 5000 (tube_sag_3d.png), and each model's volume
+//      change as the press grows (tube_volume.csv: the linear FEM's swelling);
 //   6. with a model file: Table 5 on the liver's tetrahedra, and the PSH press
 //      solved with every tangent factorized against GMRES with a kept
 //      factorization (tangent_solver.h), with the direct solvers when built.
@@ -23,6 +27,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <stdexcept>
 #include <string>
@@ -32,6 +37,7 @@
 #include <Eigen/SparseCholesky>
 
 #include "organsim/calculix/calculix.h"
+#include "organsim/fem/displacement_difference.h"
 #include "organsim/fem/elasticity_system.h"
 #include "organsim/fem/static_solver.h"
 #include "organsim/model/model_file.h"
@@ -47,14 +53,28 @@ using namespace organsim::fem;
 
 constexpr double kYoung = 1e6, kPoisson = 0.49;
 
-Material material_named(const std::string& name, double beta) {
-  if (name == "psh") return Material::mooney_rivlin_from_young(kYoung, kPoisson, beta);
+/// Table 3 prints α = 4.167e6 Pa for the Mooney–Rivlin κ; E/(3(1 − 2ν)) gives 1.667e7.
+constexpr double kTable3BulkModulus = 4.167e6;
+
+/// `bulk_modulus` (Pa) overrides PSH's κ; 0 keeps E/(3(1 − 2ν)).
+Material material_named(const std::string& name, double beta, double bulk_modulus = 0) {
+  if (name == "psh") {
+    Material m = Material::mooney_rivlin_from_young(kYoung, kPoisson, beta);
+    if (bulk_modulus > 0) m.bulk_modulus = bulk_modulus;
+    return m;
+  }
   MaterialModel model;
   parse_material_model(name, model);
   return Material::from_young(model, kYoung, kPoisson);
 }
 
-StaticProblem tube_problem(const Material& material, double density) {
+/// Which nodes of the middle and bottom rings the press moves: all of them
+/// (our default), or only those on the outer wall (closer to the paper's
+/// "some middle nodes").
+enum class TubeHold { whole_rings, outer_wall };
+
+StaticProblem tube_problem(const Material& material, double density, TubeHold hold = TubeHold::whole_rings,
+                           double press = 1.0) {
   StaticProblem p;
   const TubeOptions tube;
   p.mesh = curved_tube(tube);
@@ -66,10 +86,12 @@ StaticProblem tube_problem(const Material& material, double density) {
   const int per_ring = tube.around, rings = tube.rings;
   for (std::size_t n = 0; n < p.mesh.nodes.size(); ++n) {
     const int ring = static_cast<int>(n) / per_ring % rings;
+    const bool outer = static_cast<int>(n) / (per_ring * rings) == tube.through;
+    const bool moved = hold == TubeHold::whole_rings || outer;
     const auto node = static_cast<std::int32_t>(n);
     if (ring == 0) p.fixed.push_back(node);
-    if (ring == rings / 2) p.prescribed.push_back({node, 0, 0.5 * extent.x()});
-    if (ring == rings - 1) p.prescribed.push_back({node, 2, -0.3 * extent.z()});
+    if (ring == rings / 2 && moved) p.prescribed.push_back({node, 0, press * 0.5 * extent.x()});
+    if (ring == rings - 1 && moved) p.prescribed.push_back({node, 2, -press * 0.3 * extent.z()});
   }
   return p;
 }
@@ -80,26 +102,24 @@ StaticSolution solve_or_die(const StaticProblem& p, const std::string& what) {
   return s;
 }
 
-struct Difference {
-  double mean = 0, max = 0;
-  Eigen::Vector3d per_axis = Eigen::Vector3d::Zero();
-};
-
-/// Nodal displacement differences normalized by the bounding box: |Δu| by its
-/// diagonal (mean, max), |Δu_axis| by its extent along that axis (mean).
-Difference difference(const Points& nodes, const Eigen::VectorXd& u, const Eigen::VectorXd& reference) {
-  const Eigen::Vector3d extent = bounding_box_size(nodes);
-  Difference d;
+/// Nodal displacement differences, normalized by the bounding box of `nodes`.
+DisplacementDifference difference(const Points& nodes, const Eigen::VectorXd& u, const Eigen::VectorXd& reference) {
   const Eigen::Index n = u.size() / 3;
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const Eigen::Vector3d delta = u.segment<3>(3 * i) - reference.segment<3>(3 * i);
-    d.mean += delta.norm() / extent.norm();
-    d.max = std::max(d.max, delta.norm() / extent.norm());
-    d.per_axis += delta.cwiseAbs().cwiseQuotient(extent);
-  }
-  d.mean /= static_cast<double>(n);
-  d.per_axis /= static_cast<double>(n);
-  return d;
+  return displacement_difference(Eigen::Map<const Eigen::Matrix3Xd>(u.data(), 3, n),
+                                 Eigen::Map<const Eigen::Matrix3Xd>(reference.data(), 3, n), bounding_box_size(nodes));
+}
+
+/// m³ of the tetrahedra.
+double volume(const TetMesh& mesh) {
+  double sum = 0;
+  for (const Tetrahedron& t : mesh.tetrahedra) sum += signed_volume(mesh, t);
+  return sum;
+}
+
+/// m³ of the tetrahedra moved by `u` (3 per node, m).
+double deformed_volume(TetMesh mesh, const Eigen::VectorXd& u) {
+  for (std::size_t n = 0; n < mesh.nodes.size(); ++n) mesh.nodes[n] += u.segment<3>(3 * static_cast<Eigen::Index>(n));
+  return volume(mesh);
 }
 
 std::string percent(double x) {
@@ -134,38 +154,112 @@ std::pair<double, double> time_iteration(const StaticProblem& p, const StaticSol
   return {assembly, solve};
 }
 
+const char* const kDisplacementModels[] = {"linear", "corotational", "stvk"};
+
+/// Table 5's rows: each displacement model's press against PSH's (`reference`).
+std::vector<DisplacementDifference> table5(const std::function<StaticProblem(const Material&)>& make,
+                                           const StaticSolution& reference) {
+  std::vector<DisplacementDifference> rows;
+  for (const std::string name : kDisplacementModels) {
+    const StaticProblem p = make(material_named(name, 0));
+    rows.push_back(difference(p.mesh.nodes, solve_or_die(p, name).displacements, reference.displacements));
+  }
+  return rows;
+}
+
+/// Table 5 in both measures (the paper's: per-axis means |Δu_k| / L_k, their
+/// average, and the largest component; ours: |Δu| over the box's diagonal)
+/// beside `paper`'s figures, and Table 6's times.
 void compare_models(const std::string& title, const std::function<StaticProblem(const Material&)>& make,
                     const char* paper[3][2]) {
   const StaticProblem reference_problem = make(material_named("psh", 100));
   const StaticSolution reference = solve_or_die(reference_problem, "psh");
-  const auto [psh_assembly, psh_solve] = time_iteration(reference_problem, reference);
+  const std::vector<DisplacementDifference> rows = table5(make, reference);
   std::cout << "\n### " << title << "\n\n"
-            << "| model | mean | max | mean x | mean y | mean z | paper mean | paper max | assembly | solve |\n"
-            << "|---|---|---|---|---|---|---|---|---|---|\n";
-  double corotational_assembly = 1;
-  std::vector<std::string> rows;
-  int row = 0;
+            << "| model | mean x | mean y | mean z | Table 5 mean | Table 5 max | paper mean | paper max | diagonal mean "
+               "| diagonal max | assembly | solve |\n"
+            << "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   std::vector<std::pair<double, double>> times;
-  for (const std::string name : {"linear", "corotational", "stvk"}) {
+  for (const std::string name : kDisplacementModels) {
     const StaticProblem p = make(material_named(name, 0));
-    const StaticSolution s = solve_or_die(p, name);
-    const Difference d = difference(p.mesh.nodes, s.displacements, reference.displacements);
-    times.push_back(time_iteration(p, s));
-    if (name == "corotational") corotational_assembly = times.back().first;
-    char line[512];
-    std::snprintf(line, sizeof line, "| %s | %s | %s | %s | %s | %s | %s | %s |", name.c_str(), percent(d.mean).c_str(),
-                  percent(d.max).c_str(), percent(d.per_axis.x()).c_str(), percent(d.per_axis.y()).c_str(),
-                  percent(d.per_axis.z()).c_str(), paper ? paper[row][0] : "–", paper ? paper[row][1] : "–");
-    rows.push_back(line);
-    ++row;
+    times.push_back(time_iteration(p, solve_or_die(p, name)));
   }
-  times.push_back({psh_assembly, psh_solve});
-  rows.push_back("| psh (β = 100) | 0 | 0 | 0 | 0 | 0 | 0 | 0 |");
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    char timing[128];
-    std::snprintf(timing, sizeof timing, " %.2f (%.2f ms) | %.2f (%.2f ms) |", times[i].first / corotational_assembly,
-                  times[i].first * 1e3, times[i].second / corotational_assembly, times[i].second * 1e3);
-    std::cout << rows[i] << timing << "\n";
+  times.push_back(time_iteration(reference_problem, reference));
+  const double corotational_assembly = times[1].first;
+  for (std::size_t i = 0; i < times.size(); ++i) {
+    if (i < rows.size()) {
+      const DisplacementDifference& d = rows[i];
+      std::printf("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |", kDisplacementModels[i],
+                  percent(d.axis_mean.x()).c_str(), percent(d.axis_mean.y()).c_str(), percent(d.axis_mean.z()).c_str(),
+                  percent(d.paper_mean()).c_str(), percent(d.paper_max()).c_str(), paper ? paper[i][0] : "–",
+                  paper ? paper[i][1] : "–", percent(d.mean).c_str(), percent(d.max).c_str());
+    } else {
+      std::printf("| psh (β = 100) | reference | | | | | | | | |");
+    }
+    std::printf(" %.2f (%.2f ms) | %.2f (%.2f ms) |\n", times[i].first / corotational_assembly, times[i].first * 1e3,
+                times[i].second / corotational_assembly, times[i].second * 1e3);
+  }
+}
+
+/// Table 5 on the tube with each of our choices the paper does not share
+/// changed to the paper's, one at a time, in the paper's measure.
+void table5_choices(const char* paper[3][2]) {
+  struct Case {
+    const char* name;
+    TubeHold hold;
+    double beta, bulk_modulus;
+    double press = 1.0;  ///< times Table 5's ring displacements
+  };
+  const Case cases[] = {
+      {"(a) ours: whole rings moved, κ = 1.667e7 Pa, β = 100", TubeHold::whole_rings, 100, 0},
+      {"(b) Table 3's κ = 4.167e6 Pa in PSH", TubeHold::whole_rings, 100, kTable3BulkModulus},
+      {"outer wall of the rings moved (the paper's \"some middle nodes\")", TubeHold::outer_wall, 100, 0},
+      {"h a third of ours (β = 33)", TubeHold::whole_rings, 100.0 / 3, 0},
+      {"h three times ours (β = 300)", TubeHold::whole_rings, 300, 0},
+      {"outer wall and Table 3's κ", TubeHold::outer_wall, 100, kTable3BulkModulus},
+      {"a press 1.25 times as large", TubeHold::whole_rings, 100, 0, 1.25}};
+  std::cout << "\n### Table 5 on the tube, our choices changed one at a time (the paper's measure: mean / max)\n\n"
+               "| case | linear | co-rotational | St. VK |\n|---|---|---|---|\n";
+  std::printf("| the paper | %s / %s | %s / %s | %s / %s |\n", paper[0][0], paper[0][1], paper[1][0], paper[1][1],
+              paper[2][0], paper[2][1]);
+  for (const Case& c : cases) {
+    const auto make = [&c](const Material& m) { return tube_problem(m, 500, c.hold, c.press); };
+    const StaticSolution reference = solve_or_die(make(material_named("psh", c.beta, c.bulk_modulus)), "psh");
+    std::printf("| %s |", c.name);
+    for (const DisplacementDifference& d : table5(make, reference))
+      std::printf(" %s / %s |", percent(d.paper_mean()).c_str(), percent(d.paper_max()).c_str());
+    std::printf("\n");
+  }
+}
+
+/// Fig. 5's claim that the linear FEM swells under large deformation: every
+/// model's volume change as the rings' prescribed displacements grow
+/// (fractions of the Table 5 press), in a table and `csv_path`.
+void volume_against_press(const std::filesystem::path& csv_path) {
+  const double fractions[] = {0.25, 0.5, 0.75, 1.0, 1.25, 1.5};
+  const char* const models[] = {"linear", "corotational", "stvk", "psh"};
+  std::cout << "\n### Volume change as the press grows (ρ = 500 kg/m³; 1 = Table 5's press)\n\n"
+               "| press | linear | co-rotational | St. VK | PSH (β = 100) |\n|---|---|---|---|---|\n";
+  std::ofstream csv(csv_path);
+  csv << "press,linear,corotational,stvk,psh\n";
+  const double rest = volume(tube_problem(material_named("linear", 0), 500).mesh);
+  for (const double f : fractions) {
+    std::printf("| %.2f |", f);
+    csv << f;
+    for (const char* name : models) {
+      const StaticProblem p = tube_problem(material_named(name, 100), 500, TubeHold::whole_rings, f);
+      const StaticSolution s = solve_static(p);
+      if (!s.converged) {
+        std::printf(" did not converge |");
+        csv << ",";
+        continue;
+      }
+      const double change = deformed_volume(p.mesh, s.displacements) / rest - 1;
+      std::printf(" %+.2f %% |", 100 * change);
+      csv << "," << 100 * change;
+    }
+    std::printf("\n");
+    csv << "\n";
   }
 }
 
@@ -267,7 +361,7 @@ int main(int argc, char** argv) {
     for (const auto& [density, paper] : {std::pair{510.0, "0.89 %"}, std::pair{5.1, "1.72 %"}}) {
       const StaticProblem p = tube_problem(material_named("psh", 0), density);
       const StaticSolution ours = solve_or_die(p, "psh β = 0");
-      const Difference d = difference(p.mesh.nodes, ours.displacements, calculix::solve(p, "tube"));
+      const DisplacementDifference d = difference(p.mesh.nodes, ours.displacements, calculix::solve(p, "tube"));
       std::printf("| %g | %.2e | %.2e | %s |\n", density, d.mean, d.max, paper);
     }
 
@@ -276,10 +370,12 @@ int main(int argc, char** argv) {
                    [](const Material& m) { return tube_problem(m, 500); }, paper_table5);
     std::cout << "\nPaper's Table 6 (relative to co-rotational assembly): assembly linear 0.09, co-rotational 1, "
                  "St.VK 1.3, PSH 10.1; solve 4.2, 4.2, 4.2, 19.8.\n";
+    table5_choices(paper_table5);
 
     std::cout << "\n### Pressure stabilization (ρ = 500 kg/m³)\n\n"
-                 "| β | pressure jump RMS / pressure RMS | min p (kPa) | max p (kPa) | Newton iterations | mean shift vs β = 0 |\n"
-                 "|---|---|---|---|---|---|\n";
+                 "| β | pressure jump RMS / pressure RMS | min p (kPa) | max p (kPa) | Newton iterations | mean shift vs β = 0 "
+                 "| Newton iterations from 300 Pa | 300 Pa start vs 0 (max) |\n"
+                 "|---|---|---|---|---|---|---|---|\n";
     std::ofstream csv(out_dir / "tube_pressure.csv");
     csv << "element";
     std::vector<StaticSolution> sweep;
@@ -289,11 +385,20 @@ int main(int argc, char** argv) {
       const StaticProblem p = tube_problem(material_named("psh", beta), 500);
       sweep.push_back(solve_or_die(p, "psh"));
       const StaticSolution& s = sweep.back();
-      int iterations = 0;
-      for (int i : s.newton_iterations) iterations += i;
-      std::printf("| %g | %.3f | %.1f | %.1f | %d | %s |\n", beta, pressure_oscillation(p, s),
-                  s.pressures.minCoeff() / 1e3, s.pressures.maxCoeff() / 1e3, iterations,
-                  percent(difference(p.mesh.nodes, s.displacements, sweep.front().displacements).mean).c_str());
+      // The paper starts Newton at λ = 300 Pa (Figs. 3–4); a unique
+      // equilibrium does not remember where the iteration began.
+      StaticProblem from_300_pa = p;
+      from_300_pa.initial_pressure = 300;
+      const StaticSolution t = solve_or_die(from_300_pa, "psh from 300 Pa");
+      const auto total = [](const StaticSolution& x) {
+        int iterations = 0;
+        for (int i : x.newton_iterations) iterations += i;
+        return iterations;
+      };
+      std::printf("| %g | %.3f | %.1f | %.1f | %d | %s | %d | %.1e |\n", beta, pressure_oscillation(p, s),
+                  s.pressures.minCoeff() / 1e3, s.pressures.maxCoeff() / 1e3, total(s),
+                  percent(difference(p.mesh.nodes, s.displacements, sweep.front().displacements).mean).c_str(), total(t),
+                  difference(p.mesh.nodes, t.displacements, s.displacements).max);
     }
     csv << "\n";
     for (Eigen::Index e = 0; e < sweep.front().pressures.size(); ++e) {
@@ -337,6 +442,7 @@ int main(int argc, char** argv) {
     write_view({deformed_panel(light, a, "rho = 500", Eigen::VectorXd::Zero(sag.size())),
                 deformed_panel(heavy, b, "rho = 5000", sag)},
                sag_view, out_dir / "tube_sag_3d.png");
+    volume_against_press(out_dir / "tube_volume.csv");
 
     if (argc > 2) {
       const model::ModelReadResult read = model::read_organ_model_file(argv[2]);
@@ -344,7 +450,7 @@ int main(int argc, char** argv) {
       const model::OrganModel organ = *read.model;
       std::printf("\nLiver: %zu nodes, %zu tetrahedra (%s).\n", organ.volume_vertices.size(), organ.tetrahedra.size(),
                   argv[2]);
-      compare_models("Table 5 and 6 on the liver (no gravity; a 10 mm patch at the top pressed down 10 % of the height)",
+      compare_models("(c) Table 5 and 6 on the liver (no gravity; a 10 mm patch at the top pressed down 10 % of the height)",
                      [&organ](const Material& m) { return liver_problem(organ, m); }, nullptr);
       newton_linear_solves(liver_problem(organ, material_named("psh", 100)));
     }

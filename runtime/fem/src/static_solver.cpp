@@ -42,6 +42,7 @@ class NewtonSolver {
     out_.linear_solver = tangent_solver_.name();
     const Eigen::Index dofs = system_.dof_count(), displacement_dofs = static_cast<Eigen::Index>(3 * problem.mesh.nodes.size());
     x_ = Eigen::VectorXd::Zero(dofs);
+    x_.tail(dofs - displacement_dofs).setConstant(problem.initial_pressure);
     gradient_.resize(dofs);
     full_load_ = Eigen::VectorXd::Zero(dofs);
     full_load_.head(displacement_dofs) = system_.body_force(problem.density, problem.gravity);
@@ -247,6 +248,7 @@ void validate(const StaticProblem& problem) {
   }
   require(std::isfinite(problem.density) && problem.density >= 0, "density: must be finite and ≥ 0 (kg/m³)");
   require(problem.gravity.allFinite(), "gravity: not a finite vector");
+  require(std::isfinite(problem.initial_pressure), "initial_pressure: not a finite number (Pa)");
   std::vector<bool> constrained(3 * nodes, false);
   for (std::size_t i = 0; i < problem.fixed.size(); ++i) {
     const std::int32_t n = problem.fixed[i];

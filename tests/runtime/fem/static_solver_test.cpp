@@ -204,6 +204,62 @@ TEST(StaticSolver, ClampedCompressedBlockConvergesUnderRefinement) {
   EXPECT_LT(forces[2], 0);  // the top plate pushes the block down
 }
 
+/// m³ of the tetrahedra moved by `u`.
+double deformed_volume(TetMesh mesh, const Eigen::VectorXd& u) {
+  for (std::size_t n = 0; n < mesh.nodes.size(); ++n) mesh.nodes[n] += u.segment<3>(3 * static_cast<Eigen::Index>(n));
+  double volume = 0;
+  for (const Tetrahedron& t : mesh.tetrahedra) volume += signed_volume(mesh, t);
+  return volume;
+}
+
+/// A free-standing PSH block (E = 1 MPa, ν = 0.49) squeezed 20 % from the top
+/// with its top and bottom free to slide.
+StaticProblem squeezed_block(double bulk_modulus) {
+  const Vector3d size(0.01, 0.01, 0.01);
+  StaticProblem problem;
+  problem.mesh = box_mesh({3, 3, 3}, size);
+  problem.material = Material::mooney_rivlin_from_young(1e6, 0.49, 100);
+  if (bulk_modulus > 0) problem.material.bulk_modulus = bulk_modulus;
+  problem.load_steps = 4;
+  for (std::size_t k = 0; k < problem.mesh.nodes.size(); ++k) {
+    const auto node = static_cast<std::int32_t>(k);
+    const Vector3d& p = problem.mesh.nodes[k];
+    if (p.z() == 0) problem.prescribed.push_back({node, 2, 0});
+    if (std::abs(p.z() - size.z()) < 1e-12) problem.prescribed.push_back({node, 2, -0.2 * size.z()});
+    if (p.x() == 0) problem.prescribed.push_back({node, 0, 0});
+    if (p.y() == 0) problem.prescribed.push_back({node, 1, 0});
+  }
+  return problem;
+}
+
+TEST(StaticSolver, TablesThreeBulkModulusIsAcceptedAndLosesMoreVolume) {
+  // Ogata et al.'s Table 3 prints κ = 4.167e6 Pa; E/(3(1 − 2ν)) gives 1.667e7.
+  // Under the same squeeze the softer bulk modulus lets the volume change more.
+  const StaticProblem printed = squeezed_block(4.167e6), ours = squeezed_block(0);
+  EXPECT_NEAR(ours.material.bulk_modulus, 1.667e7, 1e4);
+  EXPECT_NO_THROW(validate(printed));
+  const StaticSolution a = solve_static(printed), b = solve_static(ours);
+  ASSERT_TRUE(a.converged) << a.error;
+  ASSERT_TRUE(b.converged) << b.error;
+  const double rest = 1e-6;
+  const double change_printed = std::abs(deformed_volume(printed.mesh, a.displacements) / rest - 1);
+  const double change_ours = std::abs(deformed_volume(ours.mesh, b.displacements) / rest - 1);
+  EXPECT_GT(change_printed, 1.5 * change_ours) << change_printed << " " << change_ours;
+  EXPECT_GT(change_ours, 0.0);
+}
+
+TEST(StaticSolver, StartingFromTheInitialPressureReachesTheSameEquilibrium) {
+  // The paper starts every pressure at 300 Pa; the solution does not depend on it.
+  StaticProblem from_zero = squeezed_block(0), from_300 = squeezed_block(0);
+  from_300.initial_pressure = 300;
+  const StaticSolution a = solve_static(from_zero), b = solve_static(from_300);
+  ASSERT_TRUE(a.converged && b.converged) << a.error << b.error;
+  EXPECT_LT((a.displacements - b.displacements).lpNorm<Eigen::Infinity>(), 1e-9 * 0.002);
+  EXPECT_LT((a.pressures - b.pressures).lpNorm<Eigen::Infinity>(), 1e-6 * a.pressures.lpNorm<Eigen::Infinity>());
+  from_300.initial_pressure = std::nan("");
+  EXPECT_THROW(validate(from_300), std::invalid_argument);
+}
+
 TEST(StaticSolver, CutsTheLoadStepWhenOneStepIsTooLarge) {
   StaticProblem problem;
   problem.mesh = box_mesh({6, 2, 2}, {0.06, 0.01, 0.01});

@@ -130,6 +130,7 @@ fem::StaticProblem parse_fem_problem(const std::string& text) {
     problem.load_steps = static_cast<int>(n);
   }
   problem.tolerance = optional_number(document, "tolerance", 1e-8, "");
+  problem.initial_pressure = optional_number(document, "initial_pressure", 0.0, "");
   try {
     fem::validate(problem);
   } catch (const std::invalid_argument& e) {

@@ -382,22 +382,13 @@ Difference difference(const PressResult& a, const PressResult& b) {
 
 namespace {
 
-Versus versus(const std::vector<model::Point3>& positions, const std::vector<model::Point3>& reference,
-              const Eigen::Vector3d& extent) {
-  Versus v;
-  const double diagonal = extent.norm();
-  for (std::size_t i = 0; i < positions.size(); ++i) {
-    // The rest positions are shared, so the displacements' difference is the positions'.
-    const Eigen::Vector3d delta(positions[i][0] - reference[i][0], positions[i][1] - reference[i][1],
-                                positions[i][2] - reference[i][2]);
-    v.mean += delta.norm() / diagonal;
-    v.max = std::max(v.max, delta.norm() / diagonal);
-    v.per_axis += delta.cwiseAbs().cwiseQuotient(extent);
-  }
-  const double n = static_cast<double>(std::max<std::size_t>(positions.size(), 1));
-  v.mean /= n;
-  v.per_axis /= n;
-  return v;
+fem::DisplacementDifference versus(const std::vector<model::Point3>& positions,
+                                   const std::vector<model::Point3>& reference, const Eigen::Vector3d& extent) {
+  static_assert(sizeof(model::Point3) == 3 * sizeof(double), "points are read as one 3 x n matrix");
+  if (positions.empty()) return {};
+  const auto columns = static_cast<Eigen::Index>(positions.size());
+  return fem::displacement_difference(Eigen::Map<const Eigen::Matrix3Xd>(positions.data()->data(), 3, columns),
+                                      Eigen::Map<const Eigen::Matrix3Xd>(reference.data()->data(), 3, columns), extent);
 }
 
 }  // namespace

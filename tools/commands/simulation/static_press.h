@@ -15,6 +15,7 @@
 #include <Eigen/Core>
 
 #include "model_tuning.h"
+#include "organsim/fem/displacement_difference.h"
 #include "organsim/geometry/tool_tip.h"
 #include "organsim/organ/organ.h"
 
@@ -116,18 +117,10 @@ struct Difference {
 
 Difference difference(const PressResult& a, const PressResult& b);
 
-/// Paper 004's Table 5 measure of a press against a reference press: nodal
-/// displacement differences |Δu| over the bounding box's diagonal (mean, max)
-/// and |Δu_axis| over its extent along that axis (mean), as fractions (0.01 = 1 %).
-struct Versus {
-  double mean = 0.0, max = 0.0;
-  Eigen::Vector3d per_axis = Eigen::Vector3d::Zero();
-};
-
 /// The measure on the tetrahedral nodes when both presses moved them, else on
 /// the surface vertices (`on_nodes` says which), and always on the surface.
 struct Comparison {
-  Versus measure, surface;
+  fem::DisplacementDifference measure, surface;
   bool on_nodes = false;
 };
 

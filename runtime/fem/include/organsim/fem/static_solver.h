@@ -57,6 +57,9 @@ struct StaticProblem {
   std::vector<NodalLoad> loads;
   int load_steps = 1;
   double tolerance = 1e-8;                              ///< on ‖F − Q‖ / ‖F − Q‖_first
+  /// Pa: where Newton's iteration starts every tetrahedron's pressure
+  /// (mooney-rivlin; Ogata et al. start at 300 Pa, "λ = initial pressure").
+  double initial_pressure = 0;
 };
 
 /// Throws std::invalid_argument with a one-line message naming the field or
