@@ -1,16 +1,23 @@
 // Multi-beam model speed: beam creation per contact, force per tool per haptic
 // tick, and whole-organ distortion (normals included) for 2.4k- and
-// 100k-vertex organs with 1–8 tools on one and two threads.
+// 100k-vertex organs with 1–8 tools on one and two threads. When
+// ORGANSIM_BENCH_MODEL names a baked model, ModelBeamCreation and
+// ModelDeformation/tools:N measure the same on its surface (Ushiki et al.'s
+// figures at their own scale: docs/multibeam.md), its tools at surface
+// vertices spread along the vertex order, pressed 5 mm in along the normal.
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdlib>
 #include <memory>
+#include <stdexcept>
 #include <thread>
 
 #include <benchmark/benchmark.h>
 
 #include "machine_limits.h"
 
+#include "organsim/model/model_file.h"
 #include "organsim/multibeam/multibeam.h"
 #include "test_models.h"
 
@@ -203,6 +210,78 @@ BENCHMARK(BM_Deformation)
     ->Unit(benchmark::kMicrosecond)
     ->UseRealTime()
     ->ComputeStatistics("min", minimum);
+
+const char* bench_model() { return std::getenv("ORGANSIM_BENCH_MODEL"); }
+
+const organ::Organ& baked_organ() {
+  static const organ::Organ baked = [] {
+    model::ModelReadResult read = model::read_organ_model_file(bench_model());
+    if (!read) throw std::runtime_error(read.error);
+    return organ::Organ(std::move(*read.model));
+  }();
+  return baked;
+}
+
+/// `tools` beams on the baked organ at vertices spread along its (Morton)
+/// vertex order, skipping any the model refuses (at the fixed point).
+std::unique_ptr<MultiBeam> attached_on_model(int tools, std::vector<Eigen::Vector3d>& displacements) {
+  const organ::Organ& o = baked_organ();
+  MultiBeamOptions options;
+  options.max_tools = static_cast<std::uint32_t>(std::max(tools, 1));
+  auto beams = std::make_unique<MultiBeam>(o, options);
+  displacements.clear();
+  const std::size_t n = o.vertex_count(), stride = n / 8;
+  for (std::size_t v = stride / 2; static_cast<int>(displacements.size()) < tools && v < n; v += stride) {
+    const auto& x = o.model().surface_vertices[v];
+    const auto& normal = o.rest_normals()[v];
+    if (beams->attach(static_cast<std::uint32_t>(displacements.size()), {x[0], x[1], x[2]}) != Status::ok) continue;
+    displacements.push_back(-0.005 * Eigen::Vector3d(normal[0], normal[1], normal[2]));
+  }
+  if (static_cast<int>(displacements.size()) < tools) throw std::runtime_error("too few surface sites took a beam");
+  return beams;
+}
+
+void ModelBeamCreation(benchmark::State& state) {
+  const organ::Organ& o = baked_organ();
+  MultiBeam beams(o, {});
+  const std::size_t n = o.vertex_count();
+  std::size_t v = 0;
+  for (auto _ : state) {
+    const auto& x = o.model().surface_vertices[v];
+    const Status s = beams.attach(0, {x[0], x[1], x[2]});
+    benchmark::DoNotOptimize(s);
+    v = (v + 97) % n;
+  }
+  state.counters["vertices"] = static_cast<double>(n);
+}
+
+void ModelDeformation(benchmark::State& state) {
+  const int tools = static_cast<int>(state.range(0));
+  std::vector<Eigen::Vector3d> displacements;
+  const auto beams = attached_on_model(tools, displacements);
+  const std::size_t n = baked_organ().vertex_count();
+  std::vector<model::Point3> positions(n), normals(n);
+  for (auto _ : state) {
+    beams->deform(displacements.data(), positions.data(), normals.data(), n);
+    benchmark::ClobberMemory();
+  }
+  state.counters["vertices"] = static_cast<double>(n);
+}
+
+// Only with a baked model.
+const bool model_registered = [] {
+  if (bench_model() == nullptr) return false;
+  benchmark::RegisterBenchmark("ModelBeamCreation", ModelBeamCreation)->Unit(benchmark::kMicrosecond);
+  benchmark::RegisterBenchmark("ModelDeformation", ModelDeformation)
+      ->ArgName("tools")
+      ->Arg(1)
+      ->Arg(2)
+      ->Arg(4)
+      ->Arg(8)
+      ->Unit(benchmark::kMicrosecond)
+      ->ComputeStatistics("min", minimum);
+  return true;
+}();
 
 }  // namespace
 
