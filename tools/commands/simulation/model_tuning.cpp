@@ -56,8 +56,12 @@ void add_model_tuning_options(CLI::App& app, ModelTuning& tuning) {
       ->capture_default_str();
   app.add_flag("--volume-springs", tuning.volume_springs,
                "springs: also a spring on every tetrahedron edge, the surface tied to the tetrahedra (docs/springs.md)");
-  app.add_option("--region", tuning.region, "springs: integrate all nodes, or only a dynamic region around the tools")
-      ->check(CLI::IsMember({"all", "dynamic"}))
+  app.add_option("--region", tuning.region,
+                 "springs: integrate all nodes, only a dynamic region around the tools, or a fixed one (--region-rings)")
+      ->check(CLI::IsMember({"all", "dynamic", "fixed"}))
+      ->capture_default_str();
+  app.add_option("--region-rings", tuning.region_rings, "springs, fixed region: its size in springs from each tool")
+      ->check(CLI::Range(1u, 1000000u))
       ->capture_default_str();
   app.add_option("--region-threshold", tuning.region_threshold_mm,
                  "springs, dynamic region: a node displaced beyond this activates its neighbours, mm")
@@ -73,7 +77,8 @@ void apply_model_tuning(const ModelTuning& tuning, fem::OrganFemOptions& fem, re
   fem.fixed_radius = tuning.fixed_radius_mm * 1e-3;
   fem.factorization = factorization_factory(tuning.linear_solver);
   springs.network.volume_springs = tuning.volume_springs;
-  springs.simulation.region = tuning.region == "dynamic" ? springs::Region::dynamic : springs::Region::all;
+  springs.simulation.region = springs::parse_region(tuning.region);
+  springs.simulation.region_rings = tuning.region_rings;
   springs.simulation.threshold = tuning.region_threshold_mm * 1e-3;
   springs.match_sites = !tuning.unmatched;
 }

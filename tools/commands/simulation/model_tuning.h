@@ -16,7 +16,8 @@ namespace organsim::cli {
 struct ModelTuning {
   double fixed_radius_mm = 10.0;     ///< --fixed-radius: FEM clamp ball
   bool volume_springs = false;       ///< --volume-springs: springs on the tetrahedra's edges too
-  std::string region = "all";        ///< --region all|dynamic: the springs' integrated region
+  std::string region = "all";        ///< --region all|dynamic|fixed: the springs' integrated region
+  std::uint32_t region_rings = 3;    ///< --region-rings: a fixed region's size in springs
   double region_threshold_mm = 1.0;  ///< --region-threshold: displacement that grows a dynamic region
   std::string linear_solver = default_linear_solver();  ///< --linear-solver: the FEM tangents' factorization
   double tip_radius_mm = 2.5;        ///< --tip-radius: the tools' hemispherical end (0: a point)
@@ -31,7 +32,7 @@ void add_linear_solver_option(CLI::App& app, std::string& linear_solver);
 fem::FactorizationFactory factorization_factory(const std::string& linear_solver);
 /// --tip-radius MM (the tools' end, docs/realtime.md#contact-rule), --friction, --fixed-radius
 /// MM (the FEM models clamp the tetrahedral nodes within this distance of the
-/// model's fixed point), --volume-springs, --region and --region-threshold MM
+/// model's fixed point), --volume-springs, --region, --region-rings and --region-threshold MM
 /// (the mass-spring model; docs/springs.md), --unmatched (docs/matching.md) and
 /// --linear-solver.
 void add_model_tuning_options(CLI::App& app, ModelTuning& tuning);

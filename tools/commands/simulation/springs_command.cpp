@@ -49,6 +49,7 @@ struct SpringsOptions {
   long at = -1;  // -1: the centre vertex
   std::string fixed = "border";
   std::string region = "all";
+  std::uint32_t region_rings = 3;
   double threshold = 0.001;
   bool json = false;
   std::string out_path;
@@ -156,7 +157,8 @@ int run_springs(const SpringsOptions& o) {
   s.dt = o.dt;
   s.gravity = Eigen::Vector3d(0.0, 0.0, -o.gravity);
   s.point_damping = o.point_damping;
-  s.region = o.region == "dynamic" ? Region::dynamic : Region::all;
+  s.region = parse_region(o.region);
+  s.region_rings = o.region_rings;
   s.threshold = o.threshold;
   MassSpring simulation(std::move(network), s);
   simulation.set_external_force(at, force);
@@ -287,8 +289,13 @@ Command add_springs_command(CLI::App& app) {
   app.add_option("--fixed", o->fixed, "border: fix the grid's border (a model: the surface near its fixed point); none")
       ->check(CLI::IsMember({"border", "none"}))
       ->capture_default_str();
-  app.add_option("--region", o->region, "all, or dynamic (integrate only the active region)")
-      ->check(CLI::IsMember({"all", "dynamic"}))
+  app.add_option("--region", o->region,
+                 "all; dynamic (integrate only the active region, grown past --threshold); fixed (only the vertices "
+                 "within --region-rings springs of the force)")
+      ->check(CLI::IsMember({"all", "dynamic", "fixed"}))
+      ->capture_default_str();
+  app.add_option("--region-rings", o->region_rings, "Fixed region: its size, in springs from the force's vertex")
+      ->check(CLI::Range(1u, 1000000u))
       ->capture_default_str();
   app.add_option("--threshold", o->threshold, "Dynamic region: displacement (m) that activates the neighbours")
       ->check(kPositive)

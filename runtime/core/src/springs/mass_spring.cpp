@@ -86,7 +86,8 @@ MassSpring::MassSpring(SpringNetwork network, const SimulationOptions& options)
           "energy_growth_limit must be positive and finite");
   require(options_.implicit_cg_iterations >= 1, "implicit_cg_iterations must be at least 1");
   require(options_.integrator <= Integrator::implicit_euler, "unknown integrator");
-  require(options_.region <= Region::dynamic, "unknown region");
+  require(options_.region <= Region::fixed, "unknown region");
+  require(options_.region_rings >= 1, "region_rings must be at least 1");
 
   x_ = network_.rest;
   v_.assign(n, Eigen::Vector3d::Zero());
@@ -133,6 +134,7 @@ MassSpring::MassSpring(SpringNetwork network, const SimulationOptions& options)
   spring_force_.assign(n, Eigen::Vector3d::Zero());
   forced_nodes_.assign(n, 0);
   held_nodes_.assign(n, 0);
+  region_queue_.assign(n, 0);
 
   if (options_.integrator == Integrator::midpoint || options_.integrator == Integrator::rk4) {
     stage_x_ = x_;
@@ -240,6 +242,10 @@ Energy MassSpring::energy() const noexcept {
   return e;
 }
 
+Region parse_region(const std::string& name) noexcept {
+  return name == "dynamic" ? Region::dynamic : name == "fixed" ? Region::fixed : Region::all;
+}
+
 void MassSpring::reset() noexcept {
   std::copy(network_.rest.begin(), network_.rest.end(), x_.begin());
   std::fill(v_.begin(), v_.end(), Eigen::Vector3d::Zero());
@@ -267,6 +273,7 @@ void MassSpring::rebuild_seeds() noexcept {
     else if (!network_.fixed[i] && !external_[i].isZero(0.0)) forced_nodes_[forced_count_++] = i;
   }
   seeds_dirty_ = false;
+  region_dirty_ = true;
 }
 
 void MassSpring::rebuild_lists() noexcept {
@@ -323,8 +330,29 @@ void MassSpring::mark_seeds() noexcept {
   for (std::size_t k = 0; k < held_count_; ++k) activate_neighbours(held_nodes_[k]);
 }
 
+void MassSpring::mark_fixed_region() noexcept {
+  if (seeds_dirty_) rebuild_seeds();
+  region_dirty_ = false;
+  std::fill(active_.begin(), active_.end(), std::uint8_t{0});
+  std::size_t end = 0;
+  const auto visit = [&](std::uint32_t node) {
+    if (active_[node] || network_.fixed[node]) return;
+    active_[node] = 1;
+    region_queue_[end++] = node;
+  };
+  for (std::size_t k = 0; k < forced_count_; ++k) visit(forced_nodes_[k]);
+  for (std::size_t k = 0; k < held_count_; ++k) visit(held_nodes_[k]);
+  std::size_t next = 0;
+  for (std::uint32_t ring = 0; ring < options_.region_rings; ++ring)
+    for (const std::size_t ring_end = end; next < ring_end; ++next)
+      for (std::uint32_t e = incidence_offset_[region_queue_[next]]; e < incidence_offset_[region_queue_[next] + 1]; ++e)
+        visit(incidence_other_[e]);
+  lists_dirty_ = true;
+}
+
 void MassSpring::begin_region() noexcept {
   if (options_.region == Region::dynamic) mark_seeds();
+  if (options_.region == Region::fixed && (seeds_dirty_ || region_dirty_)) mark_fixed_region();
   if (lists_dirty_) rebuild_lists();
   active_count_ = integrated_count_;
 }

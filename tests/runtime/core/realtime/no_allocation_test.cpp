@@ -131,7 +131,7 @@ TEST(RealTime, MassSpringStepsAndQueriesAllocateNothing) {
   GridOptions grid;
   grid.columns = grid.rows = 9;
   const std::uint32_t centre = 4 + 9 * 4;
-  for (Region region : {Region::all, Region::dynamic})
+  for (Region region : {Region::all, Region::dynamic, Region::fixed})
     for (Integrator integrator : {Integrator::explicit_euler, Integrator::midpoint, Integrator::rk4,
                                   Integrator::symplectic_euler, Integrator::implicit_euler}) {
       SimulationOptions options;

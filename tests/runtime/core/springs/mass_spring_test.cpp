@@ -375,6 +375,81 @@ TEST(DynamicRegion, StartsAtTheLoadGrowsAndRetiresWhenReleased) {
   EXPECT_EQ(sim.steps(), 0u);
 }
 
+TEST(FixedRegion, NodesOutsideItNeverMoveAndItDoesNotGrow) {
+  // He et al.'s fixed deformation region (Fig. 5(a)): the vertices within two
+  // springs of the load. On the paper's grid each vertex has springs to its
+  // structural, shear and bending neighbours, so two hops reach |di|, |dj| ≤ 4
+  // and the diamond of the bending springs' reach.
+  const std::uint32_t size = 15, centre = centre_node(size);
+  SimulationOptions o;
+  o.dt = 0.0005;
+  o.region = Region::fixed;
+  o.region_rings = 2;
+  MassSpring sim(paper_grid(size), o);
+  sim.set_external_force(centre, {0.0, 0.0, -5.0});
+  std::vector<bool> inside(sim.node_count(), false);
+  ASSERT_EQ(sim.step(), StepStatus::ok);
+  const std::size_t region = sim.active_count();
+  for (std::size_t k = 0; k < region; ++k) inside[sim.integrated_nodes()[k]] = true;
+  EXPECT_TRUE(inside[centre]);
+  EXPECT_TRUE(inside[centre + 4]);   // two bending springs along x
+  EXPECT_FALSE(inside[centre + 5]);  // three hops away
+  for (int n = 0; n < 400; ++n) {
+    ASSERT_EQ(sim.step(), StepStatus::ok);
+    ASSERT_EQ(sim.active_count(), region) << n;  // the region keeps its size however far the load pulls
+  }
+  EXPECT_LT((sim.position(centre) - sim.network().rest[centre]).z(), -0.05);  // 5 N pulls the centre deep
+  for (std::uint32_t i = 0; i < sim.node_count(); ++i)
+    if (!inside[i]) {
+      EXPECT_EQ(sim.position(i), sim.network().rest[i]) << i;
+      EXPECT_EQ(sim.velocity(i), Eigen::Vector3d::Zero()) << i;
+    }
+  // Over the same steps the whole grid (Region::all) moves a vertex outside the
+  // region, and the region's centre less deep than the fixed region's.
+  SimulationOptions whole = o;
+  whole.region = Region::all;
+  MassSpring all(paper_grid(size), whole);
+  all.set_external_force(centre, {0.0, 0.0, -5.0});
+  for (int n = 0; n < 401; ++n) ASSERT_EQ(all.step(), StepStatus::ok);
+  EXPECT_GT((all.position(centre + 5) - all.network().rest[centre + 5]).norm(), 1e-3);
+  // A new load elsewhere moves the region with it.
+  sim.clear_external_forces();
+  sim.set_external_force(size + 1, {0.0, 0.0, -1.0});
+  ASSERT_EQ(sim.step(), StepStatus::ok);
+  bool has_new = false, has_old = false;
+  for (std::size_t k = 0; k < sim.active_count(); ++k) {
+    has_new |= sim.integrated_nodes()[k] == size + 1;
+    has_old |= sim.integrated_nodes()[k] == centre;
+  }
+  EXPECT_TRUE(has_new);
+  EXPECT_FALSE(has_old);
+  o.region_rings = 0;
+  EXPECT_THROW(MassSpring(paper_grid(3), o), std::invalid_argument);
+}
+
+TEST(HeldNode, APullFeelsAForceOppositeToAPressOfTheSameDepth) {
+  // He et al.'s pull beside the press (Fig. 6): the centre of the paper's grid
+  // held 5 mm above and 5 mm below its rest, settled without gravity.
+  const std::uint32_t size = 15, centre = centre_node(size);
+  Eigen::Vector3d reaction[2];
+  for (int pull = 0; pull < 2; ++pull) {
+    SimulationOptions o;
+    o.integrator = Integrator::implicit_euler;
+    o.dt = 0.002;
+    o.gravity.setZero();
+    MassSpring sim(paper_grid(size), o);
+    const double depth = pull ? 0.005 : -0.005;
+    sim.hold(centre, sim.network().rest[centre] + Eigen::Vector3d(0, 0, depth));
+    for (int n = 0; n < 1000; ++n) ASSERT_EQ(sim.step(), StepStatus::ok);
+    reaction[pull] = sim.reaction_force(centre);
+  }
+  EXPECT_GT(reaction[0].z(), 0.0);  // pressed down, the grid pushes the tool up
+  EXPECT_LT(reaction[1].z(), 0.0);  // pulled up, it pulls the tool down
+  // Nearly antisymmetric at 5 mm: the springs' geometric nonlinearity is small.
+  EXPECT_NEAR(reaction[1].z(), -reaction[0].z(), 0.1 * reaction[0].z());
+  EXPECT_LT(std::abs(reaction[0].x()) + std::abs(reaction[0].y()), 1e-9);
+}
+
 TEST(BlowUp, ThePapersSettingsDivergeWithExplicitEulerAndTheLastGoodStateIsKept) {
   // dt 0.01, mass 0.01, k 2/2/1.2, c 0.4/0.4/0.24, body ×2, 5 N at the centre of 15×15.
   const std::uint32_t size = 15, centre = centre_node(size);
@@ -534,7 +609,7 @@ TEST(MassSpring, RefusesUnusableNetworksAndOptions) {
 
 TEST(MassSpring, StepsKeepTheirBuffersAndFixedNodesNeverMove) {
   // The definitive allocation count is in tests/runtime/core/realtime/no_allocation_test.cpp.
-  for (Region region : {Region::all, Region::dynamic})
+  for (Region region : {Region::all, Region::dynamic, Region::fixed})
     for (Integrator integrator : kAllIntegrators) {
       SimulationOptions o;
       o.integrator = integrator;

@@ -15,6 +15,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -25,7 +26,10 @@
 
 namespace organsim::springs {
 
-enum class Region : std::uint8_t { all, dynamic };
+enum class Region : std::uint8_t { all, dynamic, fixed };
+
+/// "all", "dynamic" or "fixed"; anything else is Region::all.
+Region parse_region(const std::string& name) noexcept;
 
 struct SimulationOptions {
   /// Integrators over the state (x, v) of the integrated nodes: explicit
@@ -52,7 +56,13 @@ struct SimulationOptions {
   ///   `threshold` marks its free neighbours active for the next steps;
   /// - inactive nodes keep their position and have zero velocity; gravity and
   ///   forces act only on integrated nodes.
+  /// Region::fixed (He et al.'s "fixed deformation region", their Fig. 5(a))
+  /// integrates only the free nodes within `region_rings` spring hops of a node
+  /// with an external force or a held node, however far the deformation
+  /// spreads; the rest never moves. The region is found again when a force or a
+  /// hold starts or ends.
   Region region = Region::all;
+  std::uint32_t region_rings = 3;  ///< Region::fixed: its size in spring hops, ≥ 1
   /// Dynamic region: a frontier node whose displacement from rest exceeds this
   /// (m) activates its neighbours; active nodes whose displacement (m) and speed
   /// (m/s) stay below it for `settle_steps` steps (and that hold no external
@@ -170,6 +180,7 @@ class MassSpring {
   void rebuild_seeds() noexcept;
   void mark_seeds() noexcept;
   void begin_region() noexcept;
+  void mark_fixed_region() noexcept;
   void end_region() noexcept;
   void activate(std::uint32_t node) noexcept;
   /// Accelerations of the integrated nodes at the state (x, v); other entries untouched.
@@ -223,6 +234,8 @@ class MassSpring {
   Points spring_force_;  // per node Σ of the spring forces of one evaluation
   // Nodes with a non-zero external force, and held nodes.
   std::vector<std::uint32_t> forced_nodes_, held_nodes_;
+  std::vector<std::uint32_t> region_queue_;  // Region::fixed: the breadth-first search's nodes
+  bool region_dirty_ = true;                 // Region::fixed: the seeds changed since the region was found
   std::size_t forced_count_ = 0, held_count_ = 0;
   bool lists_dirty_ = true, seeds_dirty_ = true;
   bool stage_stale_ = true;  // the stage state's unwritten nodes may differ from the state
