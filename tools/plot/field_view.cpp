@@ -12,6 +12,7 @@
 #include <vtkCamera.h>
 #include <vtkCellData.h>
 #include <vtkDataSetSurfaceFilter.h>
+#include <vtkSphereSource.h>
 #include <vtkDoubleArray.h>
 #include <vtkLookupTable.h>
 #include <vtkNew.h>
@@ -39,15 +40,21 @@ void check(const std::vector<FieldPanel>& panels, const FieldView& view) {
     throw std::invalid_argument("write_field_view_png: panel size must be 64–4096 pixels");
   for (const FieldPanel& p : panels) {
     const std::string where = "write_field_view_png: panel '" + p.title + "': ";
-    if (p.tetrahedra.empty()) throw std::invalid_argument(where + "no tetrahedra");
-    for (const auto& t : p.tetrahedra)
-      for (std::int32_t n : t)
-        if (n < 0 || static_cast<std::size_t>(n) >= p.points.size())
-          throw std::invalid_argument(where + "node " + std::to_string(n) + " out of range");
-    const bool per_cell = p.cell_values.size() == p.tetrahedra.size() && p.point_values.empty();
+    if (p.tetrahedra.empty() == p.triangles.empty())
+      throw std::invalid_argument(where + "give either tetrahedra or triangles");
+    const auto check_nodes = [&](const auto& cells) {
+      for (const auto& cell : cells)
+        for (std::int32_t n : cell)
+          if (n < 0 || static_cast<std::size_t>(n) >= p.points.size())
+            throw std::invalid_argument(where + "node " + std::to_string(n) + " out of range");
+    };
+    check_nodes(p.tetrahedra);
+    check_nodes(p.triangles);
+    const std::size_t cells = p.tetrahedra.size() + p.triangles.size();
+    const bool per_cell = p.cell_values.size() == cells && p.point_values.empty();
     const bool per_point = p.point_values.size() == p.points.size() && p.cell_values.empty();
     if (!per_cell && !per_point)
-      throw std::invalid_argument(where + "give one value per tetrahedron or one per node");
+      throw std::invalid_argument(where + "give one value per cell or one per node");
     for (const std::vector<double>* values : {&p.cell_values, &p.point_values})
       for (double v : *values)
         if (!std::isfinite(v)) throw std::invalid_argument(where + "a value is not finite");
@@ -60,10 +67,14 @@ vtkSmartPointer<vtkUnstructuredGrid> grid_of(const FieldPanel& panel) {
   for (const auto& p : panel.points) points->InsertNextPoint(p.data());
   auto grid = vtkSmartPointer<vtkUnstructuredGrid>::New();
   grid->SetPoints(points);
-  grid->Allocate(static_cast<vtkIdType>(panel.tetrahedra.size()));
+  grid->Allocate(static_cast<vtkIdType>(panel.tetrahedra.size() + panel.triangles.size()));
   for (const auto& t : panel.tetrahedra) {
     const vtkIdType ids[4] = {t[0], t[1], t[2], t[3]};
     grid->InsertNextCell(VTK_TETRA, 4, ids);
+  }
+  for (const auto& t : panel.triangles) {
+    const vtkIdType ids[3] = {t[0], t[1], t[2]};
+    grid->InsertNextCell(VTK_TRIANGLE, 3, ids);
   }
   vtkNew<vtkDoubleArray> values;
   values->SetName("value");
@@ -122,6 +133,20 @@ void write_field_view_png(const std::vector<FieldPanel>& panels, const FieldView
     title->SetPosition(view.panel_width / 2.0, view.height - 30.0);
 
     vtkRenderer* renderer = renderers.emplace_back(vtkSmartPointer<vtkRenderer>::New());
+    for (const auto& at : panels[i].markers) {
+      vtkNew<vtkSphereSource> ball;
+      ball->SetCenter(at.data());
+      ball->SetRadius(panels[i].marker_radius);
+      ball->SetThetaResolution(16);
+      ball->SetPhiResolution(12);
+      vtkNew<vtkPolyDataMapper> ball_mapper;
+      ball_mapper->SetInputConnection(ball->GetOutputPort());
+      ball_mapper->ScalarVisibilityOff();
+      vtkNew<vtkActor> marker;
+      marker->SetMapper(ball_mapper);
+      marker->GetProperty()->SetColor(0.05, 0.05, 0.05);
+      renderer->AddActor(marker);
+    }
     renderer->SetViewport(static_cast<double>(i) * view.panel_width / width, 0.0,
                           static_cast<double>(i + 1) * view.panel_width / width, 1.0);
     renderer->SetBackground(1, 1, 1);

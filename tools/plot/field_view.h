@@ -18,10 +18,16 @@ namespace organsim::plot {
 struct FieldPanel {
   std::string title;
   std::vector<std::array<double, 3>> points;             ///< the mesh's nodes where they are drawn (any length unit)
-  std::vector<std::array<std::int32_t, 4>> tetrahedra;   ///< 0-based node indices
-  /// Exactly one is filled: a value per tetrahedron (drawn flat on its
-  /// boundary faces) or per node (interpolated).
+  /// 0-based node indices: tetrahedra (their boundary is drawn), or a
+  /// surface's triangles.
+  std::vector<std::array<std::int32_t, 4>> tetrahedra;
+  std::vector<std::array<std::int32_t, 3>> triangles;
+  /// Exactly one is filled: a value per cell (drawn flat) or per node
+  /// (interpolated).
   std::vector<double> cell_values, point_values;
+  /// Places marked with a black ball of `marker_radius` (the points' unit).
+  std::vector<std::array<double, 3>> markers;
+  double marker_radius = 1.0;
 };
 
 struct FieldView {
@@ -35,8 +41,8 @@ struct FieldView {
 /// Renders the panels left to right, each mesh's boundary coloured by its
 /// values (blue low, red high) with a shared colour bar, and writes the image
 /// atomically to `png_path`. Throws std::invalid_argument for no panels, a
-/// panel without tetrahedra, a node index out of range, a value count that
-/// fits neither the tetrahedra nor the nodes, a non-finite value, or
+/// panel with no cells or with both kinds, a node index out of range, a value
+/// count that fits neither the cells nor the nodes, a non-finite value, or
 /// low ≥ high; std::runtime_error when there is no X display or the file
 /// cannot be written.
 void write_field_view_png(const std::vector<FieldPanel>& panels, const FieldView& view, const std::string& png_path);

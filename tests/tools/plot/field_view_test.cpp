@@ -45,7 +45,14 @@ TEST(FieldView, RefusesBadPanelsWithTheFault) {
   expect_refused({p}, view, "node 9 out of range");
   p = two_tetrahedra(0, 1);
   p.cell_values.push_back(2);
-  expect_refused({p}, view, "one value per tetrahedron or one per node");
+  expect_refused({p}, view, "one value per cell or one per node");
+  p = two_tetrahedra(0, 1);
+  p.triangles = {{0, 1, 2}};
+  expect_refused({p}, view, "either tetrahedra or triangles");
+  p.tetrahedra.clear();
+  p.triangles = {{0, 1, 7}};
+  p.cell_values = {1};
+  expect_refused({p}, view, "node 7 out of range");
   p = two_tetrahedra(0, std::nan(""));
   expect_refused({p}, view, "not finite");
   FieldView flat;

@@ -70,6 +70,9 @@ void add_simulation_commands(CLI::App& app, CommandTable& table) {
   add_command(app, table, "replay",
       "Replay a recorded multi-tool session through the real-time engine: forces, contacts, loop timings",
       add_replay_command);
+  add_command(app, table, "report",
+              "Rebuild a training report (web page and metrics) from a run recorded with --report",
+              add_report_command);
   add_command(app, table, "serve",
               "Serve the real-time engine over OpenIGTLink (3D Slicer, PLUS): tool poses in, organ and forces out",
               add_serve_command);

@@ -22,6 +22,7 @@ Command add_phantom_command(CLI::App& app);
 Command add_plot_command(CLI::App& app);
 Command add_poke_command(CLI::App& app);
 Command add_replay_command(CLI::App& app);
+Command add_report_command(CLI::App& app);
 Command add_segment_command(CLI::App& app);
 Command add_serve_command(CLI::App& app);
 Command add_springs_command(CLI::App& app);

@@ -11,13 +11,17 @@
 #include <memory>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
+#include <ctime>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "command_line.h"
 #include "model_tuning.h"
+#include "report_options.h"
 #include "session_limits.h"
+#include "report/run_recorder.h"
 #include "organsim/devices/scripted_device.h"
 #include "organsim/io/atomic_file.h"
 #include "organsim/mesh_io/mesh_io.h"
@@ -41,6 +45,8 @@ struct ReplayOptions {
   ModelTuning tuning;
   std::string forces_path;
   std::string frames_dir;
+  std::string report_dir;  // "": no training report
+  report::ReportOptions report;
   bool fast = false;
   bool json = false;
   bool long_session = false;
@@ -66,9 +72,8 @@ class FrameWriter {
     index_ = std::make_unique<io::AtomicStream>((fs::path(directory_) / "frames.pvd").string());
     index_->append("<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n  <Collection>\n");
   }
-  void take(TripleBuffer<SurfaceFrame>& frames) {
-    if (directory_.empty() || !frames.update()) return;
-    const SurfaceFrame& frame = frames.read();
+  void take(const SurfaceFrame& frame) {
+    if (directory_.empty()) return;
     in_file_order_.resize(frame.positions.size());
     for (std::size_t v = 0; v < frame.positions.size(); ++v)
       in_file_order_[organ_.file_vertex_index()[v]] = frame.positions[v];
@@ -208,6 +213,7 @@ constexpr std::size_t kRingRecords = 8192;
 EngineOptions engine_options(const ReplayOptions& o, const std::string& name) {
   EngineOptions options;
   options.model = name;
+  if (!o.report_dir.empty()) options.tick_records = report::kTickRecordsPerTool;
   apply_model_tuning(o.tuning, options);
   multibeam::parse_merge_rule(o.merge, options.beams.merge);  // --merge admits only the names it knows
   return options;
@@ -224,6 +230,53 @@ void warn_instabilities(const std::string& name, std::uint64_t instabilities) {
                                "would have inverted a tetrahedron (the tool pressed deeper than the material and mesh "
                                "can follow)",
                                name, instabilities));
+}
+
+/// Where a model's training report goes: DIR, or DIR/<model> when several models play.
+std::string report_directory(const ReplayOptions& o, const std::string& name) {
+  return o.models.size() > 1 ? (fs::path(o.report_dir) / name).string() : o.report_dir;
+}
+
+/// The CPU, as /proc/cpuinfo names it, and the cores.
+std::string machine_description() {
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  std::string line, model = "unknown CPU";
+  while (std::getline(cpuinfo, line))
+    if (line.rfind("model name", 0) == 0) {
+      model = line.substr(line.find(':') + 2);
+      break;
+    }
+  return fmt::format("{}, {} logical cores", model, std::thread::hardware_concurrency());
+}
+
+/// run.json's session description for the training report: nothing of the
+/// patient, the model and session files named by their SHA-256 only.
+nlohmann::json run_description(const ReplayOptions& o, const ModelRun& run, double duration) {
+  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  char date[32];
+  std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+  const Percentiles period = run.timings.force_periods.percentiles();
+  std::uint64_t pose_faults = 0;
+  for (const ToolTelemetry& t : run.telemetry) pose_faults += t.pose_faults;
+  const auto timing = [&](double seconds) { return o.fast ? nlohmann::json(nullptr) : nlohmann::json(seconds * 1e3); };
+  return {{"deformation_model", run.name},
+          {"model_sha256", report::file_sha256(o.model_path)},
+          {"session_sha256", report::file_sha256(o.session_path)},
+          {"date", date},
+          {"duration_s", duration},
+          {"mode", o.fast ? "fast" : "realtime"},
+          {"device_max_force_n", o.max_force},
+          {"machine", machine_description()},
+          {"loop_health",
+           {{"force_ticks", run.timings.force_computes.count()},
+            {"period_p50_ms", timing(period.p50)},
+            {"period_p99_ms", timing(period.p99)},
+            {"period_max_ms", timing(period.max)},
+            {"force_deadline_misses", run.timings.force_deadline_misses},
+            {"frames", run.timings.deformation_computes.count()},
+            {"frames_dropped", run.timings.deformation_frames_dropped},
+            {"pose_faults", pose_faults},
+            {"refused_contacts", run.refused}}}};
 }
 
 ModelRun run_model(const ReplayOptions& o, const std::string& name, const organ::Organ& organ,
@@ -244,8 +297,16 @@ ModelRun run_model(const ReplayOptions& o, const std::string& name, const organ:
   if (!o.fast) warn_if_frames_overrun("replay", engine);
   const double duration = o.repeat_for > 0.0 ? o.repeat_for : session.duration;
   ProgressReporter progress(o.progress, name, o.json);
+  std::unique_ptr<report::RunRecorder> recorder;
+  if (!o.report_dir.empty())
+    recorder = std::make_unique<report::RunRecorder>(report_directory(o, name), organ, session.tools.size());
   auto take = [&](const RunTimings& so_far) {
-    frames.take(run.playback->engine().surfaces());
+    TripleBuffer<SurfaceFrame>& surfaces = run.playback->engine().surfaces();
+    if (surfaces.update()) {
+      frames.take(surfaces.read());
+      if (recorder) recorder->take_frame(surfaces.read());
+    }
+    if (recorder) recorder->take_ticks(run.playback->engine());
     forces.take(run.devices());
     progress.poll(so_far);
   };
@@ -267,6 +328,11 @@ ModelRun run_model(const ReplayOptions& o, const std::string& name, const organ:
   run.refused = engine.refused_contacts();
   run.instabilities = engine.model().instabilities();
   warn_instabilities(name, run.instabilities);
+  if (recorder) {
+    recorder->finish(run.playback->engine(), run_description(o, run, duration));
+    for (const std::string& problem : report::write_report(report_directory(o, name), o.report))
+      warn("replay", problem);
+  }
   return run;
 }
 
@@ -306,6 +372,7 @@ void print_json(const ReplayOptions& o, const Session& session, const ModelRun& 
   j["instabilities"] = run.instabilities;
   if (!o.forces_path.empty()) j["forces_csv"] = o.forces_path;
   if (!o.frames_dir.empty()) j["frames"] = {{"directory", o.frames_dir}, {"count", frames.count()}};
+  if (!o.report_dir.empty()) j["report"] = (fs::path(report_directory(o, run.name)) / "index.html").string();
   std::cout << j.dump() << '\n';
 }
 
@@ -368,6 +435,9 @@ void print_text(const ReplayOptions& o, const Session& session, const std::vecto
   if (!o.forces_path.empty()) std::cout << fmt::format("{:<16}{}\n", "forces", o.forces_path);
   if (!o.frames_dir.empty())
     std::cout << fmt::format("{:<16}{} frames in {} (frames.pvd for ParaView)\n", "surfaces", frames.count(), o.frames_dir);
+  for (const ModelRun& run : runs)
+    if (!o.report_dir.empty())
+      std::cout << fmt::format("{:<16}{}/index.html (metrics.json beside it)\n", "report", report_directory(o, run.name));
 }
 
 int run_replay(const ReplayOptions& o) {
@@ -375,6 +445,8 @@ int run_replay(const ReplayOptions& o) {
     throw CLI::ValidationError("--model", "--json, --forces and --frames take one model; give one --model");
   if (!o.frames_dir.empty() && fs::exists(o.frames_dir) && !fs::is_directory(o.frames_dir))
     throw std::runtime_error("--frames " + o.frames_dir + " is a file; give a directory");
+  if (!o.report_dir.empty() && fs::exists(o.report_dir) && !fs::is_directory(o.report_dir))
+    throw std::runtime_error("--report " + o.report_dir + " is a file; give a directory");
   if (o.repeat_for > SessionLimits{}.max_duration && !o.long_session)
     throw CLI::ValidationError("--repeat-for", "longer than a day; pass --long-session to run it on purpose");
   model::OrganModel loaded = load_simulation_model("replay", o.model_path, o.models);
@@ -416,6 +488,11 @@ Command add_replay_command(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--forces", o->forces_path, "Write every force sent to the devices (CSV: t_s,tool,fx_n,fy_n,fz_n,in_contact)");
   app.add_option("--frames", o->frames_dir, "Write the deformed surface of every frame (VTP + frames.pvd) into this directory");
+  app.add_option("--report", o->report_dir,
+                 "Write a training report into this directory: index.html (one self-contained page), metrics.json and "
+                 "the run's raw data, which `organsim report DIR` rebuilds it from; with several models one per "
+                 "model in DIR/<model> (docs/report.md)");
+  add_report_options(app, o->report);
   app.add_flag("--fast", o->fast, "Step the loops deterministically as fast as possible (bit-identical forces)");
   app.add_flag("--json", o->json, "Print the summary as one JSON object on stdout (and progress lines as JSON)");
   app.add_option("--repeat-for", o->repeat_for, "Play the session over and over for this long, s (soak tests)")

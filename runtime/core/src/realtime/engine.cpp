@@ -69,6 +69,8 @@ Engine::Engine(const organ::Organ& organ, const std::vector<devices::HapticDevic
   for (auto& f : model_force_) f.setZero();
   blend_frame_.fill(-1.0);
   fault_start_.fill(-1.0);
+  if (options.tick_records > 0)
+    for (std::size_t i = 0; i < devices.size(); ++i) tick_records_[i].allocate(options.tick_records);
   for (auto& f : fault_force_) f.setZero();
 }
 
@@ -107,6 +109,7 @@ void Engine::force_tick(double now) noexcept {
 
     Eigen::Vector3d force = Eigen::Vector3d::Zero();
     bool touching = false;
+    double depth = 0.0;
     const ToolContact& contact = contacts.tools[i];
     if (contact.active && released_[i] != contact.generation) {
       if (seen_generation_[i] != contact.generation) {
@@ -141,6 +144,7 @@ void Engine::force_tick(double now) noexcept {
           clip_to_cone(contact.normal, options_.friction, force);
           model_force_[i] = force;
           touching = true;
+          depth = std::max(0.0, -displacement.dot(contact.normal));
         }
       }
     }
@@ -168,6 +172,8 @@ void Engine::force_tick(double now) noexcept {
     t.in_contact = touching;
     t.last_force = safe;
     t.peak_force = std::max(t.peak_force, safe.norm());
+    if (tick_records_[i].capacity() > 0)
+      tick_records_[i].push({now, safe, force, out.tips[i], depth, touching, valid});
   }
   tool_frames_.publish();
 }

@@ -86,8 +86,9 @@ TEST(RealTime, EngineLoopsAllocateNothingWithEveryModel) {
   side.positions = {{0.08, 0.04, 0.0}, {0.08, 0.026, 0.0}, {0.08, 0.04, 0.0}};
   // Every registered model (model_registry.h), the springs also with a
   // dynamic region (partial refits of the contact tree) and with volume
-  // springs, and the fast models matched to a site law.
-  enum class Variant { plain, dynamic_region, volume, matched };
+  // springs, the fast models matched to a site law, and with tick records
+  // (a training report: its ring fills and drops; nothing is allocated).
+  enum class Variant { plain, dynamic_region, volume, matched, recorded };
   std::vector<std::pair<std::string, Variant>> variants;
   for (const realtime::RegisteredModel* model : realtime::registered_models())
     variants.emplace_back(model->name, Variant::plain);
@@ -96,6 +97,7 @@ TEST(RealTime, EngineLoopsAllocateNothingWithEveryModel) {
   variants.emplace_back("springs", Variant::volume);
   variants.emplace_back("beam", Variant::matched);
   variants.emplace_back("springs", Variant::matched);
+  variants.emplace_back("beam", Variant::recorded);
   for (const auto& [kind, variant] : variants) {
     devices::ScriptedDevice a(press, {}, 1000), b(side, {}, 1000);
     realtime::EngineOptions options;
@@ -104,6 +106,7 @@ TEST(RealTime, EngineLoopsAllocateNothingWithEveryModel) {
     options.springs.network.volume_springs = variant == Variant::volume;
     options.fem.fixed_radius = 0.031;  // the cylinder's clamped cap
     options.fem.refresh_frames = 3;  // tangents adopted during the test
+    if (variant == Variant::recorded) options.tick_records = 256;
     realtime::Engine engine(variant == Variant::matched ? matched_organ : organ, {&a, &b}, options);
     const long before = allocations;
     for (int tick = 0; tick <= 600; ++tick) {
@@ -118,6 +121,13 @@ TEST(RealTime, EngineLoopsAllocateNothingWithEveryModel) {
     EXPECT_GE(engine.telemetry(1).contacts, 1u) << kind;
     EXPECT_GT(engine.telemetry(0).peak_force, 0.0) << kind;
     EXPECT_EQ(engine.model().instabilities(), 0u) << kind << " variant " << static_cast<int>(variant);
+    if (variant == Variant::recorded) {
+      realtime::TickRecord record;
+      std::size_t held = 0;
+      while (engine.take_tick_record(0, record)) ++held;
+      EXPECT_EQ(held, 256u);
+      EXPECT_EQ(engine.dropped_tick_records(0), 601u - 256u);
+    }
   }
 }
 

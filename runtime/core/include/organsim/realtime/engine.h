@@ -50,6 +50,7 @@
 #include "organsim/realtime/deformation_model.h"
 #include "organsim/realtime/force_safety.h"
 #include "organsim/lockfree/triple_buffer.h"
+#include "organsim/realtime/spsc_ring.h"
 
 namespace organsim::realtime {
 
@@ -73,6 +74,9 @@ struct EngineOptions {
   /// surface (wet serosa on steel: about 0.1–0.3; docs/realtime.md#contact-rule);
   /// infinity: the organ never slips under the tool.
   double friction = 0.2;
+  /// Force-tick records kept per tool for a reader (Engine::take_tick_record);
+  /// 0: none are kept.
+  std::size_t tick_records = 0;
   /// The tip radius of `tool` (m).
   double tip_radius_of(std::size_t tool) const noexcept {
     return tool < tool_tip_radii.size() && tool_tip_radii[tool] >= 0.0 ? tool_tip_radii[tool] : tip_radius;
@@ -128,6 +132,17 @@ struct ToolTelemetry {
   Eigen::Vector3d last_force = Eigen::Vector3d::Zero();
 };
 
+/// One force tick of one tool, for whoever records the session (a training
+/// report): what was sent, what the model asked for, and where the tool was.
+struct TickRecord {
+  double time = 0.0;                                      ///< s
+  Eigen::Vector3d sent_force = Eigen::Vector3d::Zero();   ///< N, to the device, after the safety rules
+  Eigen::Vector3d model_force = Eigen::Vector3d::Zero();  ///< N, what the model computed, before them
+  Eigen::Vector3d tip = Eigen::Vector3d::Zero();          ///< m, model frame (zero when the pose was invalid)
+  double depth = 0.0;  ///< m: how far the tool's contact point is pushed in along the rest surface's inward normal
+  bool in_contact = false, pose_valid = false;
+};
+
 class Engine final : public devices::ForceLoop {
  public:
   /// Devices are not owned and must outlive the engine; at most kMaxTools.
@@ -155,6 +170,12 @@ class Engine final : public devices::ForceLoop {
   std::uint64_t refused_contacts() const noexcept { return refused_; }
   /// The deformation model (read its counters when the loops are not running).
   const DeformationModel& model() const noexcept { return *model_; }
+  /// With EngineOptions::tick_records > 0, every force tick leaves one record
+  /// per tool in a wait-free ring of that capacity; one reader thread takes
+  /// them in order while the loops run. False when none is held.
+  bool take_tick_record(std::size_t tool, TickRecord& out) noexcept { return tick_records_[tool].take(out); }
+  /// Tick records that found the tool's ring full (the reader fell behind).
+  std::size_t dropped_tick_records(std::size_t tool) const noexcept { return tick_records_[tool].dropped(); }
 
  private:
   void publish_linearization(std::size_t tool) noexcept;
@@ -177,6 +198,7 @@ class Engine final : public devices::ForceLoop {
   std::array<double, kMaxTools> blend_start_{}, blend_frame_{};
   std::array<std::uint32_t, kMaxTools> blend_generation_{};
   double previous_tick_ = -1.0;
+  std::array<SpscRing<TickRecord>, kMaxTools> tick_records_;
 
   // Deformation loop only.
   std::unique_ptr<DeformationModel> model_;

@@ -1,0 +1,176 @@
+// `replay --report` and `organsim report`: a training report's metrics on a
+// session whose answers are known by hand, the page's shape (self-contained,
+// no URL, no patient data), loop-health warnings and a reference run.
+#include <gtest/gtest.h>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "cli_fixture.h"
+#include "organsim/model/model_file.h"
+#include "test_models.h"
+
+namespace organsim {
+namespace {
+
+using namespace cli::testing;
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+nlohmann::json read_json(const fs::path& path) { return nlohmann::json::parse(read_text(path)); }
+
+/// The helper cylinder (radius 30 mm, 150 mm along x, clamped at x = 0) in a
+/// file whose name looks like a patient's, and a one-tool session: the point
+/// tool reaches the far cap (x = 150 mm) at 0.1 s, is 4 mm in at 0.2 s, holds
+/// until 1.2 s, is back at the cap at 1.3 s and away at 1.4 s.
+struct KnownPress {
+  std::string model, session;
+  static constexpr double kContact = 1.2, kDepthMm = 4.0, kPathMm = 2 * 14.0;
+};
+
+KnownPress write_known_press(const fs::path& dir) {
+  KnownPress p;
+  p.model = (dir / "DOE^JANE_1234.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), p.model);
+  p.session = (dir / "DOE^JANE_press.session").string();
+  std::ofstream out(p.session);
+  out << "# organsim session 1\n"
+         "0,1,160,0,0\n0.1,1,150,0,0\n0.2,1,146,0,0\n1.2,1,146,0,0\n1.3,1,150,0,0\n1.4,1,160,0,0\n";
+  return p;
+}
+
+TEST_F(Cli, ReportMetricsAreTheHandWorkedOnesOfAKnownPress) {
+  const KnownPress press = write_known_press(dir_);
+  const fs::path report = dir_ / "report", forces = dir_ / "forces.csv";
+  const CommandRun replay = run_organsim("replay " + press.model + " " + press.session +
+                                             " --fast --tip-radius 0 --force-limit 1000 --forces " + forces.string() +
+                                             " --report " + report.string(),
+                                         dir_);
+  ASSERT_EQ(replay.exit_code, 0) << replay.err;
+  for (const char* file : {"index.html", "metrics.json", "ticks.csv", "frames.csv", "surface.csv", "run.json"})
+    EXPECT_TRUE(fs::exists(report / file)) << file;
+  nlohmann::json m = read_json(report / "metrics.json");
+  EXPECT_DOUBLE_EQ(m["duration_s"].get<double>(), 1.4);
+  EXPECT_DOUBLE_EQ(m["force_limit_n"].get<double>(), 1000.0);
+  ASSERT_EQ(m["tools"].size(), 1u);
+  const nlohmann::json& tool = m["tools"][0];
+  EXPECT_EQ(tool["tool"], 1);
+  // Contacts begin and end on deformation frames (60 Hz): within a frame.
+  EXPECT_NEAR(tool["time_in_contact_s"].get<double>(), KnownPress::kContact, 1.0 / 60.0 + 2e-3);
+  EXPECT_NEAR(tool["peak_depth_mm"].get<double>(), KnownPress::kDepthMm, 0.05);
+  EXPECT_NEAR(tool["path_length_mm"].get<double>(), KnownPress::kPathMm, 1e-3);
+  EXPECT_NEAR(tool["mean_speed_mm_s"].get<double>(), KnownPress::kPathMm / 1.4, 1e-3);
+  EXPECT_EQ(tool["events_above_limit"], 0);
+  EXPECT_EQ(tool["time_above_limit_s"].get<double>(), 0.0);
+  // peak_force_n is the largest force the device received: the forces CSV's.
+  double largest = 0.0;
+  std::ifstream csv(forces);
+  std::string line;
+  std::getline(csv, line);
+  while (std::getline(csv, line)) {
+    double t, fx, fy, fz;
+    int id, contact;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%d,%lf,%lf,%lf,%d", &t, &id, &fx, &fy, &fz, &contact), 6);
+    largest = std::max(largest, std::sqrt(fx * fx + fy * fy + fz * fz));
+  }
+  const double peak = tool["peak_force_n"].get<double>();
+  EXPECT_NEAR(peak, largest, 1e-8 * largest);
+  EXPECT_GT(peak, 0.0);
+
+  // Rebuilt with the limit at half the held force: the multi-beam force is
+  // linear in the depth, so it is above the limit from half the way in (0.15 s)
+  // to half the way out (1.25 s): one event of 1.1 s.
+  const CommandRun rebuilt = run_organsim(fmt::format("report {} --force-limit {}", report.string(), peak / 2), dir_);
+  ASSERT_EQ(rebuilt.exit_code, 0) << rebuilt.err;
+  m = read_json(report / "metrics.json");
+  const nlohmann::json& again = m["tools"][0];
+  EXPECT_EQ(again["events_above_limit"], 1);
+  EXPECT_NEAR(again["time_above_limit_s"].get<double>(), 1.1, 1.0 / 60.0 + 2e-3);
+  EXPECT_NEAR(again["events"][0]["start_s"].get<double>(), 0.15, 1.0 / 60.0 + 2e-3);
+  EXPECT_NEAR(again["events"][0]["duration_s"].get<double>(), 1.1, 1.0 / 60.0 + 2e-3);
+  EXPECT_NEAR(again["events"][0]["where_mm"][0].get<double>(), 146.0, 0.05);  // at the deepest point
+  EXPECT_DOUBLE_EQ(again["peak_force_n"].get<double>(), peak);  // the limit changes no force
+}
+
+TEST_F(Cli, ReportPageIsSelfContainedAndHoldsNoPatientData) {
+  const KnownPress press = write_known_press(dir_);
+  const fs::path report = dir_ / "report";
+  ASSERT_EQ(run_organsim("replay " + press.model + " " + press.session + " --fast --report " + report.string(), dir_)
+                .exit_code,
+            0);
+  const std::string html = read_text(report / "index.html");
+  EXPECT_NE(html.find("<meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; style-src "
+                      "'unsafe-inline'; img-src data:\">"),
+            std::string::npos);
+  for (const char* url : {"http:", "https:", "=\"//", "='//", "url(", "<script", "<link"})
+    EXPECT_EQ(html.find(url), std::string::npos) << url;
+  // Force, depth and speed per tool, and the volume: four charts.
+  std::size_t charts = 0;
+  for (std::size_t at = html.find("<svg"); at != std::string::npos; at = html.find("<svg", at + 1)) ++charts;
+  EXPECT_EQ(charts, 4u);
+  EXPECT_NE(html.find("<polyline"), std::string::npos);
+  // The organ's three views, or, without a display, a line saying why each is missing.
+  std::size_t pictures = 0;
+  for (std::size_t at = html.find("data:image/png;base64,"); at != std::string::npos;
+       at = html.find("data:image/png;base64,", at + 1))
+    ++pictures;
+  const char* display = std::getenv("DISPLAY");
+  if (display != nullptr && *display != '\0')
+    EXPECT_EQ(pictures, 3u);
+  else
+    EXPECT_NE(html.find("not drawn"), std::string::npos);
+  // Nothing of the (file-name) patient anywhere in the report's files.
+  for (const auto& entry : fs::directory_iterator(report)) {
+    const std::string text = read_text(entry.path());
+    EXPECT_EQ(text.find("DOE"), std::string::npos) << entry.path();
+    EXPECT_EQ(text.find("JANE"), std::string::npos) << entry.path();
+  }
+  EXPECT_EQ(read_json(report / "run.json")["model_sha256"].get<std::string>().size(), 64u);
+}
+
+TEST_F(Cli, ReportSaysWhenTheLoopsFailedAndComparesWithAReferenceRun) {
+  const KnownPress press = write_known_press(dir_);
+  const fs::path trainee = dir_ / "trainee", expert = dir_ / "expert";
+  ASSERT_EQ(run_organsim("replay " + press.model + " " + press.session + " --fast --report " + trainee.string(), dir_)
+                .exit_code,
+            0);
+  ASSERT_EQ(run_organsim("replay " + press.model + " " + press.session + " --fast --model springs --report " +
+                             expert.string(),
+                         dir_)
+                .exit_code,
+            0);
+  std::string html = read_text(trainee / "index.html");
+  EXPECT_EQ(html.find("<td class=\"warn\">"), std::string::npos);  // a clean run has no loop trouble
+  // A device that failed and frames that were dropped are reported as such.
+  nlohmann::json run = read_json(trainee / "run.json");
+  run["loop_health"]["frames_dropped"] = 7;
+  run["loop_health"]["pose_faults"] = 2;
+  std::ofstream(trainee / "run.json") << run.dump(2);
+  const CommandRun rebuilt =
+      run_organsim("report " + trainee.string() + " --reference-run " + expert.string(), dir_);
+  ASSERT_EQ(rebuilt.exit_code, 0) << rebuilt.err;
+  html = read_text(trainee / "index.html");
+  EXPECT_NE(html.find("<td class=\"warn\">7 — the organ's picture lagged the tools</td>"), std::string::npos);
+  EXPECT_NE(html.find("<td class=\"warn\">2 — a tool's device stopped giving its pose</td>"), std::string::npos);
+  // Both runs, side by side and overlaid.
+  EXPECT_NE(html.find("<th>reference</th><th>difference</th>"), std::string::npos);
+  EXPECT_NE(html.find("reference: force sent"), std::string::npos);
+  EXPECT_NE(html.find("reference run of the springs model"), std::string::npos);
+
+  // A directory without a recorded run is a one-line error.
+  const CommandRun missing = run_organsim("report " + (dir_ / "nothing").string(), dir_);
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_NE(missing.err.find("run.json: missing; was the run recorded with --report?"), std::string::npos) << missing.err;
+}
+
+}  // namespace
+}  // namespace organsim

@@ -1,0 +1,127 @@
+#include "run_recorder.h"
+
+#include <openssl/evp.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace organsim::report {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr double kMillimetresPerMetre = 1e3;
+
+/// m³ enclosed by the surface at `positions` (the organ's runtime order, as its triangles).
+double enclosed_volume(const organ::Organ& organ, const std::vector<model::Point3>& positions) {
+  double six_volume = 0.0;
+  for (const model::Triangle& t : organ.model().surface_triangles) {
+    const model::Point3& a = positions[t[0]];
+    const model::Point3& b = positions[t[1]];
+    const model::Point3& c = positions[t[2]];
+    six_volume += a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
+                  a[2] * (b[0] * c[1] - b[1] * c[0]);
+  }
+  return six_volume / 6.0;
+}
+
+}  // namespace
+
+RunRecorder::RunRecorder(const std::string& directory, const organ::Organ& organ, std::size_t tools)
+    : directory_(directory), organ_(organ), tools_(tools), peak_indentation_(organ.vertex_count(), 0.0) {
+  std::error_code error;
+  fs::create_directories(directory_, error);
+  if (error || !fs::is_directory(directory_))
+    throw std::runtime_error(fmt::format("--report {}: cannot create the directory ({}); give a writable folder",
+                                         directory_, error ? error.message() : "it is a file"));
+  ticks_ = std::make_unique<io::AtomicStream>((fs::path(directory_) / "ticks.csv").string());
+  ticks_->append("t_s,tool,fx_n,fy_n,fz_n,model_force_n,in_contact,x_mm,y_mm,z_mm,depth_mm,pose_valid\n");
+  frames_ = std::make_unique<io::AtomicStream>((fs::path(directory_) / "frames.csv").string());
+  frames_->append("t_s,volume_ml\n");
+}
+
+void RunRecorder::take_ticks(realtime::Engine& engine) {
+  realtime::TickRecord r;
+  for (std::size_t tool = 0; tool < tools_; ++tool)
+    while (engine.take_tick_record(tool, r)) {
+      const Eigen::Vector3d tip = r.tip * kMillimetresPerMetre;
+      const int length = std::snprintf(line_, sizeof line_, "%.6f,%zu,%.9g,%.9g,%.9g,%.9g,%d,%.4f,%.4f,%.4f,%.5f,%d\n",
+                                       r.time, tool + 1, r.sent_force[0], r.sent_force[1], r.sent_force[2],
+                                       r.model_force.norm(), r.in_contact ? 1 : 0, tip[0], tip[1], tip[2],
+                                       r.depth * kMillimetresPerMetre, r.pose_valid ? 1 : 0);
+      ticks_->append(line_, static_cast<std::size_t>(length));
+      ++tick_count_;
+    }
+}
+
+void RunRecorder::take_frame(const realtime::SurfaceFrame& frame) {
+  const auto& rest = organ_.model().surface_vertices;
+  const auto& normals = organ_.rest_normals();
+  for (std::size_t v = 0; v < frame.positions.size() && v < rest.size(); ++v) {
+    // Indentation: how far the vertex moved in along its rest inward normal.
+    double inward = 0.0;
+    for (int k = 0; k < 3; ++k) inward -= (frame.positions[v][k] - rest[v][k]) * normals[v][k];
+    peak_indentation_[v] = std::max(peak_indentation_[v], inward);
+  }
+  const int length = std::snprintf(line_, sizeof line_, "%.6f,%.6f\n", frame.time,
+                                   enclosed_volume(organ_, frame.positions) * 1e6);
+  frames_->append(line_, static_cast<std::size_t>(length));
+  ++frame_count_;
+}
+
+void RunRecorder::finish(realtime::Engine& engine, nlohmann::json run) {
+  take_ticks(engine);
+  std::vector<std::size_t> dropped;
+  for (std::size_t tool = 0; tool < tools_; ++tool) dropped.push_back(engine.dropped_tick_records(tool));
+  ticks_->commit();
+  frames_->commit();
+
+  const std::vector<std::uint32_t>& file_index = organ_.file_vertex_index();
+  const auto& rest = organ_.model().surface_vertices;
+  std::vector<std::size_t> runtime_of(file_index.size());
+  for (std::size_t v = 0; v < file_index.size(); ++v) runtime_of[file_index[v]] = v;
+  std::string surface = "x_mm,y_mm,z_mm,peak_indentation_mm\n";
+  for (std::size_t f = 0; f < runtime_of.size(); ++f) {
+    const std::size_t v = runtime_of[f];
+    surface += fmt::format("{:.4f},{:.4f},{:.4f},{:.5f}\n", rest[v][0] * 1e3, rest[v][1] * 1e3, rest[v][2] * 1e3,
+                           peak_indentation_[v] * 1e3);
+  }
+  io::write_file_atomically((fs::path(directory_) / "surface.csv").string(), surface);
+  std::string triangles = "a,b,c\n";
+  for (const model::Triangle& t : organ_.model().surface_triangles)
+    triangles += fmt::format("{},{},{}\n", file_index[t[0]], file_index[t[1]], file_index[t[2]]);
+  io::write_file_atomically((fs::path(directory_) / "triangles.csv").string(), triangles);
+
+  run["tools"] = tools_;
+  run["rest_volume_ml"] = enclosed_volume(organ_, organ_.model().surface_vertices) * 1e6;
+  run["tick_rows"] = tick_count_;
+  run["frames_recorded"] = frame_count_;
+  run["tick_records_dropped"] = dropped;
+  io::write_file_atomically((fs::path(directory_) / "run.json").string(), run.dump(2) + "\n");
+}
+
+std::string file_sha256(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(fmt::format("{}: cannot read it to name it in the report", path));
+  std::unique_ptr<EVP_MD_CTX, decltype(&EVP_MD_CTX_free)> context(EVP_MD_CTX_new(), &EVP_MD_CTX_free);
+  if (!context || EVP_DigestInit_ex(context.get(), EVP_sha256(), nullptr) != 1)
+    throw std::runtime_error("SHA-256 is not available from OpenSSL");
+  std::vector<char> chunk(1 << 16);
+  while (in) {
+    in.read(chunk.data(), static_cast<std::streamsize>(chunk.size()));
+    EVP_DigestUpdate(context.get(), chunk.data(), static_cast<std::size_t>(in.gcount()));
+  }
+  unsigned char digest[EVP_MAX_MD_SIZE];
+  unsigned int length = 0;
+  EVP_DigestFinal_ex(context.get(), digest, &length);
+  std::string hex;
+  for (unsigned int i = 0; i < length; ++i) hex += fmt::format("{:02x}", digest[i]);
+  return hex;
+}
+
+}  // namespace organsim::report

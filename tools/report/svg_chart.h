@@ -1,0 +1,24 @@
+// Line charts as inline SVG for the training report: no script, no external
+// resource, so the page opens anywhere (a USB stick, no network).
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace organsim::report {
+
+struct ChartSeries {
+  std::string name, colour;     ///< colour: a CSS colour (#rrggbb)
+  std::vector<double> x, y;     ///< same length; points with a NaN y are left out
+};
+
+struct ChartAxes {
+  std::string x_label, y_label;
+  double line_at = 0.0;         ///< a dashed horizontal line at this y (with `line_label`), when the label is set
+  std::string line_label;
+};
+
+/// One chart (about 900 × 260 pixels) with axes, ticks and a legend.
+std::string svg_chart(const std::vector<ChartSeries>& series, const ChartAxes& axes);
+
+}  // namespace organsim::report
