@@ -253,6 +253,7 @@ void IgtlServer::dropped(Problem problem, const MessageInfo& info, const Client&
 void IgtlServer::send_frame() {
   if (surfaces_.update()) {
     const realtime::SurfaceFrame& frame = surfaces_.read();
+    if (frame_observer_) frame_observer_(frame);
     const std::vector<std::uint32_t>& to_file = organ_.file_vertex_index();
     for (std::size_t v = 0; v < frame.positions.size() && v < positions_.size(); ++v) {
       model::Point3& slot = positions_[to_file[v]];

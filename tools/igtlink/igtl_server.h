@@ -86,6 +86,9 @@ class IgtlServer {
   void step(double now);
   const ServerCounters& counters() const noexcept { return counters_; }
   std::size_t clients() const noexcept { return clients_.size(); }
+  /// Called with every new deformation frame the server reads (a training
+  /// report's recorder, say), on step()'s thread.
+  void observe_frames(std::function<void(const realtime::SurfaceFrame&)> observer) { frame_observer_ = std::move(observer); }
 
  private:
   struct Client;
@@ -98,6 +101,7 @@ class IgtlServer {
   Reading read_from(Client& client);
   bool write_to(Client& client);
   void close(std::size_t index, const std::string& why);
+  std::function<void(const realtime::SurfaceFrame&)> frame_observer_;
   void send_frame();
   void pack_surface(const std::vector<model::Point3>& positions_in_file_order);
   void pack_forces();

@@ -57,5 +57,9 @@ class RunRecorder {
 /// SHA-256 (lowercase hex) of a file's bytes: what names the patient model in a
 /// report without anything of the patient in it.
 std::string file_sha256(const std::string& path);
+/// The CPU as /proc/cpuinfo names it, and the logical cores: for run.json.
+std::string machine_description();
+/// Now, UTC, as 2026-11-26T21:57:56Z.
+std::string utc_date_now();
 
 }  // namespace organsim::report

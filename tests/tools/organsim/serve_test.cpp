@@ -2,6 +2,7 @@
 // the organ and gets back the deformed surface and `organsim poke`'s force;
 // bad messages are logged once and dropped; a client that comes back is served.
 #include <gtest/gtest.h>
+#include <fstream>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
@@ -170,7 +171,10 @@ TEST_F(Cli, ServePressedOverOpenIgtLinkSendsTheDeformedOrganAndPokesForce) {
 
   // With a friction no press overcomes the organ never slips: the force does
   // not depend on the way the press went (docs/realtime.md#contact-rule).
-  ServeProcess serve(model + " --igtl-port 0 --tools 2 --max-force 100 --max-stiffness 1e6 --json --friction 1e6", dir_);
+  const fs::path report = dir_ / "report";
+  ServeProcess serve(model + " --igtl-port 0 --tools 2 --max-force 100 --max-stiffness 1e6 --json --friction 1e6 --report " +
+                         report.string(),
+                     dir_);
   const int port = serve.port();
   ASSERT_GT(port, 0);
   IgtlClient client(port);
@@ -204,6 +208,14 @@ TEST_F(Cli, ServePressedOverOpenIgtLinkSendsTheDeformedOrganAndPokesForce) {
   EXPECT_EQ(summary["tools"][0]["contacts"], 1);
   EXPECT_EQ(summary["clients_accepted"], 1);
   EXPECT_EQ(summary["poses"], 31);
+  // The training report of the served session: the press's depth and force.
+  EXPECT_EQ(summary["report"], (report / "index.html").string());
+  std::ifstream in(report / "metrics.json");
+  const nlohmann::json metrics = nlohmann::json::parse(in);
+  ASSERT_EQ(metrics["tools"].size(), 2u);
+  EXPECT_NEAR(metrics["tools"][0]["peak_depth_mm"].get<double>(), 5.0, 0.05);
+  EXPECT_NEAR(metrics["tools"][0]["peak_force_n"].get<double>(), expected.norm(), 1e-3 * expected.norm());
+  EXPECT_EQ(metrics["tools"][1]["peak_force_n"].get<double>(), 0.0);
 }
 
 int count(const std::string& text, const std::string& what) {

@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <fstream>
 #include <string>
 
 #include "cli_fixture.h"
@@ -50,6 +51,29 @@ TEST_F(Cli, TouchReportsADeviceThatFailsMidSession) {
   EXPECT_EQ(j["tools"][1]["last_hd_error"], 770);
   EXPECT_EQ(j["tools"][1]["pose_faults"], 1);
   EXPECT_GE(j["deformation_frames"].get<int>(), 40);  // the program went on
+}
+
+// A training report of a live session: the stand-in devices' ticks, and the
+// failed device reported as such on the page.
+TEST_F(Cli, TouchWritesATrainingReportThatShowsAFailedDevice) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const fs::path report = dir_ / "report";
+  const CommandRun run = run_organsim_with_prefix(
+      "FAKEHD_FAIL=1:0.2:0.5:770 ",
+      "touch " + model + " --hd-library " + std::string(FAKE_HD_LIBRARY) + " --device a --device b --seconds 0.8 " +
+          "--json --report " + report.string(),
+      dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(nlohmann::json::parse(run.out)["report"], (report / "index.html").string());
+  std::ifstream in(report / "metrics.json");
+  const nlohmann::json metrics = nlohmann::json::parse(in);
+  ASSERT_EQ(metrics["tools"].size(), 2u);
+  EXPECT_GT(metrics["tools"][0]["force_ticks"].get<int>(), 400);  // 0.8 s at 1 kHz, with CI's jitter
+  EXPECT_EQ(metrics["loop_health"]["pose_faults"], 1);
+  std::ifstream page(report / "index.html");
+  const std::string html{std::istreambuf_iterator<char>(page), {}};
+  EXPECT_NE(html.find("<td class=\"warn\">1 — a tool's device stopped giving its pose</td>"), std::string::npos);
 }
 
 }  // namespace

@@ -175,5 +175,37 @@ TEST_F(Cli, ViewRunsMouseToolsAndPhantomDevicesInRealTime) {
   EXPECT_NE(missing.err.find("cannot load the OpenHaptics HD library"), std::string::npos) << missing.err;
 }
 
+// --report in each of the viewer's three modes: a page and metrics with one
+// entry per tool; the scripted session's two presses are seen in contact.
+TEST_F(Cli, ViewWritesATrainingReportInEveryMode) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const std::string session = write_press_session(dir_).string();
+  const struct {
+    std::string name, arguments;
+    std::size_t tools;
+  } modes[] = {{"session", "--session " + session + " --offscreen", 2},
+               {"mouse", "--frames 20", 4},
+               {"phantom", "--phantom --hd-library " + std::string(FAKE_HD_LIBRARY) + " --frames 20", 1}};
+  for (const auto& mode : modes) {
+    const fs::path report = dir_ / ("report_" + mode.name);
+    const CommandRun run = run_viewer("view " + model + " " + mode.arguments + " --json --report " + report.string(), dir_);
+    ASSERT_EQ(run.exit_code, 0) << mode.name << ": " << run.err;
+    EXPECT_EQ(nlohmann::json::parse(run.out)["report"], report.string() + "/index.html") << mode.name;
+    ASSERT_TRUE(fs::exists(report / "index.html")) << mode.name;
+    std::ifstream in(report / "metrics.json");
+    const nlohmann::json metrics = nlohmann::json::parse(in);
+    ASSERT_EQ(metrics["tools"].size(), mode.tools) << mode.name;
+    EXPECT_GT(metrics["duration_s"].get<double>(), 0.0) << mode.name;
+    if (mode.name == "session")
+      for (const auto& tool : metrics["tools"]) {
+        // The 2.5 mm tip meets the top (z = 30 mm) at z = 32.5 mm, 0.4 × 17.5 / 30 = 0.233 s
+        // in, and stays to the end at 1 s; contacts start on the next 60 Hz frame.
+        EXPECT_NEAR(tool["time_in_contact_s"].get<double>(), 1.0 - 0.233, 1.0 / 60.0 + 0.035);
+        EXPECT_GT(tool["peak_force_n"].get<double>(), 0.0);
+      }
+  }
+}
+
 }  // namespace
 }  // namespace organsim

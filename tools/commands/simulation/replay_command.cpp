@@ -11,8 +11,6 @@
 #include <memory>
 #include <sstream>
 #include <stdexcept>
-#include <thread>
-#include <ctime>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -237,24 +235,9 @@ std::string report_directory(const ReplayOptions& o, const std::string& name) {
   return o.models.size() > 1 ? (fs::path(o.report_dir) / name).string() : o.report_dir;
 }
 
-/// The CPU, as /proc/cpuinfo names it, and the cores.
-std::string machine_description() {
-  std::ifstream cpuinfo("/proc/cpuinfo");
-  std::string line, model = "unknown CPU";
-  while (std::getline(cpuinfo, line))
-    if (line.rfind("model name", 0) == 0) {
-      model = line.substr(line.find(':') + 2);
-      break;
-    }
-  return fmt::format("{}, {} logical cores", model, std::thread::hardware_concurrency());
-}
-
 /// run.json's session description for the training report: nothing of the
 /// patient, the model and session files named by their SHA-256 only.
 nlohmann::json run_description(const ReplayOptions& o, const ModelRun& run, double duration) {
-  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-  char date[32];
-  std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
   const Percentiles period = run.timings.force_periods.percentiles();
   std::uint64_t pose_faults = 0;
   for (const ToolTelemetry& t : run.telemetry) pose_faults += t.pose_faults;
@@ -262,11 +245,11 @@ nlohmann::json run_description(const ReplayOptions& o, const ModelRun& run, doub
   return {{"deformation_model", run.name},
           {"model_sha256", report::file_sha256(o.model_path)},
           {"session_sha256", report::file_sha256(o.session_path)},
-          {"date", date},
+          {"date", report::utc_date_now()},
           {"duration_s", duration},
           {"mode", o.fast ? "fast" : "realtime"},
           {"device_max_force_n", o.max_force},
-          {"machine", machine_description()},
+          {"machine", report::machine_description()},
           {"loop_health",
            {{"force_ticks", run.timings.force_computes.count()},
             {"period_p50_ms", timing(period.p50)},

@@ -13,6 +13,8 @@
 #include "command_line.h"
 #include "igtlink/igtl_server.h"
 #include "model_tuning.h"
+#include "report_options.h"
+#include "report/run_recorder.h"
 #include "organsim/model/model_file.h"
 #include "organsim/realtime/loop_runner.h"
 
@@ -30,6 +32,8 @@ struct ServeOptions {
   double max_stiffness = devices::SafetyLimits{}.max_stiffness;
   bool no_shaft = false;
   bool json = false;
+  std::string report_dir;  // "": no training report
+  report::ReportOptions report;
 };
 
 std::atomic<bool> stop_requested{false};
@@ -82,8 +86,11 @@ int run_serve(const ServeOptions& o) {
   realtime::EngineOptions options;
   options.model = o.deformation;
   apply_model_tuning(o.tuning, options);
+  if (!o.report_dir.empty()) options.tick_records = report::kTickRecordsPerTool;
   realtime::Engine engine(organ, devices, options);
   warn_if_frames_overrun("serve", engine);
+  std::unique_ptr<report::RunRecorder> recorder;
+  if (!o.report_dir.empty()) recorder = std::make_unique<report::RunRecorder>(o.report_dir, organ, o.tools);
 
   igtlink::ServerOptions server_options = o.server;
   server_options.shaft_from_rotation = !o.no_shaft;
@@ -97,17 +104,42 @@ int run_serve(const ServeOptions& o) {
                             o.server.ras ? "RAS" : "LPS model", o.tools, 1.0 / o.server.frame_period,
                             o.seconds > 0.0 ? fmt::format("for {:g} s", o.seconds) : std::string("Ctrl-C stops")));
 
+  if (recorder) server.observe_frames([&](const realtime::SurfaceFrame& frame) { recorder->take_frame(frame); });
   const StopOnSignals signals;
   const auto begin = std::chrono::steady_clock::now();
   const double duration = o.seconds > 0.0 ? o.seconds : 1e9;
   const realtime::RunTimings timings = realtime::run_realtime(engine, duration, [&](const realtime::RunTimings&) {
     server.step(std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
+    if (recorder) recorder->take_ticks(engine);
     return !stop_requested.load(std::memory_order_relaxed);
   });
   if (!timings.priority_warning.empty()) warn("serve", timings.priority_warning);
+  const realtime::Percentiles period = timings.force_periods.percentiles();
+  if (recorder) {
+    std::uint64_t pose_faults = 0;
+    for (std::size_t k = 0; k < o.tools; ++k) pose_faults += engine.telemetry(k).pose_faults;
+    recorder->finish(engine, {{"deformation_model", o.deformation},
+                              {"model_sha256", report::file_sha256(o.model_path)},
+                              {"session_sha256", "none: tools streamed over OpenIGTLink"},
+                              {"date", report::utc_date_now()},
+                              {"duration_s", timings.wall_seconds},
+                              {"mode", "serve (OpenIGTLink)"},
+                              {"device_max_force_n", o.max_force},
+                              {"machine", report::machine_description()},
+                              {"loop_health",
+                               {{"force_ticks", timings.force_computes.count()},
+                                {"period_p50_ms", period.p50 * 1e3},
+                                {"period_p99_ms", period.p99 * 1e3},
+                                {"period_max_ms", period.max * 1e3},
+                                {"force_deadline_misses", timings.force_deadline_misses},
+                                {"frames", timings.deformation_computes.count()},
+                                {"frames_dropped", timings.deformation_frames_dropped},
+                                {"pose_faults", pose_faults},
+                                {"refused_contacts", engine.refused_contacts()}}}});
+    for (const std::string& problem : report::write_report(o.report_dir, o.report)) warn("serve", problem);
+  }
 
   const igtlink::ServerCounters& c = server.counters();
-  const realtime::Percentiles period = timings.force_periods.percentiles();
   if (o.json) {
     nlohmann::json dropped;
     for (std::size_t p = 0; p < igtlink::kProblemKinds; ++p)
@@ -129,6 +161,7 @@ int run_serve(const ServeOptions& o) {
                                 {"frames_missed", c.frames_missed},
                                 {"bytes_sent", c.bytes_sent},
                                 {"dropped", dropped},
+                                {"report", recorder ? nlohmann::json(o.report_dir + "/index.html") : nlohmann::json()},
                                 {"tools", tools_json},
                                 {"force_loop",
                                  {{"ticks", timings.force_computes.count()},
@@ -193,6 +226,10 @@ Command add_serve_command(CLI::App& app) {
       ->check(kPositive)
       ->capture_default_str();
   app.add_flag("--json", o->json, "Print the summary as one JSON object on stdout");
+  app.add_option("--report", o->report_dir,
+                 "Write a training report of the session into this directory (index.html, metrics.json, raw data; "
+                 "docs/report.md)");
+  add_report_options(app, o->report);
   return [o] { return run_serve(*o); };
 }
 

@@ -13,6 +13,8 @@
 #include "command_line.h"
 #include "model_tuning.h"
 #include "haptic_rig_options.h"
+#include "report_options.h"
+#include "report/run_recorder.h"
 #include "organsim/model/model_file.h"
 #include "organsim/realtime/engine.h"
 
@@ -26,6 +28,8 @@ struct TouchOptions {
   std::string deformation = "beam";
   ModelTuning tuning;
   bool json = false;
+  std::string report_dir;  // "": no training report
+  report::ReportOptions report;
 };
 
 // Says once when a device starts reporting HD errors (its force fades to zero
@@ -54,7 +58,10 @@ int run_touch(const TouchOptions& o) {
   realtime::EngineOptions options;
   options.model = o.deformation;
   apply_model_tuning(o.tuning, options);
+  if (!o.report_dir.empty()) options.tick_records = report::kTickRecordsPerTool;
   realtime::Engine engine(organ, tools, options);
+  std::unique_ptr<report::RunRecorder> recorder;
+  if (!o.report_dir.empty()) recorder = std::make_unique<report::RunRecorder>(o.report_dir, organ, tools.size());
   engine.set_reproducible(false);  // real time: a frame never waits for the FEM tangent worker
   warn_if_frames_overrun("touch", engine);
   devices::OpenHapticsServo servo(*rig.library, rig.servo_devices(), engine);
@@ -70,12 +77,34 @@ int run_touch(const TouchOptions& o) {
     const double now = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
     engine.deformation_step(now);
     ++frames;
+    if (recorder) {
+      if (engine.surfaces().update()) recorder->take_frame(engine.surfaces().read());
+      recorder->take_ticks(engine);
+    }
     report_device_faults(owned, now, errors_seen, failing);
     next += std::chrono::microseconds(16667);
     std::this_thread::sleep_until(next);
   }
   servo.stop();
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+  if (recorder) {
+    std::uint64_t pose_faults = 0;
+    for (std::size_t i = 0; i < owned.size(); ++i) pose_faults += engine.telemetry(i).pose_faults;
+    recorder->finish(engine, {{"deformation_model", o.deformation},
+                              {"model_sha256", report::file_sha256(o.model_path)},
+                              {"session_sha256", "none: live devices"},
+                              {"date", report::utc_date_now()},
+                              {"duration_s", seconds},
+                              {"mode", "touch (OpenHaptics servo loop)"},
+                              {"device_max_force_n", owned.front()->limits().max_force},
+                              {"machine", report::machine_description()},
+                              {"loop_health",
+                               {{"force_ticks", servo.ticks()},
+                                {"frames", frames},
+                                {"pose_faults", pose_faults},
+                                {"refused_contacts", engine.refused_contacts()}}}});
+    for (const std::string& problem : report::write_report(o.report_dir, o.report)) warn("touch", problem);
+  }
 
   if (o.json) {
     nlohmann::json tools_json = nlohmann::json::array();
@@ -92,6 +121,7 @@ int run_touch(const TouchOptions& o) {
                                 {"servo_ticks", servo.ticks()},
                                 {"servo_rate_hz", servo.ticks() / seconds},
                                 {"deformation_frames", frames},
+                                {"report", recorder ? nlohmann::json(o.report_dir + "/index.html") : nlohmann::json()},
                                 {"tools", tools_json}}
                      .dump()
               << '\n';
@@ -99,6 +129,7 @@ int run_touch(const TouchOptions& o) {
   }
   std::cout << fmt::format("{:<14}{:.1f} s, servo {:.0f} Hz ({} ticks), {} deformation frames\n", "touch", seconds,
                            servo.ticks() / seconds, servo.ticks(), frames);
+  if (recorder) std::cout << fmt::format("{:<14}{}/index.html (metrics.json beside it)\n", "report", o.report_dir);
   for (std::size_t i = 0; i < owned.size(); ++i)
     std::cout << fmt::format("{:<14}{} contact(s), peak force {:.3f} N (device limit {:.2f} N){}\n",
                              fmt::format("device {}", i + 1), engine.telemetry(i).contacts,
@@ -121,6 +152,10 @@ Command add_touch_command(CLI::App& app) {
   add_haptic_rig_options(app, o->rig);
   app.add_option("--seconds", o->seconds, "How long to run")->check(kPositive)->capture_default_str();
   app.add_flag("--json", o->json, "Print the summary as one JSON object on stdout");
+  app.add_option("--report", o->report_dir,
+                 "Write a training report of the session into this directory (index.html, metrics.json, raw data; "
+                 "docs/report.md)");
+  add_report_options(app, o->report);
   return [o] { return run_touch(*o); };
 }
 

@@ -20,6 +20,8 @@
 #include "command_line.h"
 #include "model_tuning.h"
 #include "haptic_rig_options.h"
+#include "report_options.h"
+#include "report/run_recorder.h"
 #include "session_limits.h"
 #include "organsim/devices/streamed_tool.h"
 #include "organsim/devices/scripted_device.h"
@@ -58,6 +60,8 @@ struct ViewOptions {
   std::string deformation = "beam";
   ModelTuning tuning;
   HapticRigOptions rig;
+  std::string report_dir;  // "": no training report
+  report::ReportOptions report;
   std::vector<int> size{960, 720};
 };
 
@@ -68,6 +72,34 @@ struct ViewRun {
   const ViewOptions& options;
   long frames = 0;
   nlohmann::json tools_json = nlohmann::json::array();  ///< the last drawn frame's tools, for scripts and tests
+  std::unique_ptr<report::RunRecorder> report;          ///< --report
+
+  /// The training report takes the frame drawn and the ticks since the last one.
+  void record(Engine& engine, const SurfaceFrame& surface) {
+    if (!report) return;
+    report->take_frame(surface);
+    report->take_ticks(engine);
+  }
+  /// Writes the training report of the session that ran `seconds` in `mode`.
+  void finish_report(Engine& engine, const std::string& mode, double seconds, double max_force, nlohmann::json health) {
+    if (!report) return;
+    std::uint64_t pose_faults = 0;
+    for (std::size_t i = 0; i < engine.tool_count(); ++i) pose_faults += engine.telemetry(i).pose_faults;
+    health["pose_faults"] = pose_faults;
+    health["refused_contacts"] = engine.refused_contacts();
+    health["frames"] = frames;
+    report->finish(engine, {{"deformation_model", options.deformation},
+                            {"model_sha256", report::file_sha256(options.model_path)},
+                            {"session_sha256", options.session_path.empty() ? std::string("none: live tools")
+                                                                            : report::file_sha256(options.session_path)},
+                            {"date", report::utc_date_now()},
+                            {"duration_s", seconds},
+                            {"mode", mode},
+                            {"device_max_force_n", max_force},
+                            {"machine", report::machine_description()},
+                            {"loop_health", health}});
+    for (const std::string& problem : report::write_report(options.report_dir, options.report)) warn("view", problem);
+  }
 
   bool frame_limit_reached() const { return options.frames > 0 && frames >= options.frames; }
   /// Finishes a drawn frame: background, render, record.
@@ -94,6 +126,7 @@ EngineOptions engine_options(const ViewOptions& o) {
   EngineOptions options;
   options.model = o.deformation;
   apply_model_tuning(o.tuning, options);
+  if (!o.report_dir.empty()) options.tick_records = report::kTickRecordsPerTool;
   return options;
 }
 
@@ -113,12 +146,13 @@ void view_session(const organ::Organ& organ, const Session& session, ViewRun& ru
   std::vector<Eigen::Vector3d> forces(scripted.size());
   const std::vector<bool> present(scripted.size(), true);
   bool stop = false;
-  playback.run_fast(session.duration, [&](const RunTimings&) {
+  const RunTimings timings = playback.run_fast(session.duration, [&](const RunTimings&) {
     if (stop) return;
     engine.surfaces().update();
     const SurfaceFrame& surface = engine.surfaces().read();
     const double time = surface.time;
     run.scene.show_surface(surface);
+    run.record(engine, surface);
     run.tools_json = nlohmann::json::array();
     for (std::size_t i = 0; i < scripted.size(); ++i) {
       ToolPose pose;
@@ -137,6 +171,8 @@ void view_session(const organ::Organ& organ, const Session& session, ViewRun& ru
     if (!o.offscreen) std::this_thread::sleep_until(wall_start + std::chrono::duration<double>(time));
     stop = run.frame_limit_reached();
   });
+  run.finish_report(engine, "view (a recorded session, scripted tools)", engine.surfaces().read().time,
+                    playback_options.limits.max_force, {{"force_ticks", timings.force_computes.count()}});
 }
 
 /// PHANToM / Touch devices: the HD servo runs the force loop; the deformation
@@ -164,6 +200,7 @@ void view_phantom(const organ::Organ& organ, const HapticRig& rig, ViewRun& run)
     engine.deformation_step(elapsed);
     engine.surfaces().update();
     run.scene.show_surface(engine.surfaces().read());
+    run.record(engine, engine.surfaces().read());
     for (std::size_t i = 0; i < pointers.size(); ++i) {
       ToolPose pose;
       // Drawing only: the device reports the pose the servo last read.
@@ -180,6 +217,9 @@ void view_phantom(const organ::Organ& organ, const HapticRig& rig, ViewRun& run)
     std::this_thread::sleep_until(next);
   }
   servo.stop();
+  run.finish_report(engine, "view (PHANToM / Touch devices)",
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+                    rig.devices.front()->limits().max_force, {{"force_ticks", servo.ticks()}});
 }
 
 /// Mouse and keyboard tools, with the engine's loops on their threads in real time.
@@ -199,11 +239,12 @@ void view_mouse(const organ::Organ& organ, ViewRun& run) {
   interactor->Initialize();
   std::vector<Eigen::Vector3d> forces(kMouseTools);
   const auto start = std::chrono::steady_clock::now();
-  run_realtime(engine, o.seconds, [&](const RunTimings&) {
+  const RunTimings timings = run_realtime(engine, o.seconds, [&](const RunTimings&) {
     interactor->ProcessEvents();
     if (interactor->GetDone() || run.frame_limit_reached()) return false;
     if (!engine.surfaces().update()) return true;
     run.scene.show_surface(engine.surfaces().read());
+    run.record(engine, engine.surfaces().read());
     for (std::size_t i = 0; i < kMouseTools; ++i) {
       bool touching = false;
       forces[i] = tools[i].last_force(touching);
@@ -216,6 +257,14 @@ void view_mouse(const organ::Organ& organ, ViewRun& run) {
     run.draw();
     return true;
   });
+  const Percentiles period = timings.force_periods.percentiles();
+  run.finish_report(engine, "view (mouse tools)", timings.wall_seconds, tools.front().limits().max_force,
+                    {{"force_ticks", timings.force_computes.count()},
+                     {"period_p50_ms", period.p50 * 1e3},
+                     {"period_p99_ms", period.p99 * 1e3},
+                     {"period_max_ms", period.max * 1e3},
+                     {"force_deadline_misses", timings.force_deadline_misses},
+                     {"frames_dropped", timings.deformation_frames_dropped}});
 }
 
 void print_summary(const ViewRun& run, const std::vector<std::string>& warnings) {
@@ -228,6 +277,7 @@ void print_summary(const ViewRun& run, const std::vector<std::string>& warnings)
                      {"size", {o.size[0], o.size[1]}}};
     if (!o.screenshot_path.empty()) j["screenshot"] = o.screenshot_path;
     if (!o.record_path.empty()) j["record"] = {{"path", o.record_path}, {"frames", run.recorder.count()}};
+    if (run.report) j["report"] = o.report_dir + "/index.html";
     std::cout << j.dump() << '\n';
   } else {
     std::cout << fmt::format("{:<12}{} frames drawn{}{}\n", "view", run.frames,
@@ -270,6 +320,7 @@ int run_view(const ViewOptions& o) {
   OrganScene scene(organ, tool_count, std::move(scene_options));
   Recorder recorder(o.record_path, cv::Size(o.size[0], o.size[1]));
   ViewRun run{scene, recorder, o};
+  if (!o.report_dir.empty()) run.report = std::make_unique<report::RunRecorder>(o.report_dir, organ, tool_count);
   if (!o.session_path.empty())
     view_session(organ, session, run);
   else if (o.phantom)
@@ -298,6 +349,10 @@ Command add_view_command(CLI::App& app) {
   app.add_option("--screenshot", o->screenshot_path, "Write a PNG of the last frame");
   app.add_option("--record", o->record_path, "Record every frame into a Motion-JPEG AVI");
   app.add_flag("--offscreen", o->offscreen, "Render without a window (works under Xvfb)");
+  app.add_option("--report", o->report_dir,
+                 "Write a training report of the session into this directory (index.html, metrics.json, raw data; "
+                 "docs/report.md)");
+  add_report_options(app, o->report);
   app.add_option("--frames", o->frames, "Stop after this many frames")->check(kNonNegative);
   app.add_option("--seconds", o->seconds, "With mouse tools: stop after this long")->check(kPositive)->capture_default_str();
   app.add_option("--size", o->size, "Window size WIDTH,HEIGHT in pixels")->delimiter(',')->expected(2)->capture_default_str();
