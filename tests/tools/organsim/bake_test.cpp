@@ -166,6 +166,18 @@ TEST_F(Cli, NoPatientTagReachesTheModelTheReportOrTheLog) {
       EXPECT_EQ(text.find("MRN-4711"), std::string::npos);
     }
   }
+  // Nor any file of a training report of a session on that model.
+  const fs::path session = dir_ / "tools.session";
+  std::ofstream(session) << "# organsim session 1\n0,1,-65,5,200\n0.2,1,-65,5,190\n";
+  const CommandRun replay =
+      run_organsim("replay " + model.string() + " " + session.string() + " --fast --report " + (dir_ / "report").string(), dir_);
+  ASSERT_EQ(replay.exit_code, 0) << replay.err;
+  for (const auto& entry : fs::directory_iterator(dir_ / "report")) {
+    const std::string bytes = read_bytes(entry.path());
+    EXPECT_EQ(bytes.find("DOE^"), std::string::npos) << entry.path();
+    EXPECT_EQ(bytes.find("QUINCY"), std::string::npos) << entry.path();
+    EXPECT_EQ(bytes.find("MRN-4711"), std::string::npos) << entry.path();
+  }
   // Longer needles in the intermediates: their base64 data holds any short
   // word by chance ("DOE" about once in 250 kB); '^' and '-' are not base64.
   for (const auto& entry : fs::directory_iterator(dir_ / "inspect")) {
