@@ -113,6 +113,9 @@ IgtlServer::IgtlServer(const ServerOptions& options, const organ::Organ& organ,
     m.forces.back()->SetDeviceName(fmt::format("tool{}_force", k + 1).c_str());
   }
 
+  if (!(options_.force_period > 0.0 && options_.force_period <= options_.frame_period))
+    throw std::invalid_argument(fmt::format("the forces' rate ({:g} Hz) must be at least the frame rate ({:g} Hz)",
+                                            1.0 / options_.force_period, 1.0 / options_.frame_period));
   in_addr address{};
   if (::inet_pton(AF_INET, options_.bind_address.c_str(), &address) != 1)
     throw std::invalid_argument(fmt::format("'{}' is not an IPv4 address (127.0.0.1 serves this machine only, 0.0.0.0 "
@@ -161,6 +164,31 @@ void IgtlServer::step(double now) {
   if (now >= next_frame_) {
     send_frame();
     next_frame_ = std::max(next_frame_ + options_.frame_period, now);
+    next_forces_ = std::max(next_forces_ + options_.force_period, now);
+  } else if (options_.force_period < options_.frame_period && now >= next_forces_) {
+    send_forces();
+    next_forces_ = std::max(next_forces_ + options_.force_period, now);
+  }
+}
+
+void IgtlServer::send_forces() {
+  if (clients_.empty()) return;
+  messages_->clock->GetTime();
+  pack_forces();
+  const Messages& m = *messages_;
+  for (std::size_t i = 0; i < clients_.size();) {
+    Client& client = *clients_[i];
+    if (client.busy()) {  // a slow client gets the next frame; its forces now would only queue up
+      ++i;
+      continue;
+    }
+    client.outgoing.assign(m.force_bytes.begin(), m.force_bytes.end());
+    client.sent = 0;
+    ++counters_.force_updates;
+    if (!write_to(client))
+      close(i, fmt::format("sending failed: {}", std::strerror(errno)));
+    else
+      ++i;
   }
 }
 

@@ -46,7 +46,11 @@ namespace organsim::igtlink {
 struct ServerOptions {
   std::string bind_address = "127.0.0.1";  ///< "0.0.0.0" serves other machines
   int port = 18944;                        ///< OpenIGTLink's usual port; 0 picks a free one
-  double frame_period = 1.0 / 60.0;        ///< s between frames sent
+  double frame_period = 1.0 / 60.0;        ///< s between frames sent (the surface when it changed, and the forces)
+  /// s between the tools' forces sent: at most frame_period; shorter for
+  /// robots and haptic clients (1e-3: 1 kHz). The caller must step() at least
+  /// this often.
+  double force_period = 1.0 / 60.0;
   bool ras = false;                        ///< clients use RAS (3D Slicer): x and y change sign at the boundary
   bool shaft_from_rotation = true;         ///< false: poses give the tip only
   std::size_t max_clients = 8;
@@ -59,6 +63,7 @@ struct ServerCounters {
   std::uint64_t frames = 0;           ///< frames sent (forces, and the surface when it changed)
   std::uint64_t surfaces = 0;         ///< POLYDATA messages sent
   std::uint64_t frames_missed = 0;    ///< frames a slow client was still busy with the previous one for
+  std::uint64_t force_updates = 0;    ///< force-only sends between frames (--force-rate), summed over clients
   std::uint64_t bytes_sent = 0;
   std::array<std::uint64_t, kProblemKinds> dropped{};  ///< messages dropped, by Problem
 };
@@ -105,6 +110,8 @@ class IgtlServer {
   void send_frame();
   void pack_surface(const std::vector<model::Point3>& positions_in_file_order);
   void pack_forces();
+  /// The tools' forces alone to every client not still busy with earlier bytes.
+  void send_forces();
   void dropped(Problem problem, const MessageInfo& info, const Client& client);
 
   ServerOptions options_;
@@ -117,7 +124,7 @@ class IgtlServer {
   int listener_ = -1;
   int port_ = 0;
   std::vector<std::unique_ptr<Client>> clients_;
-  double next_frame_ = 0.0;
+  double next_frame_ = 0.0, next_forces_ = 0.0;
   std::vector<model::Point3> positions_;  // m, file order: the surface last packed
   bool surface_changed_ = true;
   std::unique_ptr<Messages> messages_;  // libOpenIGTLink's messages, packed in place each frame

@@ -218,6 +218,28 @@ TEST_F(Cli, ServePressedOverOpenIgtLinkSendsTheDeformedOrganAndPokesForce) {
   EXPECT_EQ(metrics["tools"][1]["peak_force_n"].get<double>(), 0.0);
 }
 
+// --force-rate 1000: each tool's force reaches the client at the haptic rate,
+// between the 60 Hz frames.
+TEST_F(Cli, ServeSendsForcesAtTheForceRate) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  ServeProcess serve(model + " --igtl-port 0 --tools 1 --force-rate 1000 --json", dir_);
+  const int port = serve.port();
+  ASSERT_GT(port, 0);
+  IgtlClient client(port);
+  ASSERT_TRUE(client.connected());
+  Received r;
+  client.send_tip({80, 50, 0}, {0, 1, 0});
+  client.receive_for(1.0, r);
+  // 1,000 a second; a loaded CI machine sleeps longer than asked: at least half.
+  EXPECT_GT(r.force_messages, 500) << "forces in 1 s at --force-rate 1000";
+  const CommandRun done = serve.stop();
+  ASSERT_EQ(done.exit_code, 0) << done.err;
+  EXPECT_GT(nlohmann::json::parse(done.out)["force_updates"].get<int>(), 400);
+  const CommandRun slow = run_organsim("serve " + model + " --igtl-port 0 --force-rate 30 --seconds 0.1", dir_);
+  EXPECT_EQ(slow.exit_code, 2);  // below the frame rate: a usage error
+}
+
 int count(const std::string& text, const std::string& what) {
   int n = 0;
   for (std::size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;

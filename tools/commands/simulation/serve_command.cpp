@@ -32,6 +32,7 @@ struct ServeOptions {
   double max_stiffness = devices::SafetyLimits{}.max_stiffness;
   bool no_shaft = false;
   bool json = false;
+  double force_rate = 60.0;  // Hz
   std::string report_dir;  // "": no training report
   report::ReportOptions report;
 };
@@ -94,25 +95,28 @@ int run_serve(const ServeOptions& o) {
 
   igtlink::ServerOptions server_options = o.server;
   server_options.shaft_from_rotation = !o.no_shaft;
+  server_options.force_period = 1.0 / o.force_rate;
   igtlink::IgtlServer server(
       server_options, organ, std::move(file_triangles), streamed, engine.surfaces(),
       [](const std::string& message) { warn("serve", message); },
       [](const std::string& message) { note("serve", message); });
   note("serve", fmt::format("{} ({} model, {} tool(s)) on {}:{} ({} frame): TRANSFORM tool1…tool{} in, POLYDATA organ "
-                            "and TRANSFORM toolK_force out at {:.0f} Hz; {}",
+                            "at {:.0f} Hz and TRANSFORM toolK_force out at {:.0f} Hz; {}",
                             o.model_path, o.deformation, o.tools, o.server.bind_address, server.port(),
-                            o.server.ras ? "RAS" : "LPS model", o.tools, 1.0 / o.server.frame_period,
+                            o.server.ras ? "RAS" : "LPS model", o.tools, 1.0 / o.server.frame_period, o.force_rate,
                             o.seconds > 0.0 ? fmt::format("for {:g} s", o.seconds) : std::string("Ctrl-C stops")));
 
   if (recorder) server.observe_frames([&](const realtime::SurfaceFrame& frame) { recorder->take_frame(frame); });
   const StopOnSignals signals;
   const auto begin = std::chrono::steady_clock::now();
   const double duration = o.seconds > 0.0 ? o.seconds : 1e9;
+  // Polled twice per force period, so that forces leave on time at up to 1 kHz.
+  const double poll_period = std::min(2e-3, 0.5 * server_options.force_period);
   const realtime::RunTimings timings = realtime::run_realtime(engine, duration, [&](const realtime::RunTimings&) {
     server.step(std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
     if (recorder) recorder->take_ticks(engine);
     return !stop_requested.load(std::memory_order_relaxed);
-  });
+  }, poll_period);
   if (!timings.priority_warning.empty()) warn("serve", timings.priority_warning);
   const realtime::Percentiles period = timings.force_periods.percentiles();
   if (recorder) {
@@ -159,6 +163,7 @@ int run_serve(const ServeOptions& o) {
                                 {"frames_sent", c.frames},
                                 {"surfaces_sent", c.surfaces},
                                 {"frames_missed", c.frames_missed},
+                                {"force_updates", c.force_updates},
                                 {"bytes_sent", c.bytes_sent},
                                 {"dropped", dropped},
                                 {"report", recorder ? nlohmann::json(o.report_dir + "/index.html") : nlohmann::json()},
@@ -215,6 +220,11 @@ Command add_serve_command(CLI::App& app) {
       ->capture_default_str();
   add_deformation_model_option(app, o->deformation);
   add_model_tuning_options(app, o->tuning);
+  app.add_option("--force-rate", o->force_rate,
+                 "How often each tool's force is sent, Hz: 60 (with every frame) up to 1000 (robots and haptic "
+                 "clients)")
+      ->check(CLI::Range(60.0, 1000.0))
+      ->capture_default_str();
   app.add_flag("--ras", o->server.ras,
                "Clients speak RAS (3D Slicer's frame): x and y change sign on the way in and out");
   app.add_flag("--no-shaft", o->no_shaft,

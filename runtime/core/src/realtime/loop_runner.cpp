@@ -117,7 +117,8 @@ RunTimings run_fast(Engine& engine, double duration, const std::function<void(co
   return timings;
 }
 
-RunTimings run_realtime(Engine& engine, double duration, const std::function<bool(const RunTimings&)>& poll) {
+RunTimings run_realtime(Engine& engine, double duration, const std::function<bool(const RunTimings&)>& poll,
+                        double poll_period) {
   RunTimings timings;
   engine.set_reproducible(false);  // a frame never waits for the FEM tangent worker
   const EngineOptions& o = engine.options();
@@ -162,7 +163,7 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
       failure = std::current_exception();
       stop.store(true);
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    std::this_thread::sleep_for(std::chrono::duration<double>(poll_period));
   }
   force.join();
   deformation.join();

@@ -44,10 +44,12 @@ RunTimings run_fast(Engine& engine, double duration, const std::function<void(co
 /// the deformation thread). A deformation model slower than the frame rate
 /// drops the frames whose time passed while it worked; the force loop runs
 /// every tick.
-/// `poll` (may be empty) runs every 2 ms on the calling thread meanwhile (for
-/// example to save published frames and recorded forces, or to report the
+/// `poll` (may be empty) runs every `poll_period` s (2 ms by default) on the
+/// calling thread meanwhile (for example to save published frames and
+/// recorded forces, to send forces to network clients, or to report the
 /// timings so far, which it receives; returning false stops the loops early),
 /// and once more after the loops stop.
-RunTimings run_realtime(Engine& engine, double duration, const std::function<bool(const RunTimings&)>& poll = {});
+RunTimings run_realtime(Engine& engine, double duration, const std::function<bool(const RunTimings&)>& poll = {},
+                        double poll_period = 2e-3);
 
 }  // namespace organsim::realtime
