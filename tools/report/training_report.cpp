@@ -248,6 +248,14 @@ std::string page(const RunMetrics& m, const RunMetrics* reference, const Picture
                       number_or_dash(health.value("period_p99_ms", nlohmann::json()), "{:.3f}"),
                       number_or_dash(health.value("period_max_ms", nlohmann::json()), "{:.3f}"));
   health_row("force-loop deadline misses (> 2 ms)", misses, "the hand felt late forces");
+  const nlohmann::json floor = health.value("machine_floor", nlohmann::json());
+  if (floor.is_object())
+    html += fmt::format("<tr><th>the machine's own floor</th><td>{} stalls over 2 ms and {} wake-ups later than 2 ms "
+                        "in a {:.1f} s probe after the session{} (a spinning real-time thread, as "
+                        "build/tests/cpu_stalls measures): misses up to about as many are the machine's, not the "
+                        "simulation's</td></tr>\n",
+                        floor.value("stalls_over_2ms", 0), floor.value("late_wakes_over_2ms", 0),
+                        floor.value("probe_s", 0.0), floor.value("realtime_priority", false) ? "" : " (no real-time priority)");
   health_row("deformation frames dropped", dropped, "the organ's picture lagged the tools");
   health_row("device faults (lost poses)", faults, "a tool's device stopped giving its pose");
   health_row("contacts refused", refused, "a tool touched where no contact can be built (the clamp)");

@@ -27,6 +27,7 @@
 #include "organsim/realtime/session_playback.h"
 #include "organsim/model/model_file.h"
 #include "organsim/realtime/loop_runner.h"
+#include "organsim/realtime/cpu_stalls.h"
 
 namespace organsim::cli {
 namespace {
@@ -238,6 +239,17 @@ std::string report_directory(const ReplayOptions& o, const std::string& name) {
 /// run.json's session description for the training report: nothing of the
 /// patient, the model and session files named by their SHA-256 only.
 nlohmann::json run_description(const ReplayOptions& o, const ModelRun& run, double duration) {
+  // The machine's own floor for missed deadlines, measured right after the
+  // session for as long (at most 30 s): what no loop could have avoided.
+  nlohmann::json floor;
+  if (!o.fast) {
+    const CpuStalls stalls = measure_cpu_stalls(std::min(duration, 30.0));
+    floor = {{"probe_s", stalls.seconds},
+             {"stalls_over_2ms", stalls.gaps_over_2ms},
+             {"late_wakes_over_2ms", stalls.late_over_2ms},
+             {"largest_stall_ms", stalls.largest_gap * 1e3},
+             {"realtime_priority", stalls.realtime_priority}};
+  }
   const Percentiles period = run.timings.force_periods.percentiles();
   std::uint64_t pose_faults = 0;
   for (const ToolTelemetry& t : run.telemetry) pose_faults += t.pose_faults;
@@ -259,7 +271,8 @@ nlohmann::json run_description(const ReplayOptions& o, const ModelRun& run, doub
             {"frames", run.timings.deformation_computes.count()},
             {"frames_dropped", run.timings.deformation_frames_dropped},
             {"pose_faults", pose_faults},
-            {"refused_contacts", run.refused}}}};
+            {"refused_contacts", run.refused},
+            {"machine_floor", floor}}}};
 }
 
 ModelRun run_model(const ReplayOptions& o, const std::string& name, const organ::Organ& organ,
