@@ -13,6 +13,8 @@
 
 #include <fmt/format.h>
 
+#include "organsim/realtime/cpu_stalls.h"
+
 namespace organsim::report {
 namespace {
 
@@ -136,6 +138,15 @@ std::string machine_description() {
       break;
     }
   return fmt::format("{}, {} logical cores", model, std::thread::hardware_concurrency());
+}
+
+nlohmann::json machine_floor(double session_seconds) {
+  const realtime::CpuStalls stalls = realtime::measure_cpu_stalls(std::clamp(session_seconds, 0.0, 10.0));
+  return {{"probe_s", stalls.seconds},
+          {"stalls_over_2ms", stalls.gaps_over_2ms},
+          {"late_wakes_over_2ms", stalls.late_over_2ms},
+          {"largest_stall_ms", stalls.largest_gap * 1e3},
+          {"realtime_priority", stalls.realtime_priority}};
 }
 
 std::string utc_date_now() {

@@ -61,5 +61,10 @@ std::string file_sha256(const std::string& path);
 std::string machine_description();
 /// Now, UTC, as 2026-11-26T21:57:56Z.
 std::string utc_date_now();
+/// The machine's own floor for missed deadlines, probed right after a session
+/// of `session_seconds` for as long, at most 10 s (realtime::measure_cpu_stalls):
+/// {"probe_s", "stalls_over_2ms", "late_wakes_over_2ms", "largest_stall_ms",
+/// "realtime_priority"}, for run.json's "loop_health"."machine_floor".
+nlohmann::json machine_floor(double session_seconds);
 
 }  // namespace organsim::report

@@ -71,6 +71,7 @@ TEST_F(Cli, TouchWritesATrainingReportThatShowsAFailedDevice) {
   ASSERT_EQ(metrics["tools"].size(), 2u);
   EXPECT_GT(metrics["tools"][0]["force_ticks"].get<int>(), 400);  // 0.8 s at 1 kHz, with CI's jitter
   EXPECT_EQ(metrics["loop_health"]["pose_faults"], 1);
+  EXPECT_NEAR(metrics["loop_health"]["machine_floor"]["probe_s"].get<double>(), 0.8, 0.1);  // probed for as long
   std::ifstream page(report / "index.html");
   const std::string html{std::istreambuf_iterator<char>(page), {}};
   EXPECT_NE(html.find("<td class=\"warn\">1 — a tool's device stopped giving its pose</td>"), std::string::npos);

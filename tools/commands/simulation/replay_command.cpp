@@ -27,7 +27,6 @@
 #include "organsim/realtime/session_playback.h"
 #include "organsim/model/model_file.h"
 #include "organsim/realtime/loop_runner.h"
-#include "organsim/realtime/cpu_stalls.h"
 
 namespace organsim::cli {
 namespace {
@@ -239,17 +238,8 @@ std::string report_directory(const ReplayOptions& o, const std::string& name) {
 /// run.json's session description for the training report: nothing of the
 /// patient, the model and session files named by their SHA-256 only.
 nlohmann::json run_description(const ReplayOptions& o, const ModelRun& run, double duration) {
-  // The machine's own floor for missed deadlines, measured right after the
-  // session for as long (at most 30 s): what no loop could have avoided.
-  nlohmann::json floor;
-  if (!o.fast) {
-    const CpuStalls stalls = measure_cpu_stalls(std::min(duration, 30.0));
-    floor = {{"probe_s", stalls.seconds},
-             {"stalls_over_2ms", stalls.gaps_over_2ms},
-             {"late_wakes_over_2ms", stalls.late_over_2ms},
-             {"largest_stall_ms", stalls.largest_gap * 1e3},
-             {"realtime_priority", stalls.realtime_priority}};
-  }
+  // The machine's own floor for missed deadlines: what no loop could have avoided.
+  const nlohmann::json floor = o.fast ? nlohmann::json() : report::machine_floor(duration);
   const Percentiles period = run.timings.force_periods.percentiles();
   std::uint64_t pose_faults = 0;
   for (const ToolTelemetry& t : run.telemetry) pose_faults += t.pose_faults;

@@ -139,7 +139,8 @@ int run_serve(const ServeOptions& o) {
                                 {"frames", timings.deformation_computes.count()},
                                 {"frames_dropped", timings.deformation_frames_dropped},
                                 {"pose_faults", pose_faults},
-                                {"refused_contacts", engine.refused_contacts()}}}});
+                                {"refused_contacts", engine.refused_contacts()},
+                                {"machine_floor", report::machine_floor(timings.wall_seconds)}}}});
     for (const std::string& problem : report::write_report(o.report_dir, o.report)) warn("serve", problem);
   }
 

@@ -102,7 +102,8 @@ int run_touch(const TouchOptions& o) {
                                {{"force_ticks", servo.ticks()},
                                 {"frames", frames},
                                 {"pose_faults", pose_faults},
-                                {"refused_contacts", engine.refused_contacts()}}}});
+                                {"refused_contacts", engine.refused_contacts()},
+                                {"machine_floor", report::machine_floor(seconds)}}}});
     for (const std::string& problem : report::write_report(o.report_dir, o.report)) warn("touch", problem);
   }
 

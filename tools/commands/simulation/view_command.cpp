@@ -88,6 +88,8 @@ struct ViewRun {
     health["pose_faults"] = pose_faults;
     health["refused_contacts"] = engine.refused_contacts();
     health["frames"] = frames;
+    if (options.session_path.empty())  // live tools (mouse, PHANToM): the loops ran in real time
+      health["machine_floor"] = report::machine_floor(seconds);
     report->finish(engine, {{"deformation_model", options.deformation},
                             {"model_sha256", report::file_sha256(options.model_path)},
                             {"session_sha256", options.session_path.empty() ? std::string("none: live tools")
