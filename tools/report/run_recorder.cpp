@@ -35,6 +35,35 @@ double enclosed_volume(const organ::Organ& organ, const std::vector<model::Point
   return six_volume / 6.0;
 }
 
+std::string machine_description() {
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  std::string line, model = "unknown CPU";
+  while (std::getline(cpuinfo, line))
+    if (line.rfind("model name", 0) == 0) {
+      model = line.substr(line.find(':') + 2);
+      break;
+    }
+  return fmt::format("{}, {} logical cores", model, std::thread::hardware_concurrency());
+}
+
+nlohmann::json machine_floor(double session_seconds) {
+  const realtime::CpuStalls stalls = realtime::measure_cpu_stalls(std::clamp(session_seconds, 0.0, 10.0));
+  return {{"probe_s", stalls.seconds},
+          {"stalls_over_2ms", stalls.gaps_over_2ms},
+          {"late_wakes_over_2ms", stalls.late_over_2ms},
+          {"largest_stall_ms", stalls.largest_gap * 1e3},
+          {"realtime_priority", stalls.realtime_priority}};
+}
+
+std::string utc_date_now() {
+  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char date[32];
+  std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return date;
+}
+
 }  // namespace
 
 RunRecorder::RunRecorder(const std::string& directory, const organ::Organ& organ, std::size_t tools)
@@ -129,33 +158,22 @@ std::string file_sha256(const std::string& path) {
   return hex;
 }
 
-std::string machine_description() {
-  std::ifstream cpuinfo("/proc/cpuinfo");
-  std::string line, model = "unknown CPU";
-  while (std::getline(cpuinfo, line))
-    if (line.rfind("model name", 0) == 0) {
-      model = line.substr(line.find(':') + 2);
-      break;
-    }
-  return fmt::format("{}, {} logical cores", model, std::thread::hardware_concurrency());
-}
-
-nlohmann::json machine_floor(double session_seconds) {
-  const realtime::CpuStalls stalls = realtime::measure_cpu_stalls(std::clamp(session_seconds, 0.0, 10.0));
-  return {{"probe_s", stalls.seconds},
-          {"stalls_over_2ms", stalls.gaps_over_2ms},
-          {"late_wakes_over_2ms", stalls.late_over_2ms},
-          {"largest_stall_ms", stalls.largest_gap * 1e3},
-          {"realtime_priority", stalls.realtime_priority}};
-}
-
-std::string utc_date_now() {
-  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-  std::tm utc{};
-  gmtime_r(&now, &utc);
-  char date[32];
-  std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", &utc);
-  return date;
+nlohmann::json describe_session(const SessionFacts& facts, const realtime::Engine& engine) {
+  nlohmann::json health = facts.loop_health;
+  std::uint64_t pose_faults = 0;
+  for (std::size_t i = 0; i < engine.tool_count(); ++i) pose_faults += engine.telemetry(i).pose_faults;
+  health["pose_faults"] = pose_faults;
+  health["refused_contacts"] = engine.refused_contacts();
+  health["machine_floor"] = facts.real_time ? machine_floor(facts.duration_s) : nlohmann::json();
+  return {{"deformation_model", facts.deformation_model},
+          {"model_sha256", file_sha256(facts.model_path)},
+          {"session_sha256", facts.session_path.empty() ? "none: " + facts.live_tools : file_sha256(facts.session_path)},
+          {"date", utc_date_now()},
+          {"duration_s", facts.duration_s},
+          {"mode", facts.mode},
+          {"device_max_force_n", facts.device_max_force_n},
+          {"machine", machine_description()},
+          {"loop_health", health}};
 }
 
 }  // namespace organsim::report

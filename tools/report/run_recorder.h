@@ -57,14 +57,24 @@ class RunRecorder {
 /// SHA-256 (lowercase hex) of a file's bytes: what names the patient model in a
 /// report without anything of the patient in it.
 std::string file_sha256(const std::string& path);
-/// The CPU as /proc/cpuinfo names it, and the logical cores: for run.json.
-std::string machine_description();
-/// Now, UTC, as 2026-11-26T21:57:56Z.
-std::string utc_date_now();
-/// The machine's own floor for missed deadlines, probed right after a session
-/// of `session_seconds` for as long, at most 10 s (realtime::measure_cpu_stalls):
-/// {"probe_s", "stalls_over_2ms", "late_wakes_over_2ms", "largest_stall_ms",
-/// "realtime_priority"}, for run.json's "loop_health"."machine_floor".
-nlohmann::json machine_floor(double session_seconds);
+/// What a command knows of the session it ran, for run.json.
+struct SessionFacts {
+  std::string deformation_model, model_path;
+  std::string session_path;  ///< the session file, or "" when live tools moved (`live_tools` says which)
+  std::string live_tools;
+  std::string mode;
+  double duration_s = 0.0;
+  double device_max_force_n = 0.0;  ///< the device's force clamp, N
+  bool real_time = true;            ///< the loops ran in real time: the machine's floor is probed after them
+  nlohmann::json loop_health = nlohmann::json::object();  ///< the command's own loop counts
+};
+
+/// run.json's session description: the facts, the model and session files
+/// named by their SHA-256 only, the date (UTC), the machine, and in
+/// "loop_health" the engine's pose faults and refused contacts and, after a
+/// real-time session, the machine's own floor for missed deadlines, probed
+/// right away for as long as the session, at most 10 s
+/// (realtime::measure_cpu_stalls).
+nlohmann::json describe_session(const SessionFacts& facts, const realtime::Engine& engine);
 
 }  // namespace organsim::report

@@ -235,34 +235,26 @@ std::string report_directory(const ReplayOptions& o, const std::string& name) {
   return o.models.size() > 1 ? (fs::path(o.report_dir) / name).string() : o.report_dir;
 }
 
-/// run.json's session description for the training report: nothing of the
-/// patient, the model and session files named by their SHA-256 only.
+/// run.json's session description for the training report.
 nlohmann::json run_description(const ReplayOptions& o, const ModelRun& run, double duration) {
-  // The machine's own floor for missed deadlines: what no loop could have avoided.
-  const nlohmann::json floor = o.fast ? nlohmann::json() : report::machine_floor(duration);
   const Percentiles period = run.timings.force_periods.percentiles();
-  std::uint64_t pose_faults = 0;
-  for (const ToolTelemetry& t : run.telemetry) pose_faults += t.pose_faults;
   const auto timing = [&](double seconds) { return o.fast ? nlohmann::json(nullptr) : nlohmann::json(seconds * 1e3); };
-  return {{"deformation_model", run.name},
-          {"model_sha256", report::file_sha256(o.model_path)},
-          {"session_sha256", report::file_sha256(o.session_path)},
-          {"date", report::utc_date_now()},
-          {"duration_s", duration},
-          {"mode", o.fast ? "fast" : "realtime"},
-          {"device_max_force_n", o.max_force},
-          {"machine", report::machine_description()},
-          {"loop_health",
-           {{"force_ticks", run.timings.force_computes.count()},
-            {"period_p50_ms", timing(period.p50)},
-            {"period_p99_ms", timing(period.p99)},
-            {"period_max_ms", timing(period.max)},
-            {"force_deadline_misses", run.timings.force_deadline_misses},
-            {"frames", run.timings.deformation_computes.count()},
-            {"frames_dropped", run.timings.deformation_frames_dropped},
-            {"pose_faults", pose_faults},
-            {"refused_contacts", run.refused},
-            {"machine_floor", floor}}}};
+  report::SessionFacts facts;
+  facts.deformation_model = run.name;
+  facts.model_path = o.model_path;
+  facts.session_path = o.session_path;
+  facts.mode = o.fast ? "fast" : "realtime";
+  facts.duration_s = duration;
+  facts.device_max_force_n = o.max_force;
+  facts.real_time = !o.fast;
+  facts.loop_health = {{"force_ticks", run.timings.force_computes.count()},
+                       {"period_p50_ms", timing(period.p50)},
+                       {"period_p99_ms", timing(period.p99)},
+                       {"period_max_ms", timing(period.max)},
+                       {"force_deadline_misses", run.timings.force_deadline_misses},
+                       {"frames", run.timings.deformation_computes.count()},
+                       {"frames_dropped", run.timings.deformation_frames_dropped}};
+  return report::describe_session(facts, run.playback->engine());
 }
 
 ModelRun run_model(const ReplayOptions& o, const std::string& name, const organ::Organ& organ,

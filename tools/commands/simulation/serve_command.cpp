@@ -120,27 +120,21 @@ int run_serve(const ServeOptions& o) {
   if (!timings.priority_warning.empty()) warn("serve", timings.priority_warning);
   const realtime::Percentiles period = timings.force_periods.percentiles();
   if (recorder) {
-    std::uint64_t pose_faults = 0;
-    for (std::size_t k = 0; k < o.tools; ++k) pose_faults += engine.telemetry(k).pose_faults;
-    recorder->finish(engine, {{"deformation_model", o.deformation},
-                              {"model_sha256", report::file_sha256(o.model_path)},
-                              {"session_sha256", "none: tools streamed over OpenIGTLink"},
-                              {"date", report::utc_date_now()},
-                              {"duration_s", timings.wall_seconds},
-                              {"mode", "serve (OpenIGTLink)"},
-                              {"device_max_force_n", o.max_force},
-                              {"machine", report::machine_description()},
-                              {"loop_health",
-                               {{"force_ticks", timings.force_computes.count()},
-                                {"period_p50_ms", period.p50 * 1e3},
-                                {"period_p99_ms", period.p99 * 1e3},
-                                {"period_max_ms", period.max * 1e3},
-                                {"force_deadline_misses", timings.force_deadline_misses},
-                                {"frames", timings.deformation_computes.count()},
-                                {"frames_dropped", timings.deformation_frames_dropped},
-                                {"pose_faults", pose_faults},
-                                {"refused_contacts", engine.refused_contacts()},
-                                {"machine_floor", report::machine_floor(timings.wall_seconds)}}}});
+    report::SessionFacts facts;
+    facts.deformation_model = o.deformation;
+    facts.model_path = o.model_path;
+    facts.live_tools = "tools streamed over OpenIGTLink";
+    facts.mode = "serve (OpenIGTLink)";
+    facts.duration_s = timings.wall_seconds;
+    facts.device_max_force_n = o.max_force;
+    facts.loop_health = {{"force_ticks", timings.force_computes.count()},
+                         {"period_p50_ms", period.p50 * 1e3},
+                         {"period_p99_ms", period.p99 * 1e3},
+                         {"period_max_ms", period.max * 1e3},
+                         {"force_deadline_misses", timings.force_deadline_misses},
+                         {"frames", timings.deformation_computes.count()},
+                         {"frames_dropped", timings.deformation_frames_dropped}};
+    recorder->finish(engine, report::describe_session(facts, engine));
     for (const std::string& problem : report::write_report(o.report_dir, o.report)) warn("serve", problem);
   }
 

@@ -88,22 +88,15 @@ int run_touch(const TouchOptions& o) {
   servo.stop();
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
   if (recorder) {
-    std::uint64_t pose_faults = 0;
-    for (std::size_t i = 0; i < owned.size(); ++i) pose_faults += engine.telemetry(i).pose_faults;
-    recorder->finish(engine, {{"deformation_model", o.deformation},
-                              {"model_sha256", report::file_sha256(o.model_path)},
-                              {"session_sha256", "none: live devices"},
-                              {"date", report::utc_date_now()},
-                              {"duration_s", seconds},
-                              {"mode", "touch (OpenHaptics servo loop)"},
-                              {"device_max_force_n", owned.front()->limits().max_force},
-                              {"machine", report::machine_description()},
-                              {"loop_health",
-                               {{"force_ticks", servo.ticks()},
-                                {"frames", frames},
-                                {"pose_faults", pose_faults},
-                                {"refused_contacts", engine.refused_contacts()},
-                                {"machine_floor", report::machine_floor(seconds)}}}});
+    report::SessionFacts facts;
+    facts.deformation_model = o.deformation;
+    facts.model_path = o.model_path;
+    facts.live_tools = "live devices";
+    facts.mode = "touch (OpenHaptics servo loop)";
+    facts.duration_s = seconds;
+    facts.device_max_force_n = owned.front()->limits().max_force;
+    facts.loop_health = {{"force_ticks", servo.ticks()}, {"frames", frames}};
+    recorder->finish(engine, report::describe_session(facts, engine));
     for (const std::string& problem : report::write_report(o.report_dir, o.report)) warn("touch", problem);
   }
 

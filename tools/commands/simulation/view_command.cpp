@@ -83,23 +83,18 @@ struct ViewRun {
   /// Writes the training report of the session that ran `seconds` in `mode`.
   void finish_report(Engine& engine, const std::string& mode, double seconds, double max_force, nlohmann::json health) {
     if (!report) return;
-    std::uint64_t pose_faults = 0;
-    for (std::size_t i = 0; i < engine.tool_count(); ++i) pose_faults += engine.telemetry(i).pose_faults;
-    health["pose_faults"] = pose_faults;
-    health["refused_contacts"] = engine.refused_contacts();
+    report::SessionFacts facts;
+    facts.deformation_model = options.deformation;
+    facts.model_path = options.model_path;
+    facts.session_path = options.session_path;
+    facts.live_tools = "live tools";
+    facts.mode = mode;
+    facts.duration_s = seconds;
+    facts.device_max_force_n = max_force;
+    facts.real_time = options.session_path.empty();  // a session is stepped, live tools run in real time
     health["frames"] = frames;
-    if (options.session_path.empty())  // live tools (mouse, PHANToM): the loops ran in real time
-      health["machine_floor"] = report::machine_floor(seconds);
-    report->finish(engine, {{"deformation_model", options.deformation},
-                            {"model_sha256", report::file_sha256(options.model_path)},
-                            {"session_sha256", options.session_path.empty() ? std::string("none: live tools")
-                                                                            : report::file_sha256(options.session_path)},
-                            {"date", report::utc_date_now()},
-                            {"duration_s", seconds},
-                            {"mode", mode},
-                            {"device_max_force_n", max_force},
-                            {"machine", report::machine_description()},
-                            {"loop_health", health}});
+    facts.loop_health = std::move(health);
+    report->finish(engine, report::describe_session(facts, engine));
     for (const std::string& problem : report::write_report(options.report_dir, options.report)) warn("view", problem);
   }
 
