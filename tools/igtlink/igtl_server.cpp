@@ -8,11 +8,13 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 
 #include <fmt/format.h>
 #include <igtlPolyDataMessage.h>
+#include <igtlStatusMessage.h>
 #include <igtlTimeStamp.h>
 #include <igtlTransformMessage.h>
 
@@ -116,6 +118,10 @@ IgtlServer::IgtlServer(const ServerOptions& options, const organ::Organ& organ,
   if (!(options_.force_period > 0.0 && options_.force_period <= options_.frame_period))
     throw std::invalid_argument(fmt::format("the forces' rate ({:g} Hz) must be at least the frame rate ({:g} Hz)",
                                             1.0 / options_.force_period, 1.0 / options_.frame_period));
+  if (!(options_.force_tick_period > 0.0))
+    throw std::invalid_argument("the force loop's period must be positive");
+  ticks_per_force_send_ =
+      static_cast<std::uint64_t>(std::max(1.0, std::round(options_.force_period / options_.force_tick_period)));
   in_addr address{};
   if (::inet_pton(AF_INET, options_.bind_address.c_str(), &address) != 1)
     throw std::invalid_argument(fmt::format("'{}' is not an IPv4 address (127.0.0.1 serves this machine only, 0.0.0.0 "
@@ -129,7 +135,7 @@ IgtlServer::IgtlServer(const ServerOptions& options, const organ::Organ& organ,
   where.sin_family = AF_INET;
   where.sin_addr = address;
   where.sin_port = htons(static_cast<std::uint16_t>(options_.port));
-  if (::bind(listener_, reinterpret_cast<const sockaddr*>(&where), sizeof where) != 0 || ::listen(listener_, 8) != 0) {
+  if (::bind(listener_, reinterpret_cast<const sockaddr*>(&where), sizeof where) != 0 || ::listen(listener_, SOMAXCONN) != 0) {
     const int error = errno;
     ::close(listener_);
     throw std::runtime_error(fmt::format("cannot listen on {}:{}: {}{}", options_.bind_address, options_.port,
@@ -151,12 +157,9 @@ IgtlServer::~IgtlServer() {
 
 void IgtlServer::step(double now) {
   accept_clients();
+  read_clients();
   for (std::size_t i = 0; i < clients_.size();) {
-    Client& client = *clients_[i];
-    const Reading reading = read_from(client);
-    if (reading != Reading::open)
-      close(i, reading == Reading::closed_by_client ? "it closed the connection" : "the stream was out of step");
-    else if (!write_to(client))
+    if (!write_to(*clients_[i]))
       close(i, fmt::format("sending failed: {}", std::strerror(errno)));
     else
       ++i;
@@ -164,10 +167,27 @@ void IgtlServer::step(double now) {
   if (now >= next_frame_) {
     send_frame();
     next_frame_ = std::max(next_frame_ + options_.frame_period, now);
-    next_forces_ = std::max(next_forces_ + options_.force_period, now);
-  } else if (options_.force_period < options_.frame_period && now >= next_forces_) {
+    forces_due();  // the frame carried them
+  } else if (options_.force_period < options_.frame_period && forces_due()) {
     send_forces();
-    next_forces_ = std::max(next_forces_ + options_.force_period, now);
+  }
+}
+
+bool IgtlServer::forces_due() {
+  if (tools_.empty()) return false;
+  const std::uint64_t tick = tools_.front()->ticks();
+  if (tick - forces_sent_at_tick_ < ticks_per_force_send_) return false;
+  forces_sent_at_tick_ = tick;
+  return true;
+}
+
+void IgtlServer::read_clients() {
+  for (std::size_t i = 0; i < clients_.size();) {
+    const Reading reading = read_from(*clients_[i]);
+    if (reading != Reading::open)
+      close(i, reading == Reading::closed_by_client ? "it closed the connection" : "the stream was out of step");
+    else
+      ++i;
   }
 }
 
@@ -201,8 +221,13 @@ void IgtlServer::accept_clients() {
     char ip[INET_ADDRSTRLEN] = "?";
     ::inet_ntop(AF_INET, &peer.sin_addr, ip, sizeof ip);
     const std::string address = fmt::format("{}:{}", ip, ntohs(peer.sin_port));
+    // Clients that have gone since the last step free their place first: a
+    // client that reconnects at once is not refused by its own old connection.
+    if (clients_.size() >= options_.max_clients) read_clients();
     if (clients_.size() >= options_.max_clients) {
-      ::close(fd);
+      refuse(fd, fmt::format("organsim serve takes at most {} clients and all are connected; disconnect one and "
+                             "connect again",
+                             options_.max_clients));
       ++counters_.clients_refused;
       warn_(fmt::format("client {} refused: {} clients are connected already", address, clients_.size()));
       continue;
@@ -217,6 +242,20 @@ void IgtlServer::accept_clients() {
     ++counters_.clients_accepted;
     note_(fmt::format("client {} connected", address));
   }
+}
+
+void IgtlServer::refuse(int fd, const std::string& why) {
+  // The client learns why before the connection closes: a STATUS "busy"
+  // (OpenIGTLink's answer for a device that cannot serve now) with the reason.
+  // One small message into an empty socket buffer: the send does not block.
+  igtl::StatusMessage::Pointer status = igtl::StatusMessage::New();
+  status->SetDeviceName("organsim");
+  status->SetCode(igtl::StatusMessage::STATUS_BUSY);
+  status->SetErrorName("too many clients");
+  status->SetStatusString(why.c_str());
+  status->Pack();
+  [[maybe_unused]] const ssize_t sent = ::send(fd, status->GetPackPointer(), status->GetPackSize(), MSG_NOSIGNAL);
+  ::close(fd);
 }
 
 IgtlServer::Reading IgtlServer::read_from(Client& client) {

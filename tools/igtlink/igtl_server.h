@@ -18,7 +18,8 @@
 // disconnects takes its tools' poses with it (their forces fade to zero) and may
 // connect again. A client that reads slower than frames come misses frames
 // (counted) instead of making the server buffer them: memory stays one frame
-// per client whatever the clients do.
+// per client whatever the clients do. A client beyond max_clients gets a STATUS
+// message (code 6, busy) saying why, and is closed.
 //
 // step() never blocks: the sockets are non-blocking and polled from the
 // caller's thread (run_realtime's poll, every 2 ms). The library's own socket
@@ -51,6 +52,10 @@ struct ServerOptions {
   /// robots and haptic clients (1e-3: 1 kHz). The caller must step() at least
   /// this often.
   double force_period = 1.0 / 60.0;
+  /// s between the engine's force ticks: forces leave right after the tick
+  /// that computed them (every force_period / force_tick_period ticks), so
+  /// that a pose's force waits for no clock of the server's own.
+  double force_tick_period = 1e-3;
   bool ras = false;                        ///< clients use RAS (3D Slicer): x and y change sign at the boundary
   bool shaft_from_rotation = true;         ///< false: poses give the tip only
   std::size_t max_clients = 8;
@@ -86,8 +91,9 @@ class IgtlServer {
 
   /// The port it listens on (the one picked when options.port was 0).
   int port() const noexcept { return port_; }
-  /// Accepts, reads and writes what is ready, and sends a frame when one is due
-  /// at `now` (s, any steady clock). Never blocks.
+  /// Accepts, reads and writes what is ready, sends a frame when one is due at
+  /// `now` (s, any steady clock) and the forces when the force loop has
+  /// computed new ones (--force-rate). Never blocks.
   void step(double now);
   const ServerCounters& counters() const noexcept { return counters_; }
   std::size_t clients() const noexcept { return clients_.size(); }
@@ -103,6 +109,10 @@ class IgtlServer {
   enum class Reading { open, closed_by_client, out_of_step };
 
   void accept_clients();
+  /// Tells a client beyond max_clients why (a STATUS message) and closes it.
+  void refuse(int fd, const std::string& why);
+  /// Reads what every client sent; closes those that left or went out of step.
+  void read_clients();
   Reading read_from(Client& client);
   bool write_to(Client& client);
   void close(std::size_t index, const std::string& why);
@@ -124,7 +134,11 @@ class IgtlServer {
   int listener_ = -1;
   int port_ = 0;
   std::vector<std::unique_ptr<Client>> clients_;
-  double next_frame_ = 0.0, next_forces_ = 0.0;
+  /// Whether the force loop has ticked often enough since the last forces sent.
+  bool forces_due();
+  double next_frame_ = 0.0;
+  std::uint64_t ticks_per_force_send_ = 1;
+  std::uint64_t forces_sent_at_tick_ = 0;  // the first tool's tick count when forces were last sent
   std::vector<model::Point3> positions_;  // m, file order: the surface last packed
   bool surface_changed_ = true;
   std::unique_ptr<Messages> messages_;  // libOpenIGTLink's messages, packed in place each frame

@@ -65,6 +65,14 @@ void check(const std::vector<Series>& series, int width, int height) {
   }
 }
 
+void check_positive(const std::vector<Series>& series, LogAxes log) {
+  for (const Series& s : series)
+    for (std::size_t i = 0; i < s.x.size(); ++i)
+      if ((log.x && s.x[i] <= 0.0) || (log.y && s.y[i] <= 0.0))
+        throw std::invalid_argument("write_line_plot_png: series '" + s.name + "' has a value that is not positive at point " +
+                                    std::to_string(i + 1) + ", which a logarithmic axis cannot show");
+}
+
 /// Fixes an axis whose data span nothing (a constant series) to a visible range.
 void widen_if_flat(vtkAxis* axis, double low, double high) {
   if (high > low) return;
@@ -108,9 +116,34 @@ struct Chart {
 
 }  // namespace
 
+double power_law_exponent(const Series& series) {
+  if (series.x.size() != series.y.size())
+    throw std::invalid_argument("power_law_exponent: series '" + series.name + "' has x and y of different lengths");
+  double n = 0.0, mean_x = 0.0, mean_y = 0.0;
+  for (std::size_t i = 0; i < series.x.size(); ++i) {
+    if (!(series.x[i] > 0.0) || !(series.y[i] > 0.0))
+      throw std::invalid_argument("power_law_exponent: series '" + series.name + "' has a value that is not positive at point " +
+                                  std::to_string(i + 1));
+    n += 1.0;
+    mean_x += std::log(series.x[i]);
+    mean_y += std::log(series.y[i]);
+  }
+  if (n > 0.0) mean_x /= n, mean_y /= n;
+  double sxx = 0.0, sxy = 0.0;
+  for (std::size_t i = 0; i < series.x.size(); ++i) {
+    const double dx = std::log(series.x[i]) - mean_x;
+    sxx += dx * dx;
+    sxy += dx * (std::log(series.y[i]) - mean_y);
+  }
+  if (!(sxx > 0.0))
+    throw std::invalid_argument("power_law_exponent: series '" + series.name + "' needs two different x to fit");
+  return sxy / sxx;
+}
+
 void write_line_plot_png(const std::vector<Series>& series, const std::string& title, const std::string& x_label,
-                         const std::string& y_label, const std::string& png_path, int width, int height) {
+                         const std::string& y_label, const std::string& png_path, int width, int height, LogAxes log) {
   check(series, width, height);
+  check_positive(series, log);
   require_display(png_path);
   Chart plot(title, x_label, y_label, width, height, series.size() > 1);
   vtkChartXY* chart = plot.chart;
@@ -144,8 +177,10 @@ void write_line_plot_png(const std::vector<Series>& series, const std::string& t
     // Series past the palette's length are told apart by their dash pattern.
     if (k >= kColours.size()) line->GetPen()->SetLineType(vtkPen::DASH_LINE);
   }
-  widen_if_flat(x_axis, x_low, x_high);
-  widen_if_flat(y_axis, y_low, y_high);
+  x_axis->SetLogScale(log.x);
+  y_axis->SetLogScale(log.y);
+  if (!log.x) widen_if_flat(x_axis, x_low, x_high);
+  if (!log.y) widen_if_flat(y_axis, y_low, y_high);
 
   write_window_png(plot.window(), png_path);
 }

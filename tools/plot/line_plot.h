@@ -18,6 +18,18 @@ struct Series {
   std::vector<double> x, y;
 };
 
+/// Logarithmic axes: every value on such an axis must be positive.
+struct LogAxes {
+  bool x = false;
+  bool y = false;
+};
+
+/// The exponent p of the power law y = c·x^p that fits the series best in the
+/// least-squares sense on log y against log x (its slope on a log-log plot).
+/// Throws std::invalid_argument when the series has fewer than two distinct
+/// positive x, or a value that is not positive.
+double power_law_exponent(const Series& series);
+
 /// Draws the series as lines on one chart (axes scaled to fit all of them, a
 /// legend when there is more than one) and writes it atomically as a
 /// `width` × `height` PNG at `png_path` (io::AtomicFile: the file appears
@@ -25,9 +37,11 @@ struct Series {
 /// whose x and y differ in length or that is empty, a non-finite value (the
 /// message names the series and the point), or a size outside 64–8192 pixels;
 /// std::runtime_error when there is no X display (DISPLAY unset) or the file
-/// cannot be written.
+/// cannot be written; std::invalid_argument for a value that is not positive
+/// on a logarithmic axis.
 void write_line_plot_png(const std::vector<Series>& series, const std::string& title, const std::string& x_label,
-                         const std::string& y_label, const std::string& png_path, int width = 800, int height = 500);
+                         const std::string& y_label, const std::string& png_path, int width = 800, int height = 500,
+                         LogAxes log = {});
 
 /// One kind of bar, drawn in the legend as `name`: one value per category.
 struct BarSeries {

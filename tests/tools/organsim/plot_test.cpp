@@ -68,6 +68,35 @@ TEST_F(Cli, PlotDrawsEachColumnAsALineInAPngOfTheAskedSize) {
   EXPECT_EQ(files_in_dir(), 2u);  // the CSV and the plot, no temporary file
 }
 
+// Scaling curves: power laws on log-log axes, each with its fitted exponent
+// printed and in its legend; a value a logarithmic axis cannot show is an error.
+TEST_F(Cli, PlotOnLogLogAxesFitsEachSeriesExponent) {
+  const fs::path csv = dir_ / "scaling.csv", png = dir_ / "scaling.png";
+  {
+    std::ofstream out(csv);
+    out << "vertices,load_s,tick_s,zero\n";
+    for (int k = 0; k <= 12; ++k) {
+      const double n = 1000.0 * std::pow(10.0, k / 4.0);
+      out << fmt::format("{},{},{},{}\n", n, 3e-9 * std::pow(n, 1.5), 2e-7 * std::pow(n, 0.02), k == 5 ? 0.0 : 1.0);
+    }
+  }
+  const CommandRun run =
+      run_plot(fmt::format("{} --x vertices --y load_s,tick_s --log-x --log-y -o {}", csv.string(), png.string()), dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("load_s: exponent 1.50"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("tick_s: exponent 0.02"), std::string::npos) << run.out;
+  const cv::Mat image = cv::imread(png.string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(image.empty());
+  EXPECT_GT(pixels_near(image, 31, 119, 180), 300);
+  EXPECT_GT(pixels_near(image, 255, 127, 14), 300);
+
+  const fs::path bad = dir_ / "bad.png";
+  const CommandRun zero = run_plot(fmt::format("{} --x vertices --y zero --log-y -o {}", csv.string(), bad.string()), dir_);
+  EXPECT_EQ(zero.exit_code, 1);
+  EXPECT_NE(zero.err.find("not positive at point 6"), std::string::npos) << zero.err;
+  EXPECT_FALSE(fs::exists(bad));
+}
+
 TEST_F(Cli, PlotReadsASpringsTrace) {
   const fs::path trace = dir_ / "trace.csv", png = dir_ / "dz.png";
   const CommandRun springs = run_organsim("springs --grid 9x9 --dt 0.002 --steps 40 --trace " + trace.string(), dir_);

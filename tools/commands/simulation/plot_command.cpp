@@ -1,6 +1,7 @@
 // `organsim plot CSV --x COLUMN --y COL[,COL…] -o OUT.png`: columns of a CSV
 // file with a header line (replay's forces, springs' trace, …) as a line plot
-// (tools/plot/line_plot.h; VTK off screen, so under xvfb-run without a display).
+// (tools/plot/line_plot.h; VTK off screen, so under xvfb-run without a display);
+// with --log-x --log-y, a scaling curve and its fitted exponent.
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -28,6 +29,7 @@ struct PlotOptions {
   std::string title;
   std::string x_label, y_label;
   std::vector<int> size{800, 500};
+  plot::LogAxes log;
 };
 
 std::string trimmed(const std::string& text) {
@@ -129,10 +131,21 @@ int run_plot(const PlotOptions& o) {
   std::string y_label = o.y_label;
   if (y_label.empty())
     for (const std::string& name : o.y) y_label += (y_label.empty() ? "" : ", ") + name;
-  plot::write_line_plot_png(series, o.title.empty() ? o.csv_path : o.title, o.x_label.empty() ? o.x : o.x_label,
-                            y_label, o.out_path, o.size[0], o.size[1]);
+  // On log-log axes each series' fitted power law: printed, and in its legend.
+  std::vector<plot::Series> drawn = series;
+  std::vector<std::string> exponents;
+  if (o.log.x && o.log.y)
+    for (plot::Series& s : drawn) {
+      const double exponent = plot::power_law_exponent(s);
+      exponents.push_back(fmt::format("{:<8}{}: exponent {:.2f} (least squares on the logs, {} points)", "fit", s.name,
+                                      exponent, s.x.size()));
+      s.name += fmt::format(" (exponent {:.2f})", exponent);
+    }
+  plot::write_line_plot_png(drawn, o.title.empty() ? o.csv_path : o.title, o.x_label.empty() ? o.x : o.x_label,
+                            y_label, o.out_path, o.size[0], o.size[1], o.log);
   std::cout << fmt::format("{:<8}{} ({} series of up to {} points from {}, {}x{} pixels)\n", "plot", o.out_path,
                            series.size(), points, o.csv_path, o.size[0], o.size[1]);
+  for (const std::string& line : exponents) std::cout << line << '\n';
   return 0;
 }
 
@@ -147,6 +160,9 @@ Command add_plot_command(CLI::App& app) {
   app.add_option("--title", o->title, "Title (default: the CSV file's path)");
   app.add_option("--x-label", o->x_label, "Horizontal axis title (default: the --x column)");
   app.add_option("--y-label", o->y_label, "Vertical axis title (default: the --y columns)");
+  app.add_flag("--log-x", o->log.x, "Logarithmic horizontal axis (its values must be positive)");
+  app.add_flag("--log-y", o->log.y,
+               "Logarithmic vertical axis; with --log-x, each series' power-law exponent is fitted and printed");
   app.add_option("--size", o->size, "Picture size W,H, pixels (64 to 8192 each)")
       ->delimiter(',')
       ->expected(2)

@@ -96,6 +96,7 @@ int run_serve(const ServeOptions& o) {
   igtlink::ServerOptions server_options = o.server;
   server_options.shaft_from_rotation = !o.no_shaft;
   server_options.force_period = 1.0 / o.force_rate;
+  server_options.force_tick_period = engine.options().force_period;
   igtlink::IgtlServer server(
       server_options, organ, std::move(file_triangles), streamed, engine.surfaces(),
       [](const std::string& message) { warn("serve", message); },
@@ -110,8 +111,9 @@ int run_serve(const ServeOptions& o) {
   const StopOnSignals signals;
   const auto begin = std::chrono::steady_clock::now();
   const double duration = o.seconds > 0.0 ? o.seconds : 1e9;
-  // Polled twice per force period, so that forces leave on time at up to 1 kHz.
-  const double poll_period = std::min(2e-3, 0.5 * server_options.force_period);
+  // Polled four times per force period: a pose waits at most a quarter of it
+  // to be read and a force as long to leave (docs/performance.md#the-openigtlink-service).
+  const double poll_period = std::min(2e-3, 0.25 * server_options.force_period);
   const realtime::RunTimings timings = realtime::run_realtime(engine, duration, [&](const realtime::RunTimings&) {
     server.step(std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
     if (recorder) recorder->take_ticks(engine);
