@@ -16,7 +16,7 @@ packages=(
   libopencv-dev xvfb xauth
   calculix-ccx libopenigtlink-dev snakemake
   libsuitesparse-dev libmumps-seq-dev libopenblas-dev
-  python3-dev pybind11-dev python3-numpy python3-pytest python3-matplotlib python3-pil dpkg-dev file
+  python3-dev pybind11-dev python3-numpy python3-pytest python3-matplotlib python3-pil dpkg-dev file time
   chromium
 )
 

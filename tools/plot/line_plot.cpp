@@ -179,6 +179,8 @@ void write_line_plot_png(const std::vector<Series>& series, const std::string& t
   }
   x_axis->SetLogScale(log.x);
   y_axis->SetLogScale(log.y);
+  // Scaling curves rise to the right: their legend goes top left, over the empty corner.
+  if (log.x && log.y) chart->GetLegend()->SetHorizontalAlignment(vtkChartLegend::LEFT);
   if (!log.x) widen_if_flat(x_axis, x_low, x_high);
   if (!log.y) widen_if_flat(y_axis, y_low, y_high);
 

@@ -233,13 +233,19 @@ std::map<std::string, std::string> provenance_parameters(const BakeOptions& o, c
 
 }  // namespace
 
+/// A bake's peak memory: the phantom from 128x128x100 to 512x512x1500 voxels
+/// (tools/experiments/scaling.py bake) held 7.2–7.5 bytes per voxel above a
+/// base of about 200 MiB, and the FEM of the site compliances up to 350 MiB
+/// whatever the CT; a little more is asked, so that a CT that passes fits.
+const MemoryNeed kBakeMemory{8.0, 768.0 * 1024 * 1024, "baking it"};
+
 BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
   check_options(o);
   BakeResult result;
   BakeReport& report = result.report;
   StageClock clock(progress, report);
 
-  const CtImage::Pointer ct = clock.run("read CT", [&] { return read_ct(o.ct_path, o.series_uid); });
+  const CtImage::Pointer ct = clock.run("read CT", [&] { return read_ct(o.ct_path, o.series_uid, kBakeMemory); });
   const auto size = ct->GetLargestPossibleRegion().GetSize();
   for (unsigned k = 0; k < 3; ++k) report.image_size[k] = size[k], report.image_spacing_mm[k] = ct->GetSpacing()[k];
 

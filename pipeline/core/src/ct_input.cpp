@@ -16,6 +16,7 @@
 #include <cmath>
 #include <vector>
 #include <filesystem>
+#include <fstream>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -29,6 +30,10 @@ namespace fs = std::filesystem;
 [[noreturn]] void fail(const std::string& path, const std::string& problem) {
   throw std::runtime_error("'" + path + "': " + problem);
 }
+
+/// A label map held as int (4 bytes), resampled onto the CT's grid when a
+/// converter flipped an axis (4 more), and the organ's mask (1).
+constexpr double kLabelBytesPerVoxel = 9.0;
 
 void check_input_path(const std::string& path) {
   std::error_code error;
@@ -49,7 +54,21 @@ void check_three_dimensional(const std::string& path, const itk::ImageBase<3>& i
                            size[0], size[1], size[2]));
 }
 
-int image_dimensions(const std::string& path) {
+/// Refuses a grid of `voxels` whose job would not fit in the available memory.
+void check_fits_in_memory(const std::string& path, const std::array<std::uint64_t, 3>& size, const MemoryNeed& need) {
+  const double available = available_memory_bytes();
+  const double voxels = static_cast<double>(size[0]) * static_cast<double>(size[1]) * static_cast<double>(size[2]);
+  const double needed = voxels * need.bytes_per_voxel + need.fixed_bytes;
+  if (available <= 0.0 || needed <= available) return;
+  constexpr double kGiB = 1024.0 * 1024.0 * 1024.0;
+  fail(path, fmt::format("is {}x{}x{} voxels; {} needs about {:.1f} GiB of memory and this machine has {:.1f} GiB "
+                         "available; crop the CT to the organ's region or resample it to a coarser grid first",
+                         size[0], size[1], size[2], need.job, needed / kGiB, available / kGiB));
+}
+
+/// The image's number of dimensions, its header read and its size checked
+/// against the memory `need` asks for.
+int image_dimensions(const std::string& path, const MemoryNeed& need) {
   register_image_io_factories();
   auto io = itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::CommonEnums::IOFileMode::ReadMode);
   if (!io)
@@ -61,7 +80,11 @@ int image_dimensions(const std::string& path) {
   } catch (const itk::ExceptionObject& e) {
     fail(path, "cannot read the image header (" + first_line(e.GetDescription()) + "); the file may be truncated");
   }
-  return static_cast<int>(io->GetNumberOfDimensions());
+  const unsigned dimensions = io->GetNumberOfDimensions();
+  std::array<std::uint64_t, 3> size{1, 1, 1};
+  for (unsigned k = 0; k < std::min(dimensions, 3u); ++k) size[k] = io->GetDimensions(k);
+  check_fits_in_memory(path, size, need);
+  return static_cast<int>(dimensions);
 }
 
 /// ITK reads a truncated gzip stream without complaint (the missing voxels
@@ -82,11 +105,13 @@ void check_gzip_stream_complete(const std::string& path) {
 }
 
 template <typename Image>
-typename Image::Pointer read_volume_file(const std::string& path) {
+typename Image::Pointer read_volume_file(const std::string& path, const MemoryNeed& need) {
   register_image_io_factories();
-  check_gzip_stream_complete(path);
-  if (image_dimensions(path) < 3)
+  // The header first: a file announcing more than the machine holds is refused
+  // before a byte of a (possibly huge) compressed stream is inflated.
+  if (image_dimensions(path, need) < 3)
     fail(path, "is a 2-D image, not a 3-D volume; pass a CT volume or a DICOM series directory");
+  check_gzip_stream_complete(path);
   auto reader = itk::ImageFileReader<Image>::New();
   reader->SetFileName(path);
   try {
@@ -169,9 +194,18 @@ std::vector<DicomSeriesSummary> list_dicom_series(const std::string& directory) 
   return series;
 }
 
-CtImage::Pointer read_ct(const std::string& path, const std::string& series_uid) {
+double available_memory_bytes() {
+  std::ifstream meminfo("/proc/meminfo");
+  std::string key, unit;
+  double kib = 0.0;
+  while (meminfo >> key >> kib >> unit)
+    if (key == "MemAvailable:") return kib * 1024.0;
+  return 0.0;
+}
+
+CtImage::Pointer read_ct(const std::string& path, const std::string& series_uid, const MemoryNeed& need) {
   check_input_path(path);
-  if (!fs::is_directory(path)) return read_volume_file<CtImage>(path);
+  if (!fs::is_directory(path)) return read_volume_file<CtImage>(path, need);
 
   const auto series = list_dicom_series(path);
   if (series.empty()) fail(path, "holds no DICOM series; pass a directory of DICOM files or a volume file");
@@ -193,6 +227,16 @@ CtImage::Pointer read_ct(const std::string& path, const std::string& series_uid)
   const auto files = names->GetFileNames(chosen);
   if (files.empty()) fail(path, "holds no DICOM series with UID " + chosen + "; list them by omitting --series");
   if (files.size() < 2) fail(path, "the series has a single slice, not a 3-D volume");
+  {
+    auto first = itk::GDCMImageIO::New();
+    first->SetFileName(files.front());
+    try {
+      first->ReadImageInformation();
+    } catch (const itk::ExceptionObject& e) {
+      fail(path, "cannot read the DICOM series (" + first_line(e.GetDescription()) + ")");
+    }
+    check_fits_in_memory(path, {first->GetDimensions(0), first->GetDimensions(1), files.size()}, need);
+  }
   auto reader = itk::ImageSeriesReader<CtImage>::New();
   reader->SetImageIO(itk::GDCMImageIO::New());
   reader->SetFileNames(files);
@@ -212,7 +256,9 @@ MaskImage::Pointer read_label_mask(const std::string& path, int label_value, con
   check_input_path(path);
   using LabelImage = itk::Image<int, 3>;
   LabelImage::Pointer labels =
-      fs::is_directory(path) ? nullptr : read_volume_file<LabelImage>(path);
+      fs::is_directory(path) ? nullptr
+                             : read_volume_file<LabelImage>(
+                                   path, {kLabelBytesPerVoxel, 0.0, "reading it as a label map (onto the CT's grid)"});
   if (!labels) fail(path, "is a directory; pass the label map as one NIfTI, NRRD or MetaImage file");
 
   const auto size = labels->GetLargestPossibleRegion().GetSize();

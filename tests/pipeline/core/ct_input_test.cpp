@@ -10,6 +10,7 @@
 #include "organsim/pipeline/ct_input.h"
 #include "organsim/pipeline/image_io.h"
 #include "organsim/pipeline/phantom.h"
+#include "oversized_ct.h"
 #include "temp_directory.h"
 
 namespace organsim::pipeline {
@@ -115,6 +116,29 @@ TEST_F(CtInput, BadFilesGetOneLineErrors) {
   const std::string truncated = error_of([&] { read_ct(path("truncated.nii.gz")); });
   EXPECT_NE(truncated.find("probably truncated"), std::string::npos) << truncated;
   EXPECT_EQ(truncated.find('\n'), std::string::npos) << truncated;
+}
+
+// A CT whose header announces more voxels than the machine can hold is
+// refused before a voxel is read, in one line saying how much it needs: a tiny
+// file with a huge header, and a compressed one that would inflate past the
+// memory (its stream is never inflated). The same for a label map.
+TEST_F(CtInput, ACtLargerThanTheMemoryIsRefusedUpFrontInOneLine) {
+  ASSERT_GT(available_memory_bytes(), 0.0) << "/proc/meminfo's MemAvailable";
+  write_ct_image(*phantom_.ct, path("ct.nii"));
+  // 30,000³ voxels of int16 are 49 TiB.
+  organsim::testing::write_oversized_nifti(path("ct.nii"), path("huge.nii"), 30000);
+  organsim::testing::write_oversized_nifti(path("ct.nii"), path("huge.nii.gz"), 30000);
+  for (const std::string name : {"huge.nii", "huge.nii.gz"}) {
+    const std::string error = error_of([&] { read_ct(path(name), "", {2.0, 0.0, "baking it"}); });
+    EXPECT_NE(error.find("is 30000x30000x30000 voxels; baking it needs about 50291.4 GiB of memory and this machine "
+                         "has "),
+              std::string::npos)
+        << error;
+    EXPECT_NE(error.find("crop the CT"), std::string::npos) << error;
+    EXPECT_EQ(error.find('\n'), std::string::npos) << error;
+    const std::string label = error_of([&] { read_label_mask(path(name), 1, *phantom_.ct); });
+    EXPECT_NE(label.find("reading it as a label map"), std::string::npos) << label;
+  }
 }
 
 TEST_F(CtInput, LabelMapsMustMatchTheGridAndHoldTheLabel) {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "cli_fixture.h"
+#include "oversized_ct.h"
 #include "organsim/model/model_file.h"
 #include "organsim/pipeline/image_io.h"
 #include "organsim/pipeline/phantom.h"
@@ -252,9 +253,12 @@ TEST_F(Cli, BakeBadInputsFailWithOneLineAndLeaveNoModel) {
     std::ofstream text(dir_ / "notes.nii.gz");
     text << "not an image";
   }
+  pipeline::write_ct_image(*phantom.ct, (dir_ / "small.nii").string());
+  testing::write_oversized_nifti((dir_ / "small.nii").string(), (dir_ / "huge.nii.gz").string(), 30000);
   const std::vector<std::pair<std::string, std::string>> cases = {
       {dir_.string() + "/missing.nii.gz --seed 0,0,0", "missing.nii.gz"},
       {(dir_ / "notes.nii.gz").string() + " --seed 0,0,0", "notes.nii.gz"},
+      {(dir_ / "huge.nii.gz").string() + " --seed 0,0,0", "is 30000x30000x30000 voxels; baking it needs about"},
       {(dir_ / "two_series").string() + " --seed -65,5,0", "second series"},
       {ct + " --seed 900,0,0", "outside the volume"},
       {ct + " --seed-voxel 500,3,3", "outside the volume"},

@@ -26,7 +26,9 @@ int run_segment(const SegmentCommandOptions& o) {
   const pipeline::SeededSegmentationOptions options = seeded_segmentation_options(o.segmentation);
   if (options.seeds.empty())
     throw CLI::ValidationError("--seed", "give at least one point inside the organ: --seed X,Y,Z or --seed-voxel I,J,K");
-  const pipeline::CtImage::Pointer ct = pipeline::read_ct(o.ct_path, o.series_uid);
+  // The bake's measured 7.2–7.5 bytes per voxel bound what segmenting alone holds.
+  const pipeline::CtImage::Pointer ct =
+      pipeline::read_ct(o.ct_path, o.series_uid, {8.0, 256.0 * 1024 * 1024, "segmenting it"});
   const pipeline::SeededSegmentation segmented = pipeline::segment_from_seeds(*ct, options);
   std::optional<double> dice;
   if (!o.segmentation.reference_path.empty())
