@@ -35,21 +35,7 @@ bool ScriptedDevice::read_pose(double time, ToolPose& pose) noexcept {
 }
 
 void ScriptedDevice::write_force(double time, const Eigen::Vector3d& force, bool in_contact) noexcept {
-  const std::size_t head = head_.load(std::memory_order_relaxed);
-  if (records_.empty() || head - tail_.load(std::memory_order_acquire) == records_.size()) {
-    dropped_.store(dropped_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
-    return;
-  }
-  records_[head % records_.size()] = {time, force, in_contact};
-  head_.store(head + 1, std::memory_order_release);
-}
-
-bool ScriptedDevice::take_record(ForceRecord& out) noexcept {
-  const std::size_t tail = tail_.load(std::memory_order_relaxed);
-  if (tail == head_.load(std::memory_order_acquire)) return false;
-  out = records_[tail % records_.size()];
-  tail_.store(tail + 1, std::memory_order_release);
-  return true;
+  records_.push({time, force, in_contact});
 }
 
 }  // namespace organsim::devices

@@ -316,8 +316,8 @@ int run_view(const ViewOptions& o) {
       !o.session_path.empty() ? session.tools.size() : o.phantom ? rig.devices.size() : kMouseTools;
   OrganScene scene(organ, tool_count, std::move(scene_options));
   Recorder recorder(o.record_path, cv::Size(o.size[0], o.size[1]));
-  ViewRun run{scene, recorder, o};
-  if (!o.report_dir.empty()) run.report = std::make_unique<report::RunRecorder>(o.report_dir, organ, tool_count);
+  ViewRun run{scene, recorder, o, 0, nlohmann::json::array(),
+              o.report_dir.empty() ? nullptr : std::make_unique<report::RunRecorder>(o.report_dir, organ, tool_count)};
   if (!o.session_path.empty())
     view_session(organ, session, run);
   else if (o.phantom)

@@ -50,7 +50,7 @@
 #include "organsim/realtime/deformation_model.h"
 #include "organsim/realtime/force_safety.h"
 #include "organsim/lockfree/triple_buffer.h"
-#include "organsim/realtime/spsc_ring.h"
+#include "organsim/lockfree/spsc_ring.h"
 
 namespace organsim::realtime {
 
@@ -198,7 +198,7 @@ class Engine final : public devices::ForceLoop {
   std::array<double, kMaxTools> blend_start_{}, blend_frame_{};
   std::array<std::uint32_t, kMaxTools> blend_generation_{};
   double previous_tick_ = -1.0;
-  std::array<SpscRing<TickRecord>, kMaxTools> tick_records_;
+  std::array<lockfree::SpscRing<TickRecord>, kMaxTools> tick_records_;
 
   // Deformation loop only.
   std::unique_ptr<DeformationModel> model_;

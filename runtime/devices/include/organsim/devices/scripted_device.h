@@ -3,15 +3,14 @@
 // what `organsim replay` drives the engine with.
 #pragma once
 
-#include <atomic>
 #include <cstddef>
 #include <vector>
 
 #include <Eigen/Core>
-#include <Eigen/StdVector>
 
 #include "organsim/devices/haptic_device.h"
 #include "organsim/devices/session_file.h"
+#include "organsim/lockfree/spsc_ring.h"
 
 namespace organsim::devices {
 
@@ -41,24 +40,19 @@ class ScriptedDevice final : public HapticDevice {
   void write_force(double time, const Eigen::Vector3d& force, bool in_contact) noexcept override;
 
   /// Records held (written and not yet taken).
-  std::size_t record_count() const noexcept {
-    return head_.load(std::memory_order_acquire) - tail_.load(std::memory_order_relaxed);
-  }
+  std::size_t record_count() const noexcept { return records_.size(); }
   /// The i-th oldest record held, i < record_count() (the reader's thread).
-  const ForceRecord& record(std::size_t i) const noexcept {
-    return records_[(tail_.load(std::memory_order_relaxed) + i) % records_.size()];
-  }
+  const ForceRecord& record(std::size_t i) const noexcept { return records_.peek(i); }
   /// Moves the oldest record held into `out`; false when none is held.
-  bool take_record(ForceRecord& out) noexcept;
-  std::size_t dropped_records() const noexcept { return dropped_.load(std::memory_order_relaxed); }
+  bool take_record(ForceRecord& out) noexcept { return records_.take(out); }
+  std::size_t dropped_records() const noexcept { return records_.dropped(); }
 
  private:
   Trajectory trajectory_;
   SafetyLimits limits_;
   double repeat_period_;
   std::size_t cursor_ = 0;
-  std::vector<ForceRecord, Eigen::aligned_allocator<ForceRecord>> records_;
-  std::atomic<std::size_t> head_{0}, tail_{0}, dropped_{0};
+  lockfree::SpscRing<ForceRecord> records_;
 };
 
 }  // namespace organsim::devices

@@ -8,9 +8,7 @@
 #include <cstddef>
 #include <vector>
 
-#include <Eigen/StdVector>
-
-namespace organsim::realtime {
+namespace organsim::lockfree {
 
 template <typename Record>
 class SpscRing {
@@ -37,6 +35,14 @@ class SpscRing {
     head_.store(head + 1, std::memory_order_release);
     return true;
   }
+  /// Records held: pushed and not yet taken.
+  std::size_t size() const noexcept {
+    return head_.load(std::memory_order_acquire) - tail_.load(std::memory_order_relaxed);
+  }
+  /// The reader's side: the i-th oldest record held, i < size(), left in place.
+  const Record& peek(std::size_t i) const noexcept {
+    return records_[(tail_.load(std::memory_order_relaxed) + i) % records_.size()];
+  }
   /// The reader's side: moves the oldest record into `out`; false when none is held.
   bool take(Record& out) noexcept {
     const std::size_t tail = tail_.load(std::memory_order_relaxed);
@@ -49,8 +55,9 @@ class SpscRing {
   std::size_t dropped() const noexcept { return dropped_.load(std::memory_order_relaxed); }
 
  private:
-  std::vector<Record, Eigen::aligned_allocator<Record>> records_;
+  // C++17's allocator honours over-aligned records (Eigen's fixed-size vectors) by itself.
+  std::vector<Record> records_;
   std::atomic<std::size_t> head_{0}, tail_{0}, dropped_{0};
 };
 
-}  // namespace organsim::realtime
+}  // namespace organsim::lockfree
