@@ -19,6 +19,7 @@
 #include <netinet/tcp.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
@@ -111,16 +112,20 @@ ProcessSample sample_process(pid_t pid, Clock::time_point start) {
 class Server {
  public:
   Server(const Options& o, const std::string& model, const fs::path& dir) : out_(dir / "serve.out"), err_(dir / "serve.err") {
+    // The server ends by itself if this program is killed before it stops it
+    // (a ctest timeout): its --seconds, and the parent's death.
     const std::string command = fmt::format(
-        "exec '{}' serve '{}' --model {} --igtl-port 0 --tools {} --force-rate {} --json >'{}' 2>'{}'", o.organsim,
-        model, o.deformation, o.clients, o.force_rate, out_.string(), err_.string());
+        "exec '{}' serve '{}' --model {} --igtl-port 0 --tools {} --force-rate {} --seconds {:.0f} --json >'{}' 2>'{}'",
+        o.organsim, model, o.deformation, o.clients, o.force_rate, 2.0 * o.seconds + 120.0, out_.string(),
+        err_.string());
     start_ = Clock::now();
     pid_ = ::fork();
     if (pid_ == 0) {
+      ::prctl(PR_SET_PDEATHSIG, SIGKILL);
       ::execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
       ::_exit(127);
     }
-    const std::regex listening(R"(on 127\.0\.0\.1:(\d+))");
+    const std::regex listening(R"(on 127\.0\.0\.1:(\d+) \()");
     for (auto until = Clock::now() + std::chrono::seconds(60); Clock::now() < until && port_ == 0;) {
       std::smatch match;
       const std::string err = read_text(err_);
@@ -131,7 +136,12 @@ class Server {
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
-    if (port_ == 0) throw std::runtime_error("organsim serve did not say its port within 60 s");
+    if (port_ == 0) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+      pid_ = -1;
+      throw std::runtime_error("organsim serve did not say its port within 60 s");
+    }
   }
   ~Server() {
     if (pid_ > 0) {
@@ -170,6 +180,8 @@ int connect_to(int port) {
   }
   const int yes = 1;
   ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &yes, sizeof yes);
+  const timeval patience{2, 0};  // a server that stops reading fails the client, never hangs it
+  ::setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &patience, sizeof patience);
   return fd;
 }
 
@@ -209,11 +221,7 @@ class Inbox final : public organsim::igtlink::MessageReader::Handler {
       case Move::lift: shown = last_force_ < 0.8 * force_before_; break;
     }
     if (!shown) return;
-    const double latency = since(moved_at_);
-    (move_ == Move::onset     ? result_.onset_latency_s
-     : move_ == Move::release ? result_.release_latency_s
-                              : result_.in_contact_latency_s)
-        .push_back(latency);
+    record(since(moved_at_));
     waiting_ = false;
   }
   void dropped(organsim::igtlink::Problem problem, const organsim::igtlink::MessageInfo& info) override {
@@ -223,9 +231,17 @@ class Inbox final : public organsim::igtlink::MessageReader::Handler {
     else
       ++result_.dropped;
   }
+  void record(double latency) {
+    (move_ == Move::onset     ? result_.onset_latency_s
+     : move_ == Move::release ? result_.release_latency_s
+                              : result_.in_contact_latency_s)
+        .push_back(latency);
+  }
   /// The first pose of `move` was just sent: time the force's answer (a move
   /// within contact only once the force before it is known).
   void moved(Move move, Clock::time_point at) {
+    // A move still unanswered counts with the time it waited (a lower bound), so the tail shows it.
+    if (waiting_) record(since(moved_at_));
     move_ = move;
     moved_at_ = at;
     force_before_ = last_force_;
@@ -260,23 +276,25 @@ void run_client(int port, int k, int clients, double seconds, ClientResult& resu
   const Clock::time_point start = Clock::now();
   std::size_t previous_step = 0;
   for (std::uint64_t tick = 0;; ++tick) {
+    // A client that fell behind skips the ticks it missed rather than sending them in a burst.
+    tick = std::max(tick, static_cast<std::uint64_t>(since(start) * 1000.0));
     const Clock::time_point due = start + std::chrono::microseconds(1000 * tick);
     if (std::chrono::duration<double>(due - start).count() >= seconds) break;
-    // Read until the pose is due (a client that never reads only sleeps).
-    for (;;) {
+    // Read until the pose is due, at least once (a client that never reads only sleeps).
+    for (bool first = true;; first = false) {
       const auto left = due - Clock::now();
-      if (left <= Clock::duration::zero()) break;
+      if (left <= Clock::duration::zero() && !(first && result.reads)) break;
       if (!result.reads) {
         std::this_thread::sleep_until(due);
         break;
       }
-      const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(left).count();
+      const auto ns = std::max<long long>(0, std::chrono::duration_cast<std::chrono::nanoseconds>(left).count());
       const timespec timeout{static_cast<time_t>(ns / 1000000000), static_cast<long>(ns % 1000000000)};
       pollfd p{fd, POLLIN, 0};
       if (::ppoll(&p, 1, &timeout, nullptr) <= 0) continue;
       const ssize_t n = ::recv(fd, buffer.data(), buffer.size(), MSG_DONTWAIT);
-      if (n == 0) break;
-      if (n > 0) reader.feed(buffer.data(), static_cast<std::size_t>(n), inbox);
+      if (n <= 0) break;  // closed or failed: the send below says so
+      reader.feed(buffer.data(), static_cast<std::size_t>(n), inbox);
     }
     const std::size_t step = (tick / 100) % poses.size();
     const organsim::testing::Bytes& message = poses[step];
@@ -314,7 +332,11 @@ class Sampler {
  public:
   Sampler(const Server& server, std::atomic<bool>& running) : thread_([this, &server, &running] {
       while (running.load()) {
-        samples_.push_back(server.sample());
+        try {
+          samples_.push_back(server.sample());
+        } catch (const std::exception&) {  // the server is gone: the phase's checks say so
+          return;
+        }
         std::this_thread::sleep_for(std::chrono::milliseconds(500));
       }
     }) {}
@@ -424,7 +446,11 @@ int main(int argc, char** argv) {
     std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the server notices the last closes
     const ProcessSample after = server.sample();
     const nlohmann::json summary = server.stop();
-    if (summary.is_null() || summary.is_discarded()) failures.push_back("organsim serve did not end cleanly");
+    if (summary.is_null() || summary.is_discarded())
+      failures.push_back("organsim serve did not end cleanly");
+    else if (summary["clients_refused"].get<int>() != 0)
+      failures.push_back(fmt::format("organsim serve refused {} client(s): a departed client did not free its place",
+                                     summary["clients_refused"].get<int>()));
 
     nlohmann::json phases_json = nlohmann::json::array();
     for (const Phase& phase : phases) {
@@ -445,7 +471,9 @@ int main(int argc, char** argv) {
         onset.insert(onset.end(), c.onset_latency_s.begin(), c.onset_latency_s.end());
         release.insert(release.end(), c.release_latency_s.begin(), c.release_latency_s.end());
         // Forces at the force rate, frames at 60 Hz: a client served far less is not served.
-        if (c.surfaces == 0 || static_cast<double>(c.own_forces) < 0.25 * o.force_rate * o.seconds)
+        // At least four times the frame rate's forces (or a quarter of a slower force rate):
+        // a loaded 2-core machine delivers fewer than asked, a broken server far fewer.
+        if (c.surfaces == 0 || static_cast<double>(c.own_forces) < std::min(0.25 * o.force_rate, 240.0) * o.seconds)
           failures.push_back(fmt::format("{}: client {} got {} surfaces and {} forces in {:g} s", phase.name, k + 1,
                                          c.surfaces, c.own_forces, o.seconds));
         if (c.in_contact_latency_s.empty())
@@ -461,7 +489,8 @@ int main(int argc, char** argv) {
                              {"clients_cpu_share", phase.clients_cpu_share},
                              {"clients", clients}});
     }
-    const double growth_mb = after.resident_mb - phases.front().samples[phases.front().samples.size() / 5].resident_mb;
+    const std::vector<ProcessSample>& loaded = phases.front().samples;
+    const double growth_mb = loaded.empty() ? 0.0 : after.resident_mb - loaded[loaded.size() / 5].resident_mb;
     if (after.open_descriptors != before_cycles.open_descriptors || after.open_descriptors != idle.open_descriptors)
       failures.push_back(fmt::format("open file descriptors: {} idle, {} after the loaded phases, {} after {} cycles",
                                      idle.open_descriptors, before_cycles.open_descriptors, after.open_descriptors,

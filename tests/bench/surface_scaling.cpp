@@ -6,6 +6,7 @@
 // should not grow with the surface. Counters: the file's size and the heap
 // the organ holds once loaded.
 #include <malloc.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -40,6 +41,11 @@ double heap_in_use_mb() {
   return static_cast<double>(heap.uordblks + heap.hblkhd) / 1e6;
 }
 
+/// The model file of a size, in the temporary folder (this process's own).
+std::string scratch_name(std::size_t vertices) {
+  return "organsim_surface_scaling_" + std::to_string(::getpid()) + "_" + std::to_string(vertices) + ".organ";
+}
+
 /// A sphere of about `vertices` vertices: its model file (written once, in
 /// the temporary folder), the organ read from it, and the memory it took.
 struct Sized {
@@ -53,7 +59,7 @@ Sized& sized(std::size_t vertices) {
   static std::map<std::size_t, Sized> cache;
   Sized& s = cache[vertices];
   if (s.organ) return s;
-  s.path = (std::filesystem::temp_directory_path() / ("organsim_surface_scaling_" + std::to_string(vertices) + ".organ"))
+  s.path = (std::filesystem::temp_directory_path() / (scratch_name(vertices)))
                .string();
   model::write_organ_model_file(testing::make_sphere_model(vertices, kStations), s.path);
   s.file_mb = static_cast<double>(std::filesystem::file_size(s.path)) / 1e6;
@@ -72,7 +78,10 @@ void BM_LoadReadyToSimulate(benchmark::State& state) {
   Sized& s = sized(static_cast<std::size_t>(state.range(0)));
   for (auto _ : state) {
     model::ModelReadResult read = model::read_organ_model_file(s.path);
-    if (!read) state.SkipWithError(read.error.c_str());
+    if (!read) {
+      state.SkipWithError(read.error.c_str());
+      break;
+    }
     const organ::Organ organ(std::move(*read.model));
     benchmark::DoNotOptimize(organ.vertex_count());
   }
@@ -165,7 +174,7 @@ int main(int argc, char** argv) {
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   for (const std::int64_t n : vertices)
-    std::remove((std::filesystem::temp_directory_path() / ("organsim_surface_scaling_" + std::to_string(n) + ".organ"))
+    std::remove((std::filesystem::temp_directory_path() / (scratch_name(static_cast<std::size_t>(n))))
                     .c_str());
   return 0;
 }

@@ -104,6 +104,8 @@ def runtime_curve(args, organsim):
     print(f"cpu: {report['context'].get('cpu', '?')}, {report['context'].get('simd', '?')}")
     by_size = {}
     for b in report["benchmarks"]:
+        if b.get("error_occurred"):
+            sys.exit(f"scaling.py: {b['name']}: {b.get('error_message', 'failed')}")
         seconds = b["real_time"] * {"ns": 1e-9, "us": 1e-6, "ms": 1e-3}[b["time_unit"]]
         name = b["name"].split("/")[0]
         if name == "Deformation":

@@ -121,7 +121,7 @@ IgtlServer::IgtlServer(const ServerOptions& options, const organ::Organ& organ,
   if (!(options_.force_tick_period > 0.0))
     throw std::invalid_argument("the force loop's period must be positive");
   ticks_per_force_send_ =
-      static_cast<std::uint64_t>(std::max(1.0, std::round(options_.force_period / options_.force_tick_period)));
+      static_cast<std::uint64_t>(std::max(1.0, std::floor(options_.force_period / options_.force_tick_period + 1e-9)));
   in_addr address{};
   if (::inet_pton(AF_INET, options_.bind_address.c_str(), &address) != 1)
     throw std::invalid_argument(fmt::format("'{}' is not an IPv4 address (127.0.0.1 serves this machine only, 0.0.0.0 "
@@ -167,7 +167,7 @@ void IgtlServer::step(double now) {
   if (now >= next_frame_) {
     send_frame();
     next_frame_ = std::max(next_frame_ + options_.frame_period, now);
-    forces_due();  // the frame carried them
+    if (!tools_.empty()) forces_sent_at_tick_ = tools_.front()->ticks();  // the frame carried them
   } else if (options_.force_period < options_.frame_period && forces_due()) {
     send_forces();
   }
@@ -213,7 +213,11 @@ void IgtlServer::send_forces() {
 }
 
 void IgtlServer::accept_clients() {
-  for (;;) {
+  // A flood of connections waits in the backlog rather than holding up one
+  // step (and every client's forces) while it is drained.
+  constexpr int kAcceptsPerStep = 16;
+  bool reaped = false;
+  for (int accepted = 0; accepted < kAcceptsPerStep; ++accepted) {
     sockaddr_in peer{};
     socklen_t length = sizeof peer;
     const int fd = ::accept4(listener_, reinterpret_cast<sockaddr*>(&peer), &length, SOCK_NONBLOCK | SOCK_CLOEXEC);
@@ -223,7 +227,10 @@ void IgtlServer::accept_clients() {
     const std::string address = fmt::format("{}:{}", ip, ntohs(peer.sin_port));
     // Clients that have gone since the last step free their place first: a
     // client that reconnects at once is not refused by its own old connection.
-    if (clients_.size() >= options_.max_clients) read_clients();
+    if (clients_.size() >= options_.max_clients && !reaped) {
+      read_clients();
+      reaped = true;
+    }
     if (clients_.size() >= options_.max_clients) {
       refuse(fd, fmt::format("organsim serve takes at most {} clients and all are connected; disconnect one and "
                              "connect again",
@@ -255,6 +262,7 @@ void IgtlServer::refuse(int fd, const std::string& why) {
   status->SetStatusString(why.c_str());
   status->Pack();
   [[maybe_unused]] const ssize_t sent = ::send(fd, status->GetPackPointer(), status->GetPackSize(), MSG_NOSIGNAL);
+  ::shutdown(fd, SHUT_WR);  // the STATUS, then an orderly end of the stream
   ::close(fd);
 }
 

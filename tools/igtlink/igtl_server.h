@@ -22,7 +22,8 @@
 // message (code 6, busy) saying why, and is closed.
 //
 // step() never blocks: the sockets are non-blocking and polled from the
-// caller's thread (run_realtime's poll, every 2 ms). The library's own socket
+// caller's thread (run_realtime's poll: every 2 ms, or a quarter of the force
+// period when forces go faster than frames). The library's own socket
 // classes block with timeouts, so the server uses POSIX sockets for the
 // transport and libOpenIGTLink for the messages.
 #pragma once
@@ -53,7 +54,8 @@ struct ServerOptions {
   /// this often.
   double force_period = 1.0 / 60.0;
   /// s between the engine's force ticks: forces leave right after the tick
-  /// that computed them (every force_period / force_tick_period ticks), so
+  /// that computed them, every force_period / force_tick_period ticks rounded
+  /// down (never slower than asked: 400 Hz sends every 2 ticks of 1 ms), so
   /// that a pose's force waits for no clock of the server's own.
   double force_tick_period = 1e-3;
   bool ras = false;                        ///< clients use RAS (3D Slicer): x and y change sign at the boundary

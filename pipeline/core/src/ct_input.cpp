@@ -55,10 +55,14 @@ void check_three_dimensional(const std::string& path, const itk::ImageBase<3>& i
 }
 
 /// Refuses a grid of `voxels` whose job would not fit in the available memory.
-void check_fits_in_memory(const std::string& path, const std::array<std::uint64_t, 3>& size, const MemoryNeed& need) {
+/// `file_bytes_per_voxel`: the buffer the reader fills in the file's own
+/// pixel type when it must convert (a float64 or multi-channel file's) or
+/// reads more than one volume, held beside the image kept.
+void check_fits_in_memory(const std::string& path, const std::array<std::uint64_t, 3>& size, const MemoryNeed& need,
+                          double file_bytes_per_voxel = 0.0) {
   const double available = available_memory_bytes();
   const double voxels = static_cast<double>(size[0]) * static_cast<double>(size[1]) * static_cast<double>(size[2]);
-  const double needed = voxels * need.bytes_per_voxel + need.fixed_bytes;
+  const double needed = voxels * (need.bytes_per_voxel + file_bytes_per_voxel) + need.fixed_bytes;
   if (available <= 0.0 || needed <= available) return;
   constexpr double kGiB = 1024.0 * 1024.0 * 1024.0;
   fail(path, fmt::format("is {}x{}x{} voxels; {} needs about {:.1f} GiB of memory and this machine has {:.1f} GiB "
@@ -67,8 +71,8 @@ void check_fits_in_memory(const std::string& path, const std::array<std::uint64_
 }
 
 /// The image's number of dimensions, its header read and its size checked
-/// against the memory `need` asks for.
-int image_dimensions(const std::string& path, const MemoryNeed& need) {
+/// against the memory `need` asks for, read into pixels of `pixel_bytes`.
+int image_dimensions(const std::string& path, const MemoryNeed& need, std::size_t pixel_bytes) {
   register_image_io_factories();
   auto io = itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::CommonEnums::IOFileMode::ReadMode);
   if (!io)
@@ -83,7 +87,11 @@ int image_dimensions(const std::string& path, const MemoryNeed& need) {
   const unsigned dimensions = io->GetNumberOfDimensions();
   std::array<std::uint64_t, 3> size{1, 1, 1};
   for (unsigned k = 0; k < std::min(dimensions, 3u); ++k) size[k] = io->GetDimensions(k);
-  check_fits_in_memory(path, size, need);
+  double volumes = 1.0;  // a 4-D file is read whole before its first volume is kept
+  for (unsigned k = 3; k < dimensions; ++k) volumes *= static_cast<double>(io->GetDimensions(k));
+  const std::size_t file_bytes = io->GetComponentSize() * io->GetNumberOfComponents();
+  const double file_buffer = volumes > 1.0 || file_bytes != pixel_bytes ? static_cast<double>(file_bytes) * volumes : 0.0;
+  check_fits_in_memory(path, size, need, file_buffer);
   return static_cast<int>(dimensions);
 }
 
@@ -109,7 +117,7 @@ typename Image::Pointer read_volume_file(const std::string& path, const MemoryNe
   register_image_io_factories();
   // The header first: a file announcing more than the machine holds is refused
   // before a byte of a (possibly huge) compressed stream is inflated.
-  if (image_dimensions(path, need) < 3)
+  if (image_dimensions(path, need, sizeof(typename Image::PixelType)) < 3)
     fail(path, "is a 2-D image, not a 3-D volume; pass a CT volume or a DICOM series directory");
   check_gzip_stream_complete(path);
   auto reader = itk::ImageFileReader<Image>::New();
@@ -195,12 +203,17 @@ std::vector<DicomSeriesSummary> list_dicom_series(const std::string& directory) 
 }
 
 double available_memory_bytes() {
+  double available = 0.0;
   std::ifstream meminfo("/proc/meminfo");
   std::string key, unit;
   double kib = 0.0;
   while (meminfo >> key >> kib >> unit)
-    if (key == "MemAvailable:") return kib * 1024.0;
-  return 0.0;
+    if (key == "MemAvailable:") available = kib * 1024.0;
+  // In a container the cgroup's limit is the one that kills (cgroup v2; "max": none).
+  double limit = 0.0, current = 0.0;
+  if ((std::ifstream("/sys/fs/cgroup/memory.max") >> limit) && (std::ifstream("/sys/fs/cgroup/memory.current") >> current))
+    available = available > 0.0 ? std::min(available, std::max(0.0, limit - current)) : std::max(0.0, limit - current);
+  return available;
 }
 
 CtImage::Pointer read_ct(const std::string& path, const std::string& series_uid, const MemoryNeed& need) {
@@ -235,7 +248,8 @@ CtImage::Pointer read_ct(const std::string& path, const std::string& series_uid,
     } catch (const itk::ExceptionObject& e) {
       fail(path, "cannot read the DICOM series (" + first_line(e.GetDescription()) + ")");
     }
-    check_fits_in_memory(path, {first->GetDimensions(0), first->GetDimensions(1), files.size()}, need);
+    const std::uint64_t frames = first->GetNumberOfDimensions() > 2 ? first->GetDimensions(2) : 1;  // multi-frame files
+    check_fits_in_memory(path, {first->GetDimensions(0), first->GetDimensions(1), files.size() * frames}, need);
   }
   auto reader = itk::ImageSeriesReader<CtImage>::New();
   reader->SetImageIO(itk::GDCMImageIO::New());

@@ -32,7 +32,7 @@ class StreamedTool final : public HapticDevice {
     in_contact = forces_.read().in_contact;
     return forces_.read().force;
   }
-  std::uint64_t ticks() const { return ticks_.load(std::memory_order_relaxed); }
+  std::uint64_t ticks() const { return ticks_.load(std::memory_order_acquire); }
 
   // --- force loop ---
   const SafetyLimits& limits() const noexcept override { return limits_; }
@@ -44,7 +44,7 @@ class StreamedTool final : public HapticDevice {
   void write_force(double, const Eigen::Vector3d& force, bool in_contact) noexcept override {
     forces_.write_slot() = {force, in_contact};
     forces_.publish();
-    ticks_.fetch_add(1, std::memory_order_relaxed);
+    ticks_.fetch_add(1, std::memory_order_release);  // the force above is published before the count
   }
 
  private:

@@ -22,6 +22,7 @@ class SpscRing {
     records_.assign(capacity, Record{});
     head_.store(0, std::memory_order_relaxed);
     tail_.store(0, std::memory_order_relaxed);
+    dropped_.store(0, std::memory_order_relaxed);
   }
   std::size_t capacity() const noexcept { return records_.size(); }
   /// The writer's side: false (and counted) when the ring is full or has no room at all.
