@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <sstream>
+#include <utility>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -210,6 +212,30 @@ std::string tool_table(const RunMetrics& m, const RunMetrics* reference) {
   return html + "</table>\n";
 }
 
+/// The whole session beside the reference's: duration, the largest volume
+/// change and the loops' counts (a count either run did not measure: –).
+std::string session_table(const RunMetrics& m, const RunMetrics& reference) {
+  std::string html = "<table><tr><th>session</th><th>this run</th><th>reference</th><th>difference</th></tr>\n";
+  html += fmt::format("<tr><td>duration</td><td>{:.2f} s</td><td>{:.2f} s</td><td>{:+.2f} s</td></tr>\n", m.duration_s,
+                      reference.duration_s, m.duration_s - reference.duration_s);
+  html += fmt::format("<tr><td>largest volume change</td><td>{:.3f} %</td><td>{:.3f} %</td><td>{:+.3f} %</td></tr>\n",
+                      m.largest_volume_change_percent, reference.largest_volume_change_percent,
+                      m.largest_volume_change_percent - reference.largest_volume_change_percent);
+  const nlohmann::json ours = m.run.value("loop_health", nlohmann::json::object()),
+                       theirs = reference.run.value("loop_health", nlohmann::json::object());
+  for (const auto& [key, name] : {std::pair<const char*, const char*>{"force_deadline_misses", "force-loop deadline misses"},
+                                  {"frames_dropped", "deformation frames dropped"},
+                                  {"pose_faults", "device faults (lost poses)"},
+                                  {"refused_contacts", "contacts refused"}}) {
+    const nlohmann::json a = ours.value(key, nlohmann::json()), b = theirs.value(key, nlohmann::json());
+    const auto text = [](const nlohmann::json& count) { return count.is_number() ? count.dump() : std::string("–"); };
+    const std::string difference =
+        a.is_number() && b.is_number() ? fmt::format("{:+d}", a.get<std::int64_t>() - b.get<std::int64_t>()) : "–";
+    html += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n", name, text(a), text(b), difference);
+  }
+  return html + "</table>\n";
+}
+
 std::string page(const RunMetrics& m, const RunMetrics* reference, const Pictures& pictures) {
   const nlohmann::json& run = m.run;
   std::string html;
@@ -235,19 +261,26 @@ std::string page(const RunMetrics& m, const RunMetrics* reference, const Picture
 
   html += "<h2>Loop health</h2>\n<table>\n";
   const nlohmann::json health = run.value("loop_health", nlohmann::json::object());
-  const std::uint64_t misses = health.value("force_deadline_misses", 0), dropped = health.value("frames_dropped", 0),
-                      faults = health.value("pose_faults", 0), refused = health.value("refused_contacts", 0);
   std::uint64_t lost_records = 0;
   for (const auto& d : run.value("tick_records_dropped", nlohmann::json::array())) lost_records += d.get<std::uint64_t>();
-  const auto health_row = [&](const std::string& key, std::uint64_t value, const std::string& what) {
-    html += fmt::format("<tr><th>{}</th><td class=\"{}\">{}{}</td></tr>\n", key, value ? "warn" : "ok", value,
+  // A count the command did not measure (a loop it does not own: the HD
+  // servo's deadlines, a replay stepped in session time) is said to be so,
+  // never shown as a healthy zero.
+  const auto health_row = [&](const std::string& key, const nlohmann::json& count, const std::string& what) {
+    if (!count.is_number()) {
+      html += fmt::format("<tr><th>{}</th><td>not measured by this command</td></tr>\n", escape(key));
+      return;
+    }
+    const auto value = count.get<std::uint64_t>();
+    html += fmt::format("<tr><th>{}</th><td class=\"{}\">{}{}</td></tr>\n", escape(key), value ? "warn" : "ok", value,
                         value ? " — " + what : "");
   };
+  const auto counted = [&](const char* key) { return health.value(key, nlohmann::json()); };
   html += fmt::format("<tr><th>force loop</th><td>{} ticks; period p50 {} ms, p99 {} ms, max {} ms</td></tr>\n",
                       health.value("force_ticks", 0), number_or_dash(health.value("period_p50_ms", nlohmann::json()), "{:.3f}"),
                       number_or_dash(health.value("period_p99_ms", nlohmann::json()), "{:.3f}"),
                       number_or_dash(health.value("period_max_ms", nlohmann::json()), "{:.3f}"));
-  health_row("force-loop deadline misses (> 2 ms)", misses, "the hand felt late forces");
+  health_row("force-loop deadline misses (> 2 ms)", counted("force_deadline_misses"), "the hand felt late forces");
   const nlohmann::json floor = health.value("machine_floor", nlohmann::json());
   if (floor.is_object())
     html += fmt::format("<tr><th>the machine's own floor</th><td>{} stalls over 2 ms and {} wake-ups later than 2 ms "
@@ -256,9 +289,9 @@ std::string page(const RunMetrics& m, const RunMetrics* reference, const Picture
                         "simulation's</td></tr>\n",
                         floor.value("stalls_over_2ms", 0), floor.value("late_wakes_over_2ms", 0),
                         floor.value("probe_s", 0.0), floor.value("realtime_priority", false) ? "" : " (no real-time priority)");
-  health_row("deformation frames dropped", dropped, "the organ's picture lagged the tools");
-  health_row("device faults (lost poses)", faults, "a tool's device stopped giving its pose");
-  health_row("contacts refused", refused, "a tool touched where no contact can be built (the clamp)");
+  health_row("deformation frames dropped", counted("frames_dropped"), "the organ's picture lagged the tools");
+  health_row("device faults (lost poses)", counted("pose_faults"), "a tool's device stopped giving its pose");
+  health_row("contacts refused", counted("refused_contacts"), "a tool touched where no contact can be built (the clamp)");
   health_row("force records lost", lost_records, "the recorder fell behind; the metrics miss those ticks");
   html += fmt::format("<tr><th>the machine</th><td>{}</td></tr>\n</table>\n", escape(run.value("machine", "")));
 
@@ -267,6 +300,7 @@ std::string page(const RunMetrics& m, const RunMetrics* reference, const Picture
     html += fmt::format("<p>Compared with a reference run of the {} model ({:.2f} s, recorded {}).</p>\n",
                         escape(reference->run.value("deformation_model", "")), reference->duration_s,
                         escape(reference->run.value("date", "")));
+  if (reference) html += session_table(m, *reference);
   html += tool_table(m, reference);
 
   const std::vector<double> t = bucket_times(m);
@@ -278,8 +312,8 @@ std::string page(const RunMetrics& m, const RunMetrics* reference, const Picture
     if (reference && i < reference->tools.size())
       force.push_back({"reference: force sent", "#2ca02c", bucket_times(*reference), reference->tools[i].force.values});
     html += svg_chart(force, {"time (s)", "force (N)", m.force_limit_n, "limit"});
-    html += svg_chart({{"indentation depth", "#9467bd", t, tool.depth.values}}, {"time (s)", "depth (mm)"});
-    html += svg_chart({{"tip speed", "#d62728", t, tool.speed.values}}, {"time (s)", "speed (mm/s)"});
+    html += svg_chart({{"indentation depth", "#9467bd", t, tool.depth.values}}, {"time (s)", "depth (mm)", 0.0, ""});
+    html += svg_chart({{"tip speed", "#d62728", t, tool.speed.values}}, {"time (s)", "speed (mm/s)", 0.0, ""});
     if (tool.events.empty()) {
       html += "<p>No force above the limit.</p>\n";
     } else {
@@ -302,7 +336,7 @@ std::string page(const RunMetrics& m, const RunMetrics* reference, const Picture
                         escape(title));
   for (const std::string& problem : pictures.problems) html += "<p class=\"warn\">" + escape(problem) + "</p>\n";
   html += svg_chart({{"volume change", "#17becf", t, m.volume_change_percent.values}},
-                    {"time (s)", "volume change (%)"});
+                    {"time (s)", "volume change (%)", 0.0, ""});
   html += "</body></html>\n";
   return html;
 }

@@ -339,16 +339,20 @@ TEST_F(Cli, ReplayRefusesSessionsLongerThanADayOrFarFromTheOrgan) {
 
 // Memory does not grow with the session: a 300 s replay (twice 300,001 force
 // rows streamed to the CSV file) holds the resident size of its first second.
+// A leak per tick, in the forces or in the training report's records, shows.
 TEST_F(Cli, ReplayMemoryStaysFlatOverALongSession) {
   const auto [model, session] = write_cylinder_and_two_tool_press(dir_);
-  const fs::path forces = dir_ / "forces.csv";
+  const fs::path forces = dir_ / "forces.csv", report = dir_ / "report";
+  // The training report's raw data streams to disk as the forces do.
   const CommandRun run = run_organsim("replay " + model + " " + session.string() +
-                                          " --fast --json --repeat-for 300 --progress 0.05 --forces " + forces.string(),
+                                          " --fast --json --repeat-for 300 --progress 0.05 --forces " + forces.string() +
+                                          " --report " + report.string(),
                                       dir_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   std::vector<double> resident;
   std::istringstream lines(run.err);
-  for (std::string line; std::getline(lines, line);) resident.push_back(nlohmann::json::parse(line)["resident_mib"]);
+  for (std::string line; std::getline(lines, line);)  // (the report's warnings are lines of text: no display)
+    if (!line.empty() && line.front() == '{') resident.push_back(nlohmann::json::parse(line)["resident_mib"]);
   ASSERT_GE(resident.size(), 3u) << run.err;
   // A leak of one force row per tick would add 2 × 300,000 × ~60 bytes = 34 MiB.
   EXPECT_LT(resident.back() - resident.front(), 1.0) << run.err;
@@ -357,6 +361,12 @@ TEST_F(Cli, ReplayMemoryStaysFlatOverALongSession) {
   for (std::string line; std::getline(csv, line);) ++rows;
   EXPECT_EQ(rows, 1 + 2 * 300001u);
   EXPECT_EQ(nlohmann::json::parse(run.out)["force_loop"]["ticks"], 300001);
+  std::ifstream ticks(report / "ticks.csv");
+  rows = 0;
+  for (std::string line; std::getline(ticks, line);) ++rows;
+  EXPECT_EQ(rows, 1 + 2 * 300001u);
+  std::ifstream metrics(report / "metrics.json");
+  EXPECT_DOUBLE_EQ(nlohmann::json::parse(metrics)["duration_s"].get<double>(), 300.0);
 }
 
 // The disk fills while the forces are written (a file-size limit stands in):

@@ -101,6 +101,70 @@ TEST_F(Cli, ReportMetricsAreTheHandWorkedOnesOfAKnownPress) {
   EXPECT_DOUBLE_EQ(again["peak_force_n"].get<double>(), peak);  // the limit changes no force
 }
 
+// The limit is judged on the force the model computed, before the device's
+// clamp: a clamp below the limit still lets the page see the force go past
+// it, while the force sent stays at the clamp. A rebuild without
+// --force-limit keeps the limit the page was made with.
+TEST_F(Cli, ReportJudgesTheLimitOnTheModelsForceBeforeTheDevicesClamp) {
+  const KnownPress press = write_known_press(dir_);
+  const fs::path free_run = dir_ / "free", clamped = dir_ / "clamped";
+  ASSERT_EQ(run_organsim("replay " + press.model + " " + press.session + " --fast --tip-radius 0 --force-limit 1000 " +
+                             "--report " + free_run.string(),
+                         dir_)
+                .exit_code,
+            0);
+  const double peak = read_json(free_run / "metrics.json")["tools"][0]["peak_force_n"].get<double>();
+  ASSERT_GT(peak, 0.0);
+  const CommandRun replay =
+      run_organsim(fmt::format("replay {} {} --fast --tip-radius 0 --max-force {} --force-limit {} --report {}",
+                               press.model, press.session, peak / 4, peak / 2, clamped.string()),
+                   dir_);
+  ASSERT_EQ(replay.exit_code, 0) << replay.err;
+  const auto check = [&](const nlohmann::json& tool) {
+    EXPECT_LE(tool["peak_force_n"].get<double>(), peak / 4 * (1 + 1e-9)) << "the device got no more than its clamp";
+    EXPECT_NEAR(tool["peak_model_force_n"].get<double>(), peak, 1e-6 * peak);
+    EXPECT_EQ(tool["events_above_limit"], 1) << "the model's force passed the limit above the clamp";
+    EXPECT_NEAR(tool["time_above_limit_s"].get<double>(), 1.1, 1.0 / 60.0 + 2e-3);
+  };
+  nlohmann::json m = read_json(clamped / "metrics.json");
+  EXPECT_DOUBLE_EQ(m["force_limit_n"].get<double>(), peak / 2);
+  check(m["tools"][0]);
+
+  const CommandRun rebuilt = run_organsim("report " + clamped.string(), dir_);
+  ASSERT_EQ(rebuilt.exit_code, 0) << rebuilt.err;
+  m = read_json(clamped / "metrics.json");
+  EXPECT_DOUBLE_EQ(m["force_limit_n"].get<double>(), peak / 2) << "the limit the page was made with";
+  check(m["tools"][0]);
+}
+
+// `replay --model a,b --report DIR`: one report per model in DIR/<model>/,
+// and `organsim report DIR` rebuilds them all.
+TEST_F(Cli, ReplayOfSeveralModelsWritesAReportPerModelThatReportRebuildsAll) {
+  const KnownPress press = write_known_press(dir_);
+  const fs::path report = dir_ / "report";
+  const CommandRun replay = run_organsim(
+      "replay " + press.model + " " + press.session + " --fast --tip-radius 0 --model beam,springs --report " +
+          report.string(),
+      dir_);
+  ASSERT_EQ(replay.exit_code, 0) << replay.err;
+  EXPECT_FALSE(fs::exists(report / "index.html"));
+  for (const char* model : {"beam", "springs"}) {
+    ASSERT_TRUE(fs::exists(report / model / "index.html")) << model;
+    const nlohmann::json m = read_json(report / model / "metrics.json");
+    EXPECT_EQ(m["deformation_model"], model);
+    EXPECT_DOUBLE_EQ(m["duration_s"].get<double>(), 1.4);
+    EXPECT_GT(m["tools"][0]["peak_force_n"].get<double>(), 0.0) << model;
+  }
+  const CommandRun rebuilt = run_organsim("report " + report.string() + " --force-limit 0.001", dir_);
+  ASSERT_EQ(rebuilt.exit_code, 0) << rebuilt.err;
+  for (const char* model : {"beam", "springs"}) {
+    EXPECT_NE(rebuilt.out.find((report / model / "index.html").string()), std::string::npos) << rebuilt.out;
+    const nlohmann::json m = read_json(report / model / "metrics.json");
+    EXPECT_DOUBLE_EQ(m["force_limit_n"].get<double>(), 0.001) << model;
+    EXPECT_EQ(m["tools"][0]["events_above_limit"], 1) << model;
+  }
+}
+
 TEST_F(Cli, ReportPageIsSelfContainedAndHoldsNoPatientData) {
   const KnownPress press = write_known_press(dir_);
   const fs::path report = dir_ / "report";
@@ -153,6 +217,14 @@ TEST_F(Cli, ReportSaysWhenTheLoopsFailedAndComparesWithAReferenceRun) {
             0);
   std::string html = read_text(trainee / "index.html");
   EXPECT_NE(html.find("in a 1.4 s probe after the session"), std::string::npos);
+  // A run stepped in session time (--fast) has no deadlines: its page says
+  // they were not measured rather than showing a healthy zero.
+  const std::string fast_page = read_text(expert / "index.html");
+  EXPECT_NE(fast_page.find("<tr><th>force-loop deadline misses (&gt; 2 ms)</th><td>not measured by this command</td>"),
+            std::string::npos);
+  EXPECT_NE(fast_page.find("<tr><th>deformation frames dropped</th><td>not measured by this command</td>"),
+            std::string::npos);
+  EXPECT_EQ(html.find("not measured"), std::string::npos) << "a real-time replay measures its loops";
   // Loop trouble is shown only where there was some (a real-time run may miss a deadline).
   nlohmann::json run = read_json(trainee / "run.json");
   EXPECT_EQ(html.find("<td class=\"warn\">") == std::string::npos,
@@ -171,6 +243,11 @@ TEST_F(Cli, ReportSaysWhenTheLoopsFailedAndComparesWithAReferenceRun) {
   EXPECT_NE(html.find("<th>reference</th><th>difference</th>"), std::string::npos);
   EXPECT_NE(html.find("reference: force sent"), std::string::npos);
   EXPECT_NE(html.find("reference run of the springs model"), std::string::npos);
+  // The session too: durations, the trainee's dropped frames against the
+  // --fast reference's unmeasured ones.
+  EXPECT_NE(html.find("<tr><td>duration</td><td>1.40 s</td><td>1.40 s</td><td>+0.00 s</td></tr>"), std::string::npos);
+  EXPECT_NE(html.find("<tr><td>deformation frames dropped</td><td>7</td><td>–</td><td>–</td></tr>"), std::string::npos);
+  EXPECT_NE(html.find("<tr><td>device faults (lost poses)</td><td>2</td><td>0</td><td>+2</td></tr>"), std::string::npos);
 
   // A directory without a recorded run is a one-line error.
   const CommandRun missing = run_organsim("report " + (dir_ / "nothing").string(), dir_);

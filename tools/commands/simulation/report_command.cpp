@@ -1,10 +1,15 @@
 // `organsim report DIR`: rebuilds a training report's page and metrics from
 // the raw data a run recorded with --report (after a change of the force
 // limit, say), optionally beside a reference run's.
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
+#include <vector>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "command_line.h"
 #include "report_options.h"
@@ -12,14 +17,45 @@
 namespace organsim::cli {
 namespace {
 
+namespace fs = std::filesystem;
+
 struct ReportCommandOptions {
   std::string directory;
   report::ReportOptions report;
+  bool limit_given = false;  ///< --force-limit on the command line
 };
 
+/// The directories to rebuild: DIR itself, or, for `replay --model a,b
+/// --report DIR`, its per-model subdirectories (DIR/<model>/), in name order.
+std::vector<fs::path> recorded_runs(const fs::path& directory) {
+  if (fs::exists(directory / "run.json") || !fs::is_directory(directory)) return {directory};
+  std::vector<fs::path> runs;
+  for (const fs::directory_entry& entry : fs::directory_iterator(directory))
+    if (entry.is_directory() && fs::exists(entry.path() / "run.json")) runs.push_back(entry.path());
+  std::sort(runs.begin(), runs.end());
+  return runs.empty() ? std::vector<fs::path>{directory} : runs;
+}
+
+/// The limit the run's page was made with (its metrics.json), so that a
+/// rebuild without --force-limit keeps it; the default if there is none.
+double recorded_limit(const fs::path& directory) {
+  std::ifstream in(directory / "metrics.json");
+  const nlohmann::json metrics = nlohmann::json::parse(in, nullptr, false);
+  if (metrics.is_object() && metrics.contains("force_limit_n") && metrics["force_limit_n"].is_number()) {
+    const double limit = metrics["force_limit_n"].get<double>();
+    if (limit > 0.0) return limit;
+  }
+  return report::kDefaultForceLimit;
+}
+
 int run_report(const ReportCommandOptions& o) {
-  for (const std::string& problem : report::write_report(o.directory, o.report)) warn("report", problem);
-  std::cout << fmt::format("{:<16}{}/index.html (metrics: {}/metrics.json)\n", "report", o.directory, o.directory);
+  for (const fs::path& run : recorded_runs(o.directory)) {
+    report::ReportOptions options = o.report;
+    if (!o.limit_given) options.force_limit_n = recorded_limit(run);
+    for (const std::string& problem : report::write_report(run.string(), options)) warn("report", problem);
+    std::cout << fmt::format("{:<16}{}/index.html (metrics: {}/metrics.json; force limit {:g} N)\n", "report",
+                             run.string(), run.string(), options.force_limit_n);
+  }
   return 0;
 }
 
@@ -37,9 +73,19 @@ void add_report_options(CLI::App& app, report::ReportOptions& options) {
 
 Command add_report_command(CLI::App& app) {
   auto o = std::make_shared<ReportCommandOptions>();
-  app.add_option("directory", o->directory, "A report directory written by replay --report")->required();
+  app.add_option("directory", o->directory,
+                 "A report directory written by --report (or, after replay --model a,b --report DIR, DIR: each "
+                 "model's report is rebuilt)")
+      ->required();
   add_report_options(app, o->report);
-  return [o] { return run_report(*o); };
+  CLI::Option* limit = app.get_option("--force-limit");
+  limit->default_str("");
+  limit->description("Training report: the force, N, above which a tool's force counts as too much (judged on the "
+                     "model's force, before the device's clamp; default: the limit the run's report was made with)");
+  return [o, limit] {
+    o->limit_given = limit->count() > 0;
+    return run_report(*o);
+  };
 }
 
 }  // namespace organsim::cli
