@@ -137,18 +137,19 @@ TEST_F(Cli, ReportJudgesTheLimitOnTheModelsForceBeforeTheDevicesClamp) {
   check(m["tools"][0]);
 }
 
-// `replay --model a,b --report DIR`: one report per model in DIR/<model>/,
-// and `organsim report DIR` rebuilds them all.
+// `replay --model a,b --report DIR`: one report per model in DIR/<model>/
+// (a FEM model among them: every model reports), and `organsim report DIR`
+// rebuilds them all.
 TEST_F(Cli, ReplayOfSeveralModelsWritesAReportPerModelThatReportRebuildsAll) {
   const KnownPress press = write_known_press(dir_);
   const fs::path report = dir_ / "report";
   const CommandRun replay = run_organsim(
-      "replay " + press.model + " " + press.session + " --fast --tip-radius 0 --model beam,springs --report " +
+      "replay " + press.model + " " + press.session + " --fast --tip-radius 0 --fixed-radius 31 --model beam,springs,psh --report " +
           report.string(),
       dir_);
   ASSERT_EQ(replay.exit_code, 0) << replay.err;
   EXPECT_FALSE(fs::exists(report / "index.html"));
-  for (const char* model : {"beam", "springs"}) {
+  for (const char* model : {"beam", "springs", "psh"}) {
     ASSERT_TRUE(fs::exists(report / model / "index.html")) << model;
     const nlohmann::json m = read_json(report / model / "metrics.json");
     EXPECT_EQ(m["deformation_model"], model);
@@ -157,7 +158,7 @@ TEST_F(Cli, ReplayOfSeveralModelsWritesAReportPerModelThatReportRebuildsAll) {
   }
   const CommandRun rebuilt = run_organsim("report " + report.string() + " --force-limit 0.001", dir_);
   ASSERT_EQ(rebuilt.exit_code, 0) << rebuilt.err;
-  for (const char* model : {"beam", "springs"}) {
+  for (const char* model : {"beam", "springs", "psh"}) {
     EXPECT_NE(rebuilt.out.find((report / model / "index.html").string()), std::string::npos) << rebuilt.out;
     const nlohmann::json m = read_json(report / model / "metrics.json");
     EXPECT_DOUBLE_EQ(m["force_limit_n"].get<double>(), 0.001) << model;
