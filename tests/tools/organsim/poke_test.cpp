@@ -153,7 +153,16 @@ TEST_F(Cli, PokeJsonHasTheDocumentedKeysAndWritesTheDeformedSurface) {
                           "deformed_volume_ml", "volume_change_percent"})
     EXPECT_TRUE(j["organ"].contains(key)) << key;
   for (const char* key : {"beam_per_tool", "force_per_tool", "deformation"}) EXPECT_TRUE(j["seconds"].contains(key)) << key;
+  EXPECT_TRUE(j["tools"][0]["held_points"].is_null()) << "the beam holds no boundary points";
+  EXPECT_TRUE(j["contact_points_left_out"].is_null());
   EXPECT_TRUE(fs::exists(out));
+  // A FEM model says how finely its tip's contact is resolved.
+  const CommandRun fem =
+      run_organsim("poke " + model + " --model linear --fixed-radius 31 --tool 150,0,0/-3,0,0 --json", dir_);
+  ASSERT_EQ(fem.exit_code, 0) << fem.err;
+  const nlohmann::json f = nlohmann::json::parse(fem.out);
+  EXPECT_GE(f["tools"][0]["held_points"].get<int>(), 1);
+  EXPECT_EQ(f["contact_points_left_out"], 0);
   const CommandRun text = run_organsim("poke " + model + " --tool 150,0,0/0,5,0", dir_);
   ASSERT_EQ(text.exit_code, 0) << text.err;
   EXPECT_NE(text.out.find("force on the tool"), std::string::npos);

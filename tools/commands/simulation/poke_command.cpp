@@ -77,6 +77,7 @@ int run_poke(const PokeOptions& o) {
   const std::vector<model::Triangle> file_triangles = loaded.surface_triangles;
   const organ::Organ organ(std::move(loaded));
   const bool beam = o.deformation == "beam";
+  const bool fem = !beam && o.deformation != "springs";  // the FEM models hold points of the boundary
   const PressResult r = press(o.deformation, organ, tools, o.press);
   const std::vector<model::Point3>& positions = r.positions;
   const Deformation shape = measure(organ, r);
@@ -115,9 +116,11 @@ int run_poke(const PokeOptions& o) {
                       {"displacement_mm", triple(tools[i].displacement_mm)},
                       {"force_n", triple(t.force)},
                       {"action_point_moved_mm", triple(t.action_moved * 1e3)},
-                      {"force_magnitude_n", t.force.norm()}});
+                      {"force_magnitude_n", t.force.norm()},
+                      {"held_points", fem ? nlohmann::json(t.held_points) : nlohmann::json(nullptr)}});
     }
     j["tools"] = list;
+    j["contact_points_left_out"] = fem ? nlohmann::json(r.contact_points_left_out) : nlohmann::json(nullptr);
     j["organ"] = {{"vertices", positions.size()},
                   {"max_displacement_mm", shape.max_displacement * 1e3},
                   {"max_displacement_vertex", organ.file_vertex_index()[shape.max_vertex]},

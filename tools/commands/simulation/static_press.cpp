@@ -227,11 +227,13 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
   organ::compute_vertex_normals(organ, r.positions.data(), r.normals.data(), 0, r.positions.size());
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
     r.tools[i].force = fem.contact_force(i);
+    r.tools[i].held_points = fem.held_points(i);
     r.tools[i].action_moved = fem.contact_displacement(i);
     r.tools[i].action_point = fem.contact_point(i);
     r.tools[i].snap_distance = (r.tools[i].action_point - tools[i].point_mm * 1e-3).norm();
     r.tools[i].normal = geometry::triangle_normal(organ.model(), organ.surface_tree().closest_point(r.tools[i].action_point).triangle);
   }
+  r.contact_points_left_out = fem.hold_overflows();
   const fem::Material& law = fem.system().material();
   const std::string constants =
       material == fem::MaterialModel::mooney_rivlin

@@ -8,6 +8,7 @@
 // What `poke` prints for one or two models and `compare` tabulates for all.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -52,6 +53,9 @@ struct ToolResult {
   double beam_length = 0.0;                                ///< m (multi-beam model only)
   Eigen::Vector3d force = Eigen::Vector3d::Zero();         ///< N on the tool
   Eigen::Vector3d action_moved = Eigen::Vector3d::Zero();  ///< m: how far the organ moved the action point
+  /// FEM models: the boundary points the tool holds at equilibrium (the first
+  /// touch and those its tip took in; how finely the contact is resolved).
+  std::size_t held_points = 0;
 };
 
 struct PressResult {
@@ -69,6 +73,9 @@ struct PressResult {
   double frame_seconds = 0.0;   ///< one real-time frame at the pressed state (FEM: one iteration with the kept factor)
   double setup_seconds = 0.0;   ///< FEM: building the system and factorizing the rest tangent
   int frames = 1;               ///< deformation frames (FEM: Newton iterations) to equilibrium
+  /// FEM models: contact points a tip would have taken but found no room for
+  /// (OrganFem::hold_overflows); non-zero means the contact is truncated.
+  std::uint64_t contact_points_left_out = 0;
 };
 
 /// Registers --theory and --sections (the multi-beam model's beams).
