@@ -65,8 +65,16 @@ class PointGrid {
 /// Solves with an LDLᵀ factor for a block of kBlock right-hand sides at once,
 /// each row's kBlock values side by side: the factor, whose reading is what
 /// a sparse triangular solve costs, is read once per block instead of once
-/// per right-hand side. Every column gets the same operations in the same
-/// order as alone, so a result does not depend on the block it was solved in.
+/// per right-hand side. The right-hand sides are unit loads and only a few
+/// rows of the solution are wanted (the boundary nodes near the loads), so
+/// the solve reads only the columns of L that can matter (Gilbert and
+/// Peierls): forward, those on the elimination-tree paths from the loaded
+/// rows to the root (every other row of L⁻¹ P b is zero); backward, those on
+/// the paths from the wanted rows (a row of Lᵀ w needs only rows below it,
+/// its ancestors). Each column it reads gets the same operations in the same
+/// order as in a dense solve, and the columns it skips would only have
+/// subtracted zeros, so a wanted value has the same bits however its column
+/// was blocked and whichever other rows were wanted with it.
 class BlockSolver {
  public:
   static constexpr int kBlock = 24;
@@ -75,36 +83,80 @@ class BlockSolver {
   explicit BlockSolver(const Eigen::SimplicialLDLT<fem::SparseMatrix, Eigen::Lower>& factor)
       : lower_(factor.matrixL().nestedExpression()),
         inverse_diagonal_(factor.vectorD().cwiseInverse()),
-        permutation_(factor.permutationP()) {}
+        permutation_(factor.permutationP()),
+        parent_(static_cast<std::size_t>(lower_.cols()), -1) {
+    // A column's parent in the elimination tree: its first row below the diagonal.
+    const int* outer = lower_.outerIndexPtr();
+    const int* inner = lower_.innerIndexPtr();
+    for (Eigen::Index j = 0; j < lower_.cols(); ++j)
+      for (int p = outer[j]; p < outer[j + 1]; ++p)
+        if (inner[p] > j && (parent_[static_cast<std::size_t>(j)] < 0 || inner[p] < parent_[static_cast<std::size_t>(j)]))
+          parent_[static_cast<std::size_t>(j)] = inner[p];
+  }
 
-  /// Overwrites `x` (rows: unknowns, in the matrix's order) with A⁻¹ x.
-  void solve(Block& x) const {
+  /// Per-thread marks of the columns a solve reads.
+  struct Workspace {
+    Block y;
+    std::vector<char> forward, backward;
+  };
+  Workspace workspace() const {
+    const auto n = static_cast<std::size_t>(lower_.cols());
+    return {Block(lower_.cols(), kBlock), std::vector<char>(n, 0), std::vector<char>(n, 0)};
+  }
+
+  /// Overwrites the `wanted` rows (the matrix's order) of `x` with those of
+  /// A⁻¹ x, for an `x` that is zero outside the `loaded` rows; its other rows
+  /// are left undefined.
+  void solve(Block& x, const std::vector<int>& loaded, const std::vector<int>& wanted, Workspace& w) const {
     const Eigen::Index n = x.rows();
-    Block y(n, kBlock);
-    for (Eigen::Index i = 0; i < n; ++i) y.row(permutation_.indices()[i]) = x.row(i);
+    const int* order = permutation_.indices().data();
+    Block& y = w.y;
+    mark_paths(loaded, order, w.forward);
+    mark_paths(wanted, order, w.backward);
+    for (Eigen::Index j = 0; j < n; ++j)
+      if (w.forward[static_cast<std::size_t>(j)]) y.row(j).setZero();
+    for (int i : loaded) y.row(order[i]) = x.row(i);
     const int* outer = lower_.outerIndexPtr();
     const int* inner = lower_.innerIndexPtr();
     const double* value = lower_.valuePtr();
     for (Eigen::Index j = 0; j < n; ++j) {  // L z = P x, column by column
+      if (!w.forward[static_cast<std::size_t>(j)]) continue;
       const Eigen::Matrix<double, 1, kBlock> zj = y.row(j);
       for (int p = outer[j]; p < outer[j + 1]; ++p)
         if (inner[p] > j) y.row(inner[p]).noalias() -= value[p] * zj;
     }
-    for (Eigen::Index j = 0; j < n; ++j) y.row(j) *= inverse_diagonal_[j];
+    for (Eigen::Index j = 0; j < n; ++j) {
+      if (!w.backward[static_cast<std::size_t>(j)]) continue;
+      if (w.forward[static_cast<std::size_t>(j)])
+        y.row(j) *= inverse_diagonal_[j];
+      else
+        y.row(j).setZero();  // off the loads' paths: zero
+    }
     for (Eigen::Index j = n - 1; j >= 0; --j) {  // Lᵀ w = D⁻¹ z, row by row of Lᵀ
+      if (!w.backward[static_cast<std::size_t>(j)]) continue;
       Eigen::Matrix<double, 1, kBlock> wj = y.row(j);
       for (int p = outer[j]; p < outer[j + 1]; ++p)
         if (inner[p] > j) wj.noalias() -= value[p] * y.row(inner[p]);
       y.row(j) = wj;
     }
-    for (Eigen::Index i = 0; i < n; ++i) x.row(i) = y.row(permutation_.indices()[i]);
+    for (int i : wanted) x.row(i) = y.row(order[i]);
+    std::fill(w.forward.begin(), w.forward.end(), 0);
+    std::fill(w.backward.begin(), w.backward.end(), 0);
   }
   std::size_t factor_entries() const { return static_cast<std::size_t>(lower_.nonZeros()); }
 
  private:
+  /// Marks the permuted rows of `rows` and their ancestors.
+  void mark_paths(const std::vector<int>& rows, const int* order, std::vector<char>& marks) const {
+    for (int i : rows)
+      for (int j = order[i]; j >= 0 && !marks[static_cast<std::size_t>(j)]; j = parent_[static_cast<std::size_t>(j)])
+        marks[static_cast<std::size_t>(j)] = 1;
+  }
+
   const fem::SparseMatrix& lower_;
   Eigen::VectorXd inverse_diagonal_;
   Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> permutation_;
+  std::vector<int> parent_;  ///< per column of L: its parent, or −1 (a root)
 };
 
 /// Area-weighted outward unit normal of every surface vertex.
@@ -195,22 +247,46 @@ model::SiteCompliance compute_site_compliance(const model::OrganModel& model, co
   const std::vector<std::int32_t>& free_index = system.free_index();
   const auto solve_start = std::chrono::steady_clock::now();
   // Blocks of BlockSolver::kBlock / 3 nodes (three directions each), in a
-  // fixed order: the threads take whole blocks.
+  // fixed order: the threads take whole blocks. Nodes in the factor's
+  // elimination order, so that a block's loads share most of their paths
+  // to the root (a block then reads little more of L than one load).
   const BlockSolver solver(factor);
+  {
+    const int* order = factor.permutationP().indices().data();
+    std::sort(solved.begin(), solved.end(), [&](std::uint32_t a, std::uint32_t b) {
+      return order[free_index[3 * nodes[a]]] < order[free_index[3 * nodes[b]]];
+    });
+  }
   constexpr int kNodesPerBlock = BlockSolver::kBlock / 3;
   std::atomic<std::size_t> next{0};
   auto work = [&] {
     BlockSolver::Block block(system.free_count(), BlockSolver::kBlock);
+    BlockSolver::Workspace workspace = solver.workspace();
+    std::vector<int> loaded, wanted;
+    std::vector<std::vector<std::uint32_t>> near(kNodesPerBlock);
     for (std::size_t first; (first = kNodesPerBlock * next.fetch_add(1)) < solved.size();) {
       const std::size_t count = std::min<std::size_t>(kNodesPerBlock, solved.size() - first);
-      block.setZero();
-      for (std::size_t m = 0; m < count; ++m)
-        for (int k = 0; k < 3; ++k) block(free_index[3 * nodes[solved[first + m]] + k], static_cast<int>(3 * m) + k) = 1.0;
-      solver.solve(block);
+      loaded.clear();
+      wanted.clear();
       for (std::size_t m = 0; m < count; ++m) {
         const std::uint32_t a = solved[first + m];
-        for (std::uint32_t b : grid.within(places[a], 2.0 * patch)) {
-          if (!needed[b]) continue;
+        for (int k = 0; k < 3; ++k) {
+          const int row = free_index[3 * nodes[a] + k];
+          block.row(row).setZero();
+          block(row, static_cast<int>(3 * m) + k) = 1.0;
+          loaded.push_back(row);
+        }
+        near[m].clear();
+        for (std::uint32_t b : grid.within(places[a], 2.0 * patch))
+          if (needed[b]) {
+            near[m].push_back(b);
+            for (int k = 0; k < 3; ++k) wanted.push_back(free_index[3 * nodes[b] + k]);
+          }
+      }
+      solver.solve(block, loaded, wanted, workspace);
+      for (std::size_t m = 0; m < count; ++m) {
+        const std::uint32_t a = solved[first + m];
+        for (std::uint32_t b : near[m]) {
           Response r{b, Eigen::Matrix3d::Zero()};
           for (int k = 0; k < 3; ++k)
             r.displacement.row(k) = block.row(free_index[3 * nodes[b] + k]).segment<3>(static_cast<Eigen::Index>(3 * m));
