@@ -17,6 +17,9 @@
 #include "organsim/fem/organ_fem.h"
 #include "organsim/geometry/tetrahedral_embedding.h"
 #include "organsim/organ/site_law.h"
+#ifdef ORGANSIM_HAVE_FEM_DIRECT
+#include "organsim/fem/direct_factorizations.h"
+#endif
 
 namespace organsim::pipeline {
 namespace {
@@ -62,6 +65,23 @@ class PointGrid {
   std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;
 };
 
+/// The factor's fill-reducing ordering: CHOLMOD's (the better of METIS and
+/// AMD) where the direct library is built, else Eigen's AMD. On the shipped
+/// liver METIS fills less (5.0 M factor entries against AMD's 6.7 M).
+#ifdef ORGANSIM_HAVE_FEM_DIRECT
+struct FillReducingOrdering {
+  /// Eigen's convention: the inverse of the permutation P of P A Pᵀ.
+  void operator()(const fem::SparseMatrix& full, Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int>& inverse) const {
+    Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> permutation;
+    fem::cholmod_ordering(full, permutation.indices());
+    inverse = permutation.inverse();
+  }
+};
+#else
+using FillReducingOrdering = Eigen::AMDOrdering<int>;
+#endif
+using LdltFactor = Eigen::SimplicialLDLT<fem::SparseMatrix, Eigen::Lower, FillReducingOrdering>;
+
 /// Solves with an LDLᵀ factor for a block of kBlock right-hand sides at once,
 /// each row's kBlock values side by side: the factor, whose reading is what
 /// a sparse triangular solve costs, is read once per block instead of once
@@ -80,7 +100,7 @@ class BlockSolver {
   static constexpr int kBlock = 24;
   using Block = Eigen::Matrix<double, Eigen::Dynamic, kBlock, Eigen::RowMajor>;
 
-  explicit BlockSolver(const Eigen::SimplicialLDLT<fem::SparseMatrix, Eigen::Lower>& factor)
+  explicit BlockSolver(const LdltFactor& factor)
       : lower_(factor.matrixL().nestedExpression()),
         inverse_diagonal_(factor.vectorD().cwiseInverse()),
         permutation_(factor.permutationP()),
@@ -198,7 +218,7 @@ model::SiteCompliance compute_site_compliance(const model::OrganModel& model, co
   system.assemble(state, gradient, true);
   const auto factorization_start = std::chrono::steady_clock::now();
   // Quasi-definite: an LDLᵀ without pivoting exists for every symmetric ordering.
-  const Eigen::SimplicialLDLT<fem::SparseMatrix, Eigen::Lower> factor(system.tangent_free());
+  const LdltFactor factor(system.tangent_free());
   if (factor.info() != Eigen::Success)
     throw std::invalid_argument("the FEM stiffness at rest is singular: the clamp does not hold the organ (raise the clamp radius)");
   const double factorization_seconds = seconds_since(factorization_start);
