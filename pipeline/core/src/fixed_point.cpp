@@ -65,7 +65,10 @@ std::pair<std::array<double, 3>, double> deepest_interior_point(const MaskImage&
   // values measured to its contour came out up to 2 voxels short.)
   distance->SetInsideIsPositive(false);
   distance->SetBackgroundValue(1);
-  distance->SetNumberOfWorkUnits(1);  // the same result on every machine
+  // Maurer's transform is exact, line by line along each axis: the work
+  // units share the lines, and the map is the same whatever their number
+  // (FixedPoint.TheSameWhateverTheThreads); two halve the stage's time on a
+  // large CT (15.5 s at 512² × 1,500 with one).
   distance->Update();
   const DistanceImage& map = *distance->GetOutput();
   itk::ImageRegionConstIteratorWithIndex<DistanceImage> at(&map, map.GetLargestPossibleRegion());

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <itkImageRegionConstIteratorWithIndex.h>
+#include <itkMultiThreaderBase.h>
 
 #include <cmath>
 #include <limits>
@@ -33,6 +34,23 @@ TEST(FixedPoint, DefaultIsTheDeepestInteriorPoint) {
     }
   EXPECT_NEAR(depth, nearest, 1.0);
   EXPECT_NEAR(depth, e.semi_axes_mm[0], 1.5);
+}
+
+TEST(FixedPoint, TheSameWhateverTheThreads) {
+  // An irregular organ on an anisotropic grid, whose distance map has many
+  // near-ties: the deepest point and its depth do not depend on how many
+  // threads compute the map.
+  const MaskImage::Pointer mask = testing::make_awkward_mask();
+  const int threads = itk::MultiThreaderBase::GetGlobalDefaultNumberOfThreads();
+  itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(1);
+  const auto alone = deepest_interior_point(*mask);
+  for (int n : {2, 3, 8}) {
+    itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(n);
+    const auto shared = deepest_interior_point(*mask);
+    EXPECT_EQ(shared.first, alone.first) << n << " threads";
+    EXPECT_EQ(shared.second, alone.second) << n << " threads";
+  }
+  itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(threads);
 }
 
 TEST(FixedPoint, TheDefaultIsReportedAsTheDeepestInteriorPoint) {
