@@ -132,6 +132,9 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
   constexpr int kMaxIterations = 40, kMaxSlowIterations = 160, kContractionWindow = 8;
   constexpr double kSteadyContraction = 0.95;
   constexpr int kKeptTangents = 8;
+  constexpr double kStepPerRadius = 0.125;  // the tip's largest move per load step, in radii
+  constexpr int kMaxFirstSteps = 64;        // a tip much smaller than the press is nearly a point
+  constexpr double kKeptTangentContraction = 0.1;
   fem::OrganFemOptions options;
   realtime::SpringModelOptions unused;
   apply_model_tuning(o.tuning, options, unused);
@@ -159,17 +162,25 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
   auto equilibrium = [&](const std::vector<Eigen::Vector3d>& target) -> std::string {
     double force_scale = 0.0;
     int kept_tangent = 0;
+    double previous_unbalanced = 0.0, before_previous = 0.0;  // N, after the last two iterations
     std::array<double, kContractionWindow> recent{};  // the out-of-balance forces of the last iterations
     for (int iteration = 1;; ++iteration, ++r.frames) {
-      // Where the tangent is singular or indefinite (a state a Newton step
-      // overshot to), the last good one carries on (modified Newton) while
-      // the iterations draw closer; only a run of such states fails.
-      if (iteration > 1 && material != fem::MaterialModel::linear && !fem.refresh_tangent() && ++kept_tangent > kKeptTangents)
+      // The tangent is refactored only when the kept one stops paying: an
+      // iteration with it costs a solve, a factorization a hundred of them,
+      // and in a short load step the last step's tangent still shrinks the
+      // out-of-balance force tenfold or more per iteration. Where the fresh
+      // tangent is singular or indefinite (a state a Newton step overshot
+      // to), the last good one carries on while the iterations draw closer;
+      // only a run of such states fails.
+      const bool stale = iteration > 2 && !(previous_unbalanced <= kKeptTangentContraction * before_previous);
+      if (stale && material != fem::MaterialModel::linear && !fem.refresh_tangent() && ++kept_tangent > kKeptTangents)
         return fmt::format("the {} tangent became singular or indefinite at Newton iteration {}: the press is deeper "
                            "than the mesh can follow",
                            fem::material_name(material), iteration);
       if (fem.step(target.data()) != fem::FrameStatus::ok)
         return "the press inverts a tetrahedron even in small steps: press less deep";
+      before_previous = previous_unbalanced;
+      previous_unbalanced = fem.unbalanced_force();
       for (std::uint32_t i = 0; i < tools.size(); ++i) force_scale = std::max(force_scale, fem.contact_force(i).norm());
       if (fem.unbalanced_force() <= 1e-9 * force_scale && fem.contact_settled()) return "";
       double& window_ago = recent[static_cast<std::size_t>(iteration % kContractionWindow)];
@@ -181,19 +192,24 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
                            fem.unbalanced_force());
     }
   };
-  // The whole press at once; failing that, from rest again in load steps
-  // (each equilibrium the next one's start). A finite tip moves at most half
-  // its radius per step: a static press from rest puts it deep into the
-  // organ at once, where its contact problem has no good start.
+  // The whole press at once, or for a finite tip in load steps of at most an
+  // eighth of its radius; failing that, from rest again in four times as many
+  // (each equilibrium the next one's start). The tip holds each surface point
+  // where the point enters it (docs/realtime.md#contact), so the press follows
+  // the tip's path: in coarse steps a point enters deep inside and is held
+  // where it was pushed to, not where it first touched. R/8 is where the force
+  // stops depending on the steps (a 5 mm press with R = 2.5 mm: 16 steps give
+  // the force of 64 within 1 %, 4-5 steps 10-30 % off; docs/matching.md).
   std::string failure;
   int first = 1;
   const double radius = o.tuning.tip_radius_mm * 1e-3;
-  // (At most 16: a tip much smaller than the press is nearly a point.)
   if (radius > 0.0)
     for (const Eigen::Vector3d& d : displacements)
-      first = std::clamp(static_cast<int>(std::ceil(d.norm() / (0.5 * radius))), first, 16);
+      first = std::clamp(static_cast<int>(std::ceil(d.norm() / (kStepPerRadius * radius) - 1e-9)), first, kMaxFirstSteps);
   double reached = 0.0;  // the largest fraction of the press any attempt balanced
-  for (int load_steps : {first, 4 * first, 16 * first}) {
+  int solved_in = first;
+  for (int load_steps : {first, 4 * first}) {
+    solved_in = load_steps;
     fem.reset();
     r.frames = 1;
     failure.clear();
@@ -207,7 +223,7 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
   }
   if (!failure.empty())
     throw std::runtime_error(failure + fmt::format(" (also in {} load steps; balanced up to {:.0f} % of the press)",
-                                                   16 * first, 100 * reached));
+                                                   4 * first, 100 * reached));
   r.deform_seconds = seconds_since(newton_start) / r.frames;
   // What the engine does in a frame: one iteration with the kept factor (at
   // equilibrium already, so the state stays where it is).
@@ -239,10 +255,10 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
       material == fem::MaterialModel::mooney_rivlin
           ? fmt::format("c1 = c2 {:g} Pa, kappa {:g} Pa, beta {:g}", law.c1, law.bulk_modulus, law.stabilization)
           : fmt::format("E {:g} Pa, nu {:g}", law.young_modulus, law.poisson_ratio);
-  r.summary = fmt::format("{} tetrahedra, {} nodes ({} clamped within {:g} mm); {}; Newton, {} iteration(s), {}",
+  r.summary = fmt::format("{} tetrahedra, {} nodes ({} clamped within {:g} mm); {}; Newton, {} iteration(s) in {} load step(s), {}",
                           organ.model().tetrahedra.size(), organ.model().volume_vertices.size(),
                           fem.clamped_node_count(), o.tuning.fixed_radius_mm, constants, r.frames,
-                          fem.linear_solver());
+                          solved_in, fem.linear_solver());
   return r;
 }
 
