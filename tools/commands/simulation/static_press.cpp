@@ -134,7 +134,7 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
   constexpr int kKeptTangents = 8;
   constexpr double kStepPerRadius = 0.125;  // the tip's largest move per load step, in radii
   constexpr int kMaxFirstSteps = 64;        // a tip much smaller than the press is nearly a point
-  constexpr double kKeptTangentContraction = 0.1;
+  constexpr double kKeptTangentContraction = 0.1, kMaxKeptContraction = 0.9;
   fem::OrganFemOptions options;
   realtime::SpringModelOptions unused;
   apply_model_tuning(o.tuning, options, unused);
@@ -163,20 +163,30 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
     double force_scale = 0.0;
     int kept_tangent = 0;
     double previous_unbalanced = 0.0, before_previous = 0.0;  // N, after the last two iterations
+    double fresh_contraction = 0.0;  // of the first iteration on the last fresh tangent
+    bool refreshed = false;
     std::array<double, kContractionWindow> recent{};  // the out-of-balance forces of the last iterations
     for (int iteration = 1;; ++iteration, ++r.frames) {
       // The tangent is refactored only when the kept one stops paying: an
       // iteration with it costs a solve, a factorization a hundred of them,
       // and in a short load step the last step's tangent still shrinks the
-      // out-of-balance force tenfold or more per iteration. Where the fresh
-      // tangent is singular or indefinite (a state a Newton step overshot
-      // to), the last good one carries on while the iterations draw closer;
-      // only a run of such states fails.
-      const bool stale = iteration > 2 && !(previous_unbalanced <= kKeptTangentContraction * before_previous);
-      if (stale && material != fem::MaterialModel::linear && !fem.refresh_tangent() && ++kept_tangent > kKeptTangents)
-        return fmt::format("the {} tangent became singular or indefinite at Newton iteration {}: the press is deeper "
-                           "than the mesh can follow",
-                           fem::material_name(material), iteration);
+      // out-of-balance force tenfold or more per iteration. Where a fresh one
+      // did no better (PSH's definite fallback converges linearly), the kept
+      // one goes on while it does about as well. Where the fresh tangent is
+      // singular or indefinite (a state a Newton step overshot to), the last
+      // good one carries on while the iterations draw closer; only a run of
+      // such states fails.
+      const double contraction = previous_unbalanced / before_previous;  // of the last iteration
+      if (refreshed) fresh_contraction = contraction;
+      refreshed = false;
+      const double enough = std::min(kMaxKeptContraction, std::max(kKeptTangentContraction, 2.0 * fresh_contraction));
+      if (iteration > 2 && !(contraction <= enough) && material != fem::MaterialModel::linear) {
+        refreshed = fem.refresh_tangent();
+        if (!refreshed && ++kept_tangent > kKeptTangents)
+          return fmt::format("the {} tangent became singular or indefinite at Newton iteration {}: the press is "
+                             "deeper than the mesh can follow",
+                             fem::material_name(material), iteration);
+      }
       if (fem.step(target.data()) != fem::FrameStatus::ok)
         return "the press inverts a tetrahedron even in small steps: press less deep";
       before_previous = previous_unbalanced;
