@@ -205,9 +205,9 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
   // The whole press at once, or for a finite tip in load steps of at most an
   // eighth of its radius; failing that, from rest again in four times as many
   // (each equilibrium the next one's start). The tip holds each surface point
-  // where the point enters it (docs/realtime.md#contact), so the press follows
-  // the tip's path: in coarse steps a point enters deep inside and is held
-  // where it was pushed to, not where it first touched. R/8 is where the force
+  // where the point enters it (docs/realtime.md#contact-rule), so the press
+  // follows the tip's path: in coarse steps a point enters deep inside and is
+  // held where it was pushed to, not where it first touched. R/8 is where the force
   // stops depending on the steps (a 5 mm press with R = 2.5 mm: 16 steps give
   // the force of 64 within 1 %, 4-5 steps 10-30 % off; docs/matching.md).
   std::string failure;
