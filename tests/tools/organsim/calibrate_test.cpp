@@ -1,11 +1,13 @@
 // `organsim calibrate`: the fast models fitted to a FEM reference on the same
 // organ lower the error on presses the fit did not see, the same input gives
 // the same file, and bad input fails with one line.
+#include <Eigen/Core>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <iterator>
 #include <string>
@@ -14,6 +16,7 @@
 
 #include "cli_fixture.h"
 #include "organsim/model/model_file.h"
+#include "organsim/organ/organ.h"
 #include "organsim/pipeline/site_compliance.h"
 #include "test_models.h"
 
@@ -116,6 +119,34 @@ TEST_F(Cli, EvaluateMeasuresTheFastModelsOnPressesNoFitSaw) {
       ++straight;
     }
   }
+  // Each site's geometry: the cylinder (radius 30 mm, 150 mm long, the clamp
+  // at its middle) is 60 mm thick across its side and 150 mm along its axis.
+  // Sites are numbered as the runtime numbers the surface.
+  const organ::Organ cylinder(testing::make_cylinder_model({}));
+  const Eigen::Vector3d clamp = cylinder.fixed_point();
+  for (const nlohmann::json& p : j["presses"]) {
+    const model::Point3& v = cylinder.model().surface_vertices[p["vertex"].get<std::size_t>()];
+    EXPECT_NEAR(p["clamp_distance_mm"].get<double>(), 1e3 * (Eigen::Vector3d(v[0], v[1], v[2]) - clamp).norm(), 1e-9);
+    // Where the straight press's line leaves the round cylinder (x in [0, 150]
+    // mm, y² + z² = 30²); the faceted one's inradius is 0.9914 of it.
+    if (p["direction"] != "straight") continue;
+    const std::string tool = p["tool"].get<std::string>();
+    const Eigen::Vector3d at = 1e3 * Eigen::Vector3d(v[0], v[1], v[2]);
+    Eigen::Vector3d in;
+    ASSERT_EQ(std::sscanf(tool.substr(tool.find('/') + 1).c_str(), "%lf,%lf,%lf", &in[0], &in[1], &in[2]), 3);
+    in.normalize();
+    const double a = in.y() * in.y() + in.z() * in.z(), b = at.y() * in.y() + at.z() * in.z();
+    double exit = a > 0.0 ? (-b + std::sqrt(b * b - a * (at.y() * at.y() + at.z() * at.z() - 900.0))) / a : 1e9;
+    if (in.x() < 0.0) exit = std::min(exit, -at.x() / in.x());
+    if (in.x() > 0.0) exit = std::min(exit, (150.0 - at.x()) / in.x());
+    EXPECT_NEAR(p["thickness_mm"].get<double>(), exit, 0.02 * exit) << p.dump();
+    EXPECT_GT(p["reference_cell_at_site_mm"].get<double>(), 7.5) << p.dump();  // the cylinder's own cells
+  }
+  const nlohmann::json& spread = j["reference_spread_by_depth_mm"]["2"];
+  EXPECT_EQ(spread["presses"], 2);
+  EXPECT_LE(spread["least_force_n"].get<double>(), spread["most_force_n"].get<double>());
+  EXPECT_TRUE(spread["thickness"].is_null());  // a line through two points explains nothing
+
   const nlohmann::json& beam = j["summary"]["beam"]["by_depth_mm"]["2"]["straight"];
   EXPECT_EQ(beam["presses"], 2);
   EXPECT_NEAR(beam["force_factor"].get<double>(), std::exp(std::sqrt(straight_log_squares / straight)), 1e-9);
@@ -133,12 +164,16 @@ TEST_F(Cli, EvaluateMeasuresTheFastModelsOnPressesNoFitSaw) {
   for (const nlohmann::json& p : r["presses"]) {
     ASSERT_TRUE(p["reference_solved"].get<bool>()) << p.dump();
     EXPECT_EQ(p.contains("check_force_n"), p["direction"] == "straight") << p.dump();
+    // Re-meshed where the tool presses (4 mm cells, their longest edges up to
+    // twice that), not at some other vertex.
+    EXPECT_LT(p["reference_cell_at_site_mm"].get<double>(), 2.0 * 4.0) << p.dump();
   }
   const CommandRun table = run_organsim("calibrate " + model +
                                             " --evaluate --sites 1 --depths 2 --fixed-radius 31 --reference-cells 0",
                                         dir_);
   ASSERT_EQ(table.exit_code, 0) << table.err;
   EXPECT_NE(table.out.find("| beam    |   2 mm | straight  |"), std::string::npos) << table.out;
+  EXPECT_NE(table.out.find("spread        2 mm: "), std::string::npos) << table.out;
 }
 
 // A model with site compliances: calibrate fits the site law's depth curve

@@ -25,8 +25,7 @@ DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOp
   const double refine_radius_mm = *std::max_element(o.depths_mm.begin(), o.depths_mm.end()) + 2.0 * radius_mm;
   std::map<double, std::vector<double>> log_ratios;  // per depth (mm)
   for (std::size_t k = 0; k < sites.size(); ++k) {
-    const Eigen::Vector3d at(model.surface_vertices[sites[k]][0], model.surface_vertices[sites[k]][1],
-                             model.surface_vertices[sites[k]][2]);
+    const Eigen::Vector3d at = site_point(organ, sites[k]);
     const organ::Organ reference(fit.refine_size_mm > 0.0 ? refined_at(model, at, fit.refine_size_mm, refine_radius_mm)
                                                           : model);
     for (const PressTilt tilt : {PressTilt::straight, static_cast<PressTilt>(1 + k % 2)})

@@ -41,7 +41,10 @@ struct PressRecord {
   std::string reference_error;
   Eigen::Vector3d reference_force = Eigen::Vector3d::Zero();  ///< N
   std::size_t reference_tetrahedra = 0;
+  double reference_cell_mm = 0.0;  ///< the reference surface's cells at the site (longest edge)
   std::optional<Eigen::Vector3d> check_force;  ///< N, the reference on the --check-refinement cells
+  double thickness_mm = 0.0;        ///< the organ's thickness along the straight press at the site
+  double clamp_distance_mm = 0.0;   ///< from the site to the clamp's centre
   std::map<std::string, FastAnswer> fast;
 };
 
@@ -110,6 +113,65 @@ Summary summarize(const std::vector<PressRecord>& records, const std::string& mo
   return s;
 }
 
+/// A straight line through (ln x, ln y) by least squares: its slope, and the
+/// share of ln y's variance it explains (R²).
+struct LogFit {
+  double exponent = 0.0;
+  double explained = 0.0;
+};
+
+/// The reference's straight presses at one depth from site to site: its force,
+/// and how much of its spread the organ's thickness under the press and the
+/// distance to the clamp explain.
+struct SiteSpread {
+  std::vector<const PressRecord*> presses;
+  double least_n = 0.0, most_n = 0.0;
+  std::optional<LogFit> thickness, clamp_distance;  ///< from 3 presses on
+};
+
+std::optional<LogFit> log_fit(const std::vector<double>& x, const std::vector<double>& y) {
+  const std::size_t n = x.size();
+  if (n < 3) return std::nullopt;
+  double mean_x = 0.0, mean_y = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    mean_x += std::log(x[i]) / n;
+    mean_y += std::log(y[i]) / n;
+  }
+  double xx = 0.0, xy = 0.0, yy = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double dx = std::log(x[i]) - mean_x, dy = std::log(y[i]) - mean_y;
+    xx += dx * dx;
+    xy += dx * dy;
+    yy += dy * dy;
+  }
+  if (!(xx > 0.0) || !(yy > 0.0)) return std::nullopt;
+  return LogFit{xy / xx, xy * xy / (xx * yy)};
+}
+
+SiteSpread site_spread(const std::vector<PressRecord>& records, double depth_mm) {
+  SiteSpread s;
+  std::vector<double> force, thickness, clamp;
+  for (const PressRecord& r : records) {
+    if (!r.reference_solved || r.tilt != PressTilt::straight || r.depth_mm != depth_mm || !(r.thickness_mm > 0.0))
+      continue;
+    s.presses.push_back(&r);
+    force.push_back(r.reference_force.norm());
+    thickness.push_back(r.thickness_mm);
+    clamp.push_back(r.clamp_distance_mm);
+  }
+  if (s.presses.empty()) return s;
+  s.least_n = *std::min_element(force.begin(), force.end());
+  s.most_n = *std::max_element(force.begin(), force.end());
+  s.thickness = log_fit(thickness, force);
+  s.clamp_distance = log_fit(clamp, force);
+  return s;
+}
+
+nlohmann::json fit_json(const std::optional<LogFit>& fit) {
+  if (!fit) return nullptr;
+  return {{"exponent", fit->exponent}, {"explained", fit->explained}};
+}
+
 nlohmann::json summary_json(const Summary& s) {
   return {{"presses", s.presses},
           {"unsolved", s.unsolved},
@@ -132,12 +194,15 @@ void print_json(const EvaluationOptions& o, double refine_size_mm, std::size_t s
                         {"tool", r.tool.text},
                         {"direction", tilt_name(r.tilt)},
                         {"depth_mm", r.depth_mm},
+                        {"thickness_mm", r.thickness_mm},
+                        {"clamp_distance_mm", r.clamp_distance_mm},
                         {"reference_solved", r.reference_solved}};
     if (!r.reference_solved) {
       p["reference_error"] = r.reference_error;
     } else {
       p["reference_force_n"] = vector_json(r.reference_force);
       p["reference_tetrahedra"] = r.reference_tetrahedra;
+      p["reference_cell_at_site_mm"] = r.reference_cell_mm;
       if (r.check_force) p["check_force_n"] = vector_json(*r.check_force);
       for (const auto& [name, a] : r.fast) {
         if (!a.solved) {
@@ -168,6 +233,16 @@ void print_json(const EvaluationOptions& o, double refine_size_mm, std::size_t s
     summary[model] = {{"by_depth_mm", by_depth},
                       {"all", summary_json(summarize(records, model, [](const PressRecord&) { return true; }))}};
   }
+  nlohmann::json spread;
+  for (const double depth : o.depths_mm) {
+    const SiteSpread s = site_spread(records, depth);
+    if (s.presses.empty()) continue;
+    spread[fmt::format("{:g}", depth)] = {{"presses", s.presses.size()},
+                                         {"least_force_n", s.least_n},
+                                         {"most_force_n", s.most_n},
+                                         {"thickness", fit_json(s.thickness)},
+                                         {"clamp_distance", fit_json(s.clamp_distance)}};
+  }
   const nlohmann::json j = {{"model", o.model_path},
                             {"reference", o.reference},
                             {"tip_radius_mm", o.press.tuning.tip_radius_mm},
@@ -177,6 +252,7 @@ void print_json(const EvaluationOptions& o, double refine_size_mm, std::size_t s
                             {"sites", sites},
                             {"depths_mm", o.depths_mm},
                             {"summary", summary},
+                            {"reference_spread_by_depth_mm", spread},
                             {"presses", presses}};
   std::cout << j.dump() << '\n';
 }
@@ -225,6 +301,24 @@ void print_table(const EvaluationOptions& o, double refine_size_mm, std::size_t 
                                r.depth_mm, r.reference_force.norm(), r.check_force->norm(),
                                100 * (r.check_force->norm() / r.reference_force.norm() - 1));
     }
+  for (const double depth : o.depths_mm) {
+    const SiteSpread s = site_spread(records, depth);
+    if (s.presses.empty()) continue;
+    std::cout << fmt::format("\nthe reference from site to site, straight {:g} mm presses: |F|, the organ's thickness "
+                             "along the press, the distance to the clamp's centre\n",
+                             depth);
+    for (const PressRecord* r : s.presses)
+      std::cout << fmt::format("{:<14}site {:>2} {:>4g} mm: {:.4f} N, {:.1f} mm, {:.1f} mm\n", "site", r->site + 1,
+                               depth, r->reference_force.norm(), r->thickness_mm, r->clamp_distance_mm);
+    std::cout << fmt::format("{:<14}{:g} mm: {:.4f} to {:.4f} N ({:.1f}x) over {} sites", "spread", depth, s.least_n,
+                             s.most_n, s.most_n / s.least_n, s.presses.size());
+    auto fit = [](const char* what, const std::optional<LogFit>& f) {
+      return f ? fmt::format("; ln|F| against ln {}: exponent {:.2f}, explains {:.0f} %", what, f->exponent,
+                             100 * f->explained)
+               : std::string();
+    };
+    std::cout << fit("thickness", s.thickness) << fit("clamp distance", s.clamp_distance) << '\n';
+  }
 }
 
 }  // namespace
@@ -250,8 +344,7 @@ int run_evaluation(const EvaluationOptions& o) {
 
   std::vector<PressRecord> records;
   for (std::size_t k = 0; k < sites.size(); ++k) {
-    const Eigen::Vector3d at(model.surface_vertices[sites[k]][0], model.surface_vertices[sites[k]][1],
-                             model.surface_vertices[sites[k]][2]);
+    const Eigen::Vector3d at = site_point(organ, sites[k]);
     const std::unique_ptr<organ::Organ> reference = reference_organ(model, at, refine_size_mm, refine_radius_mm);
     const std::unique_ptr<organ::Organ> check =
         o.check_size_mm > 0.0 ? reference_organ(model, at, o.check_size_mm, refine_radius_mm) : nullptr;
@@ -263,7 +356,10 @@ int run_evaluation(const EvaluationOptions& o) {
         r.tilt = tilt;
         r.depth_mm = depth;
         r.tool = site_press(organ, sites[k], normals[sites[k]], tilt, depth);
+        r.thickness_mm = 1e3 * thickness_along(organ, at, -normals[sites[k]]);
+        r.clamp_distance_mm = 1e3 * (at - organ.fixed_point()).norm();
         r.reference_tetrahedra = reference->model().tetrahedra.size();
+        r.reference_cell_mm = 1e3 * cell_size_at(*reference, at);
         note("calibrate", fmt::format("site {} of {}, {} {:g} mm: {} with {} ({} tetrahedra)", k + 1, sites.size(),
                                       tilt_name(tilt), depth, r.tool.text, o.reference, r.reference_tetrahedra));
         PressResult pressed;

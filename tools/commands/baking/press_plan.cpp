@@ -5,6 +5,7 @@
 #include <random>
 #include <stdexcept>
 
+#include <Eigen/Geometry>
 #include <fmt/format.h>
 
 namespace organsim::cli {
@@ -43,13 +44,43 @@ std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std
 
 ToolSpec site_press(const organ::Organ& organ, std::uint32_t site, const Eigen::Vector3d& normal, PressTilt tilt,
                     double depth_mm) {
-  const Eigen::Vector3d at = point(organ.model().surface_vertices[site]) * 1e3;
+  const Eigen::Vector3d at = site_point(organ, site) * 1e3;
   Eigen::Index least = 0;
   normal.cwiseAbs().minCoeff(&least);
   const Eigen::Vector3d tangent = normal.cross(Eigen::Vector3d::Unit(least)).normalized();
   const Eigen::Vector3d tilts[3] = {Eigen::Vector3d::Zero(), tangent, normal.cross(tangent)};
   const Eigen::Vector3d by = depth_mm * (tilts[static_cast<int>(tilt)] - normal).normalized();
   return {fmt::format("{:.2f},{:.2f},{:.2f}/{:.3f},{:.3f},{:.3f}", at[0], at[1], at[2], by[0], by[1], by[2]), at, by};
+}
+
+Eigen::Vector3d site_point(const organ::Organ& organ, std::uint32_t site) {
+  return point(organ.model().surface_vertices[site]);
+}
+
+double thickness_along(const organ::Organ& organ, const Eigen::Vector3d& at, const Eigen::Vector3d& inward) {
+  // From just inside, so that the site's own triangles do not count, to
+  // beyond the far side of the bounding box.
+  Eigen::AlignedBox3d box;
+  for (const model::Point3& v : organ.model().surface_vertices) box.extend(point(v));
+  const double start = 1e-6 * box.diagonal().norm(), end = 2.0 * box.diagonal().norm();
+  geometry::SegmentHit hit;
+  if (!organ.surface_tree().first_crossing(at + start * inward, at + end * inward, false, hit)) return 0.0;
+  return start + hit.along * (end - start);
+}
+
+double cell_size_at(const organ::Organ& organ, const Eigen::Vector3d& at) {
+  const model::OrganModel& m = organ.model();
+  std::size_t nearest = 0;
+  for (std::size_t v = 1; v < m.volume_vertices.size(); ++v)
+    if ((point(m.volume_vertices[v]) - at).squaredNorm() < (point(m.volume_vertices[nearest]) - at).squaredNorm())
+      nearest = v;
+  double longest = 0.0;
+  for (const model::Tetrahedron& t : m.tetrahedra)
+    if (std::find(t.begin(), t.end(), nearest) != t.end())
+      for (std::size_t a = 0; a < 4; ++a)
+        for (std::size_t b = a + 1; b < 4; ++b)
+          longest = std::max(longest, (point(m.volume_vertices[t[a]]) - point(m.volume_vertices[t[b]])).norm());
+  return longest;
 }
 
 std::vector<Eigen::Vector3d> rest_normals(const organ::Organ& organ) {

@@ -29,6 +29,20 @@ enum class PressTilt : int {
 ToolSpec site_press(const organ::Organ& organ, std::uint32_t site, const Eigen::Vector3d& normal, PressTilt tilt,
                     double depth_mm);
 
+/// Where surface vertex `site` (runtime numbering, as press_sites gives it)
+/// lies at rest, m. The runtime numbers the surface in its own order
+/// (organ::Organ), so a site indexes organ.model(), never the file's model.
+Eigen::Vector3d site_point(const organ::Organ& organ, std::uint32_t site);
+
+/// How far the organ runs from the surface point `at` (m) along the unit
+/// `inward` direction before the line leaves it again (m): its thickness under
+/// a press there. 0 where the line never leaves (an open surface).
+double thickness_along(const organ::Organ& organ, const Eigen::Vector3d& at, const Eigen::Vector3d& inward);
+
+/// The longest edge of the tetrahedra around the node nearest `at` (m): the
+/// size of the FEM's cells there, m (0 without tetrahedra).
+double cell_size_at(const organ::Organ& organ, const Eigen::Vector3d& at);
+
 /// Every surface vertex's outward unit normal at rest.
 std::vector<Eigen::Vector3d> rest_normals(const organ::Organ& organ);
 
