@@ -41,7 +41,7 @@ struct PressRecord {
   std::string reference_error;
   Eigen::Vector3d reference_force = Eigen::Vector3d::Zero();  ///< N
   std::size_t reference_tetrahedra = 0;
-  double reference_cell_mm = 0.0;  ///< the reference surface's cells at the site (longest edge)
+  double reference_cell_mm = 0.0;  ///< the reference's cells at the site: the longest edge of the tetrahedra at its nearest node
   std::optional<Eigen::Vector3d> check_force;  ///< N, the reference on the --check-refinement cells
   double thickness_mm = 0.0;        ///< the organ's thickness along the straight press at the site
   double clamp_distance_mm = 0.0;   ///< from the site to the clamp's centre
