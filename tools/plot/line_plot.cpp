@@ -116,30 +116,6 @@ struct Chart {
 
 }  // namespace
 
-double power_law_exponent(const Series& series) {
-  if (series.x.size() != series.y.size())
-    throw std::invalid_argument("power_law_exponent: series '" + series.name + "' has x and y of different lengths");
-  double n = 0.0, mean_x = 0.0, mean_y = 0.0;
-  for (std::size_t i = 0; i < series.x.size(); ++i) {
-    if (!(series.x[i] > 0.0) || !(series.y[i] > 0.0))
-      throw std::invalid_argument("power_law_exponent: series '" + series.name + "' has a value that is not positive at point " +
-                                  std::to_string(i + 1));
-    n += 1.0;
-    mean_x += std::log(series.x[i]);
-    mean_y += std::log(series.y[i]);
-  }
-  if (n > 0.0) mean_x /= n, mean_y /= n;
-  double sxx = 0.0, sxy = 0.0;
-  for (std::size_t i = 0; i < series.x.size(); ++i) {
-    const double dx = std::log(series.x[i]) - mean_x;
-    sxx += dx * dx;
-    sxy += dx * (std::log(series.y[i]) - mean_y);
-  }
-  if (!(sxx > 0.0))
-    throw std::invalid_argument("power_law_exponent: series '" + series.name + "' needs two different x to fit");
-  return sxy / sxx;
-}
-
 void write_line_plot_png(const std::vector<Series>& series, const std::string& title, const std::string& x_label,
                          const std::string& y_label, const std::string& png_path, int width, int height, LogAxes log) {
   check(series, width, height);

@@ -24,12 +24,6 @@ struct LogAxes {
   bool y = false;
 };
 
-/// The exponent p of the power law y = c·x^p that fits the series best in the
-/// least-squares sense on log y against log x (its slope on a log-log plot).
-/// Throws std::invalid_argument when the series has fewer than two distinct
-/// positive x, or a value that is not positive.
-double power_law_exponent(const Series& series);
-
 /// Draws the series as lines on one chart (axes scaled to fit all of them, a
 /// legend when there is more than one) and writes it atomically as a
 /// `width` × `height` PNG at `png_path` (io::AtomicFile: the file appears

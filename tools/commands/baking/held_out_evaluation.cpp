@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command_line.h"
+#include "plot/power_law.h"
 #include "press_plan.h"
 #include "refined_reference.h"
 
@@ -115,37 +116,24 @@ Summary summarize(const std::vector<PressRecord>& records, const std::string& mo
 
 /// A straight line through (ln x, ln y) by least squares: its slope, and the
 /// share of ln y's variance it explains (R²).
-struct LogFit {
-  double exponent = 0.0;
-  double explained = 0.0;
-};
-
 /// The reference's straight presses at one depth from site to site: its force,
 /// and how much of its spread the organ's thickness under the press and the
 /// distance to the clamp explain.
 struct SiteSpread {
   std::vector<const PressRecord*> presses;
   double least_n = 0.0, most_n = 0.0;
-  std::optional<LogFit> thickness, clamp_distance;  ///< from 3 presses on
+  std::optional<plot::PowerLawFit> thickness, clamp_distance;  ///< from 3 presses on
 };
 
-std::optional<LogFit> log_fit(const std::vector<double>& x, const std::vector<double>& y) {
-  const std::size_t n = x.size();
-  if (n < 3) return std::nullopt;
-  double mean_x = 0.0, mean_y = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    mean_x += std::log(x[i]) / n;
-    mean_y += std::log(y[i]) / n;
+/// |F| ∝ x^p over the sites, from three presses on (two always fit exactly).
+std::optional<plot::PowerLawFit> spread_fit(const std::vector<double>& x, const std::vector<double>& force,
+                                            const char* what) {
+  if (x.size() < 3) return std::nullopt;
+  try {
+    return plot::fit_power_law(x, force, what);
+  } catch (const std::invalid_argument&) {
+    return std::nullopt;  // every site at the same distance, or a zero force: no power law to fit
   }
-  double xx = 0.0, xy = 0.0, yy = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double dx = std::log(x[i]) - mean_x, dy = std::log(y[i]) - mean_y;
-    xx += dx * dx;
-    xy += dx * dy;
-    yy += dy * dy;
-  }
-  if (!(xx > 0.0) || !(yy > 0.0)) return std::nullopt;
-  return LogFit{xy / xx, xy * xy / (xx * yy)};
 }
 
 SiteSpread site_spread(const std::vector<PressRecord>& records, double depth_mm) {
@@ -162,12 +150,12 @@ SiteSpread site_spread(const std::vector<PressRecord>& records, double depth_mm)
   if (s.presses.empty()) return s;
   s.least_n = *std::min_element(force.begin(), force.end());
   s.most_n = *std::max_element(force.begin(), force.end());
-  s.thickness = log_fit(thickness, force);
-  s.clamp_distance = log_fit(clamp, force);
+  s.thickness = spread_fit(thickness, force, "the thickness under the press");
+  s.clamp_distance = spread_fit(clamp, force, "the distance to the clamp");
   return s;
 }
 
-nlohmann::json fit_json(const std::optional<LogFit>& fit) {
+nlohmann::json fit_json(const std::optional<plot::PowerLawFit>& fit) {
   if (!fit) return nullptr;
   return {{"exponent", fit->exponent}, {"explained", fit->explained}};
 }
@@ -312,7 +300,7 @@ void print_table(const EvaluationOptions& o, double refine_size_mm, std::size_t 
                                depth, r->reference_force.norm(), r->thickness_mm, r->clamp_distance_mm);
     std::cout << fmt::format("{:<14}{:g} mm: {:.4f} to {:.4f} N ({:.1f}x) over {} sites", "spread", depth, s.least_n,
                              s.most_n, s.most_n / s.least_n, s.presses.size());
-    auto fit = [](const char* what, const std::optional<LogFit>& f) {
+    auto fit = [](const char* what, const std::optional<plot::PowerLawFit>& f) {
       return f ? fmt::format("; ln|F| against ln {}: exponent {:.2f}, explains {:.0f} %", what, f->exponent,
                              100 * f->explained)
                : std::string();

@@ -17,6 +17,7 @@
 
 #include "command_line.h"
 #include "plot/line_plot.h"
+#include "plot/power_law.h"
 
 namespace organsim::cli {
 namespace {
@@ -136,7 +137,7 @@ int run_plot(const PlotOptions& o) {
   std::vector<std::string> exponents;
   if (o.log.x && o.log.y)
     for (plot::Series& s : drawn) {
-      const double exponent = plot::power_law_exponent(s);
+      const double exponent = plot::fit_power_law(s.x, s.y, "series '" + s.name + "'").exponent;
       exponents.push_back(fmt::format("{:<8}{}: exponent {:.2f} (least squares on the logs, {} points)", "fit", s.name,
                                       exponent, s.x.size()));
       s.name += fmt::format(" (exponent {:.2f})", exponent);
