@@ -114,8 +114,6 @@ Summary summarize(const std::vector<PressRecord>& records, const std::string& mo
   return s;
 }
 
-/// A straight line through (ln x, ln y) by least squares: its slope, and the
-/// share of ln y's variance it explains (R²).
 /// The reference's straight presses at one depth from site to site: its force,
 /// and how much of its spread the organ's thickness under the press and the
 /// distance to the clamp explain.
