@@ -28,8 +28,10 @@ namespace {
 using namespace cli::testing;
 
 // The helper cylinder (radius 30 mm, 150 mm along x) clamped over its x = 0
-// cap for the FEM models, pressed 5 mm down at the far cap's rim.
-constexpr const char* kPress = " --tool 150,0,30/0,0,-5 --fixed-radius 31";
+// cap for the FEM models, pressed 5 mm down at the far cap's rim and held
+// there (--friction inf: the press is 45° from the rim's normal, outside the
+// friction cone, and would slip).
+constexpr const char* kPress = " --tool 150,0,30/0,0,-5 --fixed-radius 31 --friction inf";
 
 TEST_F(Cli, CompareMeasuresEveryModelAgainstTheReference) {
   const std::string model = (dir_ / "cylinder.organ").string();

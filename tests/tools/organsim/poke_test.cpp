@@ -64,14 +64,16 @@ TEST_F(Cli, PokeABakedCylinderGivesTheCantileverForces) {
   // CT → bake (clamped at the centre of the x = 0 cap) → poke the far cap:
   // transverse 3EIδ/L³ and axial EAδ/L of a circular beam, within a few percent
   // (the voxelized, smoothed surface is the only approximation). The beam's
-  // own force (--unmatched), not the FEM reference's site law.
+  // own force (--unmatched), not the FEM reference's site law. The cap is
+  // held as a grasp holds it (--friction inf): a press across the surface
+  // would otherwise slip.
   const std::string model = (dir_ / "cylinder.organ").string();
   const CommandRun bake = bake_cylinder(dir_, model);
   ASSERT_EQ(bake.exit_code, 0) << bake.err;
 
   const double e = 5000.0, radius = 0.025, delta = 0.005;
   const double area = M_PI * radius * radius, inertia = M_PI * std::pow(radius, 4) / 4.0;
-  const CommandRun transverse = run_organsim("poke " + model + " --tool 151,0,0/0,5,0 --json --unmatched", dir_);
+  const CommandRun transverse = run_organsim("poke " + model + " --tool 151,0,0/0,5,0 --json --unmatched --friction inf", dir_);
   ASSERT_EQ(transverse.exit_code, 0) << transverse.err;
   const nlohmann::json t = nlohmann::json::parse(transverse.out);
   const double length = t["tools"][0]["beam_length_mm"].get<double>() * 1e-3;
@@ -118,7 +120,7 @@ TEST_F(Cli, BakedCylinderBeamAndCorotationalFemForcesAgreeWithinBeamTheory) {
   for (const std::string theory : {"euler-bernoulli", "timoshenko"}) {
     // A point load at the free end, as beam theory has it (--tip-radius 0).
     const CommandRun run = run_organsim("compare " + model + " --tool 151,0,0/0,5,0 --models beam,corotational "
-                                            "--reference corotational --fixed-radius 26 --tip-radius 0 --json "
+                                            "--reference corotational --fixed-radius 26 --tip-radius 0 --friction inf --json "
                                             "--theory " + theory,
                                         dir_);
     ASSERT_EQ(run.exit_code, 0) << run.err;
@@ -163,7 +165,7 @@ TEST_F(Cli, PokeJsonHasTheDocumentedKeysAndWritesTheDeformedSurface) {
   const nlohmann::json f = nlohmann::json::parse(fem.out);
   EXPECT_GE(f["tools"][0]["held_points"].get<int>(), 1);
   EXPECT_EQ(f["contact_points_left_out"], 0);
-  const CommandRun text = run_organsim("poke " + model + " --tool 150,0,0/0,5,0", dir_);
+  const CommandRun text = run_organsim("poke " + model + " --tool 150,0,0/0,5,0 --friction inf", dir_);
   ASSERT_EQ(text.exit_code, 0) << text.err;
   EXPECT_NE(text.out.find("force on the tool"), std::string::npos);
   EXPECT_NE(text.out.find("|F| 0.0141 N"), std::string::npos) << text.out;  // 3EIδ/L³ of the helper cylinder
@@ -191,6 +193,42 @@ TEST_F(Cli, PokeWithTheSpringModelPushesBackHarderTheDeeperItPresses) {
   }
   // Nearly linear for small presses: twice as deep, about twice the force.
   EXPECT_NEAR(pushed[1] / pushed[0], 2.0, 0.3);
+}
+
+TEST_F(Cli, APressOutsideTheFrictionConeSlipsOntoItAndAGraspHolds) {
+  // The engine's contact rule in a static press (docs/realtime.md#contact-rule):
+  // the helper cylinder's side (outward normal +y) pressed 1 mm in and 3 mm
+  // along its axis, where the organ is far stiffer than across it: held, the
+  // force lies outside Coulomb's cone (μ = 0.2). The organ slips under the
+  // tool until the force is back inside it (on its boundary, or within it
+  // where the slip also turned a pull into a push), the slip within the
+  // side's tangent plane, mostly along the press's tangential part; with --friction
+  // inf nothing slips and the force is the held press's. For every kind of model.
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  for (const char* name : {"beam", "springs", "linear"}) {
+    const std::string press =
+        "poke " + model + " --tool 80,30,0/3,-1,0 --model " + name + " --fixed-radius 31 --unmatched --json";
+    const CommandRun slipping = run_organsim(press, dir_);
+    const CommandRun held = run_organsim(press + " --friction inf", dir_);
+    ASSERT_EQ(slipping.exit_code, 0) << name << ": " << slipping.err;
+    ASSERT_EQ(held.exit_code, 0) << name << ": " << held.err;
+    const nlohmann::json s = nlohmann::json::parse(slipping.out)["tools"][0];
+    const nlohmann::json h = nlohmann::json::parse(held.out)["tools"][0];
+    const std::vector<double> force = s["force_n"], slip = s["slip_mm"], held_force = h["force_n"],
+                              held_slip = h["slip_mm"];
+    const double normal = force[1], tangential = std::hypot(force[0], force[2]);
+    EXPECT_GT(normal, 0.0) << name;  // the organ pushes the tool out of its side
+    EXPECT_LE(tangential, 0.2 * normal * (1.0 + 1e-3)) << name;
+    EXPECT_NEAR(slip[1], 0.0, 1e-9) << name;  // within the tangent plane
+    EXPECT_GT(slip[0], 0.5) << name;          // mostly along the press's tangential part, mm
+    EXPECT_LE(slip[0], 3.0 + 1e-6) << name;
+    EXPECT_EQ(held_slip, (std::vector<double>{0.0, 0.0, 0.0})) << name;
+    EXPECT_GT(std::hypot(held_force[0], held_force[2]), 0.2 * std::max(held_force[1], 0.0))
+        << name << ": the held press leaves the cone";
+    std::printf("%s: held (%.4f, %.4f) N -> slipped by %.2f mm: (%.4f, %.4f) N\n", name, held_force[0],
+                held_force[1], slip[0], force[0], force[1]);
+  }
 }
 
 TEST_F(Cli, PokeWithFemModelsAndTheirDifferenceFromTheBeams) {
@@ -255,8 +293,9 @@ TEST_F(Cli, PokeBadInputsFailWithOneLine) {
   }
   const CommandRun missing = run_organsim("poke " + (dir_ / "absent.organ").string() + " --tool 1,2,3/0,0,1", dir_);
   EXPECT_EQ(missing.exit_code, 1);
-  // Two tools at the same point are merged, not an error.
-  const CommandRun same = run_organsim("poke " + model + " --tool 150,0,0/0,5,0 --tool 150,0,0/0,5,0 --json", dir_);
+  // Two tools at the same point are merged, not an error (held: the press is across the surface).
+  const CommandRun same =
+      run_organsim("poke " + model + " --tool 150,0,0/0,5,0 --tool 150,0,0/0,5,0 --friction inf --json", dir_);
   ASSERT_EQ(same.exit_code, 0) << same.err;
   // Within the single-precision distortion's 10 nm (docs/multibeam.md).
   EXPECT_NEAR(nlohmann::json::parse(same.out)["organ"]["max_displacement_mm"].get<double>(), 5.0, 1e-5);

@@ -23,6 +23,16 @@ DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOp
   const std::vector<std::uint32_t> sites = press_sites(organ, o.sites, o.seed, o.press.tuning.fixed_radius_mm * 1e-3);
   fit.refine_size_mm = o.refine_size_mm < 0.0 ? 0.5 * radius_mm : o.refine_size_mm;
   const double refine_radius_mm = *std::max_element(o.depths_mm.begin(), o.depths_mm.end()) + 2.0 * radius_mm;
+  // The fast models' force with the law alone (no curve, g = 1), pressed by
+  // the same contact rule as the reference (a tool that slips under the law
+  // slips under it at the curve's sites too); the beam's where the model has
+  // beam tables, else the springs' (both give the site law's force).
+  model::OrganModel linear_model = model;
+  linear_model.sites.depth_curve.clear();
+  const organ::Organ linear_law(std::move(linear_model));
+  const char* fast_model = model.beams.empty() ? "springs" : "beam";
+  PressOptions fast_press = o.press;
+  fast_press.tuning.unmatched = false;
   std::map<double, std::vector<double>> log_ratios;  // per depth (mm)
   for (std::size_t k = 0; k < sites.size(); ++k) {
     const Eigen::Vector3d at = site_point(organ, sites[k]);
@@ -44,7 +54,8 @@ DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOp
         organ::SiteLaw law;
         const geometry::SurfacePoint touched = organ.surface_tree().closest_point(tool.point_mm * 1e-3);
         if (!(force.norm() > 0.0) || !law.set(organ, touched, radius_mm * 1e-3)) continue;
-        const Eigen::Vector3d linear = law.stiffness() * (tool.displacement_mm * 1e-3);
+        const Eigen::Vector3d linear = press(fast_model, linear_law, {tool}, fast_press).tools[0].force;
+        if (!(linear.norm() > 0.0)) continue;
         log_ratios[depth].push_back(std::log(force.norm() / linear.norm()));
         ++fit.solved;
       }

@@ -1,10 +1,11 @@
 // `organsim calibrate`'s depth curve (docs/matching.md): how much the FEM
 // reference's force at depth d exceeds the site law's linear one, −K d, for a
-// tool of the calibrated radius. Measured with the reference pressed on the
+// tool of the calibrated radius, both pressed by the same contact rule (the
+// organ slipping under the tool outside the friction cone). Measured with the reference pressed on the
 // organ re-meshed finely around each press (as `calibrate --evaluate` does),
 // at sites spread over the organ, straight in and tilted 45°; the curve's
 // factor at each depth is the geometric mean of the presses' ratios
-// |F_ref| / |K d| (what minimizes the typical factor off, as for the
+// |F_ref| / |F_law| (what minimizes the typical factor off, as for the
 // stiffness scales).
 #pragma once
 

@@ -119,12 +119,13 @@ int run_program(CLI::App& app, const CommandTable& table, int argc, char** argv)
 
 namespace {
 
-CLI::Validator number_check(const char* description, bool (*accept)(double)) {
+CLI::Validator number_check(const char* description, bool (*accept)(double), bool infinity_allowed = false) {
   return CLI::Validator(
-      [description, accept](std::string& text) -> std::string {
+      [description, accept, infinity_allowed](std::string& text) -> std::string {
         char* end = nullptr;
         const double value = std::strtod(text.c_str(), &end);
-        if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(value) || !accept(value))
+        const bool number = std::isfinite(value) || (infinity_allowed && value > 0.0 && std::isinf(value));
+        if (text.empty() || end != text.c_str() + text.size() || !number || !accept(value))
           return "'" + text + "' is not " + description;
         return {};
       },
@@ -135,6 +136,8 @@ CLI::Validator number_check(const char* description, bool (*accept)(double)) {
 
 const CLI::Validator kPositive = number_check("a positive number", [](double v) { return v > 0.0; });
 const CLI::Validator kNonNegative = number_check("a number >= 0", [](double v) { return v >= 0.0; });
+const CLI::Validator kNonNegativeOrInfinity =
+    number_check("a number >= 0 or inf", [](double v) { return v >= 0.0; }, true);
 
 std::array<double, 3> parse_xyz(const std::string& text, const std::string& context) {
   std::array<double, 3> v{};

@@ -55,6 +55,7 @@ void detail(const std::string& command, const std::string& message);
 /// print the whole double range).
 extern const CLI::Validator kPositive;     ///< a finite number > 0
 extern const CLI::Validator kNonNegative;  ///< a finite number ≥ 0
+extern const CLI::Validator kNonNegativeOrInfinity;  ///< a number ≥ 0, or inf
 
 /// Parses "X,Y,Z", three numbers (NaN and infinity pass: the caller says
 /// what a point that is not finite means); throws std::runtime_error starting

@@ -46,9 +46,9 @@ void add_model_tuning_options(CLI::App& app, ModelTuning& tuning) {
       ->capture_default_str();
   app.add_option("--friction", tuning.friction,
                  "Coulomb's friction coefficient between the tools and the organ: beyond it the organ slips under a "
-                 "tool in the real-time engine (wet serosa on steel: 0.1-0.3; static presses never slip; "
-                 "docs/realtime.md#contact-rule)")
-      ->check(kNonNegative)
+                 "tool, in the real-time engine and in static presses alike (wet serosa on steel: 0.1-0.3; inf: it "
+                 "never slips, as in a grasp; docs/realtime.md#contact-rule)")
+      ->check(kNonNegativeOrInfinity)
       ->capture_default_str();
   app.add_option("--fixed-radius", tuning.fixed_radius_mm,
                  "FEM models: clamp the tetrahedral nodes within this distance of the fixed point, mm (docs/fem.md)")

@@ -117,6 +117,7 @@ int run_poke(const PokeOptions& o) {
                       {"force_n", triple(t.force)},
                       {"action_point_moved_mm", triple(t.action_moved * 1e3)},
                       {"force_magnitude_n", t.force.norm()},
+                      {"slip_mm", triple(t.slip * 1e3)},
                       {"held_points", fem ? nlohmann::json(t.held_points) : nlohmann::json(nullptr)}});
     }
     j["tools"] = list;

@@ -14,6 +14,7 @@
 #include "organsim/fem/organ_fem.h"
 #include "organsim/geometry/model_measures.h"
 #include "organsim/multibeam/multibeam.h"
+#include "organsim/realtime/friction.h"
 #include "organsim/realtime/model_registry.h"
 
 namespace organsim::cli {
@@ -52,6 +53,58 @@ double time_force_law(const std::vector<ContactLaw>& laws, const std::vector<Eig
   return seconds / (kRepeats * std::max<std::size_t>(laws.size(), 1));
 }
 
+constexpr double kSettledSlip = 1e-7;  // m: slips smaller than this are round-off
+constexpr int kMaxSlipSteps = 40;       // per load step; the stiffness's nonlinearity makes them converge linearly
+
+/// Coulomb's rule of the engine's force loop (docs/realtime.md#contact-rule)
+/// in a static press: where a tool's force lies outside the friction cone
+/// about its action point's outward normal, the organ slips under it, and
+/// the tool holds the organ displaced by d − slip. One slip step per call
+/// (realtime::slip_step, as the force loop takes at 1 kHz, from the force and
+/// stiffness at the current state); the caller solves the press again and
+/// calls again until no tool slips. True when some tool slipped by more than
+/// kSettledSlip.
+bool slip_once(const std::vector<Eigen::Vector3d>& forces, const std::vector<Eigen::Matrix3d>& stiffnesses,
+               const std::vector<Eigen::Vector3d>& normals, double friction, std::vector<Eigen::Vector3d>& slips) {
+  bool slipped = false;
+  for (std::size_t i = 0; i < forces.size(); ++i) {
+    Eigen::Vector3d force = forces[i];
+    const Eigen::Vector3d shift = realtime::slip_step(stiffnesses[i], normals[i], friction, force);
+    slips[i] -= shift;
+    slipped |= shift.norm() > kSettledSlip;
+  }
+  return slipped;
+}
+
+/// The load steps of a press of a tip of finite size: it moves at most an
+/// eighth of its radius per step. The tip holds each surface point where the
+/// point enters it (docs/realtime.md#contact-rule), so the press follows the
+/// tip's path: in coarse steps a point enters deep inside and is held where it
+/// was pushed to, not where it first touched. R/8 is where the force stops
+/// depending on the steps (a 5 mm press with R = 2.5 mm: 16 steps give the
+/// force of 64 within 1 %, 4-5 steps 10-30 % off; docs/matching.md). One step
+/// for a point tool.
+int load_steps_for(const std::vector<Eigen::Vector3d>& displacements, const PressOptions& o) {
+  constexpr double kStepPerRadius = 0.125;  // the tip's largest move per load step, in radii
+  constexpr int kMaxFirstSteps = 64;        // a tip much smaller than the press is nearly a point
+  int steps = 1;
+  const double radius = o.tuning.tip_radius_mm * 1e-3;
+  if (radius > 0.0)
+    for (const Eigen::Vector3d& d : displacements)
+      steps = std::clamp(static_cast<int>(std::ceil(d.norm() / (kStepPerRadius * radius) - 1e-9)), steps, kMaxFirstSteps);
+  return steps;
+}
+
+/// The outward normal of the rest surface at each tool's action point: the
+/// friction cone's axis, as the engine's contact normal.
+std::vector<Eigen::Vector3d> cone_normals(const organ::Organ& organ, const std::vector<ToolSpec>& tools,
+                                          const PressOptions& o) {
+  std::vector<Eigen::Vector3d> normals;
+  for (std::size_t i = 0; i < tools.size(); ++i)
+    normals.push_back(organ.rest_normal_at(organ.surface_tree().closest_point(snap_to_surface(organ, tools[i], i, o))));
+  return normals;
+}
+
 /// The multi-beam model: static, so one deformation gives the pressed organ.
 PressResult press_beams(const organ::Organ& organ, const std::vector<ToolSpec>& tools, const PressOptions& o) {
   using namespace organsim::multibeam;
@@ -76,6 +129,32 @@ PressResult press_beams(const organ::Organ& organ, const std::vector<ToolSpec>& 
       throw std::runtime_error(fmt::format("tool {} ({}): {}", i + 1, tools[i].text, describe(Status::not_finite)));
   }
   r.attach_seconds = seconds_since(attach_start) / tools.size();
+  // The organ slips under a tool whose force leaves the friction cone, along
+  // the path of the FEM press's load steps (the force is the beam's or the
+  // site law's at each point of it; its stiffness by central differences).
+  const std::vector<Eigen::Vector3d> normals = cone_normals(organ, tools, o);
+  std::vector<Eigen::Vector3d> slips(tools.size(), Eigen::Vector3d::Zero()), forces(tools.size());
+  std::vector<Eigen::Matrix3d> stiffnesses(tools.size());
+  const int steps = load_steps_for(displacements, o);
+  for (int step = 1; step <= steps; ++step)
+    for (int slip = 0; slip < kMaxSlipSteps; ++slip) {
+      for (std::uint32_t i = 0; i < tools.size(); ++i) {
+        const Eigen::Vector3d d = displacements[i] * (static_cast<double>(step) / steps) - slips[i];
+        beams.force(i, d, forces[i]);
+        constexpr double kDifference = 1e-7;  // m
+        for (int axis = 0; axis < 3; ++axis) {
+          Eigen::Vector3d ahead, behind;
+          beams.force(i, d + kDifference * Eigen::Vector3d::Unit(axis), ahead);
+          beams.force(i, d - kDifference * Eigen::Vector3d::Unit(axis), behind);
+          stiffnesses[i].col(axis) = (behind - ahead) / (2.0 * kDifference);
+        }
+      }
+      if (!slip_once(forces, stiffnesses, normals, o.tuning.friction, slips)) break;
+    }
+  for (std::uint32_t i = 0; i < tools.size(); ++i) {
+    displacements[i] -= slips[i];
+    r.tools[i].slip = slips[i];
+  }
 
   constexpr int kForceRepeats = 1000;  // one call is too short to time alone
   const auto force_start = std::chrono::steady_clock::now();
@@ -108,7 +187,7 @@ PressResult press_beams(const organ::Organ& organ, const std::vector<ToolSpec>& 
     const ToolBeam& b = beams.beam(i);
     r.tools[i].action_point = b.action.position;
     r.tools[i].snap_distance = b.action.distance;
-    r.tools[i].normal = geometry::triangle_normal(organ.model(), b.action.triangle);
+    r.tools[i].normal = organ.rest_normal_at(b.action);
     r.tools[i].beam_length = b.length;
     r.tools[i].action_moved = beams.displacement_at(b.action.position);
   }
@@ -136,8 +215,6 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
   constexpr int kMaxIterations = 40, kMaxSlowIterations = 1000, kContractionWindow = 8;
   constexpr double kSteadyContraction = 0.95;
   constexpr int kKeptTangents = 8;
-  constexpr double kStepPerRadius = 0.125;  // the tip's largest move per load step, in radii
-  constexpr int kMaxFirstSteps = 64;        // a tip much smaller than the press is nearly a point
   constexpr double kKeptTangentContraction = 0.1, kMaxKeptContraction = 0.9;
   fem::OrganFemOptions options;
   realtime::SpringModelOptions unused;
@@ -206,20 +283,16 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
                            fem.unbalanced_force());
     }
   };
-  // The whole press at once, or for a finite tip in load steps of at most an
-  // eighth of its radius; failing that, from rest again in four times as many
-  // (each equilibrium the next one's start). The tip holds each surface point
-  // where the point enters it (docs/realtime.md#contact-rule), so the press
-  // follows the tip's path: in coarse steps a point enters deep inside and is
-  // held where it was pushed to, not where it first touched. R/8 is where the force
-  // stops depending on the steps (a 5 mm press with R = 2.5 mm: 16 steps give
-  // the force of 64 within 1 %, 4-5 steps 10-30 % off; docs/matching.md).
+  // In load_steps_for's steps (each equilibrium the next one's start);
+  // failing that, from rest again in four times as many. Within each load
+  // step the organ slips under a tool whose force left the friction cone
+  // (slip_once), and the step is balanced again, as the engine's force loop
+  // lets it slip along the same path.
   std::string failure;
-  int first = 1;
-  const double radius = o.tuning.tip_radius_mm * 1e-3;
-  if (radius > 0.0)
-    for (const Eigen::Vector3d& d : displacements)
-      first = std::clamp(static_cast<int>(std::ceil(d.norm() / (kStepPerRadius * radius) - 1e-9)), first, kMaxFirstSteps);
+  const int first = load_steps_for(displacements, o);
+  const std::vector<Eigen::Vector3d> normals = cone_normals(organ, tools, o);
+  std::vector<Eigen::Vector3d> slips(tools.size(), Eigen::Vector3d::Zero()), forces(tools.size());
+  std::vector<Eigen::Matrix3d> stiffnesses(tools.size());
   double reached = 0.0;  // the largest fraction of the press any attempt balanced
   int solved_in = first;
   for (int load_steps : {first, 4 * first}) {
@@ -227,10 +300,23 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
     fem.reset();
     r.frames = 1;
     failure.clear();
+    std::fill(slips.begin(), slips.end(), Eigen::Vector3d::Zero());
     for (int step = 1; step <= load_steps && failure.empty(); ++step) {
-      std::vector<Eigen::Vector3d> target = displacements;
-      for (Eigen::Vector3d& d : target) d *= static_cast<double>(step) / load_steps;
-      failure = equilibrium(target);
+      auto target = [&] {
+        std::vector<Eigen::Vector3d> t(tools.size());
+        for (std::size_t i = 0; i < tools.size(); ++i)
+          t[i] = displacements[i] * (static_cast<double>(step) / load_steps) - slips[i];
+        return t;
+      };
+      failure = equilibrium(target());
+      for (int slip = 0; failure.empty() && slip < kMaxSlipSteps; ++slip) {
+        for (std::uint32_t i = 0; i < tools.size(); ++i) {
+          forces[i] = fem.contact_force(i);
+          stiffnesses[i] = fem.contact_stiffness(i);
+        }
+        if (!slip_once(forces, stiffnesses, normals, o.tuning.friction, slips)) break;
+        failure = equilibrium(target());
+      }
       if (failure.empty()) reached = std::max(reached, static_cast<double>(step) / load_steps);
     }
     if (failure.empty()) break;
@@ -241,6 +327,7 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
   r.deform_seconds = seconds_since(newton_start) / r.frames;
   // What the engine does in a frame: one iteration with the kept factor (at
   // equilibrium already, so the state stays where it is).
+  for (std::uint32_t i = 0; i < tools.size(); ++i) displacements[i] -= slips[i];  // where the organ is held
   const auto frame_start = std::chrono::steady_clock::now();
   if (fem.step(displacements.data()) != fem::FrameStatus::ok)
     throw std::runtime_error("the pressed state inverts a tetrahedron: press less deep");
@@ -258,10 +345,11 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
     r.tools[i].force = fem.contact_force(i);
     r.tools[i].held_points = fem.held_points(i);
+    r.tools[i].slip = slips[i];
     r.tools[i].action_moved = fem.contact_displacement(i);
     r.tools[i].action_point = fem.contact_point(i);
     r.tools[i].snap_distance = (r.tools[i].action_point - tools[i].point_mm * 1e-3).norm();
-    r.tools[i].normal = geometry::triangle_normal(organ.model(), organ.surface_tree().closest_point(r.tools[i].action_point).triangle);
+    r.tools[i].normal = normals[i];
   }
   r.contact_points_left_out = fem.hold_overflows();
   const fem::Material& law = fem.system().material();
@@ -300,11 +388,27 @@ PressResult press_springs(const organ::Organ& organ, const std::vector<ToolSpec>
   r.attach_seconds = seconds_since(attach_start) / tools.size();
   r.positions.resize(organ.vertex_count());
   r.normals.resize(organ.vertex_count());
+  // The organ slips under a tool whose force leaves the friction cone, as in
+  // the engine: the force loop's 16 ticks per frame each take a slip step on
+  // the frame's linearization.
+  const std::vector<Eigen::Vector3d> normals = cone_normals(organ, tools, o);
+  std::vector<Eigen::Vector3d> slips(tools.size(), Eigen::Vector3d::Zero()), forces(tools.size()), held(displacements);
+  std::vector<Eigen::Matrix3d> stiffnesses(tools.size());
+  constexpr int kTicksPerFrame = 16;
   const auto deform_start = std::chrono::steady_clock::now();
   r.frames = 0;
-  for (int frame = 0; frame < static_cast<int>(o.settle_seconds * 60.0 + 0.5); ++frame, ++r.frames)
-    if (!springs->step(1.0 / 60.0, displacements.data(), r.positions.data(), r.normals.data(), contacts.data()))
+  for (int frame = 0; frame < static_cast<int>(o.settle_seconds * 60.0 + 0.5); ++frame, ++r.frames) {
+    if (!springs->step(1.0 / 60.0, held.data(), r.positions.data(), r.normals.data(), contacts.data()))
       throw std::runtime_error("the mass-spring model could not move the organ (a displacement is not finite)");
+    for (int tick = 0; tick < kTicksPerFrame; ++tick) {
+      for (std::uint32_t i = 0; i < tools.size(); ++i) {
+        forces[i] = ContactLaw{contacts[i].force, contacts[i].stiffness, contacts[i].displacement}.at(held[i]);
+        stiffnesses[i] = contacts[i].stiffness;
+      }
+      if (!slip_once(forces, stiffnesses, normals, o.tuning.friction, slips)) break;
+      for (std::uint32_t i = 0; i < tools.size(); ++i) held[i] = displacements[i] - slips[i];
+    }
+  }
   r.deform_seconds = r.frame_seconds = seconds_since(deform_start) / std::max(r.frames, 1);
   r.node_positions.resize(organ.model().volume_vertices.size());
   if (!springs->volume_node_positions(r.node_positions.data(), r.node_positions.size())) r.node_positions.clear();
@@ -315,14 +419,15 @@ PressResult press_springs(const organ::Organ& organ, const std::vector<ToolSpec>
   std::vector<ContactLaw> laws(tools.size());
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
     laws[i] = {contacts[i].force, contacts[i].stiffness, contacts[i].displacement};
-    r.tools[i].force = laws[i].at(displacements[i]);
+    r.tools[i].force = laws[i].at(held[i]);
+    r.tools[i].slip = slips[i];
   }
-  r.force_seconds = time_force_law(laws, displacements);
+  r.force_seconds = time_force_law(laws, held);
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
     r.tools[i].action_point = contacts[i].action_point;
     r.tools[i].snap_distance = (contacts[i].action_point - tools[i].point_mm * 1e-3).norm();
     r.tools[i].normal = contacts[i].normal;
-    r.tools[i].action_moved = displacements[i];  // the held node follows its tool exactly
+    r.tools[i].action_moved = held[i];  // the held node follows its tool exactly, less the slip
   }
   return r;
 }
@@ -345,8 +450,7 @@ geometry::ToolTip press_tip(const organ::Organ& organ, const Eigen::Vector3d& re
                             const Eigen::Vector3d& displacement, const PressOptions& o) {
   geometry::ToolTip tip;
   tip.radius = o.tuning.tip_radius_mm * 1e-3;
-  const Eigen::Vector3d normal =
-      geometry::triangle_normal(organ.model(), organ.surface_tree().closest_point(rest_point).triangle);
+  const Eigen::Vector3d normal = organ.rest_normal_at(organ.surface_tree().closest_point(rest_point));
   tip.axis = displacement.dot(normal) < 0.0 ? Eigen::Vector3d(-displacement.normalized()) : normal;
   return tip;
 }

@@ -1,10 +1,11 @@
 // Static presses of a baked organ with any deformation model: each tool's
 // contact point moved by a prescribed displacement, the organ held where the
 // model holds it, and what came of it (forces, the deformed surface, timings).
-// A static press holds the organ where the tool touched it, as the engine's
-// contact rule does inside its friction cone; it never slips (a slip
-// depends on the way the tool went, which a prescribed displacement does
-// not say; docs/realtime.md#contact-rule).
+// A static press holds the organ where the tool touched it and lets it slip
+// under the tool where the force leaves Coulomb's friction cone, as the
+// engine's contact rule does (docs/realtime.md#contact-rule); a slip depends
+// on the way the tool went, and a press goes the straight way, in the load
+// steps of a finite tip.
 // What `poke` prints for one or two models and `compare` tabulates for all.
 #pragma once
 
@@ -56,6 +57,10 @@ struct ToolResult {
   /// FEM models: the boundary points the tool holds at equilibrium (the first
   /// touch and those its tip took in; how finely the contact is resolved).
   std::size_t held_points = 0;
+  /// m: how far the organ slipped under the tool (Coulomb's friction cone,
+  /// --friction), within the tangent plane at the action point; the organ is
+  /// held displaced by the press less this.
+  Eigen::Vector3d slip = Eigen::Vector3d::Zero();
 };
 
 struct PressResult {

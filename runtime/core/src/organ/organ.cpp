@@ -2,6 +2,7 @@
 
 // The per-vertex kernels are shared with the multi-beam model (its distortion).
 #include "../multibeam/kernels.h"
+#include "organsim/geometry/model_measures.h"
 
 #include <Eigen/Geometry>
 
@@ -172,6 +173,16 @@ Organ::Organ(model::OrganModel model)
   multibeam::kernels::selected();  // picks the instruction set now, not in the first real-time call
   rest_normals_.resize(n);
   compute_vertex_normals(*this, model_.surface_vertices.data(), rest_normals_.data(), 0, n);
+}
+
+Eigen::Vector3d Organ::rest_normal_at(const geometry::SurfacePoint& at) const noexcept {
+  const model::Triangle& t = model_.surface_triangles[at.triangle];
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  for (int k = 0; k < 3; ++k) {
+    const model::Point3& n = rest_normals_[t[k]];
+    normal += at.barycentric[k] * Eigen::Vector3d(n[0], n[1], n[2]);
+  }
+  return normal.norm() > 0.0 ? Eigen::Vector3d(normal.normalized()) : geometry::triangle_normal(model_, at.triangle);
 }
 
 void compute_vertex_normals(const Organ& organ, const model::Point3* positions, model::Point3* normals, std::size_t first,

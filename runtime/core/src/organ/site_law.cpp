@@ -4,7 +4,6 @@
 
 #include <Eigen/LU>
 
-#include "organsim/geometry/model_measures.h"
 #include "organsim/organ/organ.h"
 
 namespace organsim::organ {
@@ -42,14 +41,8 @@ bool SiteLaw::set(const Organ& organ, const geometry::SurfacePoint& at, double t
   // the triangles' edges (a face's normal is not).
   const model::Triangle& t = m.surface_triangles[at.triangle];
   Eigen::Matrix3d compliance = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
-  for (int k = 0; k < 3; ++k) {
-    compliance += at.barycentric[k] * unpacked(sites.compliance[t[k]]);
-    const model::Point3& n = organ.rest_normals()[t[k]];
-    normal += at.barycentric[k] * Eigen::Vector3d(n[0], n[1], n[2]);
-  }
-  if (!(normal.norm() > 0.0)) normal = geometry::triangle_normal(m, at.triangle);
-  compliance += punch_compliance(sites.young_modulus, sites.poisson_ratio, tip_radius, normal.normalized());
+  for (int k = 0; k < 3; ++k) compliance += at.barycentric[k] * unpacked(sites.compliance[t[k]]);
+  compliance += punch_compliance(sites.young_modulus, sites.poisson_ratio, tip_radius, organ.rest_normal_at(at));
   Eigen::Matrix3d stiffness;
   bool invertible = false;
   double determinant = 0.0;

@@ -2,6 +2,7 @@
 // the space distortion, merging of several tools, and bad input.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -291,6 +292,46 @@ TEST(Organ, VertexNormalsOnABorderAndOfAnIsolatedVertex) {
   beams.normals(0, n, normals.data());
   for (std::size_t v = 0; v < n; ++v) EXPECT_LT((vec(normals[v]) - expected[v]).norm(), 1e-5) << v;
   EXPECT_EQ(vec(normals[isolated]), Eigen::Vector3d::Zero());
+}
+
+TEST(Organ, TheRestNormalAtAPointIsItsVerticesNormalsInterpolated) {
+  // A contact's normal (its friction cone's axis): at a vertex the vertex's
+  // normal whichever of its triangles the point is found on, the same on both
+  // sides of an edge, and in a triangle the barycentric blend, normalized.
+  const organ::Organ sphere(testing::make_sphere_model(2400, 20));
+  const std::vector<model::Triangle>& triangles = sphere.model().surface_triangles;
+  auto normal_of = [&](std::uint32_t v) { return vec(sphere.rest_normals()[v]); };
+  std::size_t vertices_checked = 0, edges_checked = 0;
+  for (std::uint32_t a = 0; a < triangles.size(); ++a) {
+    for (int k = 0; k < 3; ++k) {
+      geometry::SurfacePoint corner;
+      corner.triangle = a;
+      corner.barycentric = Eigen::Vector3d::Unit(k);
+      EXPECT_LT((sphere.rest_normal_at(corner) - normal_of(triangles[a][k])).norm(), 1e-12);
+      ++vertices_checked;
+    }
+    // Edge (t0, t1)'s midpoint seen from the triangle across it.
+    for (std::uint32_t b = a + 1; b < triangles.size() && edges_checked < 500; ++b) {
+      const auto shared = [&](std::uint32_t v) { return std::find(triangles[b].begin(), triangles[b].end(), v); };
+      if (shared(triangles[a][0]) == triangles[b].end() || shared(triangles[a][1]) == triangles[b].end()) continue;
+      geometry::SurfacePoint here, there;
+      here.triangle = a;
+      here.barycentric = {0.5, 0.5, 0.0};
+      there.triangle = b;
+      there.barycentric[shared(triangles[a][0]) - triangles[b].begin()] = 0.5;
+      there.barycentric[shared(triangles[a][1]) - triangles[b].begin()] = 0.5;
+      EXPECT_LT((sphere.rest_normal_at(here) - sphere.rest_normal_at(there)).norm(), 1e-12);
+      ++edges_checked;
+    }
+  }
+  EXPECT_GT(edges_checked, 50u);
+  geometry::SurfacePoint inside;
+  inside.barycentric = {0.2, 0.3, 0.5};
+  const Eigen::Vector3d blend =
+      0.2 * normal_of(triangles[0][0]) + 0.3 * normal_of(triangles[0][1]) + 0.5 * normal_of(triangles[0][2]);
+  EXPECT_LT((sphere.rest_normal_at(inside) - blend.normalized()).norm(), 1e-12);
+  EXPECT_NEAR(sphere.rest_normal_at(inside).norm(), 1.0, 1e-12);
+  std::printf("rest normals: %zu corners, %zu edges\n", vertices_checked, edges_checked);
 }
 
 TEST(MultiBeam, RefusesAnOrganWithoutBeamTablesInOneLine) {

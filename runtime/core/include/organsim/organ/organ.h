@@ -67,6 +67,12 @@ class Organ {
   const std::vector<std::uint32_t>& ring_rows() const noexcept { return ring_rows_; }
   /// Each vertex's unit normal at rest (compute_vertex_normals of the rest shape).
   const std::vector<model::Point3>& rest_normals() const noexcept { return rest_normals_; }
+  /// The outward unit normal of the rest surface at a point of it: the
+  /// vertices' normals interpolated (so that it is continuous across the
+  /// triangles' edges and defined at a vertex, where a face's normal is not);
+  /// the triangle's own normal where they cancel. What a contact's friction
+  /// cone and release plane are about (docs/realtime.md#contact-rule).
+  Eigen::Vector3d rest_normal_at(const geometry::SurfacePoint& at) const noexcept;
   /// file_vertex_index()[v]: the model file's index of surface vertex v.
   const std::vector<std::uint32_t>& file_vertex_index() const noexcept { return file_index_; }
   /// Rest positions (m) as three coordinate arrays, padded with kPadding

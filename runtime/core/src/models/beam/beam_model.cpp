@@ -2,7 +2,6 @@
 #include <cmath>
 #include <vector>
 
-#include "organsim/geometry/model_measures.h"
 #include "organsim/multibeam/multibeam.h"
 #include "organsim/realtime/model_registry.h"
 
@@ -31,7 +30,7 @@ class BeamModel final : public DeformationModel {
     tips_[tool] = tip;
     const multibeam::ToolBeam& beam = beams_.beam(tool);
     contact.action_point = beam.action.position;
-    contact.normal = geometry::triangle_normal(organ_.model(), beam.action.triangle);
+    contact.normal = organ_.rest_normal_at(beam.action);
     contact.stiffness = beam.stiffness;
     contact.displacement.setZero();
     contact.force.setZero();

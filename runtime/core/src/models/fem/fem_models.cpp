@@ -2,7 +2,6 @@
 // engine: linear, co-rotational, St. Venant–Kirchhoff and pressure-stabilized
 // Mooney–Rivlin (Ogata et al.), one class with the material as a parameter.
 #include "organsim/fem/organ_fem.h"
-#include "organsim/geometry/model_measures.h"
 #include "organsim/realtime/model_registry.h"
 
 namespace organsim::realtime {
@@ -22,7 +21,7 @@ class FemModel final : public DeformationModel {
               ContactLinearization& contact) noexcept override {
     if (!fem_.attach(tool, rest_point, tip)) return false;
     contact.action_point = rest_point;
-    contact.normal = geometry::triangle_normal(organ_.model(), organ_.surface_tree().closest_point(rest_point).triangle);
+    contact.normal = organ_.rest_normal_at(organ_.surface_tree().closest_point(rest_point));
     linearize(tool, contact);
     // The organ may already be deformed there: the tool begins with no force
     // where the material point is now.

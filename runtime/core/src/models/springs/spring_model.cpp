@@ -6,7 +6,6 @@
 
 #include <Eigen/Eigenvalues>
 
-#include "organsim/geometry/model_measures.h"
 #include "organsim/organ/site_law.h"
 #include "organsim/realtime/model_registry.h"
 #include "organsim/springs/mass_spring.h"
@@ -56,7 +55,7 @@ class SpringModel final : public DeformationModel {
     t.matched = options_.match_sites && t.law.set(organ_, at, tip.radius);
     hold(tool, node, Eigen::Vector3d::Zero(), -tip.axis, true);
     contact.action_point = t.origin;
-    contact.normal = geometry::triangle_normal(organ_.model(), at.triangle);
+    contact.normal = organ_.rest_normal_at(at);
     linearize(tool, contact);
     return true;
   }
