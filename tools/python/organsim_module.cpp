@@ -191,12 +191,14 @@ class Simulation {
   py::dict attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, const std::optional<Eigen::Vector3d>& shaft) {
     check_tool(tool);
     geometry::ToolTip tip = tip_;
+    const Eigen::Vector3d normal = organ_->rest_normal_at(organ_->surface_tree().closest_point(rest_point));
     if (shaft) {
       if (!(shaft->norm() > 0.0) || !shaft->allFinite()) throw std::invalid_argument("the shaft direction is zero or not finite");
       tip.axis = shaft->normalized();
     } else {
-      tip.axis = geometry::triangle_normal(organ_->model(), organ_->surface_tree().closest_point(rest_point).triangle);
+      tip.axis = normal;
     }
+    tip.seat_on(normal);
     if (!model_->attach(tool, rest_point, tip, contacts_[tool]))
       throw std::runtime_error("the model cannot take a contact here (too near the clamp, or too far from the surface)");
     attached_[tool] = true;

@@ -24,31 +24,38 @@ namespace {
 
 using namespace cli::testing;
 
-// A solid cylinder CT: radius 25 mm, along x from x = 0 to x = 150 mm, 1 mm
-// voxels, tissue 60 HU in −100 HU fat; and its label map.
-void write_cylinder_ct(const fs::path& ct_path, const fs::path& label_path) {
-  constexpr double kRadius = 25.0, kLength = 150.0;
+// A CT of 1 mm voxels over `size` from `origin` (mm): tissue 60 HU where
+// `inside(x, y, z)` (mm), −100 HU fat elsewhere; and its label map.
+template <typename Inside>
+void write_solid_ct(const fs::path& ct_path, const fs::path& label_path, const std::array<itk::SizeValueType, 3>& size,
+                    const std::array<double, 3>& origin, Inside inside) {
   pipeline::CtImage::Pointer ct = pipeline::CtImage::New();
   pipeline::MaskImage::Pointer label = pipeline::MaskImage::New();
   pipeline::CtImage::RegionType region;
-  region.SetSize({170, 70, 70});
+  region.SetSize({size[0], size[1], size[2]});
   ct->SetRegions(region);
   label->SetRegions(region);
-  const double origin[3] = {-10.0, -34.5, -34.5};
-  ct->SetOrigin(origin);
-  label->SetOrigin(origin);
+  ct->SetOrigin(origin.data());
+  label->SetOrigin(origin.data());
   ct->Allocate();
   label->Allocate();
-  for (itk::IndexValueType k = 0; k < 70; ++k)
-    for (itk::IndexValueType j = 0; j < 70; ++j)
-      for (itk::IndexValueType i = 0; i < 170; ++i) {
-        const double x = origin[0] + i, y = origin[1] + j, z = origin[2] + k;
-        const bool inside = x >= 0.0 && x <= kLength && y * y + z * z <= kRadius * kRadius;
-        ct->SetPixel({i, j, k}, static_cast<std::int16_t>(inside ? 60 : -100));
-        label->SetPixel({i, j, k}, inside ? 1 : 0);
+  for (itk::IndexValueType k = 0; k < static_cast<itk::IndexValueType>(size[2]); ++k)
+    for (itk::IndexValueType j = 0; j < static_cast<itk::IndexValueType>(size[1]); ++j)
+      for (itk::IndexValueType i = 0; i < static_cast<itk::IndexValueType>(size[0]); ++i) {
+        const bool in = inside(origin[0] + i, origin[1] + j, origin[2] + k);
+        ct->SetPixel({i, j, k}, static_cast<std::int16_t>(in ? 60 : -100));
+        label->SetPixel({i, j, k}, in ? 1 : 0);
       }
   pipeline::write_ct_image(*ct, ct_path.string());
   pipeline::write_mask_image(*label, label_path.string());
+}
+
+// A solid cylinder CT: radius 25 mm, along x from x = 0 to x = 150 mm.
+void write_cylinder_ct(const fs::path& ct_path, const fs::path& label_path) {
+  constexpr double kRadius = 25.0, kLength = 150.0;
+  write_solid_ct(ct_path, label_path, {170, 70, 70}, {-10.0, -34.5, -34.5}, [](double x, double y, double z) {
+    return x >= 0.0 && x <= kLength && y * y + z * z <= kRadius * kRadius;
+  });
 }
 
 /// The cylinder CT baked into `model`, clamped at the centre of the x = 0 cap.
@@ -66,14 +73,17 @@ TEST_F(Cli, PokeABakedCylinderGivesTheCantileverForces) {
   // (the voxelized, smoothed surface is the only approximation). The beam's
   // own force (--unmatched), not the FEM reference's site law. The cap is
   // held as a grasp holds it (--friction inf): a press across the surface
-  // would otherwise slip.
+  // would otherwise slip. A point load, as beam theory's (--tip-radius 0): a
+  // capsule dragged across the cap would lie along it, and the baked cap's rim
+  // flares past the cap (a fin of the decimated surface's second smoothing),
+  // through which such a shaft would pass.
   const std::string model = (dir_ / "cylinder.organ").string();
   const CommandRun bake = bake_cylinder(dir_, model);
   ASSERT_EQ(bake.exit_code, 0) << bake.err;
 
   const double e = 5000.0, radius = 0.025, delta = 0.005;
   const double area = M_PI * radius * radius, inertia = M_PI * std::pow(radius, 4) / 4.0;
-  const CommandRun transverse = run_organsim("poke " + model + " --tool 151,0,0/0,5,0 --json --unmatched --friction inf", dir_);
+  const CommandRun transverse = run_organsim("poke " + model + " --tool 151,0,0/0,5,0 --json --unmatched --friction inf --tip-radius 0", dir_);
   ASSERT_EQ(transverse.exit_code, 0) << transverse.err;
   const nlohmann::json t = nlohmann::json::parse(transverse.out);
   const double length = t["tools"][0]["beam_length_mm"].get<double>() * 1e-3;
@@ -84,7 +94,7 @@ TEST_F(Cli, PokeABakedCylinderGivesTheCantileverForces) {
   EXPECT_LE(t["organ"]["max_displacement_mm"].get<double>(), 5.0 + 1e-9);
   EXPECT_GT(t["organ"]["max_displacement_mm"].get<double>(), 3.0);
 
-  const CommandRun axial = run_organsim("poke " + model + " --tool 151,0,0/-5,0,0 --json --unmatched", dir_);
+  const CommandRun axial = run_organsim("poke " + model + " --tool 151,0,0/-5,0,0 --json --unmatched --tip-radius 0", dir_);
   ASSERT_EQ(axial.exit_code, 0) << axial.err;
   const nlohmann::json a = nlohmann::json::parse(axial.out);
   const double expected_axial = e * area * delta / length;
@@ -228,6 +238,33 @@ TEST_F(Cli, APressOutsideTheFrictionConeSlipsOntoItAndAGraspHolds) {
         << name << ": the held press leaves the cone";
     std::printf("%s: held (%.4f, %.4f) N -> slipped by %.2f mm: (%.4f, %.4f) N\n", name, held_force[0],
                 held_force[1], slip[0], force[0], force[1]);
+  }
+}
+
+TEST_F(Cli, APressWhoseShaftWouldPierceTheOrganElsewhereIsRefused) {
+  // A step: a slab (x 0-100 mm, z up to 20 mm) with a tower on its far end
+  // (x 60-100 mm, z up to 60 mm). Its floor pressed 30 mm before the tower,
+  // tilted 45° away from it: the shaft leans over the tower and passes
+  // through it. The press cannot be made, and poke says so for every model
+  // before any runs; tilted the other way it is made.
+  const fs::path ct = dir_ / "step_ct.nii.gz", label = dir_ / "step_label.nii.gz";
+  write_solid_ct(ct, label, {120, 60, 100}, {-10.0, -29.5, -29.5}, [](double x, double y, double z) {
+    return x >= 0.0 && x <= 100.0 && std::abs(y) <= 20.0 && z >= -20.0 && z <= (x >= 60.0 ? 60.0 : 20.0);
+  });
+  const std::string model = (dir_ / "step.organ").string();
+  const CommandRun bake = run_organsim("bake " + ct.string() + " --label " + label.string() +
+                                           " --fixed-point 0,0,0 --surface-vertices 3000 --no-beam-tables -o " + model,
+                                       dir_);
+  ASSERT_EQ(bake.exit_code, 0) << bake.err;
+  for (const char* name : {"springs", "linear"}) {
+    const CommandRun toward = run_organsim("poke " + model + " --tool 30,0,20/-3.5,0,-3.5 --model " + name, dir_);
+    EXPECT_EQ(toward.exit_code, 1) << name;
+    EXPECT_NE(toward.err.find("its shaft, 45 degrees from the surface normal, would pass through the organ"),
+              std::string::npos)
+        << name << ": " << toward.err;
+    EXPECT_NE(toward.err.find("press closer to the normal or from another side"), std::string::npos) << toward.err;
+    const CommandRun away = run_organsim("poke " + model + " --tool 30,0,20/3.5,0,-3.5 --model " + name, dir_);
+    EXPECT_EQ(away.exit_code, 0) << name << ": " << away.err;
   }
 }
 

@@ -191,7 +191,7 @@ void press_probes(const CalibrateOptions& o, const organ::Organ& organ, const or
     // Straight in, or tilted 45° along one of two tangents in turn: the organ
     // is pressed and dragged in use, and a fit to one kind would not transfer.
     Probe p;
-    p.tool = site_press(organ, sites[k], normals[sites[k]], static_cast<PressTilt>(k % 3), o.depth_mm);
+    p.tool = site_press(organ, sites[k], normals[sites[k]], static_cast<PressTilt>(k % 3), o.depth_mm, o.press);
     note("calibrate", fmt::format("press {} of {}: {} with {}", k + 1, sites.size(), p.tool.text, o.reference));
     try {
       p.reference = press(o.reference, organ, {p.tool}, o.press);

@@ -40,7 +40,7 @@ DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOp
                                                           : model);
     for (const PressTilt tilt : {PressTilt::straight, static_cast<PressTilt>(1 + k % 2)})
       for (const double depth : o.depths_mm) {
-        const ToolSpec tool = site_press(organ, sites[k], normals[sites[k]], tilt, depth);
+        const ToolSpec tool = site_press(organ, sites[k], normals[sites[k]], tilt, depth, o.press);
         ++fit.presses;
         note("calibrate", fmt::format("depth curve: site {} of {}, {:g} mm: {} with {} ({} tetrahedra)", k + 1,
                                       sites.size(), depth, tool.text, o.reference, reference.model().tetrahedra.size()));

@@ -341,7 +341,7 @@ int run_evaluation(const EvaluationOptions& o) {
         r.vertex = sites[k];
         r.tilt = tilt;
         r.depth_mm = depth;
-        r.tool = site_press(organ, sites[k], normals[sites[k]], tilt, depth);
+        r.tool = site_press(organ, sites[k], normals[sites[k]], tilt, depth, o.press);
         r.thickness_mm = 1e3 * thickness_along(organ, at, -normals[sites[k]]);
         r.clamp_distance_mm = 1e3 * (at - organ.fixed_point()).norm();
         r.reference_tetrahedra = reference->model().tetrahedra.size();

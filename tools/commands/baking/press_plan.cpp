@@ -1,6 +1,7 @@
 #include "press_plan.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <random>
 #include <stdexcept>
@@ -43,14 +44,25 @@ std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std
 }
 
 ToolSpec site_press(const organ::Organ& organ, std::uint32_t site, const Eigen::Vector3d& normal, PressTilt tilt,
-                    double depth_mm) {
+                    double depth_mm, const PressOptions& o) {
   const Eigen::Vector3d at = site_point(organ, site) * 1e3;
   Eigen::Index least = 0;
   normal.cwiseAbs().minCoeff(&least);
   const Eigen::Vector3d tangent = normal.cross(Eigen::Vector3d::Unit(least)).normalized();
-  const Eigen::Vector3d tilts[3] = {Eigen::Vector3d::Zero(), tangent, normal.cross(tangent)};
-  const Eigen::Vector3d by = depth_mm * (tilts[static_cast<int>(tilt)] - normal).normalized();
-  return {fmt::format("{:.2f},{:.2f},{:.2f}/{:.3f},{:.3f},{:.3f}", at[0], at[1], at[2], by[0], by[1], by[2]), at, by};
+  auto spec = [&](const Eigen::Vector3d& toward) -> ToolSpec {
+    const Eigen::Vector3d by = depth_mm * (toward - normal).normalized();
+    return {fmt::format("{:.2f},{:.2f},{:.2f}/{:.3f},{:.3f},{:.3f}", at[0], at[1], at[2], by[0], by[1], by[2]), at, by};
+  };
+  if (tilt == PressTilt::straight) return spec(Eigen::Vector3d::Zero());
+  constexpr int kSides = 8;
+  const double first = tilt == PressTilt::tangent_a ? 0.0 : 0.5 * M_PI;
+  for (int side = 0; side < kSides; ++side) {
+    const double turn = first + 2.0 * M_PI * side / kSides;
+    const ToolSpec tool = spec(std::cos(turn) * tangent + std::sin(turn) * normal.cross(tangent));
+    const Eigen::Vector3d point = tool.point_mm * 1e-3;
+    if (std::isinf(shaft_entry(organ, point, press_tip(organ, point, tool.displacement_mm * 1e-3, o)))) return tool;
+  }
+  return spec(tangent);  // no side is clear: the press reports where the shaft enters
 }
 
 Eigen::Vector3d site_point(const organ::Organ& organ, std::uint32_t site) {

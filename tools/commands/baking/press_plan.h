@@ -25,9 +25,11 @@ enum class PressTilt : int {
 };
 
 /// A press of `depth_mm` at surface vertex `site`, whose outward unit normal
-/// is `normal`, tilted as asked.
+/// is `normal`, tilted as asked. A tilted press whose tool (`o`'s tip) would
+/// have its shaft through the organ elsewhere (shaft_entry) turns about the
+/// normal, 45° at a time, to the first side the shaft is clear of it.
 ToolSpec site_press(const organ::Organ& organ, std::uint32_t site, const Eigen::Vector3d& normal, PressTilt tilt,
-                    double depth_mm);
+                    double depth_mm, const PressOptions& o);
 
 /// Where surface vertex `site` (runtime numbering, as press_sites gives it)
 /// lies at rest, m. The runtime numbers the surface in its own order

@@ -172,8 +172,8 @@ PressResult press_beams(const organ::Organ& organ, const std::vector<ToolSpec>& 
   bool laid = false;
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
     const Eigen::Vector3d action = beams.beam(i).action.position;
-    laid |= press_tip(organ, action, displacements[i], o).push_out(action + displacements[i], r.positions.data(),
-                                                                    r.positions.size());
+    const geometry::ToolTip tip = press_tip(organ, action, displacements[i], o);
+    laid |= tip.push_out(action + tip.seat + displacements[i], r.positions.data(), r.positions.size());
   }
   if (laid) organ::compute_vertex_normals(organ, r.positions.data(), r.normals.data(), 0, r.positions.size());
   const std::vector<model::Point3>& nodes = organ.model().volume_vertices;
@@ -452,7 +452,20 @@ geometry::ToolTip press_tip(const organ::Organ& organ, const Eigen::Vector3d& re
   tip.radius = o.tuning.tip_radius_mm * 1e-3;
   const Eigen::Vector3d normal = organ.rest_normal_at(organ.surface_tree().closest_point(rest_point));
   tip.axis = displacement.dot(normal) < 0.0 ? Eigen::Vector3d(-displacement.normalized()) : normal;
+  tip.seat_on(normal);
   return tip;
+}
+
+double shaft_entry(const organ::Organ& organ, const Eigen::Vector3d& rest_point, const geometry::ToolTip& tip) {
+  if (tip.is_point()) return std::numeric_limits<double>::infinity();
+  // Along the axis only: a seated shaft laid along the surface (a drag across
+  // it) keeps its axis R above the surface, while lines off the axis would
+  // graze the surface's bumps.
+  const Eigen::Vector3d centre = rest_point + tip.seat + tip.radius * tip.axis;
+  geometry::SegmentHit hit;
+  if (!organ.surface_tree().first_crossing(centre, centre + tip.shaft_length * tip.axis, true, hit))
+    return std::numeric_limits<double>::infinity();
+  return hit.along * tip.shaft_length;
 }
 
 ToolSpec parse_tool(const std::string& text) {
@@ -466,6 +479,21 @@ PressResult press(const std::string& name, const organ::Organ& organ, const std:
                  const PressOptions& o) {
   const realtime::RegisteredModel* entry = realtime::find_model(name);
   if (!entry) throw std::logic_error("unknown deformation model " + name);
+  for (std::size_t i = 0; i < tools.size(); ++i) {
+    // A tool the model would refuse (not finite, too far) is left to it: it says why in its words.
+    const Eigen::Vector3d point = tools[i].point_mm * 1e-3, by = tools[i].displacement_mm * 1e-3;
+    if (!point.allFinite() || !by.allFinite()) continue;
+    const geometry::SurfacePoint at = organ.surface_tree().closest_point(point);
+    if (at.distance > o.snap_distance_mm * 1e-3) continue;
+    const geometry::ToolTip tip = press_tip(organ, at.position, by, o);
+    if (const double through = shaft_entry(organ, at.position, tip); std::isfinite(through)) {
+      const double tilt = std::acos(std::clamp(tip.axis.dot(organ.rest_normal_at(at)), -1.0, 1.0));
+          throw std::runtime_error(fmt::format("tool {} ({}): its shaft, {:.0f} degrees from the surface normal, would pass "
+                                           "through the organ {:.1f} mm behind the tip: press closer to the normal or "
+                                           "from another side",
+                                           i + 1, tools[i].text, tilt * 180.0 / M_PI, through * 1e3));
+    }
+  }
   PressResult r = name == "beam"             ? press_beams(organ, tools, o)
                   : entry->fem_material ? press_fem(organ, tools, o, *entry->fem_material)
                                         : press_springs(organ, tools, o);

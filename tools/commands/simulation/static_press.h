@@ -103,10 +103,17 @@ Eigen::Vector3d snap_to_surface(const organ::Organ& organ, const ToolSpec& tool,
 geometry::ToolTip press_tip(const organ::Organ& organ, const Eigen::Vector3d& rest_point,
                             const Eigen::Vector3d& displacement, const PressOptions& o);
 
+/// How far behind the hemisphere's centre the shaft of `tip`, seated at the
+/// organ's surface point `rest_point` (m), first enters the organ at rest
+/// (m), along its axis; infinity where it stays outside. A press whose shaft would have to pierce the organ elsewhere
+/// cannot be made (press() refuses it).
+double shaft_entry(const organ::Organ& organ, const Eigen::Vector3d& rest_point, const geometry::ToolTip& tip);
+
 /// Presses the organ with `model` (beam, springs, linear, corotational,
 /// stvk, psh): the multi-beam model's one deformation, the mass-spring model
 /// settled over `settle_seconds`, a FEM model's static equilibrium by Newton's
-/// method. Throws std::runtime_error with a one-line reason.
+/// method. Throws std::runtime_error with a one-line reason (also for a tool
+/// whose shaft passes through the organ: shaft_entry).
 PressResult press(const std::string& model, const organ::Organ& organ, const std::vector<ToolSpec>& tools,
                   const PressOptions& o);
 

@@ -514,7 +514,7 @@ bool OrganFem::attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, con
   Contact& c = contacts_[tool];
   c.active = true;
   c.tip = tip;
-  c.origin = rest_point;
+  c.origin = rest_point + tip.seat;
   c.rest_point = nearest.position;
   // The organ may be deformed here already: the tool starts where the point is.
   c.target = displacement_at(h.nodes, h.weights);

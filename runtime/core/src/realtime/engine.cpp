@@ -226,8 +226,12 @@ void Engine::deformation_step(double now) noexcept {
       geometry::ToolTip tip;
       tip.radius = options_.tip_radius_of(i);
       tip.shaft_length = options_.shaft_length;
-      tip.axis = tools.shafts[i].squaredNorm() > 0.0 ? tools.shafts[i].normalized()
-                                                     : geometry::triangle_normal(organ_.model(), hit.triangle);
+      geometry::SurfacePoint touched;
+      touched.triangle = hit.triangle;
+      touched.barycentric = hit.barycentric;
+      const Eigen::Vector3d normal = organ_.rest_normal_at(touched);
+      tip.axis = tools.shafts[i].squaredNorm() > 0.0 ? Eigen::Vector3d(tools.shafts[i].normalized()) : normal;
+      tip.seat_on(normal);
       if (model_->attach(tool, rest_point, tip, linearizations_[i])) {
         contact.normal = linearizations_[i].normal;
         contact.action_point = linearizations_[i].action_point;

@@ -249,7 +249,7 @@ class OrganFem {
   struct Contact {
     bool active = false;
     geometry::ToolTip tip;
-    Eigen::Vector3d origin = Eigen::Vector3d::Zero();      ///< m: where the tip touched (attach's rest point)
+    Eigen::Vector3d origin = Eigen::Vector3d::Zero();      ///< m: the tip at first touch (attach's rest point, seated)
     Eigen::Vector3d rest_point = Eigen::Vector3d::Zero();  ///< m: the first-touch point on the boundary
     Eigen::Vector3d target = Eigen::Vector3d::Zero();      ///< the tool displacement of the last step
     Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();

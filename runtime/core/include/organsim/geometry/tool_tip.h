@@ -1,7 +1,8 @@
 // The end of a tool: a rigid capsule, a hemisphere of radius R on a shaft of
 // the same radius (a laparoscopic probe's blunt end: R = 2.5 mm). The tool's
 // tip is the capsule's foremost point; the hemisphere's centre lies R behind
-// it along the shaft. R = 0 is a point. docs/realtime.md#contact-rule says how every
+// it along the shaft. R = 0 is a point. A tool touches the organ where its
+// hemisphere rests on the surface (seat_on). docs/realtime.md#contact-rule says how every
 // deformation model holds the organ with it. Units: metres.
 #pragma once
 
@@ -20,6 +21,17 @@ struct ToolTip {
   double radius = 0.0;                               ///< m; 0: a point tool
   Eigen::Vector3d axis = Eigen::Vector3d::Zero();    ///< unit, from the tip towards the handle
   double shaft_length = 0.30;                        ///< m of shaft behind the hemisphere that can touch
+  Eigen::Vector3d seat = Eigen::Vector3d::Zero();    ///< m: the foremost point at first touch, from the touched point
+
+  /// Seats the tip at a touched surface point of outward unit normal
+  /// `normal`: the hemisphere rests tangent to the surface there (its centre
+  /// R along the normal), so a tool tilted θ from the normal begins outside
+  /// the organ instead of with its hemisphere's side R(1 − cos θ) inside it,
+  /// which the first step would have to push out at once. A shaft pointing
+  /// into the organ is not seated.
+  void seat_on(const Eigen::Vector3d& normal) noexcept {
+    seat = axis.dot(normal) > 0.0 ? Eigen::Vector3d(radius * (normal - axis)) : Eigen::Vector3d::Zero();
+  }
 
   bool is_point() const noexcept { return !(radius > 0.0); }
 

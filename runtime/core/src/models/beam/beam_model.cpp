@@ -53,7 +53,8 @@ class BeamModel final : public DeformationModel {
     bool laid = false;
     for (std::uint32_t tool = 0; tool < tips_.size(); ++tool)
       if (beams_.beam(tool).attached && !tips_[tool].is_point())
-        laid |= tips_[tool].push_out(beams_.beam(tool).action.position + displacements[tool], positions, n);
+        laid |= tips_[tool].push_out(beams_.beam(tool).action.position + tips_[tool].seat + displacements[tool],
+                                     positions, n);
     if (laid) organ::compute_vertex_normals(organ_, positions, normals, 0, n);
     return true;
   }

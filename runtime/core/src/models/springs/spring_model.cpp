@@ -180,7 +180,7 @@ class SpringModel final : public DeformationModel {
     for (std::uint32_t tool = 0; tool < tools_.size(); ++tool) {
       const Tool& t = tools_[tool];
       if (!t.attached || t.tip.is_point()) continue;
-      const Eigen::Vector3d tip_now = t.origin + t.displacement;
+      const Eigen::Vector3d tip_now = t.origin + t.tip.seat + t.displacement;
       std::size_t held = holds_of(tool);
       for (std::uint32_t node = 0; node < organ_.vertex_count() && held < kHoldsPerTool; ++node) {
         if (holder_[node] != kFree || simulation_.network().fixed[node]) continue;
