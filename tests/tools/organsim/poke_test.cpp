@@ -16,7 +16,9 @@
 
 #include "cli_fixture.h"
 #include "organsim/model/model_file.h"
+#include "organsim/organ/organ.h"
 #include "organsim/pipeline/image_io.h"
+#include "press_plan.h"
 #include "test_models.h"
 
 namespace organsim {
@@ -241,19 +243,25 @@ TEST_F(Cli, APressOutsideTheFrictionConeSlipsOntoItAndAGraspHolds) {
   }
 }
 
-TEST_F(Cli, APressWhoseShaftWouldPierceTheOrganElsewhereIsRefused) {
+TEST_F(Cli, APressWhoseShaftWouldPierceTheOrganElsewhereIsRefusedAndCalibrateNeverMakesOne) {
   // A step: a slab (x 0-100 mm, z up to 20 mm) with a tower on its far end
-  // (x 60-100 mm, z up to 60 mm). Its floor pressed 30 mm before the tower,
-  // tilted 45° away from it: the shaft leans over the tower and passes
-  // through it. The press cannot be made, and poke says so for every model
-  // before any runs; tilted the other way it is made.
+  // (x 60-100 mm, z up to 55 mm) whose roof (z 45-55 mm) overhangs the floor
+  // back to x = 40 mm. The floor pressed 30 mm before the tower, tilted 45°
+  // toward it: the shaft leans over the tower and passes through it. The
+  // press cannot be made, and poke says so for every model before any runs;
+  // tilted the other way it is made. Under the roof no tool can press
+  // straight in: calibrate's sites avoid it, and its tilted presses turn to
+  // a side the shaft is clear of.
   const fs::path ct = dir_ / "step_ct.nii.gz", label = dir_ / "step_label.nii.gz";
   write_solid_ct(ct, label, {120, 60, 100}, {-10.0, -29.5, -29.5}, [](double x, double y, double z) {
-    return x >= 0.0 && x <= 100.0 && std::abs(y) <= 20.0 && z >= -20.0 && z <= (x >= 60.0 ? 60.0 : 20.0);
+    const bool slab = x >= 0.0 && x <= 100.0 && z >= -20.0 && z <= 20.0;
+    const bool tower = x >= 60.0 && x <= 100.0 && z >= -20.0 && z <= 55.0;
+    const bool roof = x >= 40.0 && x <= 100.0 && z >= 45.0 && z <= 55.0;
+    return std::abs(y) <= 20.0 && (slab || tower || roof);
   });
   const std::string model = (dir_ / "step.organ").string();
   const CommandRun bake = run_organsim("bake " + ct.string() + " --label " + label.string() +
-                                           " --fixed-point 0,0,0 --surface-vertices 3000 --no-beam-tables -o " + model,
+                                           " --fixed-point 0,0,0 --surface-vertices 3000 -o " + model,
                                        dir_);
   ASSERT_EQ(bake.exit_code, 0) << bake.err;
   for (const char* name : {"springs", "linear"}) {
@@ -266,6 +274,27 @@ TEST_F(Cli, APressWhoseShaftWouldPierceTheOrganElsewhereIsRefused) {
     const CommandRun away = run_organsim("poke " + model + " --tool 30,0,20/3.5,0,-3.5 --model " + name, dir_);
     EXPECT_EQ(away.exit_code, 0) << name << ": " << away.err;
   }
+  const CommandRun under_roof = run_organsim("poke " + model + " --tool 50,0,20/0,0,-2 --model springs", dir_);
+  EXPECT_EQ(under_roof.exit_code, 1);
+  EXPECT_NE(under_roof.err.find("0 degrees from the surface normal"), std::string::npos) << under_roof.err;
+
+  model::ModelReadResult read = model::read_organ_model_file(model);
+  ASSERT_TRUE(read) << read.error;
+  const organ::Organ step(std::move(*read.model));
+  cli::PressOptions press;
+  const std::vector<Eigen::Vector3d> normals = cli::rest_normals(step);
+  int picked_under_roof = 0;
+  for (const std::uint32_t site : cli::press_sites(step, 40, 1, press)) {
+    const Eigen::Vector3d at = 1e3 * cli::site_point(step, site);
+    // The floor under the roof, and the roof's underside above it.
+    picked_under_roof += at[0] > 41.0 && at[0] < 59.0 && (std::abs(at[2] - 20.0) < 1.5 || std::abs(at[2] - 45.0) < 1.5);
+    for (const cli::PressTilt tilt : {cli::PressTilt::straight, cli::PressTilt::tangent_a, cli::PressTilt::tangent_b}) {
+      const cli::ToolSpec tool = cli::site_press(step, site, normals[site], tilt, 2.0, press);
+      const Eigen::Vector3d point = tool.point_mm * 1e-3, by = tool.displacement_mm * 1e-3;
+      EXPECT_TRUE(std::isinf(cli::shaft_entry(step, point, cli::press_tip(step, point, by, press)))) << tool.text;
+    }
+  }
+  EXPECT_EQ(picked_under_roof, 0);
 }
 
 TEST_F(Cli, PokeWithFemModelsAndTheirDifferenceFromTheBeams) {

@@ -186,7 +186,7 @@ model::OrganModel with_material(model::OrganModel model, const model::Material& 
 void press_probes(const CalibrateOptions& o, const organ::Organ& organ, const organ::Organ& unit_organ,
                   std::vector<Probe>& fit, std::vector<Probe>& held_out) {
   const std::vector<Eigen::Vector3d> normals = rest_normals(organ);
-  const std::vector<std::uint32_t> sites = press_sites(organ, o.presses, o.seed, o.press.tuning.fixed_radius_mm * 1e-3);
+  const std::vector<std::uint32_t> sites = press_sites(organ, o.presses, o.seed, o.press);
   for (std::size_t k = 0; k < sites.size(); ++k) {
     // Straight in, or tilted 45° along one of two tangents in turn: the organ
     // is pressed and dragged in use, and a fit to one kind would not transfer.

@@ -20,7 +20,7 @@ DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOp
   if (model.sites.empty() || !(radius_mm > 0.0) || o.sites <= 0) return fit;
   const organ::Organ organ(model);
   const std::vector<Eigen::Vector3d> normals = rest_normals(organ);
-  const std::vector<std::uint32_t> sites = press_sites(organ, o.sites, o.seed, o.press.tuning.fixed_radius_mm * 1e-3);
+  const std::vector<std::uint32_t> sites = press_sites(organ, o.sites, o.seed, o.press);
   fit.refine_size_mm = o.refine_size_mm < 0.0 ? 0.5 * radius_mm : o.refine_size_mm;
   const double refine_radius_mm = *std::max_element(o.depths_mm.begin(), o.depths_mm.end()) + 2.0 * radius_mm;
   // The fast models' force with the law alone (no curve, g = 1), pressed by

@@ -317,7 +317,7 @@ int run_evaluation(const EvaluationOptions& o) {
   const organ::Organ organ(model);
   const Eigen::Vector3d extent = bounding_box_extent(model.surface_vertices);
   const std::vector<Eigen::Vector3d> normals = rest_normals(organ);
-  const std::vector<std::uint32_t> sites = press_sites(organ, o.sites, o.seed, o.press.tuning.fixed_radius_mm * 1e-3);
+  const std::vector<std::uint32_t> sites = press_sites(organ, o.sites, o.seed, o.press);
   const double radius_mm = o.press.tuning.tip_radius_mm;
   const double refine_size_mm = o.refine_size_mm < 0.0 ? 0.5 * radius_mm : o.refine_size_mm;
   // The tip's whole path and what it takes in, with a margin: cells of the

@@ -16,27 +16,42 @@ Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 
 }  // namespace
 
-std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std::uint32_t seed, double clamp_radius) {
+std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std::uint32_t seed, const PressOptions& o) {
   const std::vector<model::Point3>& vertices = organ.model().surface_vertices;
+  const double clamp_radius = o.tuning.fixed_radius_mm * 1e-3;
   double farthest = 0.0;
   for (const model::Point3& v : vertices) farthest = std::max(farthest, (point(v) - organ.fixed_point()).norm());
   const double nearest_allowed = clamp_radius + 0.25 * (farthest - clamp_radius);
   std::vector<std::uint32_t> candidates;
   for (std::uint32_t v = 0; v < vertices.size(); ++v)
     if ((point(vertices[v]) - organ.fixed_point()).norm() >= nearest_allowed) candidates.push_back(v);
-  if (candidates.size() < static_cast<std::size_t>(count))
-    throw std::runtime_error(fmt::format("the organ has {} surface vertices away from the clamp, fewer than the {} "
-                                         "presses asked for",
-                                         candidates.size(), count));
+  // A site in a hollow, whose straight press would need its shaft through
+  // the organ elsewhere, is never picked; it stays a candidate so that the
+  // others are the sites they were before the rule.
+  const std::vector<Eigen::Vector3d> normals = rest_normals(organ);
+  std::vector<bool> reachable(candidates.size());
+  std::size_t reachable_count = 0;
+  for (std::size_t c = 0; c < candidates.size(); ++c) {
+    const Eigen::Vector3d at = point(vertices[candidates[c]]);
+    const Eigen::Vector3d inward = -1e-3 * normals[candidates[c]];
+    reachable[c] = std::isinf(shaft_entry(organ, at, press_tip(organ, at, inward, o)));
+    reachable_count += reachable[c];
+  }
+  if (reachable_count < static_cast<std::size_t>(count))
+    throw std::runtime_error(fmt::format("the organ has {} surface vertices away from the clamp that a tool can press "
+                                         "straight in, fewer than the {} presses asked for",
+                                         reachable_count, count));
   std::mt19937 random(seed);
-  std::vector<std::uint32_t> sites{candidates[random() % candidates.size()]};
+  std::size_t start = random() % candidates.size();
+  while (!reachable[start]) start = (start + 1) % candidates.size();
+  std::vector<std::uint32_t> sites{candidates[start]};
   std::vector<double> distance(candidates.size(), std::numeric_limits<double>::infinity());
   while (sites.size() < static_cast<std::size_t>(count)) {
     const Eigen::Vector3d last = point(vertices[sites.back()]);
-    std::size_t best = 0;
+    std::size_t best = candidates.size();
     for (std::size_t c = 0; c < candidates.size(); ++c) {
       distance[c] = std::min(distance[c], (point(vertices[candidates[c]]) - last).norm());
-      if (distance[c] > distance[best]) best = c;
+      if (reachable[c] && (best == candidates.size() || distance[c] > distance[best])) best = c;
     }
     sites.push_back(candidates[best]);
   }

@@ -12,10 +12,12 @@ namespace organsim::cli {
 
 /// `count` surface vertices (runtime numbering) spread by farthest-point
 /// sampling from a start `seed` picks, among the vertices far enough from the
-/// clamp ball (`clamp_radius`, m) that every model can take the press: a
-/// quarter of the way from it to the farthest vertex. Throws
-/// std::runtime_error when there are fewer such vertices than `count`.
-std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std::uint32_t seed, double clamp_radius);
+/// clamp ball (`o`'s fixed radius) that every model can take the press: a
+/// quarter of the way from it to the farthest vertex. A vertex a tool of
+/// `o`'s tip cannot press straight in (its shaft would pass through the organ
+/// elsewhere: shaft_entry) is not picked. Throws std::runtime_error when there
+/// are fewer such vertices than `count`.
+std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std::uint32_t seed, const PressOptions& o);
 
 /// How a press at a site goes in.
 enum class PressTilt : int {
