@@ -166,6 +166,51 @@ TEST(Surface, VolumeTrueAtEveryBlockFactorAndSize) {
   expect_volume_true({0.4, 0.25, {0.9, 1.1, 1.6}, 2, 800, 0.01});
 }
 
+TEST(Surface, ALongCylinderStaysWithinItsCapsAndSide) {
+  // A straight cylinder (radius 25 mm, x from 0 to 150 mm, 1 mm voxels),
+  // decimated to 4,000 vertices: its surface's long strips along the side are
+  // where a low-pass filter after decimation slid vertices past the caps, into
+  // zero-volume fins 9 mm long (the baked surface ran from x = −9 to 159 mm).
+  const double radius = 25.0, length = 150.0;
+  auto mask = MaskImage::New();
+  MaskImage::RegionType region;
+  region.SetSize({{170, 70, 70}});
+  mask->SetRegions(region);
+  MaskImage::SpacingType spacing;
+  spacing.Fill(1.0);
+  mask->SetSpacing(spacing);
+  MaskImage::PointType origin;
+  origin[0] = -9.5, origin[1] = -34.5, origin[2] = -34.5;  // voxel centres off the caps and side
+  mask->SetOrigin(origin);
+  mask->Allocate(true);
+  itk::ImageRegionIteratorWithIndex<MaskImage> it(mask, region);
+  for (; !it.IsAtEnd(); ++it) {
+    MaskImage::PointType p;
+    mask->TransformIndexToPhysicalPoint(it.GetIndex(), p);
+    it.Set(p[0] > 0.0 && p[0] < length && std::hypot(p[1], p[2]) < radius ? 1 : 0);
+  }
+  SurfaceOptions options;
+  options.target_vertices = 4000;
+  const geometry::SurfaceMesh mesh = extract_surface(*mask, options);
+  expect_closed_oriented_manifold(mesh);
+  double farthest_mm = 0.0, lowest_x = 1e9, highest_x = -1e9;
+  for (const model::Point3& v : mesh.vertices) {
+    const double x = v[0] * 1e3, r = std::hypot(v[1], v[2]) * 1e3;
+    // Distance to the capped cylinder's surface (inside: to the nearest face;
+    // outside: to the solid).
+    const double out_x = std::max(-x, x - length), out_r = r - radius;
+    const double distance = out_x > 0.0 || out_r > 0.0 ? std::hypot(std::max(out_x, 0.0), std::max(out_r, 0.0))
+                                                       : std::min({-out_x, -out_r});
+    farthest_mm = std::max(farthest_mm, distance);
+    lowest_x = std::min(lowest_x, x), highest_x = std::max(highest_x, x);
+  }
+  EXPECT_GT(lowest_x, -1.0);
+  EXPECT_LT(highest_x, length + 1.0);
+  // The smoothing rounds the caps' rims by a few voxels; nothing else is off.
+  EXPECT_LT(farthest_mm, 3.0);
+  RecordProperty("farthest_from_cylinder_mm", std::to_string(farthest_mm));
+}
+
 TEST(Surface, BlockFactorOutsideOneToFourIsAnError) {
   const testing::Ellipsoid e;
   const MaskImage::Pointer mask = testing::make_ellipsoid_mask(e, {2.0, 2.0, 2.0});

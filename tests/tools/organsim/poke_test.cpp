@@ -75,10 +75,7 @@ TEST_F(Cli, PokeABakedCylinderGivesTheCantileverForces) {
   // (the voxelized, smoothed surface is the only approximation). The beam's
   // own force (--unmatched), not the FEM reference's site law. The cap is
   // held as a grasp holds it (--friction inf): a press across the surface
-  // would otherwise slip. A point load, as beam theory's (--tip-radius 0): a
-  // capsule dragged across the cap would lie along it, and the baked cap's rim
-  // flares past the cap (a fin of the decimated surface's second smoothing),
-  // through which such a shaft would pass.
+  // would otherwise slip. A point load, as beam theory's (--tip-radius 0).
   const std::string model = (dir_ / "cylinder.organ").string();
   const CommandRun bake = bake_cylinder(dir_, model);
   ASSERT_EQ(bake.exit_code, 0) << bake.err;

@@ -1,6 +1,6 @@
 // Stage 3 of the pipeline: the organ surface from the mask (flying edges,
-// windowed-sinc smoothing, decimation to a target size and the same smoothing
-// again), in metres, patient frame, closed, manifold and outward oriented.
+// windowed-sinc smoothing, decimation to a target size and a gentle Laplacian
+// pass that takes off the spikes decimation leaves), in metres, patient frame, closed, manifold and outward oriented.
 #pragma once
 
 #include <cstddef>
@@ -13,7 +13,7 @@ namespace organsim::pipeline {
 
 struct SurfaceOptions {
   std::size_t target_vertices = 3000;  ///< decimate to about this many vertices
-  int smoothing_iterations = 20;       ///< windowed sinc, of the contour and of the decimated surface
+  int smoothing_iterations = 20;       ///< windowed sinc, of the contour
   double smoothing_passband = 0.05;    ///< windowed sinc pass band (smaller: smoother)
   long block_factor = 0;               ///< contour the means of blocks of n³ voxels (1–4); 0: chosen from target_vertices
 };
