@@ -14,6 +14,13 @@ namespace {
 
 Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 
+/// Whether a tool pressed from `at` (m) by `displacement` (m) keeps its shaft
+/// out of the organ.
+bool shaft_clear(const organ::Organ& organ, const Eigen::Vector3d& at, const Eigen::Vector3d& displacement,
+                 const PressOptions& o) {
+  return std::isinf(shaft_entry(organ, at, press_tip(organ, at, displacement, o)));
+}
+
 }  // namespace
 
 std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std::uint32_t seed, const PressOptions& o) {
@@ -34,7 +41,7 @@ std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std
   for (std::size_t c = 0; c < candidates.size(); ++c) {
     const Eigen::Vector3d at = point(vertices[candidates[c]]);
     const Eigen::Vector3d inward = -1e-3 * normals[candidates[c]];
-    reachable[c] = std::isinf(shaft_entry(organ, at, press_tip(organ, at, inward, o)));
+    reachable[c] = shaft_clear(organ, at, inward, o);
     reachable_count += reachable[c];
   }
   if (reachable_count < static_cast<std::size_t>(count))
@@ -75,7 +82,7 @@ ToolSpec site_press(const organ::Organ& organ, std::uint32_t site, const Eigen::
     const double turn = first + 2.0 * M_PI * side / kSides;
     const ToolSpec tool = spec(std::cos(turn) * tangent + std::sin(turn) * normal.cross(tangent));
     const Eigen::Vector3d point = tool.point_mm * 1e-3;
-    if (std::isinf(shaft_entry(organ, point, press_tip(organ, point, tool.displacement_mm * 1e-3, o)))) return tool;
+    if (shaft_clear(organ, point, tool.displacement_mm * 1e-3, o)) return tool;
   }
   return spec(tangent);  // no side is clear: the press reports where the shaft enters
 }
