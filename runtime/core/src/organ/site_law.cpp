@@ -19,6 +19,11 @@ Eigen::Matrix3d unpacked(const std::array<double, 6>& c) {
   return m;
 }
 
+// The tip's indentation: Newton's iterations on a convex scalar function
+// (six or so from the deepest start; the cap is never reached in practice).
+constexpr int kIndentationIterations = 60;
+constexpr double kIndentationTolerance = 1e-12;  // of the normal depth
+
 }  // namespace
 
 Eigen::Matrix3d punch_compliance(double young, double poisson, double radius, const Eigen::Vector3d& normal) noexcept {
@@ -42,16 +47,73 @@ bool SiteLaw::set(const Organ& organ, const geometry::SurfacePoint& at, double t
   const model::Triangle& t = m.surface_triangles[at.triangle];
   Eigen::Matrix3d compliance = Eigen::Matrix3d::Zero();
   for (int k = 0; k < 3; ++k) compliance += at.barycentric[k] * unpacked(sites.compliance[t[k]]);
-  compliance += punch_compliance(sites.young_modulus, sites.poisson_ratio, tip_radius, organ.rest_normal_at(at));
+  const Eigen::Vector3d normal = organ.rest_normal_at(at);
   Eigen::Matrix3d stiffness;
   bool invertible = false;
   double determinant = 0.0;
-  compliance.computeInverseAndDetWithCheck(stiffness, determinant, invertible);
+  (compliance + punch_compliance(sites.young_modulus, sites.poisson_ratio, tip_radius, normal))
+      .computeInverseAndDetWithCheck(stiffness, determinant, invertible);
   if (!invertible || !stiffness.allFinite()) return false;
   stiffness_ = 0.5 * (stiffness + stiffness.transpose());
+  organ_compliance_ = compliance;
+  normal_ = normal;
+  organ_normal_compliance_ = std::max(0.0, normal.dot(compliance * normal));
+  radius_ = tip_radius;
+  poisson_ = sites.poisson_ratio;
+  contact_modulus_ = sites.young_modulus / (1.0 - poisson_ * poisson_);
+  shear_ = sites.young_modulus / (2.0 * (1.0 + poisson_));
   curve_ = sites.depth_curve.empty() ? nullptr : &sites.depth_curve;
   curve_depth_scale_ = curve_ ? sites.curve_tip_radius / tip_radius : 1.0;
   return true;
+}
+
+double SiteLaw::tip_force(double indentation) const noexcept {
+  if (!(indentation > 0.0)) return 0.0;
+  if (indentation <= radius_) return 4.0 / 3.0 * contact_modulus_ * std::sqrt(radius_) * indentation * std::sqrt(indentation);
+  return contact_modulus_ * radius_ * (4.0 / 3.0 * radius_ + 2.0 * (indentation - radius_));
+}
+
+double SiteLaw::tip_force_slope(double indentation) const noexcept {
+  return 2.0 * contact_modulus_ * std::sqrt(radius_ * std::min(std::max(indentation, 0.0), radius_));
+}
+
+double SiteLaw::tip_indentation(double normal_depth) const noexcept {
+  if (!(normal_depth > 0.0)) return 0.0;
+  // h(δ) = δ + c_n F_tip(δ) − d_n is increasing and convex: Newton from δ = d_n
+  // (where h ≥ 0) falls monotonically onto the root.
+  double indentation = normal_depth;
+  for (int iteration = 0; iteration < kIndentationIterations; ++iteration) {
+    const double excess = indentation + organ_normal_compliance_ * tip_force(indentation) - normal_depth;
+    const double step = excess / (1.0 + organ_normal_compliance_ * tip_force_slope(indentation));
+    indentation = std::max(indentation - step, 0.0);
+    if (!(step > kIndentationTolerance * normal_depth)) break;
+  }
+  return indentation;
+}
+
+SiteLaw::Secant SiteLaw::secant(double normal_depth, bool with_derivative) const noexcept {
+  Secant s{Eigen::Matrix3d::Zero(), Eigen::Matrix3d::Zero()};
+  const double indentation = tip_indentation(normal_depth);
+  const double force = tip_force(indentation);
+  if (!(force > 0.0)) return s;
+  const double contact_radius = std::sqrt(radius_ * std::min(indentation, radius_));
+  const double along_normal = indentation / force;
+  const double along_surface = (2.0 - poisson_) / (8.0 * shear_ * contact_radius);
+  Eigen::Matrix3d stiffness;
+  bool invertible = false;
+  double determinant = 0.0;
+  (organ_compliance_ + about_normal(along_normal, along_surface, normal_))
+      .computeInverseAndDetWithCheck(stiffness, determinant, invertible);
+  if (!invertible || !stiffness.allFinite()) return s;
+  s.stiffness = 0.5 * (stiffness + stiffness.transpose());
+  if (!with_derivative) return s;
+  // d(δ/F)/dδ = (F − δF')/F²; Mindlin's along the surface ∝ 1/a, a = √(Rδ).
+  const double normal_slope = (force - indentation * tip_force_slope(indentation)) / (force * force);
+  const double surface_slope = indentation < radius_ ? -along_surface / (2.0 * indentation) : 0.0;
+  const double indentation_per_depth =
+      1.0 / (1.0 + organ_normal_compliance_ * tip_force_slope(indentation));  // dδ/dd_n
+  s.derivative = -indentation_per_depth * s.stiffness * about_normal(normal_slope, surface_slope, normal_) * s.stiffness;
+  return s;
 }
 
 double SiteLaw::depth_factor(double depth) const noexcept {
@@ -77,13 +139,15 @@ double SiteLaw::depth_slope(double depth) const noexcept {
 }
 
 Eigen::Vector3d SiteLaw::force(const Eigen::Vector3d& d) const noexcept {
-  return -depth_factor(d.norm()) * (stiffness_ * d);
+  return -depth_factor(d.norm()) * (secant(-normal_.dot(d), false).stiffness * d);
 }
 
 Eigen::Matrix3d SiteLaw::tangent(const Eigen::Vector3d& d) const noexcept {
+  // F = −g(|d|) K(δ(d_n)) d with d_n = −n·d.
   const double depth = d.norm();
-  Eigen::Matrix3d t = depth_factor(depth) * stiffness_;
-  if (depth > 0.0) t += depth_slope(depth) * (stiffness_ * d) * (d / depth).transpose();
+  const Secant s = secant(-normal_.dot(d), true);
+  Eigen::Matrix3d t = depth_factor(depth) * (s.stiffness - (s.derivative * d) * normal_.transpose());
+  if (depth > 0.0) t += depth_slope(depth) * (s.stiffness * d) * (d / depth).transpose();
   return 0.5 * (t + t.transpose());
 }
 

@@ -1,7 +1,7 @@
 // The FEM reference's contact law at a site (organ/site_law.h) and the fast
-// models that give it: the punch's closed forms, the law built from the
-// model's compliances (renumbered with the surface), its depth curve, and the
-// multi-beam and mass-spring models' contact forces.
+// models that give it: the punch's closed forms, the sphere's Hertz law, the
+// law built from the model's compliances (renumbered with the surface), its
+// depth curve, and the multi-beam and mass-spring models' contact forces.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -43,7 +43,24 @@ model::OrganModel cylinder_with_sites() {
   return m;
 }
 
-TEST(SiteLaw, TheLawIsTheOrgansComplianceInSeriesWithThePunchFollowingTheVertices) {
+/// A sphere of radius R on the half-space, N: Hertz, 4/3 E* √R δ^{3/2}, until
+/// it is buried (δ = R), then a flat punch of radius R, 2 R E* per metre more.
+double hertz_then_punch(double indentation) {
+  const double e_star = kYoung / (1 - kPoisson * kPoisson);
+  return indentation <= kRadius ? 4.0 / 3.0 * e_star * std::sqrt(kRadius) * std::pow(indentation, 1.5)
+                                : 4.0 / 3.0 * e_star * kRadius * kRadius + 2 * kRadius * e_star * (indentation - kRadius);
+}
+
+/// The tangent is the symmetric part of −∂F/∂d: central differences agree.
+void expect_tangent_is_the_derivative(const SiteLaw& law, const Eigen::Vector3d& d) {
+  const double h = 1e-8;
+  Eigen::Matrix3d numeric;
+  for (int k = 0; k < 3; ++k)
+    numeric.col(k) = -(law.force(d + h * Eigen::Vector3d::Unit(k)) - law.force(d - h * Eigen::Vector3d::Unit(k))) / (2 * h);
+  EXPECT_LT((law.tangent(d) - 0.5 * (numeric + numeric.transpose())).norm(), 1e-5 * numeric.norm()) << d.transpose();
+}
+
+TEST(SiteLaw, TheLawIsTheOrgansComplianceInSeriesWithTheTipFollowingTheVertices) {
   const Organ organ(cylinder_with_sites());
   ASSERT_NE(organ.file_vertex_index()[0], 0u);  // the surface was renumbered
   // A point on top of the cylinder (outward normal +z), 0.1 m from the clamp.
@@ -58,11 +75,30 @@ TEST(SiteLaw, TheLawIsTheOrgansComplianceInSeriesWithThePunchFollowingTheVertice
   EXPECT_GT(normal.dot(geometry::triangle_normal(organ.model(), at.triangle)), 0.99);
   Eigen::Matrix3d compliance = Eigen::Vector3d(0.05, 0.05, 0.1 + at.position[0]).asDiagonal();
   compliance += punch_compliance(kYoung, kPoisson, kRadius, normal);
-  const Eigen::Matrix3d expected = compliance.inverse();
-  EXPECT_LT((law.stiffness() - expected).norm(), 1e-9 * expected.norm());
+  const Eigen::Matrix3d buried = compliance.inverse();
+  EXPECT_LT((law.stiffness() - buried).norm(), 1e-9 * buried.norm());
+
+  // A press 4 mm in and 2.2 mm across: the tip's indentation δ solves
+  // d_n = δ + c_n F_tip(δ) (found here by bisection), and the force is the
+  // organ's compliance in series with the tip's secant one at δ.
   const Eigen::Vector3d d(0.001, -0.002, -0.004);
-  EXPECT_LT((law.force(d) + expected * d).norm(), 1e-12);
-  EXPECT_LT((law.tangent(d) - expected).norm(), 1e-9 * expected.norm());
+  const double normal_depth = -normal.dot(d), organ_normal = normal.dot(compliance * normal) -
+                                                             normal.dot(punch_compliance(kYoung, kPoisson, kRadius, normal) * normal);
+  double low = 0.0, high = normal_depth;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (low + high);
+    (mid + organ_normal * hertz_then_punch(mid) > normal_depth ? high : low) = mid;
+  }
+  const double indentation = 0.5 * (low + high), contact_radius = std::sqrt(kRadius * std::min(indentation, kRadius));
+  EXPECT_NEAR(law.tip_indentation(normal_depth), indentation, 1e-12);
+  const double shear = kYoung / (2 * (1 + kPoisson));
+  Eigen::Matrix3d secant = Eigen::Vector3d(0.05, 0.05, 0.1 + at.position[0]).asDiagonal();
+  secant += (2 - kPoisson) / (8 * shear * contact_radius) * Eigen::Matrix3d::Identity() +
+            (indentation / hertz_then_punch(indentation) - (2 - kPoisson) / (8 * shear * contact_radius)) * normal *
+                normal.transpose();
+  EXPECT_LT((law.force(d) + secant.inverse() * d).norm(), 1e-9 * law.force(d).norm());
+  EXPECT_LT(law.force(d).norm(), (buried * d).norm()) << "softer than the buried tip";
+  expect_tangent_is_the_derivative(law, d);
 
   SiteLaw point;
   EXPECT_FALSE(point.set(organ, at, 0.0));  // a point has no finite indentation stiffness
@@ -84,17 +120,55 @@ TEST(SiteLaw, TheDepthCurveScalesTheForceAndItsTangentFollows) {
   EXPECT_DOUBLE_EQ(law.depth_factor(0.05), 3.0);  // held beyond the last depth
   const Eigen::Vector3d normal = geometry::triangle_normal(organ.model(), at.triangle);
   const Eigen::Vector3d d = -0.006 * normal;
-  EXPECT_LT((law.force(d) + 2.0 * law.stiffness() * d).norm(), 1e-12);
-  // The tangent is the symmetric part of −∂F/∂d: central differences agree.
-  const double h = 1e-7;
-  Eigen::Matrix3d numeric;
-  for (int k = 0; k < 3; ++k)
-    numeric.col(k) = -(law.force(d + h * Eigen::Vector3d::Unit(k)) - law.force(d - h * Eigen::Vector3d::Unit(k))) / (2 * h);
-  EXPECT_LT((law.tangent(d) - 0.5 * (numeric + numeric.transpose())).norm(), 1e-6 * numeric.norm());
+  const Organ plain(cylinder_with_sites());
+  SiteLaw without_curve;
+  ASSERT_TRUE(without_curve.set(plain, plain.surface_tree().closest_point({0.1, 0.0, 0.05}), kRadius));
+  EXPECT_LT((law.force(d) - 2.0 * without_curve.force(d)).norm(), 1e-12);
+  expect_tangent_is_the_derivative(law, d);
+  expect_tangent_is_the_derivative(law, -0.003 * normal + Eigen::Vector3d(0.002, 0.001, 0.0));  // a slope of the curve
   // A tip twice the size reads the curve at half the depth.
   SiteLaw larger;
   ASSERT_TRUE(larger.set(organ, at, 2 * kRadius));
   EXPECT_DOUBLE_EQ(larger.depth_factor(0.004), 1.25);
+}
+
+// Where the organ does not give (C_organ = 0), pressed straight in, the law
+// is the sphere on a half-space: Hertz's force until the tip is buried, then
+// the flat punch's slope, joined with the same value and slope; a tool that
+// pulls out feels nothing.
+TEST(SiteLaw, OnARigidlyHeldSurfaceTheLawIsHertzThenTheBuriedPunch) {
+  model::OrganModel m = testing::make_cylinder_model({});
+  m.sites.young_modulus = kYoung;
+  m.sites.poisson_ratio = kPoisson;
+  m.sites.compliance.assign(m.surface_vertices.size(), {});
+  const Organ organ(std::move(m));
+  const geometry::SurfacePoint at = organ.surface_tree().closest_point({0.1, 0.0, 0.05});
+  SiteLaw law;
+  ASSERT_TRUE(law.set(organ, at, kRadius));
+  const Eigen::Vector3d normal = organ.rest_normal_at(at);
+  for (const double depth : {1e-5, 0.0005, 0.002, 0.0025, 0.003, 0.010}) {
+    SCOPED_TRACE(depth);
+    EXPECT_NEAR(law.tip_indentation(depth), depth, 1e-15);
+    const Eigen::Vector3d force = law.force(-depth * normal);
+    EXPECT_NEAR(force.dot(normal), hertz_then_punch(depth), 1e-9 * hertz_then_punch(depth));
+    EXPECT_LT((force - force.dot(normal) * normal).norm(), 1e-9 * force.norm());
+    expect_tangent_is_the_derivative(law, -depth * normal);
+    // Along the surface the contact radius stops growing at δ = R: a kink, no tangent to compare there.
+    if (depth != kRadius) expect_tangent_is_the_derivative(law, -depth * normal + 0.5 * depth * normal.unitOrthogonal());
+  }
+  // The join at δ = R: the same force and the same slope, 2 R E*, from both sides.
+  const double e_star = kYoung / (1 - kPoisson * kPoisson), h = 1e-9;
+  const double below = normal.dot(law.tangent(-(kRadius - h) * normal) * normal);
+  const double above = normal.dot(law.tangent(-(kRadius + h) * normal) * normal);
+  EXPECT_NEAR(below, 2 * kRadius * e_star, 1e-5 * kRadius * e_star);
+  EXPECT_NEAR(above, 2 * kRadius * e_star, 1e-9 * kRadius * e_star);
+  // Deep in, the buried tip's secant stiffness tends to the punch's.
+  EXPECT_NEAR(law.force(-0.1 * normal).dot(normal) / 0.1, normal.dot(law.stiffness() * normal),
+              0.01 * normal.dot(law.stiffness() * normal));
+  for (const Eigen::Vector3d& out : {Eigen::Vector3d(0.001 * normal), Eigen::Vector3d(Eigen::Vector3d::Zero())}) {
+    EXPECT_EQ(law.force(out), Eigen::Vector3d::Zero());
+    EXPECT_EQ(law.tangent(out), Eigen::Matrix3d::Zero());
+  }
 }
 
 // The multi-beam and mass-spring models give a tool of finite size the site

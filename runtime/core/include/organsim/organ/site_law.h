@@ -6,14 +6,24 @@
 // A rigid end of radius R pressed into the organ at a site by d (m) meets, in
 // series, the organ's compliance as a held body C_organ (baked per vertex:
 // how far the patch under the tool moves per newton) and the local
-// indentation of the patch by the end, C_tip(R) (a rigid circular punch of
-// radius R on a half-space: Boussinesq normal to the surface, Mindlin along
-// it). Linear law: F = −K d, K = (C_organ + C_tip)⁻¹. The reference stiffens
-// as the press deepens (the tip buries, the shaft meets the organ, the
-// material is hyperelastic): the model's depth curve g, fitted by `organsim
-// calibrate` to the reference's presses, gives F = −g(|d|) K d. The curve is
-// the reference's for the tip radius it was fitted with; a tip of another
-// radius reads it at the same depth relative to its radius (d R_fit / R).
+// indentation of the surface by the end (the tip's own compliance, which
+// depends on R, E and ν only). The end is a hemisphere: pressed in by δ it
+// touches a disk of radius a = √(R δ) (Hertz: normal force 4/3 E* √R δ^{3/2},
+// E* = E/(1 − ν²)) until it is buried at δ = R; deeper, the contact stays a
+// disk of radius R and stiffens as a rigid flat punch of that radius does
+// (2 R E* per metre: Boussinesq; the two join with the same slope). Along
+// the surface the disk of radius a resists as Mindlin's, 8 G a/(2 − ν). The
+// tip's indentation δ is the part of the press's normal depth d_n that the
+// organ's normal compliance c_n does not take: d_n = δ + c_n F_tip(δ). Law:
+// F = −K(δ) d, K(δ) = (C_organ + C_tip(δ))⁻¹, C_tip(δ) the tip's secant
+// compliance (δ / F_tip(δ) along the normal, Mindlin's along the surface).
+// The reference stiffens as the press deepens in other ways too (the shaft
+// meets the organ, the material is hyperelastic): the model's depth curve g,
+// fitted by `organsim calibrate` to the reference's presses, gives
+// F = −g(|d|) K(δ) d. The curve is the reference's for the tip radius it was
+// fitted with; a tip of another radius reads it at the same depth relative
+// to its radius (d R_fit / R). A tool that does not press in (d_n ≤ 0)
+// feels nothing: the contact holds no tension.
 //
 // Everything here is noexcept and allocation-free: the engine's models call
 // it on the deformation thread.
@@ -46,13 +56,14 @@ Eigen::Matrix3d disk_compliance(double young, double poisson, double radius, con
 class SiteLaw {
  public:
   /// The law of a tip of radius `tip_radius` (m) touching the rest surface at
-  /// `at` (its triangle and barycentric weights): the compliance interpolated
-  /// from the triangle's vertices plus the tip's punch compliance about the
-  /// normal interpolated from their rest normals (continuous across edges). False (nothing changed) when the organ has no site
-  /// compliances or the tip is a point (a point has no finite indentation
-  /// stiffness in an elastic body: the fast models then keep their own force).
+  /// `at` (its triangle and barycentric weights): the organ's compliance and
+  /// the normal interpolated from the triangle's vertices (continuous across
+  /// edges). False (nothing changed) when the organ has no site compliances
+  /// or the tip is a point (a point has no finite indentation stiffness in an
+  /// elastic body: the fast models then keep their own force).
   bool set(const Organ& organ, const geometry::SurfacePoint& at, double tip_radius) noexcept;
-  /// K (N/m): the law's stiffness at small depth.
+  /// N/m: the law's stiffness with the tip buried (C_organ + the flat punch
+  /// of radius R)⁻¹, the stiffest the law gets without a depth curve.
   const Eigen::Matrix3d& stiffness() const noexcept { return stiffness_; }
   /// Force on the tool (N) when the touched point is displaced by `d` (m).
   Eigen::Vector3d force(const Eigen::Vector3d& d) const noexcept;
@@ -60,9 +71,24 @@ class SiteLaw {
   Eigen::Matrix3d tangent(const Eigen::Vector3d& d) const noexcept;
   /// g(|d|) (1 without a depth curve).
   double depth_factor(double depth) const noexcept;
+  /// m: the tip's own indentation δ when the press's depth along the inward
+  /// normal is `normal_depth` (m): d_n = δ + c_n F_tip(δ).
+  double tip_indentation(double normal_depth) const noexcept;
+  /// N: the tip's normal force when it indents the surface by δ (m).
+  double tip_force(double indentation) const noexcept;
 
  private:
+  struct Secant {
+    Eigen::Matrix3d stiffness;   ///< K(δ), N/m
+    Eigen::Matrix3d derivative;  ///< dK/dd_n = ∂K/∂δ · dδ/dd_n, N/m²
+  };
+  Secant secant(double normal_depth, bool with_derivative) const noexcept;
+  double tip_force_slope(double indentation) const noexcept;  // dF_tip/dδ, N/m
   double depth_slope(double depth) const noexcept;  // g'(|d|), 1/m
+  Eigen::Matrix3d organ_compliance_ = Eigen::Matrix3d::Zero();  // m/N
+  Eigen::Vector3d normal_ = Eigen::Vector3d::UnitZ();            // outward, unit
+  double organ_normal_compliance_ = 0.0;                         // nᵀ C_organ n, m/N
+  double radius_ = 0.0, contact_modulus_ = 0.0, shear_ = 0.0, poisson_ = 0.0;
   Eigen::Matrix3d stiffness_ = Eigen::Matrix3d::Zero();
   const std::vector<std::array<double, 2>>* curve_ = nullptr;
   double curve_depth_scale_ = 1.0;  // R_fit / R: the curve is read at d R_fit / R
