@@ -200,8 +200,9 @@ Contour smoothed_contour(const MaskImage& mask, const MaskImage::RegionType& box
 /// and decimating it leaves spikes (the DICOM sample, 2 mm slices: 77 vertices
 /// whose angle deficit exceeds 45°, up to 214°; a tool pressed there meets a
 /// cone's tip, a one-node contact for the FEM). The pass pulls each vertex a
-/// tenth of the way to its neighbours' centroid, 20 times (5 vertices above
-/// 45°, at most 52°). The windowed-sinc filter is not used here: on the
+/// tenth of the way to its neighbours' centroid, 20 times (the DICOM sample's
+/// bake: 2 vertices above 45°, the larger a corner where the field of view
+/// cuts a ridge). The windowed-sinc filter is not used here: on the
 /// decimated surface's long strips (a cylinder's side) its low-pass slides
 /// vertices along the strip and past the caps, into zero-volume fins 9 mm
 /// long. The Laplacian pass's slight shrinkage is what the enclosed-volume
