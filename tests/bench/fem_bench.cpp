@@ -8,7 +8,11 @@
 // tangent, the factorization and one solve. `solver` 0 is Eigen's simplicial
 // LDLᵀ, 1 the direct library's (CHOLMOD / MUMPS; built with it only). The
 // "nnz(L)" counter is the factor's size, which sets the solve's memory traffic
-// (16 bytes per entry: value and index). PshPress (with a baked model) is
+// (16 bytes per entry: value and index). FrameSolve times the frames' solve
+// (`columns:1`; `columns:0` the same in parts, as a frame with contacts takes
+// it, contact_responses.h; `columns:3` a contact's three directions in one
+// pass), ContactResponse the sparse forward solve that replaced those three
+// columns for a node a contact takes in. PshPress (with a baked model) is
 // issue 16's figure: fem_paper's press of the model's top (top_press_problem)
 // with PSH (E = 1 MPa, ν = 0.49, β = 100), solved as `organsim fem` solves it
 // (kept factorization and GMRES), timed per Newton iteration. FrameEstimate
@@ -34,6 +38,7 @@
 #include "machine_limits.h"
 #include "stiffness_warping_peer.h"
 
+#include "organsim/fem/contact_responses.h"
 #include "organsim/fem/elasticity_system.h"
 #include "organsim/fem/factorization.h"
 #include "organsim/fem/static_solver.h"
@@ -165,6 +170,25 @@ void Solve(benchmark::State& state) {
   state.counters["x_memory_limit"] = organsim::bench::times_memory_limit(bytes);
 }
 
+/// The frames' factorization of `s`'s tangent (FrameSolve's), factorized,
+/// with what the factorization took in the `factorize_ms` counter.
+std::unique_ptr<Factorization> frame_factorization(Setup& s, benchmark::State& state) {
+  s.system->assemble(s.state, s.gradient, true);
+  const MatrixKind kind = s.system->has_pressure() ? MatrixKind::quasi_definite : MatrixKind::positive_definite;
+#ifdef ORGANSIM_HAVE_FEM_DIRECT
+  auto factorization = make_factorization(direct_factorization, kind, SolveUse::realtime_iteration);
+#else
+  auto factorization = make_factorization(nullptr, kind, SolveUse::realtime_iteration);
+#endif
+  factorization->analyze(s.system->tangent_free());
+  const auto factorize_start = std::chrono::steady_clock::now();
+  if (!factorization->factorize(s.system->tangent_free())) state.SkipWithError("factorization failed");
+  // What a refresh of the frames' tangent costs (the worker's, for the co-rotational and St. VK models).
+  state.counters["factorize_ms"] =
+      1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - factorize_start).count();
+  return factorization;
+}
+
 /// The solve a real-time frame of OrganFem makes (fem/organ_fem.h): the
 /// factorization it keeps for a nonlinear material (SolveUse::realtime_iteration:
 /// CHOLMOD's supernodal LLᵀ, solved in single precision, for the
@@ -174,30 +198,45 @@ void Solve(benchmark::State& state) {
 /// direct library is built), one right-hand side or a contact's three.
 void FrameSolve(benchmark::State& state) {
   Setup s(static_cast<int>(state.range(0)), kMaterials[state.range(1)]);
-  s.system->assemble(s.state, s.gradient, true);
-  const MatrixKind kind = s.system->has_pressure() ? MatrixKind::quasi_definite : MatrixKind::positive_definite;
-#ifdef ORGANSIM_HAVE_FEM_DIRECT
-  const auto factorization = make_factorization(direct_factorization, kind, SolveUse::realtime_iteration);
-#else
-  const auto factorization = make_factorization(nullptr, kind, SolveUse::realtime_iteration);
-#endif
-  factorization->analyze(s.system->tangent_free());
-  const auto factorize_start = std::chrono::steady_clock::now();
-  if (!factorization->factorize(s.system->tangent_free())) state.SkipWithError("factorization failed");
-  // What a refresh of the frames' tangent costs (the worker's, for the co-rotational and St. VK models).
-  state.counters["factorize_ms"] =
-      1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - factorize_start).count();
+  const auto factorization = frame_factorization(s, state);
   const Eigen::MatrixX3d rhs = Eigen::MatrixX3d::Ones(s.system->free_count(), 3);
   Eigen::MatrixX3d x(s.system->free_count(), 3);
+  const auto responses = ContactResponses::make(*factorization, s.system->free_count(), 1);
   for (auto _ : state) {
-    if (state.range(2) == 3)
+    if (state.range(2) == 3) {
       factorization->solve3(rhs, x);
-    else
+    } else if (state.range(2) == 1) {
       factorization->solve(rhs.col(0), x.col(0));
+    } else {  // a frame's step, solved in parts (contact_responses.h)
+      responses->begin_step(rhs.col(0));
+      responses->finish_step(x.col(0));
+    }
     benchmark::DoNotOptimize(x.data());
   }
   state.counters["nnz(L)"] = static_cast<double>(factorization->factor_nonzeros());
   state.SetLabel(factorization->name());
+}
+
+/// A contact point's response (contact_responses.h) with the frames'
+/// factorization: a node of the free end (the box's x = max face; the baked
+/// model's node farthest from its clamp), as a finite tip takes it in. With a
+/// supernodal factor, a sparse forward solve; FrameSolve's `columns:3` is the
+/// full three-column solve it replaces.
+void ContactResponse(benchmark::State& state) {
+  Setup s(static_cast<int>(state.range(0)), kMaterials[state.range(1)]);
+  const auto factorization = frame_factorization(s, state);
+  const auto responses = ContactResponses::make(*factorization, s.system->free_count(), 24);
+  std::size_t node = 0;
+  const Eigen::Vector3d origin = s.mesh.nodes[0];
+  for (std::size_t n = 0; n < s.mesh.nodes.size(); ++n)
+    if (s.system->free_index()[3 * n] >= 0 && (s.mesh.nodes[n] - origin).norm() > (s.mesh.nodes[node] - origin).norm())
+      node = n;
+  PointLoad load;
+  load.weights[0] = 1.0;
+  for (std::size_t k = 0; k < 3; ++k) load.dofs[0][k] = s.system->free_index()[3 * node + k];
+  for (std::size_t slot = 1; slot < 24; ++slot) responses->respond(slot, load);  // others to couple with, as a tip's
+  for (auto _ : state) responses->respond(0, load);
+  state.SetLabel(factorization->supernodal_factor() ? "sparse forward solve" : "full three-column solve");
 }
 
 /// One full Newton iteration: gradient and tangent, factorization, solve.
@@ -421,7 +460,13 @@ void FrameSolveArguments(benchmark::internal::Benchmark* b) {
   b->ArgNames({"mesh", "material", "columns"})->Unit(benchmark::kMillisecond);
   for (int mesh = 0; mesh < meshes(); ++mesh)
     for (int material : {1, 3})
-      for (int columns : {1, 3}) b->Args({mesh, material, columns});
+      for (int columns : {0, 1, 3}) b->Args({mesh, material, columns});
+}
+
+void ResponseArguments(benchmark::internal::Benchmark* b) {
+  b->ArgNames({"mesh", "material"})->Unit(benchmark::kMillisecond);
+  for (int mesh = 0; mesh < meshes(); ++mesh)
+    for (int material : {1, 3}) b->Args({mesh, material});
 }
 
 BENCHMARK(Gradient)->Apply(Arguments);
@@ -430,6 +475,7 @@ BENCHMARK(Factorize)->Apply(SolverArguments)->Iterations(2);
 BENCHMARK(Solve)->Apply(SolverArguments);
 BENCHMARK(NewtonIteration)->Apply(SolverArguments)->Iterations(3);
 BENCHMARK(FrameSolve)->Apply(FrameSolveArguments);
+BENCHMARK(ContactResponse)->Apply(ResponseArguments);
 
 // Only with a baked model (it is the liver's figure).
 const bool press_registered =

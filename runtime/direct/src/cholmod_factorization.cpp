@@ -64,6 +64,7 @@ class CholmodFactorization final : public Factorization {
     // first non-positive pivot (`minor` < n).
     factorized_ = common_.status == CHOLMOD_OK && factor_->minor == factor_->n && factor_->is_super &&
                   factor_->is_ll && factor_->Perm;
+    supernodal_ = {};
     if (factorized_) size_workspace();
     return factorized_;
   }
@@ -99,6 +100,7 @@ class CholmodFactorization final : public Factorization {
   }
 
   bool realtime_solve() const noexcept override { return true; }
+  const SupernodalFactor* supernodal_factor() const noexcept override { return factorized_ ? &supernodal_ : nullptr; }
   std::size_t factor_nonzeros() const noexcept override { return static_cast<std::size_t>(common_.lnz); }
   const char* name() const noexcept override {
     return single_ ? "supernodal LLT (CHOLMOD), solves in single precision" : "supernodal LLT (CHOLMOD)";
@@ -124,6 +126,14 @@ class CholmodFactorization final : public Factorization {
     }
     permuted_.resize(rows_, 3);
     below_.resize(std::max<Eigen::Index>(view_.most_rows_below(), 1), 3);
+    // CHOLMOD factors A(Perm, Perm): row Perm[k] of A is row k of P A Pᵀ.
+    order_.resize(static_cast<std::size_t>(rows_));
+    const int* perm = static_cast<const int*>(factor_->Perm);
+    for (Eigen::Index k = 0; k < rows_; ++k) order_[static_cast<std::size_t>(perm[k])] = static_cast<int>(k);
+    supernodal_.double_values = single_ ? nullptr : &view_;
+    supernodal_.single_values = single_ ? &single_view_ : nullptr;
+    supernodal_.order = order_.data();
+    supernodal_.rows = rows_;
   }
 
   void solve_permuted(int columns) noexcept {
@@ -141,6 +151,8 @@ class CholmodFactorization final : public Factorization {
   Eigen::Index rows_ = 0;
   bool factorized_ = false;
   SupernodalView<double> view_;
+  std::vector<int> order_;  ///< the inverse of CHOLMOD's Perm
+  SupernodalFactor supernodal_;
   Eigen::MatrixX3d permuted_, below_;  // the solves' workspace, sized at factorize()
 };
 

@@ -36,24 +36,34 @@ class SimplicialFactorization final : public Factorization {
     ldlt_.analyzePattern(permuted_);
     scratch_.resize(matrix.rows(), 3);
     first_.clear();  // the supernodes follow the factor's row structure, known after its first factorization
+    factor_ = {};
   }
 
   bool factorize(const SparseMatrix& matrix) override {
     permuted_ = matrix.selfadjointView<Eigen::Lower>().twistedBy(permutation_);
+    factor_ = {};
     ldlt_.factorize(permuted_);
     if (ldlt_.info() != Eigen::Success) return false;
     // A pivot is zero when it is negligible next to its own row's diagonal
     // entry: rows carry different units (N/m for displacements, m³/Pa for
     // pressures, 1e-15 apart on the liver), so one threshold for all would
     // call every pressure pivot zero.
-    const Eigen::VectorXd& pivots = ldlt_.vectorD();
-    for (Eigen::Index i = 0; i < pivots.size(); ++i) {
-      const double d = pivots[i];
+    // Eigen returns D by value: kept here, so that a solve copies nothing.
+    pivots_ = ldlt_.vectorD();
+    for (Eigen::Index i = 0; i < pivots_.size(); ++i) {
+      const double d = pivots_[i];
       if (!std::isfinite(d) || !(std::abs(d) > 1e-13 * std::abs(permuted_.coeff(i, i)))) return false;
     }
-    negative_ = (pivots.array() < 0).count();
+    negative_ = (pivots_.array() < 0).count();
     if (first_.empty()) find_supernodes();
     copy_into_supernodes();
+    if constexpr (sizeof(Scalar) == sizeof(float))
+      factor_.single_values = &view_;
+    else
+      factor_.double_values = &view_;
+    factor_.order = order_.data();
+    factor_.pivots = pivots_.data();
+    factor_.rows = pivots_.size();
     return true;
   }
 
@@ -62,17 +72,18 @@ class SimplicialFactorization final : public Factorization {
   // P A Pᵀ = L D Lᵀ: x = Pᵀ L⁻ᵀ D⁻¹ L⁻¹ P b.
   void solve(const Eigen::Ref<const Eigen::VectorXd>& rhs, Eigen::Ref<Eigen::VectorXd> solution) noexcept override {
     for (Eigen::Index i = 0; i < rhs.size(); ++i) scratch_(order_[i], 0) = rhs[i];
-    supernodal_solve(view_, ldlt_.vectorD().data(), scratch_, 1, below_);
+    supernodal_solve(view_, pivots_.data(), scratch_, 1, below_);
     for (Eigen::Index i = 0; i < rhs.size(); ++i) solution[i] = scratch_(order_[i], 0);
   }
 
   void solve3(const Eigen::Ref<const Eigen::MatrixX3d>& rhs, Eigen::Ref<Eigen::MatrixX3d> solution) noexcept override {
     for (Eigen::Index i = 0; i < rhs.rows(); ++i) scratch_.row(order_[i]) = rhs.row(i);
-    supernodal_solve(view_, ldlt_.vectorD().data(), scratch_, 3, below_);
+    supernodal_solve(view_, pivots_.data(), scratch_, 3, below_);
     for (Eigen::Index i = 0; i < rhs.rows(); ++i) solution.row(i) = scratch_.row(order_[i]);
   }
 
   bool realtime_solve() const noexcept override { return true; }
+  const SupernodalFactor* supernodal_factor() const noexcept override { return factor_.rows > 0 ? &factor_ : nullptr; }
   std::size_t factor_nonzeros() const noexcept override {
     return static_cast<std::size_t>(ldlt_.matrixL().nestedExpression().nonZeros());
   }
@@ -146,6 +157,8 @@ class SimplicialFactorization final : public Factorization {
   std::vector<int> first_, rows_, value_start_, row_index_;
   std::vector<Scalar> values_;
   SupernodalView<Scalar> view_;
+  SupernodalFactor factor_;
+  Eigen::VectorXd pivots_;  ///< D
   Eigen::MatrixX3d scratch_, below_;
   Eigen::Index negative_ = 0;
 };

@@ -1,5 +1,7 @@
 #include "organsim/fem/organ_fem.h"
 
+#include "organsim/fem/contact_responses.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -46,21 +48,15 @@ Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 }  // namespace
 
 /// A factorized tangent and, per node slot, the response A⁻¹ e of the node
-/// it was solved for.
+/// it was solved for (contact_responses.h).
 struct OrganFem::Tangent {
   std::unique_ptr<Factorization> factorization;
-  std::vector<Eigen::MatrixX3d> responses;  ///< per slot: free dofs × 3
-  std::vector<std::uint64_t> keys;          ///< per slot: the node slot generation of its response (0: none)
+  std::unique_ptr<ContactResponses> responses;  ///< made at the first factorization
+  std::vector<std::uint64_t> keys;              ///< per slot: the node slot generation of its response (0: none)
   Eigen::VectorXd warm_up;
-  Eigen::MatrixX3d loads, warm_up3;  ///< a contact's three unit loads (one per direction)
 
   Tangent(const SparseMatrix& pattern, std::size_t slots, std::unique_ptr<Factorization> made)
-      : factorization(std::move(made)),
-        responses(slots, Eigen::MatrixX3d::Zero(pattern.rows(), 3)),
-        keys(slots, 0),
-        warm_up(pattern.rows()),
-        loads(Eigen::MatrixX3d::Zero(pattern.rows(), 3)),
-        warm_up3(pattern.rows(), 3) {
+      : factorization(std::move(made)), keys(slots, 0), warm_up(pattern.rows()) {
     factorization->analyze(pattern);
   }
 
@@ -70,17 +66,16 @@ struct OrganFem::Tangent {
   /// pivot per pressure (Sylvester: LDLᵀ keeps the inertia under any ordering).
   /// A tangent that fails (a buckling or unstable state) would drive the next
   /// iterations away from equilibrium; the kept one serves instead. A first
-  /// solve of each width readies the factorization's real-time solves.
+  /// step's solve readies the factorization's real-time solves.
   bool factorize(const SparseMatrix& tangent, Eigen::Index negative_pivots) {
     std::fill(keys.begin(), keys.end(), 0);  // the responses were solved with another factorization
     if (!factorization->factorize(tangent) || factorization->negative_pivots() != negative_pivots) return false;
-    solve(loads.col(0), warm_up);
-    factorization->solve3(loads, warm_up3);
+    if (!responses) responses = ContactResponses::make(*factorization, tangent.rows(), keys.size());
+    responses->clear();
+    warm_up.setZero();
+    responses->begin_step(warm_up);
+    responses->finish_step(warm_up);
     return true;
-  }
-
-  void solve(const Eigen::Ref<const Eigen::VectorXd>& rhs, Eigen::Ref<Eigen::VectorXd> solution) noexcept {
-    factorization->solve(rhs, solution);
   }
 };
 
@@ -314,7 +309,8 @@ double OrganFem::time_frame_work() {
   for (int repetition = 0; repetition < 3; ++repetition) {
     const auto start = std::chrono::steady_clock::now();
     system_->assemble(state_, gradient, false);
-    kept().solve(load, solution);
+    kept().responses->begin_step(load);
+    kept().responses->finish_step(solution);
     fastest = std::min(fastest, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   }
   return fastest;
@@ -346,19 +342,6 @@ std::size_t OrganFem::held_points(std::uint32_t tool) const noexcept {
   return count;
 }
 
-Eigen::Vector3d OrganFem::gather(const std::array<std::int32_t, 3>& nodes, const Eigen::Vector3d& weights,
-                                 const Eigen::Ref<const Eigen::VectorXd>& free_values) const noexcept {
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < 3; ++i) {
-    if (weights[static_cast<Eigen::Index>(i)] == 0.0) continue;
-    for (int k = 0; k < 3; ++k) {
-      const std::int32_t f = system_->free_index()[static_cast<std::size_t>(3 * nodes[i] + k)];
-      if (f >= 0) sum[k] += weights[static_cast<Eigen::Index>(i)] * free_values[f];
-    }
-  }
-  return sum;
-}
-
 Eigen::Vector3d OrganFem::displacement_at(const std::array<std::int32_t, 3>& nodes,
                                           const Eigen::Vector3d& weights) const noexcept {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -368,17 +351,15 @@ Eigen::Vector3d OrganFem::displacement_at(const std::array<std::int32_t, 3>& nod
 }
 
 void OrganFem::respond(Tangent& tangent, std::size_t slot, const NodeSlot& node) const noexcept {
-  tangent.loads.setZero();
+  PointLoad load;
   for (std::size_t i = 0; i < 3; ++i) {
     const double weight = node.point ? node.point_weights[static_cast<Eigen::Index>(i)] : (i == 0 ? 1.0 : 0.0);
     if (weight == 0.0) continue;
     const std::int32_t at = node.point ? node.point_nodes[i] : node.node;
-    for (int k = 0; k < 3; ++k) {
-      const std::int32_t f = system_->free_index()[static_cast<std::size_t>(3 * at + k)];
-      if (f >= 0) tangent.loads(f, k) += weight;
-    }
+    load.weights[static_cast<Eigen::Index>(i)] = weight;
+    for (std::size_t k = 0; k < 3; ++k) load.dofs[i][k] = system_->free_index()[static_cast<std::size_t>(3 * at) + k];
   }
-  tangent.factorization->solve3(tangent.loads, tangent.responses[slot]);
+  tangent.responses->respond(slot, load);
   tangent.keys[slot] = node.generation;
 }
 
@@ -630,15 +611,12 @@ void OrganFem::assemble_capacitance() noexcept {
   w.matrix.resize(n, n);
   if (n == 0) return;
   // Block (a, b) of W: hold a's displacement under unit loads at hold b.
-  Tangent& tangent = kept();
+  const ContactResponses& responses = *kept().responses;
   for (std::size_t a = 0; a < hold_count_; ++a)
     for (std::size_t b = a; b < hold_count_; ++b) {
-      const Hold& ha = holds_[a];
-      const Hold& hb = holds_[b];
       Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
-      for_each_response(hb, [&](std::size_t slot, double weight) {
-        const Eigen::MatrixX3d& response = tangent.responses[slot];
-        for (int k = 0; k < 3; ++k) block.col(k) += weight * gather(ha.nodes, ha.weights, response.col(k));
+      for_each_response(holds_[a], [&](std::size_t s, double ws) {
+        for_each_response(holds_[b], [&](std::size_t t, double wt) { block += (ws * wt) * responses.coupling(s, t); });
       });
       w.matrix.block<3, 3>(static_cast<Eigen::Index>(3 * a), static_cast<Eigen::Index>(3 * b)) = block;
       w.matrix.block<3, 3>(static_cast<Eigen::Index>(3 * b), static_cast<Eigen::Index>(3 * a)) = block.transpose();
@@ -706,18 +684,22 @@ double OrganFem::iterate(bool& released) noexcept {
   // held points land on their targets: W λ = d − Hᵀ(u + Δ₀). A finite tip
   // lets go of a point whose multiplier would pull it (unilateral contact),
   // the worst first, and solves again without it.
+  // The solve in parts (contact_responses.h): Hᵀ Δ₀ from the forward half,
+  // and one backward half for Δ₀ + A⁻¹ H λ.
   Capacitance& w = *capacitance_;
-  Tangent& tangent = kept();
+  ContactResponses& responses = *kept().responses;
   const Eigen::Index free = static_cast<Eigen::Index>(free_dofs_.size());
   for (Eigen::Index j = 0; j < free; ++j) rhs_[j] = -gradient_[free_dofs_[static_cast<std::size_t>(j)]];
-  tangent.solve(rhs_, step_);
+  responses.begin_step(rhs_);
   released = false;
   for (;;) {
     w.gap.resize(w.rows);
     for (std::size_t a = 0; a < hold_count_; ++a) {
       const Hold& h = holds_[a];
+      Eigen::Vector3d moved = Eigen::Vector3d::Zero();
+      for_each_response(h, [&](std::size_t slot, double weight) { moved += weight * responses.projected(slot); });
       w.gap.segment<3>(static_cast<Eigen::Index>(3 * a)) =
-          contacts_[h.tool].target + h.offset - displacement_at(h.nodes, h.weights) - gather(h.nodes, h.weights, step_);
+          contacts_[h.tool].target + h.offset - displacement_at(h.nodes, h.weights) - moved;
     }
     if (w.rows > 0) w.multipliers = w.ldlt.solve(w.gap);
     std::ptrdiff_t worst = -1;
@@ -737,10 +719,9 @@ double OrganFem::iterate(bool& released) noexcept {
   for (std::size_t a = 0; a < hold_count_; ++a) {
     const Hold& h = holds_[a];
     const Eigen::Vector3d force = w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a));
-    for_each_response(h, [&](std::size_t slot, double weight) {
-      step_.noalias() += tangent.responses[slot] * (weight * force);
-    });
+    for_each_response(h, [&](std::size_t slot, double weight) { responses.add(slot, weight * force); });
   }
+  responses.finish_step(step_);
   // A step that would invert a tetrahedron (a tool pushed deeper than the
   // mesh can follow in one frame) is cut in halves; the organ then goes as far
   // toward the targets as it can, with the multipliers interpolated as the

@@ -23,7 +23,8 @@
 //   material's full nonlinearity, the correction is solved with the LDLᵀ
 //   factorization of a tangent from a recent state, and the tools' constraints
 //   are met exactly through the capacitance matrix W = Hᵀ A⁻¹ H (H: the
-//   constraints' columns; A⁻¹ H solved once per held point and tangent). For
+//   constraints' columns; each held node's response solved once per tangent,
+//   with a supernodal factor as a sparse forward solve: contact_responses.h). For
 //   corotational and stvk a worker thread refactors the tangent at the state
 //   of frame k while the frames go on, and frame k + refresh_frames adopts it
 //   (waiting for the worker if it is late, so that a replay is deterministic;
@@ -176,7 +177,8 @@ class OrganFem {
   bool contact_settled() const noexcept { return contact_settled_; }
   /// Contact points left out for want of room (max_contact_nodes, kMaxHolds).
   std::uint64_t hold_overflows() const noexcept { return hold_overflows_; }
-  /// Most new nodes a real-time frame solves responses for (one solve each);
+  /// Most new nodes a real-time frame solves responses for (each a sparse
+  /// forward solve, or a solve of three columns without a supernodal factor);
   /// a contact point on a node without one waits for the next frame.
   static constexpr std::size_t kJoinsPerFrame = 4;
   /// Most points the tools hold together (W has three rows per point).
@@ -213,7 +215,8 @@ class OrganFem {
   /// What a real-time frame's iteration is expected to take on this machine
   /// (s): one gradient assembly and one solve with the frames' tangent, timed
   /// at construction (the fastest of three). A frame that takes in contact
-  /// points adds a solve of three columns per new node (kJoinsPerFrame at most).
+  /// points adds a response per new node (kJoinsPerFrame at most; with a
+  /// supernodal factor a sparse forward solve, 0.5 ms for PSH on the liver).
   /// 0 without real-time solves (OrganFemOptions::realtime_solves false).
   double estimated_frame_seconds() const noexcept { return estimated_frame_seconds_; }
 
@@ -258,14 +261,11 @@ class OrganFem {
   struct Capacitance;
   class Worker;
 
-  /// Σ_i w_i v_{node i} of a field on free dofs (clamped dofs count as 0).
-  Eigen::Vector3d gather(const std::array<std::int32_t, 3>& nodes, const Eigen::Vector3d& weights,
-                         const Eigen::Ref<const Eigen::VectorXd>& free_values) const noexcept;
   /// Σ_i w_i u_{node i}: the displacement of a boundary point now (m).
   Eigen::Vector3d displacement_at(const std::array<std::int32_t, 3>& nodes, const Eigen::Vector3d& weights) const noexcept;
   /// An empty tangent with the options' factorization, analyzed.
   std::unique_ptr<Tangent> make_tangent(bool realtime_solve) const;
-  /// A⁻¹ e of `node` (held in `slot`) with `tangent` (one solve of three columns).
+  /// A⁻¹ e of `node` (held in `slot`) with `tangent` (contact_responses.h).
   void respond(Tangent& tangent, std::size_t slot, const NodeSlot& node) const noexcept;
   /// Solves the responses `tangent` lacks for the used node slots.
   void respond_all(Tangent& tangent) const noexcept;

@@ -22,6 +22,8 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 
+#include "organsim/fem/supernodal_solve.h"
+
 namespace organsim::fem {
 
 using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
@@ -29,6 +31,17 @@ using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 enum class MatrixKind : std::uint8_t {
   positive_definite,  ///< linear, co-rotational, St. VK tangents
   quasi_definite,     ///< PSH: [K G; Gᵀ −C], one negative pivot per pressure
+};
+
+/// A factorization P A Pᵀ = L D Lᵀ held in supernodes (supernodal_solve.h),
+/// for solves in parts (supernodal_responses.h). Refers into the
+/// factorization; valid until its next analyze() or factorize().
+struct SupernodalFactor {
+  const SupernodalView<double>* double_values = nullptr;  ///< L in double precision, or
+  const SupernodalView<float>* single_values = nullptr;   ///< L in single precision
+  const int* order = nullptr;                              ///< row i of A is row order[i] of P A Pᵀ
+  const double* pivots = nullptr;                          ///< D (null: L Lᵀ, D = I)
+  Eigen::Index rows = 0;
 };
 
 /// One factorization of a symmetric sparse matrix with a fixed pattern, both
@@ -61,6 +74,9 @@ class Factorization {
   /// True when solve() and solve3() allocate nothing, takes no lock and does no I/O once
   /// it has run once after a factorize(): what a real-time loop may call.
   virtual bool realtime_solve() const noexcept = 0;
+  /// The factor the real-time solves read, where it is held in supernodes
+  /// (null otherwise, or before a successful factorize()).
+  virtual const SupernodalFactor* supernodal_factor() const noexcept { return nullptr; }
   /// Stored entries of the factor (L, or L and U): its memory traffic per solve.
   virtual std::size_t factor_nonzeros() const noexcept = 0;
   /// What it is, for reports: "simplicial LDLT (Eigen, AMD)".

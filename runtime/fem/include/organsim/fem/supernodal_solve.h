@@ -84,6 +84,52 @@ ORGANSIM_SUPERNODAL_INLINE void column_pointers(Eigen::Ref<Eigen::MatrixX3d>& y_
 }
 }  // namespace detail
 
+/// Supernode s's part of Y = L⁻¹ Y (supernodal_forward, in ascending order):
+/// its diagonal triangle, then its rows below as L₂₁ Y₁ gathered in the
+/// workspace `t` and subtracted where they belong (rows of the supernode's
+/// ancestors in the elimination tree).
+template <int K, typename Scalar>
+ORGANSIM_SUPERNODAL_INLINE void supernodal_forward_node(const SupernodalView<Scalar>& l, std::size_t s, double* const* y,
+                                                        double* const* t) noexcept {
+  const Eigen::Index n = l.columns(s), height = l.height(s), below = height - n, first = l.first[s];
+  const Scalar* values = l.values + l.value_start[s];
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const Scalar* column = values + j * height;
+    for (int c = 0; c < K; ++c) {
+      double* yc = y[c] + first;
+      const double pivot = yc[j] /= column[j];
+      for (Eigen::Index i = j + 1; i < n; ++i) yc[i] -= column[i] * pivot;
+    }
+  }
+  if (below == 0) return;
+  for (int c = 0; c < K; ++c) std::fill(t[c], t[c] + below, 0.0);
+  Eigen::Index j = 0;
+  for (; j + 4 <= n; j += 4) {  // four columns per sweep: a quarter of the passes over t
+    const Scalar* l0 = values + j * height + n;
+    const Scalar* l1 = l0 + height;
+    const Scalar* l2 = l1 + height;
+    const Scalar* l3 = l2 + height;
+    double yj[K][4];
+    for (int c = 0; c < K; ++c)
+      for (int q = 0; q < 4; ++q) yj[c][q] = y[c][first + j + q];
+    for (Eigen::Index i = 0; i < below; ++i) {  // each value read once for the K columns
+      const double a0 = l0[i], a1 = l1[i], a2 = l2[i], a3 = l3[i];
+      for (int c = 0; c < K; ++c) t[c][i] += (a0 * yj[c][0] + a1 * yj[c][1]) + (a2 * yj[c][2] + a3 * yj[c][3]);
+    }
+  }
+  for (; j < n; ++j) {
+    const Scalar* l0 = values + j * height + n;
+    for (int c = 0; c < K; ++c) {
+      const double y0 = y[c][first + j];
+      double* tc = t[c];
+      for (Eigen::Index i = 0; i < below; ++i) tc[i] += l0[i] * y0;
+    }
+  }
+  const int* rows = l.row_index + l.rows[s] + n;
+  for (int c = 0; c < K; ++c)
+    for (Eigen::Index i = 0; i < below; ++i) y[c][rows[i]] -= t[c][i];
+}
+
 /// Y = L⁻¹ Y for the first K columns of `y` (L's row order), in place;
 /// `below` holds at least most_rows_below() rows and K columns.
 template <int K, typename Scalar>
@@ -92,47 +138,7 @@ ORGANSIM_SUPERNODAL_INLINE void supernodal_forward(const SupernodalView<Scalar>&
   double* y[K];
   double* t[K];
   detail::column_pointers<K>(y_columns, below_columns, y, t);
-  // Each supernode's diagonal triangle, then its rows below as L₂₁ Y₁
-  // gathered in t and subtracted where they belong.
-  for (std::size_t s = 0; s < l.supernodes; ++s) {
-    const Eigen::Index n = l.columns(s), height = l.height(s), below = height - n, first = l.first[s];
-    const Scalar* values = l.values + l.value_start[s];
-    for (Eigen::Index j = 0; j < n; ++j) {
-      const Scalar* column = values + j * height;
-      for (int c = 0; c < K; ++c) {
-        double* yc = y[c] + first;
-        const double pivot = yc[j] /= column[j];
-        for (Eigen::Index i = j + 1; i < n; ++i) yc[i] -= column[i] * pivot;
-      }
-    }
-    if (below == 0) continue;
-    for (int c = 0; c < K; ++c) std::fill(t[c], t[c] + below, 0.0);
-    Eigen::Index j = 0;
-    for (; j + 4 <= n; j += 4) {  // four columns per sweep: a quarter of the passes over t
-      const Scalar* l0 = values + j * height + n;
-      const Scalar* l1 = l0 + height;
-      const Scalar* l2 = l1 + height;
-      const Scalar* l3 = l2 + height;
-      double yj[K][4];
-      for (int c = 0; c < K; ++c)
-        for (int q = 0; q < 4; ++q) yj[c][q] = y[c][first + j + q];
-      for (Eigen::Index i = 0; i < below; ++i) {  // each value read once for the K columns
-        const double a0 = l0[i], a1 = l1[i], a2 = l2[i], a3 = l3[i];
-        for (int c = 0; c < K; ++c) t[c][i] += (a0 * yj[c][0] + a1 * yj[c][1]) + (a2 * yj[c][2] + a3 * yj[c][3]);
-      }
-    }
-    for (; j < n; ++j) {
-      const Scalar* l0 = values + j * height + n;
-      for (int c = 0; c < K; ++c) {
-        const double y0 = y[c][first + j];
-        double* tc = t[c];
-        for (Eigen::Index i = 0; i < below; ++i) tc[i] += l0[i] * y0;
-      }
-    }
-    const int* rows = l.row_index + l.rows[s] + n;
-    for (int c = 0; c < K; ++c)
-      for (Eigen::Index i = 0; i < below; ++i) y[c][rows[i]] -= t[c][i];
-  }
+  for (std::size_t s = 0; s < l.supernodes; ++s) supernodal_forward_node<K>(l, s, y, t);
 }
 
 /// Y = L⁻ᵀ Y for the first K columns of `y`, in place (workspace as above).
@@ -193,5 +199,17 @@ void supernodal_solve(const SupernodalView<double>& l, const double* pivots, Eig
                       int columns, Eigen::Ref<Eigen::MatrixX3d> below) noexcept;
 void supernodal_solve(const SupernodalView<float>& l, const double* pivots, Eigen::Ref<Eigen::MatrixX3d> y,
                       int columns, Eigen::Ref<Eigen::MatrixX3d> below) noexcept;
+
+/// The solve's two halves for the first column of `y`, in place: y = L⁻¹ y,
+/// and y = L⁻ᵀ D⁻¹ y (`pivots` D, or null for L Lᵀ). A solve in parts
+/// (supernodal_responses.h) changes y between them.
+void supernodal_forward_solve(const SupernodalView<double>& l, Eigen::Ref<Eigen::MatrixX3d> y,
+                              Eigen::Ref<Eigen::MatrixX3d> below) noexcept;
+void supernodal_forward_solve(const SupernodalView<float>& l, Eigen::Ref<Eigen::MatrixX3d> y,
+                              Eigen::Ref<Eigen::MatrixX3d> below) noexcept;
+void supernodal_backward_solve(const SupernodalView<double>& l, const double* pivots, Eigen::Ref<Eigen::MatrixX3d> y,
+                               Eigen::Ref<Eigen::MatrixX3d> below) noexcept;
+void supernodal_backward_solve(const SupernodalView<float>& l, const double* pivots, Eigen::Ref<Eigen::MatrixX3d> y,
+                               Eigen::Ref<Eigen::MatrixX3d> below) noexcept;
 
 }  // namespace organsim::fem
