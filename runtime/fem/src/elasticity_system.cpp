@@ -166,6 +166,13 @@ Eigen::Matrix3d ElasticitySystem::deformation_gradient(const Eigen::VectorXd& x,
   return F;
 }
 
+std::int64_t ElasticitySystem::first_inverted(const Eigen::VectorXd& x) const noexcept {
+  if (material_.model == MaterialModel::linear) return -1;
+  for (std::size_t e = 0; e < mesh_.tetrahedra.size(); ++e)
+    if (!(deformation_gradient(x, e).determinant() > 0)) return static_cast<std::int64_t>(e);
+  return -1;
+}
+
 std::int64_t ElasticitySystem::assemble(const Eigen::VectorXd& x, Eigen::VectorXd& gradient, bool tangent) noexcept {
   const Constitutive constitutive(material_);
   const bool nonlinear = material_.model != MaterialModel::linear;

@@ -152,8 +152,15 @@ TEST(ElasticitySystem, ReportsTheFirstInvertedElement) {
   const TetMesh mesh = box_mesh({1, 1, 1}, {0.01, 0.01, 0.01});
   ElasticitySystem system(mesh, material_for(MaterialModel::stvk), std::vector<bool>(3 * mesh.nodes.size(), false));
   Eigen::VectorXd x = Eigen::VectorXd::Zero(system.dof_count()), gradient(system.dof_count());
+  EXPECT_EQ(system.first_inverted(x), -1);
   x[3 * 7 + 0] = x[3 * 7 + 1] = x[3 * 7 + 2] = -0.02;  // the far corner pushed through the cube
-  EXPECT_GE(system.assemble(x, gradient, true), 0);
+  const std::int64_t inverted = system.assemble(x, gradient, true);
+  EXPECT_GE(inverted, 0);
+  // The determinants alone find the same element; the linear material never refuses.
+  EXPECT_EQ(system.first_inverted(x), inverted);
+  EXPECT_EQ(ElasticitySystem(mesh, material_for(MaterialModel::linear), std::vector<bool>(3 * mesh.nodes.size(), false))
+                .first_inverted(x),
+            -1);
 }
 
 }  // namespace

@@ -243,6 +243,7 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
   state_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(dofs));
   saved_ = state_;
   gradient_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(dofs));
+  saved_gradient_ = gradient_;
   system_->assemble(state_, gradient_, true);
   gradient_.setZero();  // the rest state is in equilibrium (no loads)
 
@@ -726,14 +727,20 @@ double OrganFem::iterate(bool& released) noexcept {
   // mesh can follow in one frame) is cut in halves; the organ then goes as far
   // toward the targets as it can, with the multipliers interpolated as the
   // linearization predicts: g(x + αΔ) ≈ (1 − α) g(x) + α H λ.
+  // Each cut is first checked for inverted tetrahedra alone (determinants: a
+  // tenth of an assembly), so that a frame that cuts its step or fails
+  // assembles once, not once per try; a frame that fails gets back the
+  // gradient at its start.
   double fraction = relaxation_;
+  saved_gradient_ = gradient_;
   for (int cut = 0; cut <= kMaxStepCuts; ++cut, fraction *= 0.5) {
     for (Eigen::Index j = 0; j < free; ++j)
       state_[free_dofs_[static_cast<std::size_t>(j)]] = saved_[free_dofs_[static_cast<std::size_t>(j)]] + fraction * step_[j];
-    if (system_->assemble(state_, gradient_, false) < 0 && gradient_.allFinite()) return fraction;
+    if (system_->first_inverted(state_) < 0 && system_->assemble(state_, gradient_, false) < 0 && gradient_.allFinite())
+      return fraction;
   }
   state_ = saved_;
-  system_->assemble(state_, gradient_, false);
+  gradient_ = saved_gradient_;
   return 0.0;
 }
 

@@ -324,7 +324,7 @@ class OrganFem {
   std::vector<model::Point3> surface_rest_;
   geometry::SurfaceEmbedding embedding_;  ///< each surface vertex in a tetrahedron
   // State and scratch (sized at construction).
-  Eigen::VectorXd state_, saved_, gradient_, rhs_, step_;
+  Eigen::VectorXd state_, saved_, gradient_, saved_gradient_, rhs_, step_;
   std::vector<Contact> contacts_;  ///< per tool
   std::vector<NodeSlot> node_slots_;          ///< max_contact_nodes
   std::vector<std::int32_t> slot_of_node_;    ///< per node: its NodeSlot, or -1

@@ -51,6 +51,10 @@ class ElasticitySystem {
   /// the first tetrahedron that is inverted (J ≤ 0; linear material: never),
   /// leaving the outputs undefined. Allocates nothing.
   std::int64_t assemble(const Eigen::VectorXd& x, Eigen::VectorXd& gradient, bool tangent) noexcept;
+  /// The first tetrahedron inverted at x (J ≤ 0; linear material: never), or
+  /// −1: what assemble() would refuse, at a fraction of its cost (the
+  /// deformation gradients' determinants only).
+  std::int64_t first_inverted(const Eigen::VectorXd& x) const noexcept;
   /// Π(x) (J). Returns NaN when a tetrahedron is inverted.
   double energy(const Eigen::VectorXd& x) const noexcept;
 
