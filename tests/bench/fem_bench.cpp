@@ -1,5 +1,6 @@
 // FEM speed, one thread: per material, the gradient (internal forces) and the
-// tangent assembly, the factorization and one solve with it, on the paper's
+// tangent assembly (CorotationalStress: the co-rotational stresses alone, one
+// tetrahedron at a time or in SIMD lanes), the factorization and one solve with it, on the paper's
 // curved tube (408 nodes, 1,152 tetrahedra), on a liver-sized box (3,179
 // nodes, 15,360 tetrahedra) clamped at its x = 0 face, and — when
 // ORGANSIM_BENCH_MODEL names a baked model — on its tetrahedra clamped as the
@@ -38,6 +39,7 @@
 #include "machine_limits.h"
 #include "stiffness_warping_peer.h"
 
+#include "constitutive.h"
 #include "organsim/fem/contact_responses.h"
 #include "organsim/fem/elasticity_system.h"
 #include "organsim/fem/factorization.h"
@@ -131,6 +133,40 @@ void Gradient(benchmark::State& state) {
     benchmark::DoNotOptimize(s.gradient.data());
   }
   state.counters["tets"] = static_cast<double>(s.mesh.tetrahedra.size());
+}
+
+/// The co-rotational stress of every tetrahedron at the deformed state: one
+/// at a time (evaluate_material, `lanes:1`) or kStressLanes at a time in SIMD
+/// lanes (corotational_stress_lanes, `lanes:8`, what a frame's gradient uses).
+void CorotationalStress(benchmark::State& state) {
+  Setup s(static_cast<int>(state.range(0)), MaterialModel::corotational);
+  const Constitutive material(s.system->material());
+  const std::size_t tets = s.mesh.tetrahedra.size(), blocks = (tets + kStressLanes - 1) / kStressLanes;
+  std::vector<std::array<std::array<double, kStressLanes>, 9>> gradients(blocks);
+  std::vector<Eigen::Matrix3d> one_by_one(tets);
+  for (std::size_t e = 0; e < blocks * kStressLanes; ++e) {
+    const Eigen::Matrix3d F = e < tets ? s.system->deformation_gradient(s.state, e) : Eigen::Matrix3d::Identity();
+    if (e < tets) one_by_one[e] = F;
+    for (int k = 0; k < 9; ++k) gradients[e / kStressLanes][static_cast<std::size_t>(k)][e % kStressLanes] = F(k % 3, k / 3);
+  }
+  double F[9][kStressLanes], P[9][kStressLanes];
+  Eigen::Matrix3d stress;
+  for (auto _ : state) {
+    if (state.range(1) == 1) {
+      for (const Eigen::Matrix3d& f : one_by_one) {
+        evaluate_material(material, f, 0.0, stress, nullptr);
+        benchmark::DoNotOptimize(stress.data());
+      }
+    } else {
+      for (const auto& block : gradients) {
+        for (int k = 0; k < 9; ++k)
+          for (int l = 0; l < kStressLanes; ++l) F[k][l] = block[static_cast<std::size_t>(k)][static_cast<std::size_t>(l)];
+        corotational_stress_lanes(material, F, P);
+        benchmark::DoNotOptimize(P[0]);
+      }
+    }
+  }
+  state.counters["tets"] = static_cast<double>(tets);
 }
 
 void Tangent(benchmark::State& state) {
@@ -463,6 +499,12 @@ void FrameSolveArguments(benchmark::internal::Benchmark* b) {
       for (int columns : {0, 1, 3}) b->Args({mesh, material, columns});
 }
 
+void StressArguments(benchmark::internal::Benchmark* b) {
+  b->ArgNames({"mesh", "lanes"})->Unit(benchmark::kMillisecond);
+  for (int mesh = 0; mesh < meshes(); ++mesh)
+    for (int lanes : {1, kStressLanes}) b->Args({mesh, lanes});
+}
+
 void ResponseArguments(benchmark::internal::Benchmark* b) {
   b->ArgNames({"mesh", "material"})->Unit(benchmark::kMillisecond);
   for (int mesh = 0; mesh < meshes(); ++mesh)
@@ -470,6 +512,7 @@ void ResponseArguments(benchmark::internal::Benchmark* b) {
 }
 
 BENCHMARK(Gradient)->Apply(Arguments);
+BENCHMARK(CorotationalStress)->Apply(StressArguments);
 BENCHMARK(Tangent)->Apply(Arguments);
 BENCHMARK(Factorize)->Apply(SolverArguments)->Iterations(2);
 BENCHMARK(Solve)->Apply(SolverArguments);

@@ -1,5 +1,6 @@
 #include "constitutive.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/LU>
@@ -168,6 +169,71 @@ Matrix3d polar_rotation(const Matrix3d& F) noexcept {
     if (change < 1e-7) break;
   }
   return R;
+}
+
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__AVX512F__)
+__attribute__((target_clones("arch=x86-64-v4", "default")))
+#endif
+void corotational_stress_lanes(const Constitutive& m, const double (&F)[9][kStressLanes],
+                               double (&P)[9][kStressLanes]) noexcept {
+  constexpr int L = kStressLanes;
+  // polar_rotation's iteration, lane by lane in each step: R ← ½ (ζ R + C/(ζ det R)),
+  // C R's cofactor matrix (R⁻ᵀ = C / det R); a lane stops changing once its
+  // step is under 1e-7.
+  double R[9][L], C[9][L], det[L], zeta[L], change[L];
+  bool active[L];
+  for (int k = 0; k < 9; ++k)
+    for (int l = 0; l < L; ++l) R[k][l] = F[k][l];
+  for (int l = 0; l < L; ++l) active[l] = true;
+  for (int iteration = 0; iteration < 30; ++iteration) {
+    for (int l = 0; l < L; ++l) {
+      const double r00 = R[0][l], r10 = R[1][l], r20 = R[2][l], r01 = R[3][l], r11 = R[4][l], r21 = R[5][l],
+                   r02 = R[6][l], r12 = R[7][l], r22 = R[8][l];
+      C[0][l] = r11 * r22 - r12 * r21;
+      C[3][l] = r12 * r20 - r10 * r22;
+      C[6][l] = r10 * r21 - r11 * r20;
+      C[1][l] = r02 * r21 - r01 * r22;
+      C[4][l] = r00 * r22 - r02 * r20;
+      C[7][l] = r01 * r20 - r00 * r21;
+      C[2][l] = r01 * r12 - r02 * r11;
+      C[5][l] = r02 * r10 - r00 * r12;
+      C[8][l] = r00 * r11 - r01 * r10;
+      det[l] = r00 * C[0][l] + r01 * C[3][l] + r02 * C[6][l];
+      // The scale need not be exact (any ζ > 0 keeps the iteration's fixed
+      // point): near det R = 1 the series of |det R|^(−1/3) to second order
+      // (within 0.2 % for |det R| within 20 % of 1), in the lanes; the cube
+      // root only farther off, one lane at a time.
+      const double off = std::abs(det[l]) - 1.0;
+      zeta[l] = 1.0 - off / 3.0 + (2.0 / 9.0) * off * off;
+    }
+    for (int l = 0; l < L; ++l)
+      if (!(std::abs(std::abs(det[l]) - 1.0) < 0.2)) zeta[l] = std::cbrt(1.0 / std::abs(det[l]));
+    double half_zeta[L], half_inverse[L];  // one division per lane, not nine
+    for (int l = 0; l < L; ++l) {
+      change[l] = 0.0;
+      half_zeta[l] = 0.5 * zeta[l];
+      half_inverse[l] = 0.5 / (det[l] * zeta[l]);
+    }
+    for (int k = 0; k < 9; ++k)
+      for (int l = 0; l < L; ++l) {
+        const double next = half_zeta[l] * R[k][l] + half_inverse[l] * C[k][l];
+        change[l] = std::max(change[l], std::abs(next - R[k][l]));
+        R[k][l] = active[l] ? next : R[k][l];
+      }
+    bool any = false;
+    for (int l = 0; l < L; ++l) {
+      active[l] = active[l] && !(change[l] < 1e-7);
+      any = any || active[l];
+    }
+    if (!any) break;
+  }
+  // P = 2μ (F − R) + λ (tr(Rᵀ F) − 3) R.
+  double volumetric[L];
+  for (int l = 0; l < L; ++l) volumetric[l] = -3.0;
+  for (int k = 0; k < 9; ++k)
+    for (int l = 0; l < L; ++l) volumetric[l] += R[k][l] * F[k][l];
+  for (int k = 0; k < 9; ++k)
+    for (int l = 0; l < L; ++l) P[k][l] = 2 * m.mu * (F[k][l] - R[k][l]) + m.lambda * volumetric[l] * R[k][l];
 }
 
 double evaluate_material(const Constitutive& material, const Matrix3d& F, double pressure, Matrix3d& P,

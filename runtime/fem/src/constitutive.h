@@ -33,4 +33,15 @@ double evaluate_material(const Constitutive& material, const Eigen::Matrix3d& F,
 /// Rotation R of the polar decomposition F = R S (det F > 0).
 Eigen::Matrix3d polar_rotation(const Eigen::Matrix3d& F) noexcept;
 
+/// Tetrahedra per call of corotational_stress_lanes.
+constexpr int kStressLanes = 8;
+/// The co-rotational stress P of kStressLanes tetrahedra at once (lane l:
+/// entry k = i + 3j of F and P at [k][l]; every det F > 0), without the
+/// tangent: what a frame's gradient needs, the polar factor's Newton
+/// iteration (polar_rotation's, with the same stopping rule per lane) run on
+/// all lanes together, in SIMD registers where the CPU has AVX-512. Equal to
+/// evaluate_material's P to round-off.
+void corotational_stress_lanes(const Constitutive& material, const double (&F)[9][kStressLanes],
+                               double (&P)[9][kStressLanes]) noexcept;
+
 }  // namespace organsim::fem

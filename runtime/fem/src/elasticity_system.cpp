@@ -191,6 +191,8 @@ std::int64_t ElasticitySystem::assemble(const Eigen::VectorXd& x, Eigen::VectorX
       coupling_values[-1 - offset] += value;
   };
 
+  if (!tangent && material_.model == MaterialModel::corotational) return corotational_gradient(x, gradient);
+
   Eigen::Matrix3d P;
   Matrix9d A;
   Eigen::Matrix<double, 13, 13> K;
@@ -248,6 +250,31 @@ std::int64_t ElasticitySystem::assemble(const Eigen::VectorXd& x, Eigen::VectorX
     scatter(offsets[2], f.weight);
     scatter(offsets[3], -f.weight);
     offsets += 4;
+  }
+  return -1;
+}
+
+std::int64_t ElasticitySystem::corotational_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& gradient) const noexcept {
+  // The stresses kStressLanes tetrahedra at a time (corotational_stress_lanes);
+  // a short last block is filled with undeformed ones.
+  const Constitutive constitutive(material_);
+  const std::size_t tets = mesh_.tetrahedra.size();
+  double F[9][kStressLanes], P[9][kStressLanes];
+  for (std::size_t first = 0; first < tets; first += kStressLanes) {
+    const std::size_t count = std::min<std::size_t>(kStressLanes, tets - first);
+    for (std::size_t l = 0; l < static_cast<std::size_t>(kStressLanes); ++l) {
+      const Eigen::Matrix3d f = l < count ? deformation_gradient(x, first + l) : Eigen::Matrix3d::Identity();
+      if (!(f.determinant() > 0)) return static_cast<std::int64_t>(first + l);
+      for (int k = 0; k < 9; ++k) F[k][l] = f(k % 3, k / 3);
+    }
+    corotational_stress_lanes(constitutive, F, P);
+    for (std::size_t l = 0; l < count; ++l) {
+      const std::size_t e = first + l;
+      Eigen::Matrix3d stress;
+      for (int k = 0; k < 9; ++k) stress(k % 3, k / 3) = P[k][l];
+      const Eigen::Matrix<double, 3, 4> forces = volume_[e] * stress * gradients_[e].transpose();  // column a: ∂Π/∂u_a
+      for (int a = 0; a < 4; ++a) gradient.segment<3>(3 * mesh_.tetrahedra[e][static_cast<std::size_t>(a)]) += forces.col(a);
+    }
   }
   return -1;
 }

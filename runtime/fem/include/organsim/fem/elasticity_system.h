@@ -92,6 +92,9 @@ class ElasticitySystem {
 
  private:
   std::int32_t local_dof(std::size_t tet, int local) const noexcept;
+  /// assemble()'s gradient for the co-rotational material, its stresses in
+  /// SIMD lanes (gradient zeroed by the caller).
+  std::int64_t corotational_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& gradient) const noexcept;
   void build_pattern();
 
   TetMesh mesh_;
