@@ -1,7 +1,5 @@
 #include "organsim/fem/organ_fem.h"
 
-#include "organsim/fem/contact_responses.h"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -16,6 +14,8 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
+
+#include "organsim/fem/contact_responses.h"
 
 namespace organsim::fem {
 namespace {
