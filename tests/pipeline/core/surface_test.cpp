@@ -172,18 +172,8 @@ TEST(Surface, ALongCylinderStaysWithinItsCapsAndSide) {
   // where a low-pass filter after decimation slid vertices past the caps, into
   // zero-volume fins 9 mm long (the baked surface ran from x = −9 to 159 mm).
   const double radius = 25.0, length = 150.0;
-  auto mask = MaskImage::New();
-  MaskImage::RegionType region;
-  region.SetSize({{170, 70, 70}});
-  mask->SetRegions(region);
-  MaskImage::SpacingType spacing;
-  spacing.Fill(1.0);
-  mask->SetSpacing(spacing);
-  MaskImage::PointType origin;
-  origin[0] = -9.5, origin[1] = -34.5, origin[2] = -34.5;  // voxel centres off the caps and side
-  mask->SetOrigin(origin);
-  mask->Allocate(true);
-  itk::ImageRegionIteratorWithIndex<MaskImage> it(mask, region);
+  auto mask = testing::blank_mask({170, 70, 70}, 1.0, {-9.5, -34.5, -34.5});  // voxel centres off the caps and side
+  itk::ImageRegionIteratorWithIndex<MaskImage> it(mask, mask->GetLargestPossibleRegion());
   for (; !it.IsAtEnd(); ++it) {
     MaskImage::PointType p;
     mask->TransformIndexToPhysicalPoint(it.GetIndex(), p);

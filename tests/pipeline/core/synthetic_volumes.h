@@ -93,19 +93,30 @@ inline MaskImage::Pointer make_ellipsoid_mask(const Ellipsoid& e, std::array<dou
   return mask;
 }
 
+/// An empty mask of `size` voxels, `spacing_mm` apart in every direction,
+/// the first voxel's centre at `origin_mm`.
+inline MaskImage::Pointer blank_mask(const std::array<itk::SizeValueType, 3>& size, double spacing_mm,
+                                     const std::array<double, 3>& origin_mm = {0.0, 0.0, 0.0}) {
+  auto mask = MaskImage::New();
+  MaskImage::RegionType region;
+  region.SetSize({{size[0], size[1], size[2]}});
+  mask->SetRegions(region);
+  MaskImage::SpacingType spacing;
+  spacing.Fill(spacing_mm);
+  mask->SetSpacing(spacing);
+  MaskImage::PointType origin;
+  for (unsigned k = 0; k < 3; ++k) origin[k] = origin_mm[k];
+  mask->SetOrigin(origin);
+  mask->Allocate(true);
+  return mask;
+}
+
 /// A mask with what breaks marching cubes and decimation: two blocks joined by
 /// a one-voxel bridge, a handle (a ring on the first block), an interior
 /// cavity, a tunnel, a one-voxel spike, and voxels that touch the organ only
 /// along an edge or at a corner.
 inline MaskImage::Pointer make_awkward_mask() {
-  auto mask = MaskImage::New();
-  MaskImage::RegionType region;
-  region.SetSize({{90, 60, 60}});
-  mask->SetRegions(region);
-  MaskImage::SpacingType spacing;
-  spacing.Fill(1.5);
-  mask->SetSpacing(spacing);
-  mask->Allocate(true);
+  auto mask = blank_mask({90, 60, 60}, 1.5);
   const auto set = [&](long i, long j, long k) { mask->SetPixel({{i, j, k}}, 1); };
   const auto block = [&](long i0, long i1, long j0, long j1, long k0, long k1) {
     for (long k = k0; k < k1; ++k)
