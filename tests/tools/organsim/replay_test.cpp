@@ -14,6 +14,10 @@
 #include <utility>
 #include <vector>
 
+#include <vtkNew.h>
+#include <vtkPolyData.h>
+#include <vtkXMLPolyDataReader.h>
+
 #include "cli_fixture.h"
 #include "organsim/model/model_file.h"
 #include "organsim/realtime/model_registry.h"
@@ -340,6 +344,57 @@ TEST_F(Cli, ReplayRefusesSessionsLongerThanADayOrFarFromTheOrgan) {
 // Memory does not grow with the session: a 300 s replay (twice 300,001 force
 // rows streamed to the CSV file) holds the resident size of its first second.
 // A leak per tick, in the forces or in the training report's records, shows.
+// The shipped liver pressed by the sample session's two tools, then left
+// alone for 1.5 s: the co-rotational and St. VK organs come back to rest and
+// never beyond the press's deformation. The tangent kept from the pressed
+// state fits the organ springing back badly: iterated unchecked, it threw
+// this organ apart within frames of 3.0 s (and the DICOM sample's liver 121 mm).
+TEST_F(Cli, ALiverLetGoComesBackToRestWithoutFlyingApart) {
+  const fs::path samples = kSamples / "real_ct_totalseg";
+  const CommandRun bake = run_organsim("bake " + (samples / "example_ct.nii.gz").string() + " --label " +
+                                           (samples / "liver_mask_ct.nii.gz").string() +
+                                           " --no-site-compliance --quiet -o " + (dir_ / "liver.organ").string(),
+                                       dir_);
+  ASSERT_EQ(bake.exit_code, 0) << bake.err;
+  {  // The sample session with its last samples (both tools away) at 4.5 s instead of 3.0 s.
+    std::ifstream in(kSamples / "liver_two_tools.session");
+    std::ofstream out(dir_ / "long.session");
+    for (std::string line; std::getline(in, line);) out << (line.rfind("3.000,", 0) == 0 ? "4.500," + line.substr(6) : line) << '\n';
+  }
+  auto positions = [](const fs::path& vtp) {
+    vtkNew<vtkXMLPolyDataReader> reader;
+    reader->SetFileName(vtp.string().c_str());
+    reader->Update();
+    std::vector<Eigen::Vector3d> p;
+    vtkPoints* points = reader->GetOutput()->GetPoints();
+    for (vtkIdType i = 0; points && i < points->GetNumberOfPoints(); ++i) p.emplace_back(points->GetPoint(i));
+    return p;
+  };
+  for (const char* name : {"corotational", "stvk"}) {
+    const fs::path frames = dir_ / name;
+    const CommandRun replay = run_organsim(
+        fmt::format("replay {} {} --model {} --fast --json --frames {}", (dir_ / "liver.organ").string(),
+                    (dir_ / "long.session").string(), name, frames.string()),
+        dir_);
+    ASSERT_EQ(replay.exit_code, 0) << name << ": " << replay.err;
+    const int count = nlohmann::json::parse(replay.out)["deformation_loop"]["frames"].get<int>();
+    ASSERT_EQ(count, 271) << name;
+    const std::vector<Eigen::Vector3d> rest = positions(frames / "frame_00001.vtp");  // no tool touches at 0 s
+    ASSERT_GT(rest.size(), 1000u) << name;
+    double pressed = 0.0, after = 0.0, last = 0.0;  // mm, the largest vertex displacement
+    for (int frame = 1; frame <= count; ++frame) {
+      const std::vector<Eigen::Vector3d> p = positions(frames / fmt::format("frame_{:05d}.vtp", frame));
+      ASSERT_EQ(p.size(), rest.size()) << name << " frame " << frame;
+      last = 0.0;
+      for (std::size_t v = 0; v < p.size(); ++v) last = std::max(last, (p[v] - rest[v]).norm());
+      (frame <= 181 ? pressed : after) = std::max(frame <= 181 ? pressed : after, last);  // 181: t = 3.0 s
+    }
+    EXPECT_GT(pressed, 3.0) << name;
+    EXPECT_LE(after, pressed) << name;
+    EXPECT_LT(last, 0.01) << name << ": the organ did not come back to rest";
+  }
+}
+
 TEST_F(Cli, ReplayMemoryStaysFlatOverALongSession) {
   const auto [model, session] = write_cylinder_and_two_tool_press(dir_);
   const fs::path forces = dir_ / "forces.csv", report = dir_ / "report";

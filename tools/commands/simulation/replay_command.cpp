@@ -225,8 +225,9 @@ void warn_instabilities(const std::string& name, std::uint64_t instabilities) {
                                instabilities));
   else
     warn("replay", fmt::format("the {} model kept the organ's shape in {} frame(s): even a sixteenth of the iteration "
-                               "would have inverted a tetrahedron (the tool pressed deeper than the material and mesh "
-                               "can follow)",
+                               "would have inverted a tetrahedron (a tool pressed deeper than the material and mesh "
+                               "can follow) or thrown the organ out of balance (a tangent made at a state far from "
+                               "this one, as when the tools let go of a pressed organ; the next tangent moves it again)",
                                name, instabilities));
 }
 

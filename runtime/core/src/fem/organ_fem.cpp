@@ -28,6 +28,11 @@ constexpr std::size_t kMaxContactNodes = 256;
 // Candidate contact points per frame before the deepest are kept.
 constexpr std::size_t kMaxCandidates = 512;
 constexpr int kMaxStepCuts = 4;  // the smallest step tried: 1/16 of the iteration's
+// A step may at most double a frame's out-of-balance force scale (a damped
+// iteration that converges shrinks the imbalance; see iterate()); below
+// 0.1 mN, under what a haptic device renders, an imbalance counts as 0.1 mN.
+constexpr double kMaxImbalanceGrowth = 2.0;
+constexpr double kNegligibleImbalance = 1e-4;  // N
 using SmallMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxConstraintRows,
                                   kMaxConstraintRows>;
 using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxConstraintRows, 1>;
@@ -690,6 +695,7 @@ double OrganFem::iterate(bool& released) noexcept {
   Capacitance& w = *capacitance_;
   ContactResponses& responses = *kept().responses;
   const Eigen::Index free = static_cast<Eigen::Index>(free_dofs_.size());
+  const double unbalanced_at_start = out_of_balance(0.0);
   for (Eigen::Index j = 0; j < free; ++j) rhs_[j] = -gradient_[free_dofs_[static_cast<std::size_t>(j)]];
   responses.begin_step(rhs_);
   released = false;
@@ -723,6 +729,20 @@ double OrganFem::iterate(bool& released) noexcept {
     for_each_response(h, [&](std::size_t slot, double weight) { responses.add(slot, weight * force); });
   }
   responses.finish_step(step_);
+  // A kept tangent made at a state far from this one (a pressed organ the
+  // tools have let go of) can give a step that inverts nothing and yet
+  // throws the organ out of balance: iterated, the organ flew apart within a
+  // few frames of a release. A step must leave the out-of-balance force
+  // within kMaxImbalanceGrowth times the frame's force scale (the imbalance
+  // at its start, the holds' forces before and after, and a force too small
+  // to feel). One that does not is not cut: its direction is wrong, not its
+  // length (shorter steps of it crawl the same wrong way), and the frame
+  // gives up this tangent.
+  double force_scale = std::max(unbalanced_at_start, kNegligibleImbalance);
+  for (std::size_t a = 0; a < hold_count_; ++a)
+    force_scale = std::max({force_scale, holds_[a].force.cwiseAbs().maxCoeff(),
+                            w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a)).cwiseAbs().maxCoeff()});
+  const double tolerated = kMaxImbalanceGrowth * force_scale;
   // A step that would invert a tetrahedron (a tool pushed deeper than the
   // mesh can follow in one frame) is cut in halves; the organ then goes as far
   // toward the targets as it can, with the multipliers interpolated as the
@@ -732,16 +752,47 @@ double OrganFem::iterate(bool& released) noexcept {
   // assembles once, not once per try; a frame that fails gets back the
   // gradient at its start.
   double fraction = relaxation_;
+  unbalanced_step_ = false;
   saved_gradient_ = gradient_;
   for (int cut = 0; cut <= kMaxStepCuts; ++cut, fraction *= 0.5) {
     for (Eigen::Index j = 0; j < free; ++j)
       state_[free_dofs_[static_cast<std::size_t>(j)]] = saved_[free_dofs_[static_cast<std::size_t>(j)]] + fraction * step_[j];
-    if (system_->first_inverted(state_) < 0 && system_->assemble(state_, gradient_, false) < 0 && gradient_.allFinite())
-      return fraction;
+    if (system_->first_inverted(state_) >= 0) continue;
+    if (system_->assemble(state_, gradient_, false) >= 0 || !gradient_.allFinite()) continue;
+    if (out_of_balance(fraction) <= tolerated) return fraction;
+    unbalanced_step_ = true;
+    break;
   }
   state_ = saved_;
   gradient_ = saved_gradient_;
   return 0.0;
+}
+
+double OrganFem::out_of_balance(double fraction) noexcept {
+  // Internal forces minus the tools' forces, pressure rows in newtons.
+  const Eigen::Index free = static_cast<Eigen::Index>(free_dofs_.size());
+  for (Eigen::Index j = 0; j < free; ++j) {
+    const std::size_t d = static_cast<std::size_t>(free_dofs_[static_cast<std::size_t>(j)]);
+    rhs_[j] = gradient_[static_cast<Eigen::Index>(d)] * (d < displacement_dofs_ ? 1.0 : pressure_scale_);
+  }
+  const Capacitance& w = *capacitance_;
+  for (std::size_t a = 0; a < hold_count_; ++a) {
+    const Hold& h = holds_[a];
+    // At fraction 0 the forces as they are (the multipliers may still be
+    // the previous frame's, for other holds).
+    const Eigen::Vector3d force =
+        fraction == 0.0 ? h.force
+                        : Eigen::Vector3d((1.0 - fraction) * h.force +
+                                          fraction * w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a)));
+    for (std::size_t i = 0; i < 3; ++i) {
+      if (h.weights[static_cast<Eigen::Index>(i)] == 0.0) continue;
+      for (int c = 0; c < 3; ++c) {
+        const std::int32_t f = system_->free_index()[static_cast<std::size_t>(3 * h.nodes[i] + c)];
+        if (f >= 0) rhs_[f] -= h.weights[static_cast<Eigen::Index>(i)] * force[c];
+      }
+    }
+  }
+  return free > 0 ? rhs_.cwiseAbs().maxCoeff() : 0.0;
 }
 
 FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
@@ -776,27 +827,35 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
   const bool took = take_points();
   if (took) assemble_capacitance();
 
-  const Eigen::Index free = static_cast<Eigen::Index>(free_dofs_.size());
   saved_ = state_;
   bool released = false;
   double fraction = iterate(released);
   if (fraction == 0.0 && rest_tangent_ && !using_rest_) {
-    // A refreshed tangent that fails even in small steps (a state far from
-    // the one it was made at: a tool let go) gives way to the rest tangent
-    // until the worker's next one.
+    // A refreshed tangent that fails (a state far from the one it was made
+    // at: a tool let go) gives way to the rest tangent until the worker's
+    // next one: in this frame when even small steps invert a tetrahedron,
+    // from the next one when its step was out of balance (so that no frame
+    // solves twice for a state the organ may keep a while).
     using_rest_ = true;
     respond_all(*rest_tangent_);
     assemble_capacitance();
-    bool again = false;
-    fraction = iterate(again);
-    released = released || again;
+    if (!unbalanced_step_) {
+      bool again = false;
+      fraction = iterate(again);
+      released = released || again;
+    }
   }
   contact_settled_ = !took && !released;
   update_stiffness();
   if (fraction == 0.0) {
     ++frame_;
-    if (worker_ && refresh_due_ == 0) request_refresh();
-    return FrameStatus::inverted;
+    // Stuck: neither tangent fits this state. The refresh on its way is
+    // adopted as soon as it is done, and the next one, at this state, too.
+    if (worker_) {
+      if (refresh_due_ == 0) request_refresh();
+      refresh_due_ = std::min(refresh_due_, frame_);
+    }
+    return FrameStatus::kept_shape;
   }
   Capacitance& w = *capacitance_;
   for (std::size_t a = 0; a < hold_count_; ++a) {
@@ -804,23 +863,8 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
     h.force = (1.0 - fraction) * h.force + fraction * w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a));
   }
 
-  // Out of balance: internal forces minus the tools' forces, pressure rows in newtons.
-  for (Eigen::Index j = 0; j < free; ++j) {
-    const std::size_t d = static_cast<std::size_t>(free_dofs_[static_cast<std::size_t>(j)]);
-    rhs_[j] = gradient_[static_cast<Eigen::Index>(d)] * (d < displacement_dofs_ ? 1.0 : pressure_scale_);
-  }
-  for (std::size_t a = 0; a < hold_count_; ++a) {
-    const Hold& h = holds_[a];
-    for (std::size_t i = 0; i < 3; ++i) {
-      if (h.weights[static_cast<Eigen::Index>(i)] == 0.0) continue;
-      for (int c = 0; c < 3; ++c) {
-        const std::int32_t f = system_->free_index()[static_cast<std::size_t>(3 * h.nodes[i] + c)];
-        if (f >= 0) rhs_[f] -= h.weights[static_cast<Eigen::Index>(i)] * h.force[c];
-      }
-    }
-  }
   step_cuts_ += fraction < relaxation_;
-  unbalanced_ = free > 0 ? rhs_.cwiseAbs().maxCoeff() : 0.0;
+  unbalanced_ = out_of_balance(0.0);
   ++frame_;
   if (worker_ && refresh_due_ == 0) request_refresh();
   return FrameStatus::ok;

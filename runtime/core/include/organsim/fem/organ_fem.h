@@ -122,7 +122,8 @@ std::vector<bool> clamped_dofs(const model::OrganModel& model, double fixed_radi
 enum class FrameStatus : std::uint8_t {
   ok,
   not_finite,  ///< a tool displacement is not finite: nothing changed
-  inverted,    ///< even 1/16 of the relaxed iteration would invert a tetrahedron: the state is the previous one
+  kept_shape,  ///< no step down to 1/16 of the relaxed iteration was taken: each would invert a tetrahedron
+               ///< or throw the organ out of balance (a tangent made far from this state); the state is the previous one
 };
 
 class OrganFem {
@@ -302,9 +303,14 @@ class OrganFem {
   void adopt(std::unique_ptr<Tangent>& fresh) noexcept;
   void request_refresh() noexcept;
   /// One iteration from saved_ with the kept tangent: the fraction of it taken
-  /// (ω, ω/2 … ω/16), or 0 when even ω/16 inverts a tetrahedron (state
+  /// (ω, ω/2 … ω/16), or 0 when even ω/16 would invert a tetrahedron or more
+  /// than double the frame's out-of-balance force scale (state
   /// restored). `released`: a finite tip let go of a point it would pull.
   double iterate(bool& released) noexcept;
+  /// The largest out-of-balance force component (N; pressure rows in
+  /// newtons) at the current gradient, the holds' forces taken a `fraction`
+  /// of the way from theirs to the multipliers; writes the rows into rhs_.
+  double out_of_balance(double fraction) noexcept;
   Tangent& kept() noexcept { return using_rest_ ? *rest_tangent_ : *tangent_; }
   Eigen::Index pressure_count() const noexcept {
     return system_->dof_count() - static_cast<Eigen::Index>(displacement_dofs_);
@@ -343,6 +349,7 @@ class OrganFem {
   std::unique_ptr<Tangent> rest_tangent_;
   std::unique_ptr<Tangent> newton_spare_;  ///< refresh_tangent(): the tangent it replaced, analyzed, for its next call
   bool using_rest_ = false;
+  bool unbalanced_step_ = false;  ///< the last iterate() gave up a step that would throw the organ out of balance
   std::unique_ptr<Capacitance> capacitance_;
   std::unique_ptr<Worker> worker_;    ///< null when the tangent is never refreshed
   std::uint32_t refresh_frames_ = 0;
