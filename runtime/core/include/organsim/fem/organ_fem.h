@@ -303,9 +303,10 @@ class OrganFem {
   void adopt(std::unique_ptr<Tangent>& fresh) noexcept;
   void request_refresh() noexcept;
   /// One iteration from saved_ with the kept tangent: the fraction of it taken
-  /// (ω, ω/2 … ω/16), or 0 when even ω/16 would invert a tetrahedron or more
-  /// than double the frame's out-of-balance force scale (state
-  /// restored). `released`: a finite tip let go of a point it would pull.
+  /// (ω, ω/2 … ω/16), or 0 (state restored) when even ω/16 would invert a
+  /// tetrahedron, or when the step would more than double the frame's
+  /// out-of-balance force scale (unbalanced_step_; such a step is not cut).
+  /// `released`: a finite tip let go of a point it would pull.
   double iterate(bool& released) noexcept;
   /// The largest out-of-balance force component (N; pressure rows in
   /// newtons) at the current gradient, the holds' forces taken a `fraction`
