@@ -224,10 +224,11 @@ void warn_instabilities(const std::string& name, std::uint64_t instabilities) {
     warn("replay", fmt::format("the {} model diverged {} time(s) and was reset to rest; use a smaller time step", name,
                                instabilities));
   else
-    warn("replay", fmt::format("the {} model kept the organ's shape in {} frame(s): even a sixteenth of the iteration "
-                               "would have inverted a tetrahedron (a tool pressed deeper than the material and mesh "
-                               "can follow) or thrown the organ out of balance (a tangent made at a state far from "
-                               "this one, as when the tools let go of a pressed organ; the next tangent moves it again)",
+    warn("replay", fmt::format("the {} model kept the organ's shape in {} frame(s): its iteration would have inverted "
+                               "a tetrahedron even at a sixteenth of its step (a tool pressed deeper than the material "
+                               "and mesh can follow), or thrown the organ out of balance (a tangent made at a state far "
+                               "from this one, as when the tools let go of a pressed organ; the next tangent moves it "
+                               "again)",
                                name, instabilities));
 }
 

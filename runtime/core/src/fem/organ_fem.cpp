@@ -685,7 +685,7 @@ bool OrganFem::refresh_tangent() {
   return ok;
 }
 
-double OrganFem::iterate(bool& released) noexcept {
+double OrganFem::iterate(bool& released, bool& unbalanced) noexcept {
   // Unconstrained correction Δ₀ = −A⁻¹ g, then the multipliers that make the
   // held points land on their targets: W λ = d − Hᵀ(u + Δ₀). A finite tip
   // lets go of a point whose multiplier would pull it (unilateral contact),
@@ -699,6 +699,11 @@ double OrganFem::iterate(bool& released) noexcept {
   for (Eigen::Index j = 0; j < free; ++j) rhs_[j] = -gradient_[free_dofs_[static_cast<std::size_t>(j)]];
   responses.begin_step(rhs_);
   released = false;
+  unbalanced = false;
+  // The holds' forces as they stand, those about to be let go of included:
+  // a released point leaves its node out of balance by up to its force.
+  double force_scale = std::max(unbalanced_at_start, kNegligibleImbalance);
+  for (std::size_t a = 0; a < hold_count_; ++a) force_scale = std::max(force_scale, holds_[a].force.cwiseAbs().maxCoeff());
   for (;;) {
     w.gap.resize(w.rows);
     for (std::size_t a = 0; a < hold_count_; ++a) {
@@ -732,16 +737,16 @@ double OrganFem::iterate(bool& released) noexcept {
   // A kept tangent made at a state far from this one (a pressed organ the
   // tools have let go of) can give a step that inverts nothing and yet
   // throws the organ out of balance: iterated, the organ flew apart within a
-  // few frames of a release. A step must leave the out-of-balance force
-  // within kMaxImbalanceGrowth times the frame's force scale (the imbalance
-  // at its start, the holds' forces before and after, and a force too small
-  // to feel). One that does not is not cut: its direction is wrong, not its
-  // length (shorter steps of it crawl the same wrong way), and the frame
-  // gives up this tangent.
-  double force_scale = std::max(unbalanced_at_start, kNegligibleImbalance);
+  // few frames of a release. With a worker to make a tangent at this state,
+  // a step must leave the out-of-balance force within kMaxImbalanceGrowth
+  // times the frame's force scale (the imbalance at its start, the holds'
+  // forces before and after, and a force too small to feel). One that does
+  // not is not cut: its direction is wrong, not its length (shorter steps of
+  // it crawl the same wrong way), and the frame gives up this tangent.
+  // Without a worker (psh, linear, static presses) there is no better
+  // tangent to wait for: the step is taken.
   for (std::size_t a = 0; a < hold_count_; ++a)
-    force_scale = std::max({force_scale, holds_[a].force.cwiseAbs().maxCoeff(),
-                            w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a)).cwiseAbs().maxCoeff()});
+    force_scale = std::max(force_scale, w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a)).cwiseAbs().maxCoeff());
   const double tolerated = kMaxImbalanceGrowth * force_scale;
   // A step that would invert a tetrahedron (a tool pushed deeper than the
   // mesh can follow in one frame) is cut in halves; the organ then goes as far
@@ -752,15 +757,14 @@ double OrganFem::iterate(bool& released) noexcept {
   // assembles once, not once per try; a frame that fails gets back the
   // gradient at its start.
   double fraction = relaxation_;
-  unbalanced_step_ = false;
   saved_gradient_ = gradient_;
   for (int cut = 0; cut <= kMaxStepCuts; ++cut, fraction *= 0.5) {
     for (Eigen::Index j = 0; j < free; ++j)
       state_[free_dofs_[static_cast<std::size_t>(j)]] = saved_[free_dofs_[static_cast<std::size_t>(j)]] + fraction * step_[j];
     if (system_->first_inverted(state_) >= 0) continue;
     if (system_->assemble(state_, gradient_, false) >= 0 || !gradient_.allFinite()) continue;
-    if (out_of_balance(fraction) <= tolerated) return fraction;
-    unbalanced_step_ = true;
+    if (!worker_ || out_of_balance(fraction) <= tolerated) return fraction;
+    unbalanced = true;
     break;
   }
   state_ = saved_;
@@ -828,8 +832,8 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
   if (took) assemble_capacitance();
 
   saved_ = state_;
-  bool released = false;
-  double fraction = iterate(released);
+  bool released = false, unbalanced = false;
+  double fraction = iterate(released, unbalanced);
   if (fraction == 0.0 && rest_tangent_ && !using_rest_) {
     // A refreshed tangent that fails (a state far from the one it was made
     // at: a tool let go) gives way to the rest tangent until the worker's
@@ -839,9 +843,9 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
     using_rest_ = true;
     respond_all(*rest_tangent_);
     assemble_capacitance();
-    if (!unbalanced_step_) {
+    if (!unbalanced) {
       bool again = false;
-      fraction = iterate(again);
+      fraction = iterate(again, unbalanced);
       released = released || again;
     }
   }
@@ -849,12 +853,11 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
   update_stiffness();
   if (fraction == 0.0) {
     ++frame_;
-    // Stuck: neither tangent fits this state. The refresh on its way is
-    // adopted as soon as it is done, and the next one, at this state, too.
-    if (worker_) {
-      if (refresh_due_ == 0) request_refresh();
-      refresh_due_ = std::min(refresh_due_, frame_);
-    }
+    if (worker_ && refresh_due_ == 0) request_refresh();
+    // Out of balance: the kept tangents do not fit this state. The refresh
+    // on its way is adopted as soon as it is done, and the next one, asked
+    // for at this state, too.
+    if (worker_ && unbalanced) refresh_due_ = std::min(refresh_due_, frame_);
     return FrameStatus::kept_shape;
   }
   Capacitance& w = *capacitance_;

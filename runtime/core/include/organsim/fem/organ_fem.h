@@ -32,8 +32,12 @@
 //   set_reproducible):
 //   the asynchronous tangent of Courtecuisse et al. (2014). The iteration's
 //   step is scaled by `relaxation` (½) for the nonlinear materials; a frame whose
-//   iteration fails with a refreshed tangent retries with the rest tangent,
-//   kept until the next refresh. psh keeps its rest tangent. Linear material: the tangent never changes and every frame is the
+//   iteration inverts a tetrahedron with a refreshed tangent retries with the
+//   rest tangent, kept until the next refresh. With a worker, a step that would
+//   throw the organ out of balance (a tangent made far from the state, as after
+//   the tools let go) is not taken: the frame keeps its shape, the next ones
+//   use the rest tangent, and the refresh is adopted as soon as it is done.
+//   psh keeps its rest tangent. Linear material: the tangent never changes and every frame is the
 //   exact static solution. A true Newton
 //   iteration per frame would refactor the tangent every frame (the liver, one
 //   thread: 0.29 s simplicial / 0.06 s direct for the displacement-only
@@ -122,8 +126,8 @@ std::vector<bool> clamped_dofs(const model::OrganModel& model, double fixed_radi
 enum class FrameStatus : std::uint8_t {
   ok,
   not_finite,  ///< a tool displacement is not finite: nothing changed
-  kept_shape,  ///< no step down to 1/16 of the relaxed iteration was taken: each would invert a tetrahedron
-               ///< or throw the organ out of balance (a tangent made far from this state); the state is the previous one
+  kept_shape,  ///< no step was taken: even 1/16 of the relaxed iteration would invert a tetrahedron, or the step
+               ///< would throw the organ out of balance (a tangent made far from this state); the state is the previous one
 };
 
 class OrganFem {
@@ -304,10 +308,10 @@ class OrganFem {
   void request_refresh() noexcept;
   /// One iteration from saved_ with the kept tangent: the fraction of it taken
   /// (ω, ω/2 … ω/16), or 0 (state restored) when even ω/16 would invert a
-  /// tetrahedron, or when the step would more than double the frame's
-  /// out-of-balance force scale (unbalanced_step_; such a step is not cut).
+  /// tetrahedron, or, with a worker, when the step would more than double the
+  /// frame's out-of-balance force scale (`unbalanced`; such a step is not cut).
   /// `released`: a finite tip let go of a point it would pull.
-  double iterate(bool& released) noexcept;
+  double iterate(bool& released, bool& unbalanced) noexcept;
   /// The largest out-of-balance force component (N; pressure rows in
   /// newtons) at the current gradient, the holds' forces taken a `fraction`
   /// of the way from theirs to the multipliers; writes the rows into rhs_.
@@ -350,7 +354,6 @@ class OrganFem {
   std::unique_ptr<Tangent> rest_tangent_;
   std::unique_ptr<Tangent> newton_spare_;  ///< refresh_tangent(): the tangent it replaced, analyzed, for its next call
   bool using_rest_ = false;
-  bool unbalanced_step_ = false;  ///< the last iterate() gave up a step that would throw the organ out of balance
   std::unique_ptr<Capacitance> capacitance_;
   std::unique_ptr<Worker> worker_;    ///< null when the tangent is never refreshed
   std::uint32_t refresh_frames_ = 0;

@@ -36,7 +36,8 @@ class FemModel final : public DeformationModel {
     const fem::FrameStatus status = fem_.step(displacements);
     if (status == fem::FrameStatus::not_finite) return false;
     // The organ keeps its shape this frame: even a sixteenth of the step
-    // would have inverted a tetrahedron or thrown the organ out of balance.
+    // would have inverted a tetrahedron, or the step would have thrown the
+    // organ out of balance.
     if (status == fem::FrameStatus::kept_shape) ++instabilities_;
     fem_.surface_positions(positions);
     organ::compute_vertex_normals(organ_, positions, normals, 0, organ_.vertex_count());
