@@ -342,10 +342,12 @@ TEST_F(Cli, ReplayRefusesSessionsLongerThanADayOrFarFromTheOrgan) {
 }
 
 // The shipped liver pressed by the sample session's two tools, then left
-// alone for 1.5 s: the co-rotational and St. VK organs come back to rest and
-// never beyond the press's deformation. The tangent kept from the pressed
-// state fits the organ springing back badly: iterated unchecked, it threw
-// this organ apart within frames of 3.0 s (and the DICOM sample's liver 121 mm).
+// alone for 1.5 s: the co-rotational and St. VK organs never go beyond the
+// press's deformation, and once both tools have let go (by 3.0 s) the organ
+// is at rest, exactly. The tangent kept from the pressed state fits the organ
+// springing back badly: iterated unchecked, it threw this organ apart within
+// frames of 3.0 s (and the DICOM sample's liver 121 mm); iterated with the
+// balance rule, it came back over seconds.
 TEST_F(Cli, ALiverLetGoComesBackToRestWithoutFlyingApart) {
   const fs::path samples = kSamples / "real_ct_totalseg";
   const CommandRun bake = run_organsim("bake " + (samples / "example_ct.nii.gz").string() + " --label " +
@@ -378,18 +380,15 @@ TEST_F(Cli, ALiverLetGoComesBackToRestWithoutFlyingApart) {
     ASSERT_EQ(count, 271) << name;
     const std::vector<Eigen::Vector3d> rest = positions(frames / "frame_00001.vtp");  // no tool touches at 0 s
     ASSERT_GT(rest.size(), 1000u) << name;
-    double pressed = 0.0, after = 0.0, last = 0.0;  // mm, the largest vertex displacement
+    double pressed = 0.0, after = 0.0;  // mm, the largest vertex displacement
     for (int frame = 1; frame <= count; ++frame) {
       const std::vector<Eigen::Vector3d> p = positions(frames / fmt::format("frame_{:05d}.vtp", frame));
       ASSERT_EQ(p.size(), rest.size()) << name << " frame " << frame;
-      last = 0.0;
-      for (std::size_t v = 0; v < p.size(); ++v) last = std::max(last, (p[v] - rest[v]).norm());
       double& largest = frame <= 181 ? pressed : after;  // frame 181: t = 3.0 s, both tools away
-      largest = std::max(largest, last);
+      for (std::size_t v = 0; v < p.size(); ++v) largest = std::max(largest, (p[v] - rest[v]).norm());
     }
     EXPECT_GT(pressed, 3.0) << name;
-    EXPECT_LE(after, pressed) << name;
-    EXPECT_LT(last, 0.01) << name << ": the organ did not come back to rest";
+    EXPECT_EQ(after, 0.0) << name << ": the organ is not at rest with no tool on it";
   }
 }
 

@@ -817,14 +817,32 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
     }
   }
   solved_this_frame_ = false;
+  const bool untouched = std::none_of(contacts_.begin(), contacts_.end(), [](const Contact& c) { return c.active; });
   if (worker_ && refresh_due_ > 0 && frame_ >= refresh_due_) {
     if (reproducible_ || worker_->finished()) {
-      if (worker_->wait()) adopt(worker_->spare());
+      // Made at a pressed state: not for an organ that has come to rest.
+      if (worker_->wait() && !untouched) adopt(worker_->spare());
       worker_->release();
       refresh_due_ = 0;
-    } else if (frame_ == refresh_due_) {
+    } else if (frame_ == refresh_due_ && !untouched) {
       ++late_refreshes_;
     }
+  }
+  if (untouched) {
+    // Nothing holds the organ and no body force loads it: its equilibrium is
+    // the rest state, reached in this frame as a quasi-static frame reaches
+    // any (iterated from the pressed state with a tangent made there, the
+    // organ took seconds to come back after the tools let go, and could fly
+    // apart). At rest the rest tangent is exact.
+    reset();
+    if (rest_tangent_ && !using_rest_) {
+      using_rest_ = true;
+      respond_all(*rest_tangent_);
+      assemble_capacitance();
+    }
+    contact_settled_ = true;
+    ++frame_;
+    return FrameStatus::ok;
   }
   for (std::uint32_t t = 0; t < contacts_.size(); ++t)
     if (contacts_[t].active) contacts_[t].target = displacements[t];

@@ -194,6 +194,31 @@ TEST_P(NonlinearOrganFem, FramesThatDoNotWaitForALateTangentConvergeToTheStaticS
   expect_static_solution(fem, m, node, press);
 }
 
+// With no tool holding it (and no body force) the organ's equilibrium is its
+// rest state: the frame after the last tool lets go is at rest, exactly, and
+// the rest is a true equilibrium (a tool touching it there with no press moves
+// nothing). Pressed again, the organ converges to the same static solution.
+TEST_P(NonlinearOrganFem, TheFrameAfterTheToolsLetGoIsAtRestAndTheNextPressIsAsTheFirst) {
+  OrganFemOptions options = cap_clamp();
+  options.refresh_frames = 4;
+  OrganFem fem(m, GetParam(), options, 1);
+  ASSERT_TRUE(fem.attach(0, node_point()));
+  EXPECT_LT(settle(fem, press, 300, false), 300);
+  ASSERT_GT(fem.displacements().cwiseAbs().maxCoeff(), 1e-3);
+  fem.detach(0);
+  ASSERT_EQ(fem.step(&press), FrameStatus::ok);  // a detached tool's displacement is ignored
+  EXPECT_EQ(fem.displacements().cwiseAbs().maxCoeff(), 0.0);
+  if (fem.pressures().size() > 0) EXPECT_EQ(fem.pressures().cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(fem.unbalanced_force(), 0.0);
+  ASSERT_TRUE(fem.attach(0, node_point()));
+  const Eigen::Vector3d still = Eigen::Vector3d::Zero();
+  ASSERT_EQ(fem.step(&still), FrameStatus::ok);
+  EXPECT_LT(fem.displacements().cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_LT(fem.contact_force(0).norm(), 1e-12);
+  EXPECT_LT(settle(fem, press, 300, false), 300) << "unbalanced " << fem.unbalanced_force() << " N";
+  expect_static_solution(fem, m, node, press);
+}
+
 INSTANTIATE_TEST_SUITE_P(Materials, NonlinearOrganFem,
                          ::testing::Values(MaterialModel::corotational, MaterialModel::stvk,
                                            MaterialModel::mooney_rivlin),
