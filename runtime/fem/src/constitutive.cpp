@@ -172,7 +172,7 @@ Matrix3d polar_rotation(const Matrix3d& F) noexcept {
 }
 
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__AVX512F__)
-__attribute__((target_clones("arch=x86-64-v4", "default")))
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
 #endif
 void corotational_stress_lanes(const Constitutive& m, const double (&F)[9][kStressLanes],
                                double (&P)[9][kStressLanes]) noexcept {

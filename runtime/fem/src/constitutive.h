@@ -39,8 +39,8 @@ constexpr int kStressLanes = 8;
 /// entry k = i + 3j of F and P at [k][l]; every det F > 0), without the
 /// tangent: what a frame's gradient needs, the polar factor's Newton
 /// iteration (polar_rotation's, with the same stopping rule per lane) run on
-/// all lanes together, in SIMD registers where the CPU has AVX-512. Equal to
-/// evaluate_material's P to round-off.
+/// all lanes together, in SIMD registers (AVX-512 or AVX2 clones, picked at
+/// load). Equal to evaluate_material's P to round-off.
 void corotational_stress_lanes(const Constitutive& material, const double (&F)[9][kStressLanes],
                                double (&P)[9][kStressLanes]) noexcept;
 
