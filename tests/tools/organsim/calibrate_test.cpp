@@ -179,6 +179,23 @@ TEST_F(Cli, EvaluateMeasuresTheFastModelsOnPressesNoFitSaw) {
   EXPECT_NE(table.out.find("spread        2 mm: "), std::string::npos) << table.out;
 }
 
+// --jobs shares the sites among processes: the same evaluation, byte for
+// byte, whatever their number (three sites among two jobs: one job presses
+// two), re-meshed references and the check on finer cells included.
+TEST_F(Cli, EvaluateGivesTheSameTableWhateverTheJobs) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const std::string evaluate =
+      "calibrate " + model + " --evaluate --sites 3 --depths 2 --fixed-radius 31 --reference-cells 6 --check-cells 5";
+  const CommandRun one = run_organsim(evaluate + " --jobs 1 --json", dir_);
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  const CommandRun two = run_organsim(evaluate + " --jobs 2 --json", dir_);
+  ASSERT_EQ(two.exit_code, 0) << two.err;
+  EXPECT_NE(two.err.find("3 sites shared among 2 processes"), std::string::npos) << two.err;
+  EXPECT_EQ(nlohmann::json::parse(one.out)["presses"].size(), 6u);
+  EXPECT_EQ(two.out, one.out);
+}
+
 // A model with site compliances: calibrate fits the site law's depth curve
 // to the reference's presses at other sites than --evaluate's with the same
 // seed; pressed again at the curve's own sites, the fast models (which give

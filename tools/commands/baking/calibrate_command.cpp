@@ -446,6 +446,11 @@ Command add_calibrate_command(CLI::App& app) {
                                                   "tilted 45 degrees (1-256)")
       ->check(CLI::Range(1, 256))
       ->capture_default_str();
+  app.add_option("--jobs", o->evaluation.jobs,
+                 "--evaluate: processes the sites are shared among (0: one per CPU; the table is the same whatever "
+                 "the number; each holds a re-meshed reference, about 0.7 GB on a liver)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   app.add_option("--curve-sites", o->curve_sites,
                  "A model with site compliances: sites spread over the surface whose presses (straight and tilted, at "
                  "each of --depths) fit the site law's depth curve (0: none; docs/matching.md)")

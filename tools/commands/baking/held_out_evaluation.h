@@ -27,6 +27,10 @@ struct EvaluationOptions {
   /// show how much it still changes under refinement.
   double check_size_mm = 0.0;
   bool json = false;
+  /// Processes the sites are shared among (each presses every jobs-th site;
+  /// the table is the same whatever the number); 0: one per CPU, at most one
+  /// per site.
+  int jobs = 0;
   PressOptions press;
 };
 
