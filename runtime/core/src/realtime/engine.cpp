@@ -206,7 +206,7 @@ void Engine::deformation_step(double now) noexcept {
       if (!crossed && shaft.squaredNorm() > 0.0) {
         const Eigen::Vector3d handle = tools.tips[i] + options_.shaft_length * shaft;
         crossed = deformed_tree_.first_crossing(handle, tools.tips[i], true, hit);
-        shaft_offset = (1.0 - hit.along) * options_.shaft_length;
+        if (crossed) shaft_offset = (1.0 - hit.along) * options_.shaft_length;
       }
       if (!crossed && previous_valid_[i] && tree_positions_ != nullptr) {
         const geometry::SurfacePoint nearest = deformed_tree_.closest_point(tools.tips[i]);

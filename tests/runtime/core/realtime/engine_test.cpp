@@ -284,6 +284,27 @@ TEST_F(CylinderEngine, AShaftPressingSidewaysMakesContactAlongTheShaft) {
   EXPECT_LT(std::abs(last.force[2]), 0.2 * last.force.norm());
 }
 
+// A tip the surface came onto (resting 0.5 mm inside the far cap of a 0.6 m
+// cylinder, its whole 0.30 m shaft inside the organ, so neither the tip's path
+// nor the shaft crossed the surface): the contact is the tip's, and the organ
+// pushes it out gently. (The shaft's offset was once taken from the shaft test
+// that missed: the contact point 0.30 m up the shaft, the force at its limit.)
+TEST_F(CylinderEngine, ATipTheSurfaceCameOntoTouchesWithItsTipAlone) {
+  testing::CylinderSpec long_spec;
+  long_spec.length = 0.6;
+  const organ::Organ long_organ(testing::make_cylinder_model(long_spec));
+  Trajectory t = path({{0.0, {0.5995, 0.0, 0.0}}, {0.3, {0.5995, 0.0, 0.0}}});
+  t.shafts.assign(2, Eigen::Vector3d(-1.0, 0.0, 0.0));
+  ScriptedDevice device(t, {}, 1000);
+  Engine engine(long_organ, {&device}, {});
+  run_fast(engine, 0.3);
+  EXPECT_EQ(engine.telemetry(0).contacts, 1u);
+  const ForceRecord& last = device.record(device.record_count() - 1);
+  EXPECT_TRUE(last.in_contact);
+  EXPECT_GT(last.force[0], 0.0);  // out of the cap, along +x
+  EXPECT_LT(last.force.norm(), 0.2);
+}
+
 TEST_F(CylinderEngine, FastModeIsBitIdenticalAcrossRuns) {
   auto run = [&] {
     ScriptedDevice a(path({{0.0, {0.16, 0.0, 0.0}}, {0.4, {0.144, 0.003, 0.0}}, {0.6, {0.16, 0.0, 0.0}}}), {}, 1000);
