@@ -802,7 +802,8 @@ double OrganFem::out_of_balance(double fraction) noexcept {
 FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
   for (std::uint32_t t = 0; t < contacts_.size(); ++t)
     if (contacts_[t].active && !displacements[t].allFinite()) return FrameStatus::not_finite;
-  if (worker_ && refresh_due_ > 0 && frame_ < refresh_due_ && !solved_this_frame_ && worker_->ready()) {
+  if (worker_ && refresh_due_ > 0 && frame_ < refresh_due_ && !solved_this_frame_ && !stale_refresh_ &&
+      worker_->ready()) {
     // A node taken after the request lacks its response in the fresh
     // tangent: solve one per frame (none in a frame that took one) while the
     // tangent waits to be adopted, rather than all of them in the frame that
@@ -818,23 +819,25 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
   }
   solved_this_frame_ = false;
   const bool untouched = std::none_of(contacts_.begin(), contacts_.end(), [](const Contact& c) { return c.active; });
-  if (worker_ && refresh_due_ > 0 && frame_ >= refresh_due_) {
-    if (reproducible_ || worker_->finished()) {
-      // Made at a pressed state: not for an organ that has come to rest.
-      if (worker_->wait() && !untouched) adopt(worker_->spare());
-      worker_->release();
-      refresh_due_ = 0;
-    } else if (frame_ == refresh_due_ && !untouched) {
-      ++late_refreshes_;
-    }
-  }
   if (untouched) {
     // Nothing holds the organ and no body force loads it: its equilibrium is
     // the rest state, reached in this frame as a quasi-static frame reaches
     // any (iterated from the pressed state with a tangent made there, the
     // organ took seconds to come back after the tools let go, and could fly
-    // apart). At rest the rest tangent is exact.
+    // apart). At rest the rest tangent is exact; a refresh on its way, made
+    // at the pressed state, is dropped: now where the frames may wait for
+    // it (so that the next press begins as the first did), else when done.
     reset();
+    if (worker_ && refresh_due_ > 0) {
+      if (reproducible_ || worker_->finished()) {
+        worker_->wait();
+        worker_->release();
+        refresh_due_ = 0;
+        stale_refresh_ = false;
+      } else {
+        stale_refresh_ = true;
+      }
+    }
     if (rest_tangent_ && !using_rest_) {
       using_rest_ = true;
       respond_all(*rest_tangent_);
@@ -843,6 +846,16 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
     contact_settled_ = true;
     ++frame_;
     return FrameStatus::ok;
+  }
+  if (worker_ && refresh_due_ > 0 && frame_ >= refresh_due_) {
+    if (reproducible_ || worker_->finished()) {
+      if (worker_->wait() && !stale_refresh_) adopt(worker_->spare());
+      worker_->release();
+      refresh_due_ = 0;
+      stale_refresh_ = false;
+    } else if (frame_ == refresh_due_) {
+      ++late_refreshes_;
+    }
   }
   for (std::uint32_t t = 0; t < contacts_.size(); ++t)
     if (contacts_[t].active) contacts_[t].target = displacements[t];

@@ -152,7 +152,8 @@ class OrganFem {
 
   /// One frame: `displacements[tool]` (m) is where each attached tool's
   /// contact point is to be, from its rest position (entries of detached tools
-  /// are ignored).
+  /// are ignored). With no tool attached the organ is at rest (reset()): the
+  /// equilibrium of an organ nothing loads.
   FrameStatus step(const Eigen::Vector3d* displacements) noexcept;
   /// Back to the rest state (contacts kept).
   void reset() noexcept;
@@ -359,6 +360,7 @@ class OrganFem {
   std::uint32_t refresh_frames_ = 0;
   std::uint64_t frame_ = 0, refresh_due_ = 0;
   bool solved_this_frame_ = false;  // a contact's response was solved since the last step
+  bool stale_refresh_ = false;      // the refresh on its way was asked for before the organ came to rest
   std::uint64_t refreshes_ = 0, step_cuts_ = 0, late_refreshes_ = 0;
   bool reproducible_ = true;
   double unbalanced_ = 0;
