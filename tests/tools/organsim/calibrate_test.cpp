@@ -181,10 +181,15 @@ TEST_F(Cli, EvaluateMeasuresTheFastModelsOnPressesNoFitSaw) {
 
 // --jobs shares the sites among processes: the same evaluation, byte for
 // byte, whatever their number (three sites among two jobs: one job presses
-// two), re-meshed references and the check on finer cells included.
-TEST_F(Cli, EvaluateGivesTheSameTableWhateverTheJobs) {
+// two), re-meshed references and the check on finer cells included; and the
+// same calibrated model file from the depth curve's sites.
+TEST_F(Cli, EvaluationAndDepthCurveAreTheSameWhateverTheJobs) {
+  model::OrganModel cylinder = testing::make_cylinder_model({});
+  pipeline::SiteComplianceOptions sites;
+  sites.fixed_radius = 0.031;
+  cylinder.sites = pipeline::compute_site_compliance(cylinder, sites);
   const std::string model = (dir_ / "cylinder.organ").string();
-  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  model::write_organ_model_file(cylinder, model);
   const std::string evaluate =
       "calibrate " + model + " --evaluate --sites 3 --depths 2 --fixed-radius 31 --reference-cells 6 --check-cells 5";
   const CommandRun one = run_organsim(evaluate + " --jobs 1 --json", dir_);
@@ -194,6 +199,17 @@ TEST_F(Cli, EvaluateGivesTheSameTableWhateverTheJobs) {
   EXPECT_NE(two.err.find("3 sites shared among 2 processes"), std::string::npos) << two.err;
   EXPECT_EQ(nlohmann::json::parse(one.out)["presses"].size(), 6u);
   EXPECT_EQ(two.out, one.out);
+
+  const std::string curve =
+      kCalibration + std::string(" --curve-sites 3 --depths 2 --reference-cells 0 --seed 4");
+  for (const char* jobs : {"1", "2"}) {
+    const CommandRun fitted = run_organsim("calibrate " + model + " -o " + (dir_ / (std::string("fitted_") + jobs + ".organ")).string() +
+                                               curve + " --jobs " + jobs + " --json",
+                                           dir_);
+    ASSERT_EQ(fitted.exit_code, 0) << fitted.err;
+    EXPECT_EQ(nlohmann::json::parse(fitted.out)["depth_curve_presses"]["pressed"], 6) << fitted.out;
+  }
+  EXPECT_EQ(file_bytes(dir_ / "fitted_2.organ"), file_bytes(dir_ / "fitted_1.organ"));
 }
 
 // A model with site compliances: calibrate fits the site law's depth curve

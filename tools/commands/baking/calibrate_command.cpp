@@ -394,6 +394,7 @@ int run_calibrate(CalibrateOptions o) {
     curve.seed = o.seed + kCurveSeedOffset;
     curve.refine_size_mm = o.evaluation.refine_size_mm;
     curve.reference = o.reference;
+    curve.jobs = o.evaluation.jobs;
     curve.press = o.press;
     c.curve = fit_depth_curve(original, curve);
     calibrated.sites.depth_curve = c.curve.curve;
@@ -447,8 +448,8 @@ Command add_calibrate_command(CLI::App& app) {
       ->check(CLI::Range(1, 256))
       ->capture_default_str();
   app.add_option("--jobs", o->evaluation.jobs,
-                 "--evaluate: processes the sites are shared among (0: one per CPU; the table is the same whatever "
-                 "the number; each holds a re-meshed reference, about 0.7 GB on a liver)")
+                 "--evaluate and the depth curve: processes the sites are shared among (0: one per CPU; the results "
+                 "are the same whatever the number; each holds a re-meshed reference, about 0.7 GB on a liver)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   app.add_option("--curve-sites", o->curve_sites,

@@ -11,6 +11,7 @@
 #include "organsim/organ/site_law.h"
 #include "press_plan.h"
 #include "refined_reference.h"
+#include "site_jobs.h"
 
 namespace organsim::cli {
 
@@ -33,15 +34,17 @@ DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOp
   const char* fast_model = model.beams.empty() ? "springs" : "beam";
   PressOptions fast_press = o.press;
   fast_press.tuning.unmatched = false;
-  std::map<double, std::vector<double>> log_ratios;  // per depth (mm)
-  for (std::size_t k = 0; k < sites.size(); ++k) {
+  // Per site: its presses and, for each that solved, (depth mm, ln |F_ref| / |F_law|).
+  auto press_site = [&](std::size_t k) {
     const Eigen::Vector3d at = site_point(organ, sites[k]);
     const organ::Organ reference(fit.refine_size_mm > 0.0 ? refined_at(model, at, fit.refine_size_mm, refine_radius_mm)
                                                           : model);
+    nlohmann::json ratios = nlohmann::json::array();
+    std::size_t presses = 0;
     for (const PressTilt tilt : {PressTilt::straight, static_cast<PressTilt>(1 + k % 2)})
       for (const double depth : o.depths_mm) {
         const ToolSpec tool = site_press(organ, sites[k], normals[sites[k]], tilt, depth, o.press);
-        ++fit.presses;
+        ++presses;
         note("calibrate", fmt::format("depth curve: site {} of {}, {:g} mm: {} with {} ({} tetrahedra)", k + 1,
                                       sites.size(), depth, tool.text, o.reference, reference.model().tetrahedra.size()));
         Eigen::Vector3d force;
@@ -56,9 +59,18 @@ DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOp
         if (!(force.norm() > 0.0) || !law.set(organ, touched, radius_mm * 1e-3)) continue;
         const Eigen::Vector3d linear = press(fast_model, linear_law, {tool}, fast_press).tools[0].force;
         if (!(linear.norm() > 0.0)) continue;
-        log_ratios[depth].push_back(std::log(force.norm() / linear.norm()));
-        ++fit.solved;
+        ratios.push_back({exact_json(depth), exact_json(std::log(force.norm() / linear.norm()))});
       }
+    return nlohmann::json{{"presses", presses}, {"ratios", std::move(ratios)}};
+  };
+  const std::size_t jobs = o.jobs > 0 ? static_cast<std::size_t>(o.jobs) : usable_cpus();
+  std::map<double, std::vector<double>> log_ratios;  // per depth (mm), in site order
+  for (const nlohmann::json& site : run_site_jobs(sites.size(), jobs, press_site)) {
+    fit.presses += site.at("presses").get<std::size_t>();
+    for (const nlohmann::json& ratio : site.at("ratios")) {
+      log_ratios[exact_double(ratio.at(0))].push_back(exact_double(ratio.at(1)));
+      ++fit.solved;
+    }
   }
   if (fit.solved == 0)
     throw std::runtime_error(fmt::format("none of the {} depth-curve presses could be solved by {}: press less deep "

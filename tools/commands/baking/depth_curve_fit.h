@@ -24,6 +24,9 @@ struct DepthCurveOptions {
   std::uint32_t seed = 1;
   double refine_size_mm = -1.0;  ///< the reference's cells under each press: < 0 half the tip's radius; 0 the model's own
   std::string reference = "psh";
+  /// Processes the sites are shared among (site_jobs.h; the curve is the
+  /// same whatever the number); 0: one per CPU.
+  int jobs = 0;
   PressOptions press;
 };
 

@@ -1,24 +1,12 @@
 #include "held_out_evaluation.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <csignal>
-#include <cstdlib>
-#include <cstring>
-#include <cstdio>
 #include <iostream>
-#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
 #include <stdexcept>
-#include <thread>
-
-#include <sched.h>
-#include <sys/prctl.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -27,6 +15,7 @@
 #include "plot/power_law.h"
 #include "press_plan.h"
 #include "refined_reference.h"
+#include "site_jobs.h"
 
 namespace organsim::cli {
 namespace {
@@ -393,44 +382,39 @@ std::vector<PressRecord> press_site(const Plan& plan, std::size_t k) {
 }
 
 // A record crosses from a job's process to the parent as JSON, every number
-// to the last bit (nlohmann writes doubles in round-trip precision; one that
-// is not finite, which JSON cannot hold, as its name).
-nlohmann::json exact(double x) {
-  if (std::isfinite(x)) return x;
-  return std::isnan(x) ? "nan" : x > 0 ? "inf" : "-inf";
+// to the last bit.
+nlohmann::json exact_vector_json(const Eigen::Vector3d& v) {
+  return nlohmann::json::array({exact_json(v.x()), exact_json(v.y()), exact_json(v.z())});
 }
-double exact_from(const nlohmann::json& j) {
-  if (j.is_number()) return j.get<double>();
-  const std::string name = j.get<std::string>();
-  if (name == "nan") return std::numeric_limits<double>::quiet_NaN();
-  if (name == "inf" || name == "-inf") return (name == "inf" ? 1.0 : -1.0) * std::numeric_limits<double>::infinity();
-  throw std::runtime_error("'" + name + "' is not a number");
+Eigen::Vector3d exact_vector(const nlohmann::json& j) {
+  return {exact_double(j.at(0)), exact_double(j.at(1)), exact_double(j.at(2))};
 }
-nlohmann::json exact(const Eigen::Vector3d& v) { return nlohmann::json::array({exact(v.x()), exact(v.y()), exact(v.z())}); }
-Eigen::Vector3d exact_vector(const nlohmann::json& j) { return {exact_from(j.at(0)), exact_from(j.at(1)), exact_from(j.at(2))}; }
 
 nlohmann::json record_json(const PressRecord& r) {
   nlohmann::json fast = nlohmann::json::object();
   for (const auto& [name, a] : r.fast)
     fast[name] = {{"solved", a.solved},
                   {"error", a.error},
-                  {"force", exact(a.force)},
-                  {"log_ratio", exact(a.log_ratio)},
-                  {"direction", exact(a.direction_error_deg)},
-                  {"difference", exact(a.surface_difference)}};
+                  {"force", exact_vector_json(a.force)},
+                  {"log_ratio", exact_json(a.log_ratio)},
+                  {"direction", exact_json(a.direction_error_deg)},
+                  {"difference", exact_json(a.surface_difference)}};
   return {{"site", r.site},
           {"vertex", r.vertex},
           {"tilt", static_cast<int>(r.tilt)},
-          {"depth_mm", exact(r.depth_mm)},
-          {"tool", {{"text", r.tool.text}, {"point_mm", exact(r.tool.point_mm)}, {"displacement_mm", exact(r.tool.displacement_mm)}}},
+          {"depth_mm", exact_json(r.depth_mm)},
+          {"tool",
+           {{"text", r.tool.text},
+            {"point_mm", exact_vector_json(r.tool.point_mm)},
+            {"displacement_mm", exact_vector_json(r.tool.displacement_mm)}}},
           {"reference_solved", r.reference_solved},
           {"reference_error", r.reference_error},
-          {"reference_force", exact(r.reference_force)},
+          {"reference_force", exact_vector_json(r.reference_force)},
           {"reference_tetrahedra", r.reference_tetrahedra},
-          {"reference_cell_mm", exact(r.reference_cell_mm)},
-          {"check_force", r.check_force ? exact(*r.check_force) : nlohmann::json(nullptr)},
-          {"thickness_mm", exact(r.thickness_mm)},
-          {"clamp_distance_mm", exact(r.clamp_distance_mm)},
+          {"reference_cell_mm", exact_json(r.reference_cell_mm)},
+          {"check_force", r.check_force ? exact_vector_json(*r.check_force) : nlohmann::json(nullptr)},
+          {"thickness_mm", exact_json(r.thickness_mm)},
+          {"clamp_distance_mm", exact_json(r.clamp_distance_mm)},
           {"fast", fast}};
 }
 
@@ -439,164 +423,23 @@ PressRecord record_from(const nlohmann::json& j) {
   r.site = j.at("site").get<std::size_t>();
   r.vertex = j.at("vertex").get<std::uint32_t>();
   r.tilt = static_cast<PressTilt>(j.at("tilt").get<int>());
-  r.depth_mm = exact_from(j.at("depth_mm"));
+  r.depth_mm = exact_double(j.at("depth_mm"));
   const nlohmann::json& tool = j.at("tool");
-  r.tool = {tool.at("text").get<std::string>(), exact_vector(tool.at("point_mm")), exact_vector(tool.at("displacement_mm"))};
+  r.tool = {tool.at("text").get<std::string>(), exact_vector(tool.at("point_mm")),
+            exact_vector(tool.at("displacement_mm"))};
   r.reference_solved = j.at("reference_solved").get<bool>();
   r.reference_error = j.at("reference_error").get<std::string>();
   r.reference_force = exact_vector(j.at("reference_force"));
   r.reference_tetrahedra = j.at("reference_tetrahedra").get<std::size_t>();
-  r.reference_cell_mm = exact_from(j.at("reference_cell_mm"));
+  r.reference_cell_mm = exact_double(j.at("reference_cell_mm"));
   if (!j.at("check_force").is_null()) r.check_force = exact_vector(j.at("check_force"));
-  r.thickness_mm = exact_from(j.at("thickness_mm"));
-  r.clamp_distance_mm = exact_from(j.at("clamp_distance_mm"));
+  r.thickness_mm = exact_double(j.at("thickness_mm"));
+  r.clamp_distance_mm = exact_double(j.at("clamp_distance_mm"));
   for (const auto& [name, a] : j.at("fast").items())
-    r.fast[name] = {a.at("solved").get<bool>(),       a.at("error").get<std::string>(),  exact_vector(a.at("force")),
-                    exact_from(a.at("log_ratio")), exact_from(a.at("direction")), exact_from(a.at("difference"))};
+    r.fast[name] = {a.at("solved").get<bool>(),        a.at("error").get<std::string>(),
+                    exact_vector(a.at("force")),       exact_double(a.at("log_ratio")),
+                    exact_double(a.at("direction")),   exact_double(a.at("difference"))};
   return r;
-}
-
-void write_all(int fd, const std::string& text) {
-  for (std::size_t written = 0; written < text.size();) {
-    const ssize_t n = ::write(fd, text.data() + written, text.size() - written);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return;  // the parent is gone: nothing to report to
-    written += static_cast<std::size_t>(n);
-  }
-}
-
-std::string read_all(int fd) {
-  std::string text;
-  char buffer[65536];
-  for (;;) {
-    const ssize_t n = ::read(fd, buffer, sizeof buffer);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return text;
-    text.append(buffer, static_cast<std::size_t>(n));
-  }
-}
-
-/// Why job j's output could not be read: its own error, or what became of it.
-std::string out_of_job_message(const std::exception& e, const std::string& text, std::size_t j, std::size_t jobs,
-                               int status) {
-  if (!text.empty() && dynamic_cast<const nlohmann::json::exception*>(&e) == nullptr) return e.what();
-  return fmt::format("job {} of {} ended (exit status {}) without its presses: {}", j + 1, jobs,
-                     WIFEXITED(status) ? WEXITSTATUS(status) : -1, e.what());
-}
-
-/// CPUs this process may run on (its affinity: a container's or taskset's
-/// limit, not the machine's count).
-std::size_t usable_cpus() {
-  cpu_set_t set;
-  if (::sched_getaffinity(0, sizeof set, &set) == 0) return std::max(1, CPU_COUNT(&set));
-  return std::max(1u, std::thread::hardware_concurrency());
-}
-
-struct Job {
-  pid_t pid = -1;
-  int output = -1;  ///< the read end of its pipe; -1 once read
-};
-
-/// Stops the jobs not yet read (SIGTERM), closes their pipes and reaps them all.
-void stop_jobs(std::vector<Job>& jobs, std::size_t from) {
-  for (std::size_t j = from; j < jobs.size(); ++j) {
-    ::kill(jobs[j].pid, SIGTERM);
-    if (jobs[j].output >= 0) ::close(jobs[j].output);
-    jobs[j].output = -1;
-    int status = 0;
-    while (::waitpid(jobs[j].pid, &status, 0) < 0 && errno == EINTR) {
-    }
-  }
-}
-
-/// Job j's part: sites j, j + jobs, … pressed and written to `fd` as JSON;
-/// never returns.
-[[noreturn]] void run_job(const Plan& plan, std::size_t j, std::size_t jobs, int fd) {
-  ::prctl(PR_SET_PDEATHSIG, SIGTERM);  // an evaluation stopped stops its jobs
-  std::string text;
-  int status = 0;
-  try {
-    nlohmann::json records = nlohmann::json::array();
-    for (std::size_t k = j; k < plan.sites.size(); k += jobs)
-      for (const PressRecord& r : press_site(plan, k)) records.push_back(record_json(r));
-    text = nlohmann::json{{"records", std::move(records)}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-  } catch (const std::exception& e) {
-    text = nlohmann::json{{"error", e.what()}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-    status = 1;
-  } catch (...) {
-    text = R"({"error":"an unknown error"})";
-    status = 1;
-  }
-  write_all(fd, text);
-  std::fflush(stderr);
-  std::_Exit(status);  // the parent's state (its files, its solvers) is the parent's to clean up
-}
-
-/// The sites shared among `jobs` processes (job j presses sites j, j + jobs,
-/// …), each site's records as press_site gives them: the same as one process
-/// gives, in the same order, in about 1/jobs of the time. The jobs are forked
-/// before any thread of ours exists, so each is the program as it stands
-/// (OpenBLAS shuts its pool down around a fork and starts it again).
-std::vector<PressRecord> press_sites_in_jobs(const Plan& plan, std::size_t jobs) {
-  std::vector<Job> started;
-  std::cout.flush();
-  std::fflush(nullptr);
-  for (std::size_t j = 0; j < jobs; ++j) {
-    int pipe_ends[2];
-    if (::pipe(pipe_ends) != 0) {
-      const int error = errno;
-      stop_jobs(started, 0);
-      throw std::runtime_error(fmt::format("cannot start job {} of {}: {}; try --jobs 1", j + 1, jobs, std::strerror(error)));
-    }
-    const pid_t pid = ::fork();
-    if (pid < 0) {
-      const int error = errno;
-      ::close(pipe_ends[0]);
-      ::close(pipe_ends[1]);
-      stop_jobs(started, 0);
-      throw std::runtime_error(fmt::format("cannot start job {} of {}: {}; try --jobs 1", j + 1, jobs, std::strerror(error)));
-    }
-    if (pid == 0) {
-      ::close(pipe_ends[0]);
-      for (const Job& s : started) ::close(s.output);
-      run_job(plan, j, jobs, pipe_ends[1]);
-    }
-    ::close(pipe_ends[1]);
-    started.push_back({pid, pipe_ends[0]});
-  }
-  std::vector<std::vector<PressRecord>> by_site(plan.sites.size());
-  for (std::size_t j = 0; j < started.size(); ++j) {
-    const std::string text = read_all(started[j].output);
-    ::close(started[j].output);
-    started[j].output = -1;
-    int status = 0;
-    while (::waitpid(started[j].pid, &status, 0) < 0 && errno == EINTR) {
-    }
-    std::string failure;
-    if (WIFSIGNALED(status)) {
-      failure = fmt::format("job {} of {} was killed by signal {} (out of memory? try fewer --jobs)", j + 1, jobs,
-                            WTERMSIG(status));
-    } else {
-      try {
-        const nlohmann::json out = nlohmann::json::parse(text);
-        if (out.contains("error")) throw std::runtime_error(out.at("error").get<std::string>());
-        for (const nlohmann::json& record : out.at("records")) {
-          PressRecord r = record_from(record);
-          by_site.at(r.site).push_back(std::move(r));
-        }
-      } catch (const std::exception& e) {
-        failure = out_of_job_message(e, text, j, jobs, status);
-      }
-    }
-    if (!failure.empty()) {
-      stop_jobs(started, j + 1);  // the others' sites would not make a table
-      throw std::runtime_error(failure);
-    }
-  }
-  std::vector<PressRecord> records;
-  for (std::vector<PressRecord>& site : by_site)
-    for (PressRecord& r : site) records.push_back(std::move(r));
-  return records;
 }
 
 }  // namespace
@@ -624,16 +467,16 @@ int run_evaluation(const EvaluationOptions& o) {
                   *std::max_element(o.depths_mm.begin(), o.depths_mm.end()) + 2.0 * radius_mm,
                   settled};
 
-  const std::size_t cpus = usable_cpus();
-  const std::size_t jobs = std::min(plan.sites.size(), o.jobs > 0 ? static_cast<std::size_t>(o.jobs) : cpus);
+  const std::size_t jobs = std::min(plan.sites.size(), o.jobs > 0 ? static_cast<std::size_t>(o.jobs) : usable_cpus());
+  if (jobs > 1) note("calibrate", fmt::format("{} sites shared among {} processes", plan.sites.size(), jobs));
+  const std::vector<nlohmann::json> by_site = run_site_jobs(plan.sites.size(), jobs, [&](std::size_t k) {
+    nlohmann::json site = nlohmann::json::array();
+    for (const PressRecord& r : press_site(plan, k)) site.push_back(record_json(r));
+    return site;
+  });
   std::vector<PressRecord> records;
-  if (jobs > 1) {
-    note("calibrate", fmt::format("{} sites shared among {} processes", plan.sites.size(), jobs));
-    records = press_sites_in_jobs(plan, jobs);
-  } else {
-    for (std::size_t k = 0; k < plan.sites.size(); ++k)
-      for (PressRecord& r : press_site(plan, k)) records.push_back(std::move(r));
-  }
+  for (const nlohmann::json& site : by_site)
+    for (const nlohmann::json& r : site) records.push_back(record_from(r));
   if (std::none_of(records.begin(), records.end(), [](const PressRecord& r) { return r.reference_solved; }))
     throw std::runtime_error(fmt::format("none of the {} presses could be solved by {}: press less deep (--depths)",
                                          records.size(), o.reference));
