@@ -35,6 +35,9 @@ constexpr double kReleaseMargin = 1e-5;
 // m: a refused contact (no beam could be built) is not retried until the tool
 // has moved this far.
 constexpr double kRetryDistance = 1e-3;
+// m: a tool whose pose comes back this far from where it was lost was moved
+// while away (removed and placed anew): its contact ends.
+constexpr double kMovedWhileLost = 1e-3;
 // m: a tip this close inside the deformed surface that has not crossed it
 // begins a contact too: the surface moved onto the tool (a bulge of a nearly
 // incompressible organ, or the organ pressed against a resting tool).
@@ -111,6 +114,12 @@ void Engine::force_tick(double now) noexcept {
     bool touching = false;
     double depth = 0.0;
     const ToolContact& contact = contacts.tools[i];
+    // A pose lost and found again elsewhere (a tool removed and placed anew,
+    // another client on the tool's stream) is another tool: the contact it
+    // held ends. One found where it was lost resumes its contact.
+    if (contact.active && valid && fault_start_[i] >= 0.0 && (pose.tip - last_valid_tip_[i]).norm() > kMovedWhileLost)
+      released_[i] = contact.generation;
+    if (valid) last_valid_tip_[i] = pose.tip;
     if (contact.active && released_[i] != contact.generation) {
       if (seen_generation_[i] != contact.generation) {
         seen_generation_[i] = contact.generation;
@@ -120,7 +129,7 @@ void Engine::force_tick(double now) noexcept {
       // A shaft contact needs the shaft: without it the contact point is unknown.
       if (valid && (contact.shaft_offset == 0.0 || pose.shaft.squaredNorm() > 0.0)) {
         const Eigen::Vector3d displacement = pose.tip + contact.shaft_offset * pose.shaft - contact.action_point - slip_[i];
-        if (displacement.dot(contact.normal) > kReleaseMargin) {
+        if (displacement.dot(contact.normal) > contact.release_height + kReleaseMargin) {
           released_[i] = contact.generation;  // back outside: the contact ends now
         } else {
           force.noalias() = contact.force - contact.stiffness * (displacement - contact.reference);
@@ -183,13 +192,18 @@ void Engine::deformation_step(double now) noexcept {
   const ToolFrame& tools = tool_frames_.read();
   const auto& rest = organ_.model().surface_vertices;
   const auto& triangles = organ_.model().surface_triangles;
+  // Every contact the force loop ended lets go first, so that a tool may take
+  // what another held until now in the same frame.
+  for (std::size_t i = 0; i < devices_.size(); ++i) {
+    ToolContact& contact = contacts_.tools[i];
+    if (contact.active && tools.released[i] == contact.generation) {
+      model_->detach(static_cast<std::uint32_t>(i));
+      contact.active = false;
+    }
+  }
   for (std::size_t i = 0; i < devices_.size(); ++i) {
     ToolContact& contact = contacts_.tools[i];
     const auto tool = static_cast<std::uint32_t>(i);
-    if (contact.active && tools.released[i] == contact.generation) {
-      model_->detach(tool);
-      contact.active = false;
-    }
     const bool valid = tools.time >= 0.0 && tools.tip_valid[i];
     geometry::SegmentHit hit;
     double shaft_offset = 0.0;
@@ -237,6 +251,11 @@ void Engine::deformation_step(double now) noexcept {
         contact.action_point = linearizations_[i].action_point;
         publish_linearization(i);
         contact.shaft_offset = shaft_offset;
+        // Caught by a surface that moved out onto the tool, the contact
+        // begins above the rest surface's tangent plane: it ends only once
+        // the tool has drawn back beyond where it began.
+        const Eigen::Vector3d begun = tools.tips[i] + shaft_offset * tools.shafts[i] - contact.action_point;
+        contact.release_height = std::max(0.0, begun.dot(contact.normal));
         contact.active = true;
         ++contact.generation;
         refused_valid_[i] = false;

@@ -305,6 +305,50 @@ TEST_F(CylinderEngine, ATipTheSurfaceCameOntoTouchesWithItsTipAlone) {
   EXPECT_LT(last.force.norm(), 0.2);
 }
 
+// One tool presses the free end's top down 10 mm; the other rests 0.5 mm
+// below its bottom. The FEM organ comes down onto the resting tool, which is
+// caught above the rest surface: its contact holds (it ends only once the
+// tool draws back beyond where it began) and the organ pushes on it. (It
+// ended on its first force tick, began again the next frame, and so on.)
+TEST_F(CylinderEngine, AnOrganThatMovesOntoARestingToolPushesOnIt) {
+  ScriptedDevice pressing(path({{0.0, {0.14, 0.04, 0.0}}, {0.4, {0.14, 0.02, 0.0}}, {1.0, {0.14, 0.02, 0.0}}}), {}, 1000);
+  ScriptedDevice resting(path({{0.0, {0.145, -0.0305, 0.0}}, {1.0, {0.145, -0.0305, 0.0}}}), {}, 1000);
+  EngineOptions options;
+  options.model = "corotational";
+  options.fem.fixed_radius = 0.031;  // the clamped cap
+  Engine engine(organ, {&pressing, &resting}, options);
+  run_fast(engine, 1.0);
+  EXPECT_EQ(engine.telemetry(0).contacts, 1u);
+  EXPECT_EQ(engine.telemetry(1).contacts, 1u);
+  const ForceRecord& last = resting.record(resting.record_count() - 1);
+  EXPECT_TRUE(last.in_contact);
+  EXPECT_LT(last.force[1], -0.01) << "the organ pushes the resting tool down";
+}
+
+// A tool whose pose is lost while pressing and found again 20 mm away (taken
+// off the organ and placed elsewhere) does not resume the old contact: it
+// would be dragged back to the old spot with the force limit. Found again
+// where it was lost, it resumes (OpenHaptics.ADeviceThatFailsMidSession…).
+TEST_F(CylinderEngine, AToolPlacedElsewhereWhileItsPoseWasLostLetsGoOfItsContact) {
+  const double lost = std::numeric_limits<double>::quiet_NaN();  // a non-finite pose is no pose
+  ScriptedDevice device(path({{0.0, {0.16, 0.0, 0.0}},
+                              {0.3, {0.144, 0.0, 0.0}},
+                              {0.45, {0.144, 0.0, 0.0}},
+                              {0.4505, {lost, lost, lost}},
+                              {0.5495, {lost, lost, lost}},
+                              {0.55, {0.144, 0.0, 0.02}},
+                              {1.0, {0.144, 0.0, 0.02}}}),
+                        {}, 1000);
+  Engine engine(organ, {&device}, {});
+  run_fast(engine, 1.0);
+  double pressed = 0.0;
+  for (std::size_t r = 0; r < device.record_count(); ++r)
+    if (device.record(r).time < 0.45) pressed = std::max(pressed, device.record(r).force.norm());
+  EXPECT_GT(pressed, 0.1);
+  const ForceRecord& last = device.record(device.record_count() - 1);
+  EXPECT_LT(last.force.norm(), 0.2 * pressed) << "the old contact resumed";
+}
+
 TEST_F(CylinderEngine, FastModeIsBitIdenticalAcrossRuns) {
   auto run = [&] {
     ScriptedDevice a(path({{0.0, {0.16, 0.0, 0.0}}, {0.4, {0.144, 0.003, 0.0}}, {0.6, {0.16, 0.0, 0.0}}}), {}, 1000);

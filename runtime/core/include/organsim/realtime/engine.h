@@ -93,6 +93,11 @@ struct ToolContact {
   Eigen::Vector3d reference = Eigen::Vector3d::Zero();     ///< d₀, m: the displacement where `force` holds
   Eigen::Vector3d force = Eigen::Vector3d::Zero();         ///< F₀, N on the tool at d₀
   double shaft_offset = 0.0;  ///< m from the tip along the shaft to the tool's contact point (0: the tip)
+  /// m along `normal`: the contact ends once the tool's displacement from the
+  /// action point has more than this outward part. Where the contact began
+  /// (the displacement's outward part then, when the organ had moved out onto
+  /// the tool; 0 otherwise).
+  double release_height = 0.0;
 };
 
 struct ContactFrame {
@@ -191,6 +196,7 @@ class Engine final : public devices::ForceLoop {
   std::array<std::uint32_t, kMaxTools> seen_generation_{};
   std::array<double, kMaxTools> fault_start_{};      // s, when the pose went invalid; < 0 while valid
   std::array<Eigen::Vector3d, kMaxTools> fault_force_{};  // N, the force sent just before
+  std::array<Eigen::Vector3d, kMaxTools> last_valid_tip_{};  // m, the tip where the pose was last valid
   std::array<Eigen::Vector3d, kMaxTools> slip_{};         // m, of the current contact
   // Blending a fresh linearization in: the force it replaced at the switch
   // (less its own there), when, and for which frame and contact.
