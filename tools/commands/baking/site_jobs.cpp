@@ -156,7 +156,7 @@ std::vector<nlohmann::json> run_site_jobs(std::size_t count, std::size_t jobs,
       mine = job_results(text, status, j, jobs);
       if (mine.size() != (count - j + jobs - 1) / jobs)
         throw std::runtime_error(fmt::format("job {} of {} gave {} sites' results", j + 1, jobs, mine.size()));
-    } catch (const std::runtime_error&) {
+    } catch (const std::exception&) {
       stop_jobs(started, j + 1);  // the others' sites would not make a whole
       throw;
     }

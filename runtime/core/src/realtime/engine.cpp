@@ -38,6 +38,9 @@ constexpr double kRetryDistance = 1e-3;
 // m: a tool whose pose comes back this far from where it was lost was moved
 // while away (removed and placed anew): its contact ends.
 constexpr double kMovedWhileLost = 1e-3;
+// N: a contact that began above the rest surface ends when the organ would
+// pull its tool by more than this (below what a device renders).
+constexpr double kPullRelease = 1e-4;
 // m: a tip this close inside the deformed surface that has not crossed it
 // begins a contact too: the surface moved onto the tool (a bulge of a nearly
 // incompressible organ, or the organ pressed against a resting tool).
@@ -129,10 +132,15 @@ void Engine::force_tick(double now) noexcept {
       // A shaft contact needs the shaft: without it the contact point is unknown.
       if (valid && (contact.shaft_offset == 0.0 || pose.shaft.squaredNorm() > 0.0)) {
         const Eigen::Vector3d displacement = pose.tip + contact.shaft_offset * pose.shaft - contact.action_point - slip_[i];
-        if (displacement.dot(contact.normal) > contact.release_height + kReleaseMargin) {
-          released_[i] = contact.generation;  // back outside: the contact ends now
+        force.noalias() = contact.force - contact.stiffness * (displacement - contact.reference);
+        // Back outside: the contact ends now. One that began above the rest
+        // surface (the organ moved onto a resting tool) also ends once the
+        // organ would pull the tool: what pushed it there has let go.
+        if (displacement.dot(contact.normal) > contact.release_height + kReleaseMargin ||
+            (contact.release_height > 0.0 && force.dot(contact.normal) < -kPullRelease)) {
+          released_[i] = contact.generation;
+          force.setZero();
         } else {
-          force.noalias() = contact.force - contact.stiffness * (displacement - contact.reference);
           // Friction: outside Coulomb's cone the organ slips under the tool.
           slip_[i] -= slip_step(contact.stiffness, contact.normal, options_.friction, force);
           // A fresh linearization takes over from the last one over one
