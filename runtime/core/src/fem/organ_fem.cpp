@@ -663,6 +663,13 @@ void OrganFem::adopt(std::unique_ptr<Tangent>& fresh) noexcept {
   ++refreshes_;
 }
 
+void OrganFem::end_refresh(bool adopt_it) noexcept {
+  if (worker_->wait() && adopt_it) adopt(worker_->spare());
+  worker_->release();
+  refresh_due_ = 0;
+  stale_refresh_ = false;
+}
+
 void OrganFem::request_refresh() noexcept {
   for (NodeSlot& n : node_slots_) n.held = n.node >= 0 && node_holds_[static_cast<std::size_t>(n.node)] > 0;
   worker_->request(state_, node_slots_);
@@ -830,10 +837,7 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
     reset();
     if (worker_ && refresh_due_ > 0) {
       if (reproducible_ || worker_->finished()) {
-        worker_->wait();
-        worker_->release();
-        refresh_due_ = 0;
-        stale_refresh_ = false;
+        end_refresh(false);
       } else {
         stale_refresh_ = true;
       }
@@ -849,10 +853,7 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
   }
   if (worker_ && refresh_due_ > 0 && frame_ >= refresh_due_) {
     if (reproducible_ || worker_->finished()) {
-      if (worker_->wait() && !stale_refresh_) adopt(worker_->spare());
-      worker_->release();
-      refresh_due_ = 0;
-      stale_refresh_ = false;
+      end_refresh(!stale_refresh_);
     } else if (frame_ == refresh_due_) {
       ++late_refreshes_;
     }

@@ -217,7 +217,9 @@ TEST_P(NonlinearOrganFem, TheFrameAfterTheToolsLetGoIsAtRestAndTheNextPressIsAsT
   fem.detach(0);
   ASSERT_EQ(fem.step(&press), FrameStatus::ok);  // a detached tool's displacement is ignored
   EXPECT_EQ(fem.displacements().cwiseAbs().maxCoeff(), 0.0);
-  if (fem.pressures().size() > 0) EXPECT_EQ(fem.pressures().cwiseAbs().maxCoeff(), 0.0);
+  if (fem.pressures().size() > 0) {
+    EXPECT_EQ(fem.pressures().cwiseAbs().maxCoeff(), 0.0);
+  }
   EXPECT_EQ(fem.unbalanced_force(), 0.0);
   ASSERT_TRUE(fem.attach(0, node_point()));
   const Eigen::Vector3d still = Eigen::Vector3d::Zero();

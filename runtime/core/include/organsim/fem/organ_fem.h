@@ -306,6 +306,8 @@ class OrganFem {
   double time_frame_work();
   /// Adopts `fresh` as the kept tangent: responses of nodes it lacks solved.
   void adopt(std::unique_ptr<Tangent>& fresh) noexcept;
+  /// Waits for the worker's refresh, adopts it when `adopt_it` and it succeeded, and frees the worker.
+  void end_refresh(bool adopt_it) noexcept;
   void request_refresh() noexcept;
   /// One iteration from saved_ with the kept tangent: the fraction of it taken
   /// (ω, ω/2 … ω/16), or 0 (state restored) when even ω/16 would invert a
