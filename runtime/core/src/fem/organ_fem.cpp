@@ -47,6 +47,9 @@ constexpr double kPiercedDepth = 0.5;
 // A boundary point a tip takes in must put at least this much of its weight
 // on nodes the tool does not hold yet.
 constexpr double kFreshWeight = 0.25;
+// Nor may its place on the tip lie nearer a held point's than this fraction
+// of the two points' distance in the organ now (see OrganFem::crowds_a_hold).
+constexpr double kMaxTakeCompression = 0.5;
 
 Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 
@@ -587,6 +590,7 @@ bool OrganFem::take_points() noexcept {
       Eigen::Vector3d rest = Eigen::Vector3d::Zero();
       for (std::size_t i = 0; i < 3; ++i) rest += weights[static_cast<Eigen::Index>(i)] * point(node_points_[face[i]]);
       k.offset = (at - rest) - c.target;
+      if (crowds_a_hold(tool, q, at)) continue;
       if (found < candidates_.size()) {
         candidates_[found++] = k;
       } else {
@@ -608,6 +612,21 @@ bool OrganFem::take_points() noexcept {
     }
   }
   return taken;
+}
+
+bool OrganFem::crowds_a_hold(std::uint32_t tool, const Eigen::Vector3d& now, const Eigen::Vector3d& target) const noexcept {
+  const Eigen::Vector3d& tool_target = contacts_[tool].target;
+  for (std::size_t a = 0; a < hold_count_; ++a) {
+    const Hold& h = holds_[a];
+    if (h.tool != tool) continue;
+    Eigen::Vector3d rest = Eigen::Vector3d::Zero();
+    for (std::size_t i = 0; i < 3; ++i)
+      rest += h.weights[static_cast<Eigen::Index>(i)] * point(node_points_[static_cast<std::size_t>(h.nodes[i])]);
+    const Eigen::Vector3d held_now = rest + displacement_at(h.nodes, h.weights);
+    const Eigen::Vector3d held_target = rest + tool_target + h.offset;
+    if ((target - held_target).norm() < kMaxTakeCompression * (now - held_now).norm()) return true;
+  }
+  return false;
 }
 
 void OrganFem::assemble_capacitance() noexcept {
