@@ -139,6 +139,11 @@ TEST_F(Cli, ReplayFastIsBitIdenticalAndReportsTheDocumentedKeys) {
       EXPECT_TRUE(j["force_loop"].contains(key)) << key;
     EXPECT_EQ(j["force_loop"]["ticks"], 601);
     EXPECT_EQ(j["deformation_loop"]["frames"], 37);
+    // The frames in which a tool holds the cylinder: not the first (no tool
+    // has reached it) nor the last (both have left it).
+    EXPECT_GT(j["deformation_loop"]["contact_frames"].get<int>(), 10);
+    EXPECT_LT(j["deformation_loop"]["contact_frames"].get<int>(), 36);
+    EXPECT_GT(j["deformation_loop"]["contact_compute"]["p50_ms"].get<double>(), 0.0);
     EXPECT_EQ(j["frames"]["count"], 37);
     EXPECT_TRUE(fs::exists(frames / "frames.pvd"));
     EXPECT_TRUE(fs::exists(frames / "frame_00037.vtp"));

@@ -344,7 +344,9 @@ void print_json(const ReplayOptions& o, const Session& session, const ModelRun& 
                      {"realtime_priority", timings.realtime_priority}};
   j["deformation_loop"] = {{"frames", timings.deformation_computes.count()},
                            {"dropped", timings.deformation_frames_dropped},
-                           {"compute", timing_json(timings.deformation_computes.percentiles())}};
+                           {"compute", timing_json(timings.deformation_computes.percentiles())},
+                           {"contact_frames", timings.contact_computes.count()},
+                           {"contact_compute", timing_json(timings.contact_computes.percentiles())}};
   j["setup"] = {{"seconds", run.setup_seconds},
                 {"resident_mib", run.resident_mib},
                 {"estimated_frame_ms", run.estimated_frame > 0.0 ? nlohmann::json(run.estimated_frame * 1e3)

@@ -286,6 +286,8 @@ void Engine::deformation_step(double now) noexcept {
   }
   const double dt = previous_step_ < 0.0 ? options_.deformation_period : now - previous_step_;
   previous_step_ = now;
+  touched_ = std::any_of(contacts_.tools.begin(), contacts_.tools.begin() + static_cast<std::ptrdiff_t>(devices_.size()),
+                         [](const ToolContact& c) { return c.active; });
   SurfaceFrame& frame = surfaces_.write_slot();
   const bool moved = model_->step(dt, displacement_.data(), frame.positions.data(), frame.normals.data(),
                                   linearizations_.data());

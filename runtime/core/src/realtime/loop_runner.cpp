@@ -46,10 +46,11 @@ std::size_t ticks_for(double duration, double period) {
 // With `skipped`, ticks whose time passed while the body ran are skipped and
 // counted there (a deformation model slower than its frame rate drops frames,
 // as a display does, instead of running behind the session for ever);
-// otherwise each tick runs, late ones back to back.
-template <typename Body>
+// otherwise each tick runs, late ones back to back. `timed(seconds)` gets
+// each body's compute time after it is recorded.
+template <typename Body, typename Timed>
 void periodic(double period, std::size_t count, const timespec& start, DurationHistogram& periods,
-              DurationHistogram& computes, std::atomic<bool>& stop, std::uint64_t* skipped, Body body) {
+              DurationHistogram& computes, std::atomic<bool>& stop, std::uint64_t* skipped, Body body, Timed timed) {
   timespec next = start;
   double previous = -1.0;
   for (std::size_t k = 0; k < count && !stop.load(std::memory_order_relaxed); ++k) {
@@ -64,6 +65,7 @@ void periodic(double period, std::size_t count, const timespec& start, DurationH
     const timespec end = now_monotonic();
     if (previous >= 0.0) periods.record(time - previous);
     computes.record(seconds(end) - seconds(begin));
+    timed(seconds(end) - seconds(begin));
     previous = time;
     advance(next, period);
     if (skipped)
@@ -105,7 +107,9 @@ RunTimings run_fast(Engine& engine, double duration, const std::function<void(co
     if (time + 1e-12 >= static_cast<double>(next_frame) * o.deformation_period) {
       const auto begin = std::chrono::steady_clock::now();
       engine.deformation_step(time);
-      timings.deformation_computes.record(std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
+      const double compute = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+      timings.deformation_computes.record(compute);
+      if (engine.touched_in_last_step()) timings.contact_computes.record(compute);
       ++next_frame;
       if (after_frame) after_frame(timings);
     }
@@ -138,7 +142,7 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
     parameter.sched_priority = 80;
     priority_error.store(pthread_setschedparam(pthread_self(), SCHED_FIFO, &parameter));
     periodic(o.force_period, force_ticks, start, timings.force_periods, timings.force_computes, stop, nullptr,
-             [&](double time) { engine.force_tick(time); });
+             [&](double time) { engine.force_tick(time); }, [](double) {});
     force_done.store(true);
   });
   std::thread deformation([&] {
@@ -152,7 +156,10 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
     deformation_priority_error.store(pthread_setschedparam(pthread_self(), SCHED_FIFO, &parameter));
     periodic(o.deformation_period, frames, start, timings.deformation_periods, timings.deformation_computes, stop,
              &timings.deformation_frames_dropped,
-             [&](double time) { engine.deformation_step(time); });
+             [&](double time) { engine.deformation_step(time); },
+             [&](double compute) {
+               if (engine.touched_in_last_step()) timings.contact_computes.record(compute);
+             });
     deformation_done.store(true);
   });
   std::exception_ptr failure;

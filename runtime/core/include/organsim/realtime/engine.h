@@ -157,6 +157,10 @@ class Engine final : public devices::ForceLoop {
   void force_tick(double now) noexcept override;
   /// One deformation-loop iteration at time `now` (s).
   void deformation_step(double now) noexcept;
+  /// Whether a tool held the organ in the last deformation step: the frames
+  /// that solve (the others are the rest state or the last shape). From the
+  /// deformation loop's thread.
+  bool touched_in_last_step() const noexcept { return touched_; }
   /// Whether the model waits for its late background work (reproducible runs:
   /// run_fast) or goes on without it (real-time loops: run_realtime, the
   /// viewer's and the devices' loops); DeformationModel::set_reproducible.
@@ -210,6 +214,7 @@ class Engine final : public devices::ForceLoop {
   std::unique_ptr<DeformationModel> model_;
   std::array<ContactLinearization, kMaxTools> linearizations_{};
   double previous_step_ = -1.0;
+  bool touched_ = false;  // a contact was active in the last deformation step
   geometry::SurfaceBvh deformed_tree_;
   const model::Point3* tree_positions_ = nullptr;  // the last published surface
   bool tree_stale_ = false;                 // the tree does not describe it yet
