@@ -111,14 +111,20 @@ int run_serve(const ServeOptions& o) {
   const StopOnSignals signals;
   const auto begin = std::chrono::steady_clock::now();
   const double duration = o.seconds > 0.0 ? o.seconds : 1e9;
-  // Polled four times per force period: a pose waits at most a quarter of it
-  // to be read and a force as long to leave (docs/performance.md#the-openigtlink-service).
-  const double poll_period = std::min(2e-3, 0.25 * server_options.force_period);
+  // Polled just before each force tick and just after it: a pose that arrived
+  // since the last poll reaches the next tick, and the force that tick
+  // computed leaves at once (docs/performance.md#the-openigtlink-service).
+  // At a real-time priority between the force loop's and the deformation
+  // loop's, so that neither a frame nor the clients' own threads, which share
+  // the core the force loop leaves, hold a pose or a force back.
+  realtime::PollOptions polling;
+  polling.around_force_ticks = true;
+  polling.priority = 75;
   const realtime::RunTimings timings = realtime::run_realtime(engine, duration, [&](const realtime::RunTimings&) {
     server.step(std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
     if (recorder) recorder->take_ticks(engine);
     return !stop_requested.load(std::memory_order_relaxed);
-  }, poll_period);
+  }, polling);
   if (!timings.priority_warning.empty()) warn("serve", timings.priority_warning);
   const realtime::Percentiles period = timings.force_periods.percentiles();
   if (recorder) {

@@ -21,6 +21,9 @@ namespace {
 // short sleep left (0.1 ms of 1 ms) keeps the thread under the kernel's 95 %
 // real-time throttle and lets the CPU's kernel threads run (docs/realtime.md).
 constexpr double kSpinAhead = 9e-4;
+// s: PollOptions::around_force_ticks polls this long before a force tick (a
+// woken thread may start 0.05 ms late on a VM) and this long after it.
+constexpr double kPollBeforeTick = 1e-4, kPollAfterTick = 5e-5;
 
 double seconds(const timespec& t) { return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec); }
 
@@ -122,7 +125,7 @@ RunTimings run_fast(Engine& engine, double duration, const std::function<void(co
 }
 
 RunTimings run_realtime(Engine& engine, double duration, const std::function<bool(const RunTimings&)>& poll,
-                        double poll_period) {
+                        const PollOptions& polling) {
   RunTimings timings;
   engine.set_reproducible(false);  // a frame never waits for the FEM tangent worker
   const EngineOptions& o = engine.options();
@@ -162,6 +165,25 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
              });
     deformation_done.store(true);
   });
+  int poll_policy = SCHED_OTHER, poll_priority_error = 0;
+  sched_param poll_parameter{};
+  if (polling.priority > 0) {
+    pthread_getschedparam(pthread_self(), &poll_policy, &poll_parameter);
+    sched_param raised{};
+    raised.sched_priority = polling.priority;
+    poll_priority_error = pthread_setschedparam(pthread_self(), SCHED_FIFO, &raised);
+  }
+  // Around force ticks: poll j at tick j/2 + kPollAfterTick (j even), or at
+  // tick (j + 1)/2 − kPollBeforeTick (j odd).
+  std::size_t tick_poll = 0;
+  auto next_tick_poll = [&] {
+    const double after_start = tick_poll % 2 == 0
+                                   ? static_cast<double>(tick_poll / 2) * o.force_period + kPollAfterTick
+                                   : static_cast<double>((tick_poll + 1) / 2) * o.force_period - kPollBeforeTick;
+    timespec at = start;
+    advance(at, after_start);
+    return at;
+  };
   std::exception_ptr failure;
   while (!force_done.load() || !deformation_done.load()) {
     try {
@@ -170,15 +192,30 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
       failure = std::current_exception();
       stop.store(true);
     }
-    std::this_thread::sleep_for(std::chrono::duration<double>(poll_period));
+    if (!polling.around_force_ticks) {
+      std::this_thread::sleep_for(std::chrono::duration<double>(polling.period));
+      continue;
+    }
+    // The next poll time still ahead: a late poll skips those it missed.
+    const double now = seconds(now_monotonic());
+    timespec at = next_tick_poll();
+    while (seconds(at) <= now) {
+      ++tick_poll;
+      at = next_tick_poll();
+    }
+    ++tick_poll;
+    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &at, nullptr);
   }
   force.join();
   deformation.join();
+  if (polling.priority > 0 && poll_priority_error == 0) pthread_setschedparam(pthread_self(), poll_policy, &poll_parameter);
   if (locked) munlockall();
   if (failure) std::rethrow_exception(failure);
   if (poll) poll(timings);
   timings.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  const int error = priority_error.load() != 0 ? priority_error.load() : deformation_priority_error.load();
+  const int error = priority_error.load() != 0              ? priority_error.load()
+                    : deformation_priority_error.load() != 0 ? deformation_priority_error.load()
+                                                              : poll_priority_error;
   timings.realtime_priority = error == 0;
   if (error != 0)
     timings.priority_warning = std::string("the loops run without real-time priority (SCHED_FIFO: ") +

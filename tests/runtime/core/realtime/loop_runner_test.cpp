@@ -3,6 +3,8 @@
 // callback, bit-identical repeats) and the real-time runner. The real-time
 // tests assert only structure (counts, order, stopping), never timing: CI runs
 // on a loaded two-core VM where any period can be late.
+#include <pthread.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -296,6 +298,61 @@ TEST(RunRealtime, AShortRunRecordsEveryTickAndPollsUntilAfterTheLoopsStop) {
   // saw the last frame published.
   EXPECT_GE(polls, 2);
   EXPECT_EQ(latest_frame, t.deformation_computes.count());
+}
+
+// A network service polls at a real-time priority of its own while the loops
+// run (organsim serve: between the force loop's and the deformation loop's),
+// and its thread gets its own scheduling back after.
+TEST(RunRealtime, PollsAtTheAskedPriorityAndRestoresTheThreadsScheduling) {
+  ScriptedDevice device(beside(), {}, 1000);
+  Engine engine(cylinder(), {&device}, {});
+  int before_policy = -1, policy = -1, after_policy = -1;
+  sched_param before{}, during{}, after{};
+  pthread_getschedparam(pthread_self(), &before_policy, &before);
+  PollOptions polling;
+  polling.period = 5e-4;
+  polling.priority = 75;
+  const RunTimings t = run_realtime(engine, 0.05, [&](const RunTimings&) {
+    pthread_getschedparam(pthread_self(), &policy, &during);
+    return true;
+  }, polling);
+  pthread_getschedparam(pthread_self(), &after_policy, &after);
+  EXPECT_EQ(after_policy, before_policy);
+  EXPECT_EQ(after.sched_priority, before.sched_priority);
+  EXPECT_EQ(t.force_computes.count(), 51u);
+  if (!t.realtime_priority) GTEST_SKIP() << t.priority_warning;  // not permitted here: reported, as for the loops
+  // The last poll runs after the loops stop, with the thread's scheduling back.
+  EXPECT_EQ(policy, before_policy);
+  int seen_policy = -1;
+  sched_param seen{};
+  const RunTimings again = run_realtime(engine, 0.05, [&](const RunTimings& so_far) {
+    if (so_far.force_computes.count() < 51) pthread_getschedparam(pthread_self(), &seen_policy, &seen);
+    return true;
+  }, polling);
+  EXPECT_EQ(seen_policy, SCHED_FIFO);
+  EXPECT_EQ(seen.sched_priority, 75);
+  EXPECT_TRUE(again.realtime_priority);
+}
+
+// Polling around the force ticks: once just before each tick and once just
+// after it, never more (a poll that comes late skips the times it missed
+// rather than running back to back), whatever `period` says.
+TEST(RunRealtime, PollsAroundTheForceTicksAtMostTwicePerTick) {
+  ScriptedDevice device(beside(), {}, 1000);
+  Engine engine(cylinder(), {&device}, {});
+  PollOptions polling;
+  polling.period = 1e-5;
+  polling.around_force_ticks = true;
+  int polls = 0;
+  const RunTimings t = run_realtime(engine, 0.05, [&](const RunTimings&) {
+    ++polls;
+    return true;
+  }, polling);
+  ASSERT_EQ(t.force_computes.count(), 51u);
+  // Ticks 0..50: after tick 0, then before and after each of ticks 1..50,
+  // the first poll before the loops start and the last one after they stop.
+  EXPECT_LE(polls, 1 + 1 + 2 * 50 + 1);
+  EXPECT_GE(polls, 2);
 }
 
 TEST(RunRealtime, RunsWithoutAPoll) {

@@ -43,17 +43,31 @@ struct RunTimings {
 /// the timings so far.
 RunTimings run_fast(Engine& engine, double duration, const std::function<void(const RunTimings&)>& after_frame = {});
 
+/// How run_realtime's calling thread polls while the loops run.
+struct PollOptions {
+  double period = 2e-3;  ///< s between polls, at most
+  /// Poll just before each force tick and just after it instead (period
+  /// unused): what arrived since the last poll reaches the tick, and what the
+  /// tick computed leaves at once (a network service's pose in → force out).
+  bool around_force_ticks = false;
+  /// > 0: the calling thread polls at this SCHED_FIFO priority while the loops
+  /// run, and gets its own scheduling back after: for a network service whose
+  /// latency is the poll's (above the deformation loop's 70, so that a frame
+  /// does not hold a pose or a force back; its work per poll must be short).
+  int priority = 0;
+};
+
 /// Runs the loops on two threads at their rates for `duration` (s) of wall
 /// time, with real-time priority where the OS permits (the force thread above
 /// the deformation thread). A deformation model slower than the frame rate
 /// drops the frames whose time passed while it worked; the force loop runs
 /// every tick.
-/// `poll` (may be empty) runs every `poll_period` s (2 ms by default) on the
-/// calling thread meanwhile (for example to save published frames and
-/// recorded forces, to send forces to network clients, or to report the
-/// timings so far, which it receives; returning false stops the loops early),
-/// and once more after the loops stop.
+/// `poll` (may be empty) runs every `polling.period` s on the calling thread
+/// meanwhile (for example to save published frames and recorded forces, to
+/// send forces to network clients, or to report the timings so far, which it
+/// receives; returning false stops the loops early), and once more after the
+/// loops stop.
 RunTimings run_realtime(Engine& engine, double duration, const std::function<bool(const RunTimings&)>& poll = {},
-                        double poll_period = 2e-3);
+                        const PollOptions& polling = {});
 
 }  // namespace organsim::realtime
