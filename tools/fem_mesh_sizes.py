@@ -7,7 +7,7 @@ two-tool session in real time through the co-rotational and PSH models on each,
 and writes per size and model: tetrahedra, the set-up (ordering, factorization;
 seconds and the process's resident memory after it), the model's own frame
 estimate, the p50/p99 of the frames in which a tool holds the organ (the
-others have nothing to solve), the frames dropped and those that kept the organ's
+FEM models have nothing to solve in the others), the frames dropped and those that kept the organ's
 shape (a step that would have inverted a tetrahedron or thrown the organ out
 of balance: cheap frames that do not follow the tools). Prints a Markdown table and the
 fitted power law of frame p50 and set-up time in the number of tetrahedra, and

@@ -111,15 +111,22 @@ int run_serve(const ServeOptions& o) {
   const StopOnSignals signals;
   const auto begin = std::chrono::steady_clock::now();
   const double duration = o.seconds > 0.0 ? o.seconds : 1e9;
-  // Polled just before each force tick and just after it: a pose that arrived
+  // With forces sent between frames (--force-rate above the frame rate),
+  // polled just before each force tick and just after it: a pose that arrived
   // since the last poll reaches the next tick, and the force that tick
-  // computed leaves at once (docs/performance.md#the-openigtlink-service).
-  // At a real-time priority between the force loop's and the deformation
-  // loop's, so that neither a frame nor the clients' own threads, which share
-  // the core the force loop leaves, hold a pose or a force back.
+  // computed leaves at once (docs/performance.md#the-openigtlink-service); at
+  // a real-time priority between the force loop's and the deformation loop's,
+  // so that neither a frame nor the clients' own threads, which share the core
+  // the force loop leaves, hold a pose or a force back. Otherwise every 2 ms
+  // (or a quarter of the force period) as an ordinary thread: a frame's
+  // surface and the training report's recording then never run above the
+  // deformation loop.
   realtime::PollOptions polling;
-  polling.around_force_ticks = true;
-  polling.priority = 75;
+  polling.period = std::min(2e-3, 0.25 * server_options.force_period);
+  if (server_options.force_period < server_options.frame_period) {
+    polling.around_force_ticks = true;
+    polling.priority = 75;
+  }
   const realtime::RunTimings timings = realtime::run_realtime(engine, duration, [&](const realtime::RunTimings&) {
     server.step(std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
     if (recorder) recorder->take_ticks(engine);

@@ -590,7 +590,7 @@ bool OrganFem::take_points() noexcept {
       Eigen::Vector3d rest = Eigen::Vector3d::Zero();
       for (std::size_t i = 0; i < 3; ++i) rest += weights[static_cast<Eigen::Index>(i)] * point(node_points_[face[i]]);
       k.offset = (at - rest) - c.target;
-      if (crowds_a_hold(tool, q, at)) continue;
+      if (crowds_a_hold(k)) continue;
       if (found < candidates_.size()) {
         candidates_[found++] = k;
       } else {
@@ -603,27 +603,34 @@ bool OrganFem::take_points() noexcept {
     std::sort(candidates_.begin(), candidates_.begin() + static_cast<std::ptrdiff_t>(found),
               [](const Hold& a, const Hold& b) { return a.depth > b.depth; });
     for (std::size_t m = 0; m < found; ++m) {
-      // Taken ones may have claimed its nodes since it was found.
+      // Taken ones may have claimed its nodes, or its place, since it was found.
       const Hold& k = candidates_[m];
       double fresh = 0.0;
       for (std::size_t i = 0; i < 3; ++i)
         if (node_tool_[static_cast<std::size_t>(k.nodes[i])] < 0) fresh += k.weights[static_cast<Eigen::Index>(i)];
-      if (fresh >= kFreshWeight && add_hold(k, solves)) taken = true;
+      if (fresh >= kFreshWeight && !crowds_a_hold(k) && add_hold(k, solves)) taken = true;
     }
   }
   return taken;
 }
 
-bool OrganFem::crowds_a_hold(std::uint32_t tool, const Eigen::Vector3d& now, const Eigen::Vector3d& target) const noexcept {
-  const Eigen::Vector3d& tool_target = contacts_[tool].target;
-  for (std::size_t a = 0; a < hold_count_; ++a) {
-    const Hold& h = holds_[a];
-    if (h.tool != tool) continue;
+bool OrganFem::crowds_a_hold(const Hold& candidate) const noexcept {
+  const Eigen::Vector3d& tool_target = contacts_[candidate.tool].target;
+  auto rest_of = [&](const Hold& h) {
     Eigen::Vector3d rest = Eigen::Vector3d::Zero();
     for (std::size_t i = 0; i < 3; ++i)
       rest += h.weights[static_cast<Eigen::Index>(i)] * point(node_points_[static_cast<std::size_t>(h.nodes[i])]);
-    const Eigen::Vector3d held_now = rest + displacement_at(h.nodes, h.weights);
-    const Eigen::Vector3d held_target = rest + tool_target + h.offset;
+    return rest;
+  };
+  const Eigen::Vector3d rest = rest_of(candidate);
+  const Eigen::Vector3d now = rest + displacement_at(candidate.nodes, candidate.weights);
+  const Eigen::Vector3d target = rest + tool_target + candidate.offset;
+  for (std::size_t a = 0; a < hold_count_; ++a) {
+    const Hold& h = holds_[a];
+    if (h.tool != candidate.tool) continue;
+    const Eigen::Vector3d held_rest = rest_of(h);
+    const Eigen::Vector3d held_now = held_rest + displacement_at(h.nodes, h.weights);
+    const Eigen::Vector3d held_target = held_rest + tool_target + h.offset;
     if ((target - held_target).norm() < kMaxTakeCompression * (now - held_now).norm()) return true;
   }
   return false;

@@ -175,13 +175,15 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
   }
   // Around force ticks: poll j at tick j/2 + kPollAfterTick (j even), or at
   // tick (j + 1)/2 − kPollBeforeTick (j odd).
+  // In whole nanoseconds per tick, as the force loop advances its deadlines.
   std::size_t tick_poll = 0;
   auto next_tick_poll = [&] {
-    const double after_start = tick_poll % 2 == 0
-                                   ? static_cast<double>(tick_poll / 2) * o.force_period + kPollAfterTick
-                                   : static_cast<double>((tick_poll + 1) / 2) * o.force_period - kPollBeforeTick;
+    const long long tick = std::llround(o.force_period * 1e9);
+    const long long after_start = tick_poll % 2 == 0
+                                      ? static_cast<long long>(tick_poll / 2) * tick + std::llround(kPollAfterTick * 1e9)
+                                      : static_cast<long long>((tick_poll + 1) / 2) * tick - std::llround(kPollBeforeTick * 1e9);
     timespec at = start;
-    advance(at, after_start);
+    advance(at, 1e-9 * static_cast<double>(after_start));
     return at;
   };
   std::exception_ptr failure;
@@ -213,13 +215,13 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
   if (failure) std::rethrow_exception(failure);
   if (poll) poll(timings);
   timings.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  const int error = priority_error.load() != 0              ? priority_error.load()
-                    : deformation_priority_error.load() != 0 ? deformation_priority_error.load()
-                                                              : poll_priority_error;
-  timings.realtime_priority = error == 0;
-  if (error != 0)
-    timings.priority_warning = std::string("the loops run without real-time priority (SCHED_FIFO: ") +
-                               std::strerror(error) + "); run as root or grant CAP_SYS_NICE for steadier timing";
+  const int error = priority_error.load() != 0 ? priority_error.load() : deformation_priority_error.load();
+  timings.realtime_priority = error == 0 && poll_priority_error == 0;
+  if (error != 0 || poll_priority_error != 0)
+    timings.priority_warning = std::string(error != 0 ? "the loops run" : "the polling thread runs") +
+                               " without real-time priority (SCHED_FIFO: " +
+                               std::strerror(error != 0 ? error : poll_priority_error) +
+                               "); run as root or grant CAP_SYS_NICE for steadier timing";
   timings.force_deadline_misses = timings.force_periods.above_threshold();
   return timings;
 }

@@ -298,15 +298,15 @@ class OrganFem {
   /// Finite tips: takes the boundary points inside them that weigh a node
   /// the tool does not hold yet, deepest first. True when it took one.
   bool take_points() noexcept;
-  /// Whether a boundary point now at `now` (m), sent to `target` on the
-  /// tool's tip, would come nearer a point the tool holds than half their
-  /// distance in the organ: the tip is rigid and its held points move with
-  /// it, so the tissue between the two would be crushed. It happens where a
-  /// held point lags behind its place on the tip (a kept tangent's step on a
+  /// Whether a boundary point a tip would take in (its place on the tip:
+  /// its offset) would come nearer a point the tool holds than half their
+  /// distance in the organ now: the tip is rigid and its held points move
+  /// with it, so the tissue between the two would be crushed. It happens where
+  /// a held point lags behind its place on the tip (a kept tangent's step on a
   /// fine mesh) and a neighbour enters the tip where that place is: taken,
   /// the two fought (opposite forces of 0.3 N on a 15 mN press) and inverted
   /// the tetrahedron between them within a few frames.
-  bool crowds_a_hold(std::uint32_t tool, const Eigen::Vector3d& now, const Eigen::Vector3d& target) const noexcept;
+  bool crowds_a_hold(const Hold& candidate) const noexcept;
   /// W of the holds, factorized.
   void assemble_capacitance() noexcept;
   /// Per tool, the condensed stiffness Σ_ab (W⁻¹)_ab over its holds.

@@ -157,8 +157,8 @@ class Engine final : public devices::ForceLoop {
   void force_tick(double now) noexcept override;
   /// One deformation-loop iteration at time `now` (s).
   void deformation_step(double now) noexcept;
-  /// Whether a tool held the organ in the last deformation step: the frames
-  /// that solve (the others are the rest state or the last shape). From the
+  /// Whether a tool held the organ in the last deformation step (the FEM
+  /// models solve only then; without a tool they are at rest). From the
   /// deformation loop's thread.
   bool touched_in_last_step() const noexcept { return touched_; }
   /// Whether the model waits for its late background work (reproducible runs:

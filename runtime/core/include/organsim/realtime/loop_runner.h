@@ -26,12 +26,13 @@ struct RunTimings {
   DurationHistogram deformation_periods;            ///< s between successive deformation steps (real time only)
   DurationHistogram deformation_computes;           ///< s inside deformation_step
   /// The same for the steps in which a tool held the organ: a session's
-  /// frames with no tool on it (the rest state, nothing to solve) would
-  /// otherwise make the median of a model that drops its contact frames.
+  /// frames with no tool on it (for the FEM models the rest state, nothing to
+  /// solve) would otherwise make the median of a model that drops its
+  /// contact frames.
   DurationHistogram contact_computes;
   std::uint64_t force_deadline_misses = 0;          ///< force periods longer than kForceDeadline
   std::uint64_t deformation_frames_dropped = 0;     ///< frames whose time passed while the one before ran (real time)
-  bool realtime_priority = false;            ///< both loops got SCHED_FIFO (force 80, deformation 70)
+  bool realtime_priority = false;            ///< both loops got SCHED_FIFO (force 80, deformation 70), and the polling thread its PollOptions::priority
   std::string priority_warning;              ///< why not, when it did not
   double wall_seconds = 0.0;
 };
