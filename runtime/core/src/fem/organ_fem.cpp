@@ -359,6 +359,13 @@ Eigen::Vector3d OrganFem::displacement_at(const std::array<std::int32_t, 3>& nod
   return sum;
 }
 
+Eigen::Vector3d OrganFem::rest_at(const std::array<std::int32_t, 3>& nodes, const Eigen::Vector3d& weights) const noexcept {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < 3; ++i)
+    sum += weights[static_cast<Eigen::Index>(i)] * point(node_points_[static_cast<std::size_t>(nodes[i])]);
+  return sum;
+}
+
 void OrganFem::respond(Tangent& tangent, std::size_t slot, const NodeSlot& node) const noexcept {
   PointLoad load;
   for (std::size_t i = 0; i < 3; ++i) {
@@ -587,9 +594,7 @@ bool OrganFem::take_points() noexcept {
       k.weights = weights;
       k.outward = normal;
       k.depth = -gap;
-      Eigen::Vector3d rest = Eigen::Vector3d::Zero();
-      for (std::size_t i = 0; i < 3; ++i) rest += weights[static_cast<Eigen::Index>(i)] * point(node_points_[face[i]]);
-      k.offset = (at - rest) - c.target;
+      k.offset = (at - rest_at(k.nodes, weights)) - c.target;
       if (crowds_a_hold(k)) continue;
       if (found < candidates_.size()) {
         candidates_[found++] = k;
@@ -616,19 +621,13 @@ bool OrganFem::take_points() noexcept {
 
 bool OrganFem::crowds_a_hold(const Hold& candidate) const noexcept {
   const Eigen::Vector3d& tool_target = contacts_[candidate.tool].target;
-  auto rest_of = [&](const Hold& h) {
-    Eigen::Vector3d rest = Eigen::Vector3d::Zero();
-    for (std::size_t i = 0; i < 3; ++i)
-      rest += h.weights[static_cast<Eigen::Index>(i)] * point(node_points_[static_cast<std::size_t>(h.nodes[i])]);
-    return rest;
-  };
-  const Eigen::Vector3d rest = rest_of(candidate);
+  const Eigen::Vector3d rest = rest_at(candidate.nodes, candidate.weights);
   const Eigen::Vector3d now = rest + displacement_at(candidate.nodes, candidate.weights);
   const Eigen::Vector3d target = rest + tool_target + candidate.offset;
   for (std::size_t a = 0; a < hold_count_; ++a) {
     const Hold& h = holds_[a];
     if (h.tool != candidate.tool) continue;
-    const Eigen::Vector3d held_rest = rest_of(h);
+    const Eigen::Vector3d held_rest = rest_at(h.nodes, h.weights);
     const Eigen::Vector3d held_now = held_rest + displacement_at(h.nodes, h.weights);
     const Eigen::Vector3d held_target = held_rest + tool_target + h.offset;
     if ((target - held_target).norm() < kMaxTakeCompression * (now - held_now).norm()) return true;

@@ -269,6 +269,8 @@ class OrganFem {
 
   /// Σ_i w_i u_{node i}: the displacement of a boundary point now (m).
   Eigen::Vector3d displacement_at(const std::array<std::int32_t, 3>& nodes, const Eigen::Vector3d& weights) const noexcept;
+  /// Σ_i w_i x_{node i}: where that boundary point is at rest (m).
+  Eigen::Vector3d rest_at(const std::array<std::int32_t, 3>& nodes, const Eigen::Vector3d& weights) const noexcept;
   /// An empty tangent with the options' factorization, analyzed.
   std::unique_ptr<Tangent> make_tangent(bool realtime_solve) const;
   /// A⁻¹ e of `node` (held in `slot`) with `tangent` (contact_responses.h).
