@@ -24,6 +24,9 @@ int main(int argc, char** argv) {
   app.add_option("--stations", stations, "Beam stations")->capture_default_str();
   bool sites = false;
   app.add_flag("--site-compliance", sites, "Add uniform site compliances and a depth curve (format 1.2's SITE section)");
+  bool curvature = false;
+  app.add_flag("--site-curvature", curvature,
+               "With --site-compliance: the cylinder side's curvatures (1/radius, 0) at every vertex (format 1.3's CURV section)");
   CLI11_PARSE(app, argc, argv);
   try {
     organsim::model::OrganModel model;
@@ -36,6 +39,7 @@ int main(int argc, char** argv) {
       model = organsim::testing::make_sphere_model(sphere_vertices, stations);
     }
     if (sites) organsim::testing::add_uniform_site_compliance(model, 0.02);
+    if (sites && curvature) model.sites.curvature.assign(model.surface_vertices.size(), {1.0 / cylinder.radius, 0.0});
     organsim::model::write_organ_model_file(model, output);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "organsim-test-model: error: %s\n", e.what());

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/QR>
 #include <Eigen/SparseCholesky>
 
 #include "organsim/fem/elasticity_system.h"
@@ -25,6 +26,8 @@ namespace organsim::pipeline {
 namespace {
 
 Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
+
+constexpr double kDefaultCurvatureRadius = 0.005;  // m: twice the default tip's radius
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -192,11 +195,59 @@ std::vector<Eigen::Vector3d> vertex_normals(const model::OrganModel& m) {
   return normals;
 }
 
+/// A quadric z = a x² + b xy + c y² + d x + e y through `origin`, fitted by
+/// least squares to `points` in the frame (t₁, t₂, n) there; its principal
+/// curvatures at the origin, convex (curving away from n) positive, larger
+/// first: the eigenvalues of −I⁻¹ II, I and II the graph's fundamental forms.
+std::array<double, 2> fitted_curvatures(const Eigen::Vector3d& origin, const Eigen::Vector3d& normal,
+                                        const std::vector<Eigen::Vector3d>& points) {
+  const Eigen::Vector3d first = normal.unitOrthogonal(), second = normal.cross(first);
+  Eigen::MatrixXd design(static_cast<Eigen::Index>(points.size()), 5);
+  Eigen::VectorXd height(static_cast<Eigen::Index>(points.size()));
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d d = points[i] - origin;
+    const double x = d.dot(first), y = d.dot(second);
+    design.row(static_cast<Eigen::Index>(i)) << x * x, x * y, y * y, x, y;
+    height[static_cast<Eigen::Index>(i)] = d.dot(normal);
+  }
+  const Eigen::VectorXd q = design.colPivHouseholderQr().solve(height);
+  const double slope_x = q[3], slope_y = q[4];
+  Eigen::Matrix2d first_form, second_form;
+  first_form << 1 + slope_x * slope_x, slope_x * slope_y, slope_x * slope_y, 1 + slope_y * slope_y;
+  second_form << 2 * q[0], q[1], q[1], 2 * q[2];
+  second_form /= std::sqrt(1 + slope_x * slope_x + slope_y * slope_y);
+  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::Matrix2d> shape(-second_form, first_form, Eigen::EigenvaluesOnly);
+  const auto clamped = [](double k) { return std::clamp(k, -model::SiteCompliance::kMaxCurvature, model::SiteCompliance::kMaxCurvature); };
+  return {clamped(shape.eigenvalues()[1]), clamped(shape.eigenvalues()[0])};
+}
+
 std::array<double, 6> packed(const Eigen::Matrix3d& c) {
   return {c(0, 0), c(1, 1), c(2, 2), c(0, 1), c(0, 2), c(1, 2)};
 }
 
 }  // namespace
+
+std::vector<std::array<double, 2>> site_curvatures(const model::OrganModel& model, double radius) {
+  if (!(radius > 0) || !std::isfinite(radius)) throw std::invalid_argument("the curvature's fit radius must be a length > 0");
+  std::vector<Eigen::Vector3d> places;
+  places.reserve(model.surface_vertices.size());
+  for (const model::Point3& p : model.surface_vertices) places.push_back(point(p));
+  const PointGrid grid(places, radius);
+  const std::vector<Eigen::Vector3d> normals = vertex_normals(model);
+  std::vector<std::array<double, 2>> curvature(places.size(), {0.0, 0.0});
+  std::vector<Eigen::Vector3d> near;
+  for (std::size_t v = 0; v < places.size(); ++v) {
+    near.clear();
+    // Only the surface facing the same side: across a thin lobe the ball
+    // reaches the far face, which is no part of this one's shape.
+    for (std::uint32_t p : grid.within(places[v], radius))
+      if (p != v && normals[p].dot(normals[v]) > 0.0) near.push_back(places[p]);
+    // Five unknowns: with fewer points the quadric is undetermined, and the
+    // site is taken as flat (the tip alone sets the Hertz radius).
+    if (near.size() >= 5) curvature[v] = fitted_curvatures(places[v], normals[v], near);
+  }
+  return curvature;
+}
 
 model::SiteCompliance compute_site_compliance(const model::OrganModel& model, const SiteComplianceOptions& o,
                                              SiteComplianceReport* report) {
@@ -206,6 +257,8 @@ model::SiteCompliance compute_site_compliance(const model::OrganModel& model, co
   if (!(o.stabilization >= 0) || !std::isfinite(o.stabilization))
     throw std::invalid_argument("the reference's stabilization must be a finite number >= 0");
   if (!(o.patch_radius >= 0) || !std::isfinite(o.patch_radius)) throw std::invalid_argument("the patch radius must be a length >= 0");
+  if (!(o.curvature_radius >= 0) || !std::isfinite(o.curvature_radius))
+    throw std::invalid_argument("the curvature's fit radius must be a length >= 0");
   if (!(o.fixed_radius > 0) || !std::isfinite(o.fixed_radius)) throw std::invalid_argument("the clamp radius must be a length > 0");
 
   // The PSH stiffness at rest, clamped as the FEM models clamp it.
@@ -348,8 +401,22 @@ model::SiteCompliance compute_site_compliance(const model::OrganModel& model, co
     c = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() * eigen.eigenvectors().transpose();
     sites.compliance[v] = packed(c);
   }
+  std::vector<double> surface_edges;
+  for (const model::Triangle& t : model.surface_triangles)
+    surface_edges.push_back((point(model.surface_vertices[t[1]]) - point(model.surface_vertices[t[0]])).norm());
+  double curvature_radius = o.curvature_radius;
+  if (!(curvature_radius > 0)) {
+    curvature_radius = kDefaultCurvatureRadius;
+    if (!surface_edges.empty()) {
+      const auto middle = surface_edges.begin() + static_cast<std::ptrdiff_t>(surface_edges.size() / 2);
+      std::nth_element(surface_edges.begin(), middle, surface_edges.end());
+      curvature_radius = std::max(curvature_radius, 2.0 * *middle);
+    }
+  }
+  sites.curvature = site_curvatures(model, curvature_radius);
   if (report) {
     report->patch_radius = patch;
+    report->curvature_radius = curvature_radius;
     report->boundary_nodes = solved.size();
     report->unknowns = static_cast<std::size_t>(system.free_count());
     report->factor_entries = solver.factor_entries();

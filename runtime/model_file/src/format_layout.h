@@ -55,9 +55,12 @@ inline constexpr std::uint32_t kBeamFieldsV1 = 7;
 /// and the most depth-curve points a file may hold.
 inline constexpr std::uint32_t kSiteFieldsV1_2 = 6;
 inline constexpr std::uint64_t kMaxDepthCurvePoints = 256;
+/// Format 1.3's site curvature: reals per vertex (κ₁, κ₂).
+inline constexpr std::uint32_t kCurvatureFieldsV1_3 = 2;
 
 enum class Section { Metadata, SurfaceVertices, SurfaceTriangles, SurfaceTexcoords,
-                     VolumeVertices, Tetrahedra, FixedPoints, Material, BeamTables, SiteCompliance };
+                     VolumeVertices, Tetrahedra, FixedPoints, Material, BeamTables, SiteCompliance,
+                     SiteCurvature };
 
 struct SectionDescription {
   Section id;
@@ -78,6 +81,7 @@ inline constexpr SectionDescription kSections[] = {
     {Section::Material, "MATL", "material", true},
     {Section::BeamTables, "BEAM", "beam tables", false},
     {Section::SiteCompliance, "SITE", "site compliance", false},
+    {Section::SiteCurvature, "CURV", "site curvature", false},
 };
 
 inline const SectionDescription& describe(Section id) {

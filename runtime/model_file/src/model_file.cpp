@@ -125,6 +125,11 @@ std::vector<std::uint8_t> encode_section(Section id, const OrganModel& m) {
       w.put_array(sites.compliance);
       break;
     }
+    case Section::SiteCurvature:
+      w.put<std::uint32_t>(format::kCurvatureFieldsV1_3);
+      w.put<std::uint32_t>(0);
+      w.put_array(m.sites.curvature);
+      break;
   }
   return w.take();
 }
@@ -136,6 +141,7 @@ bool section_present(Section id, const OrganModel& m) {
     case Section::Tetrahedra: return !m.tetrahedra.empty();
     case Section::BeamTables: return !m.beams.empty();
     case Section::SiteCompliance: return !m.sites.empty();
+    case Section::SiteCurvature: return !m.sites.curvature.empty();
     default: return true;
   }
 }
@@ -296,6 +302,18 @@ void read_sites(const std::uint8_t* data, std::size_t size, SiteCompliance& site
                          kDamagedAdvice);
   sites.compliance.resize(static_cast<std::size_t>(vertices));
   if (vertices > 0) std::memcpy(sites.compliance.data(), r.here(), static_cast<std::size_t>(vertices) * kVertexBytes);
+}
+
+void read_curvature(const std::uint8_t* data, std::size_t size, SiteCompliance& sites) {
+  const Section id = Section::SiteCurvature;
+  PayloadReader r(data, size);
+  std::uint32_t fields = 0, reserved = 0;
+  if (!r.get(fields) || !r.get(reserved))
+    fail_section(id, std::string("payload too short for its header; ") + kDamagedAdvice);
+  if (fields != format::kCurvatureFieldsV1_3)
+    fail_section(id, "field count " + std::to_string(fields) + " is not " +
+                         std::to_string(format::kCurvatureFieldsV1_3) + "; " + kDamagedAdvice);
+  sites.curvature = read_array<double, 2>(id, r.here(), r.remaining());
 }
 
 // Returns whether every value is plausible (checked chunk by chunk as it is
@@ -606,6 +624,8 @@ OrganModel read_sections(const std::uint8_t* data, const SectionIndex& index, co
   }
   if (index.has(Section::SiteCompliance))
     read_sites(payload(Section::SiteCompliance), bytes(Section::SiteCompliance), m.sites);
+  if (index.has(Section::SiteCurvature))
+    read_curvature(payload(Section::SiteCurvature), bytes(Section::SiteCurvature), m.sites);
   if (const auto issue = find_model_issue(m, beams_plausible))
     fail_section(issue->section, issue->message + "; " + kDamagedAdvice);
   return m;

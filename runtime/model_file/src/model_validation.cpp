@@ -38,6 +38,23 @@ bool is_lower_hex(const std::string& s) {
   return true;
 }
 
+/// What is wrong with the site curvature, or "".
+std::string site_curvature_issue(const OrganModel& m) {
+  const SiteCompliance& sites = m.sites;
+  if (sites.curvature.empty()) return {};
+  if (sites.empty()) return "curvatures without site compliances";
+  if (sites.curvature.size() != m.surface_vertices.size())
+    return "there are " + std::to_string(sites.curvature.size()) + " site curvatures for " +
+           std::to_string(m.surface_vertices.size()) + " surface vertices";
+  for (std::size_t v = 0; v < sites.curvature.size(); ++v) {
+    const auto& [first, second] = sites.curvature[v];
+    if (!(std::abs(first) <= SiteCompliance::kMaxCurvature && std::abs(second) <= SiteCompliance::kMaxCurvature && first >= second))
+      return "the curvatures of vertex " + std::to_string(v) + " are not finite numbers kappa1 >= kappa2 within +-" +
+             std::to_string(static_cast<int>(SiteCompliance::kMaxCurvature)) + " 1/m";
+  }
+  return {};
+}
+
 /// What is wrong with the site compliance, or "".
 std::string site_compliance_issue(const OrganModel& m) {
   const SiteCompliance& sites = m.sites;
@@ -154,6 +171,7 @@ std::optional<ModelIssue> find_model_issue(const OrganModel& m, bool beam_values
     return issue(format::Section::Material, "the beam and spring stiffness scales must be positive");
 
   if (auto e = site_compliance_issue(m); !e.empty()) return issue(format::Section::SiteCompliance, e);
+  if (auto e = site_curvature_issue(m); !e.empty()) return issue(format::Section::SiteCurvature, e);
 
   const BeamTables& b = m.beams;
   if (b.empty()) {

@@ -1,10 +1,11 @@
 // The FEM reference's site compliances (pipeline/site_compliance.h): a bar
 // clamped at one end gives under its free end what a cantilever gives, the
-// patch's own indentation is taken off, and the result does not depend on the
-// threads.
+// patch's own indentation is taken off, the result does not depend on the
+// threads, and the surface's curvatures are those of known shapes.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 
 #include <Eigen/Eigenvalues>
 
@@ -116,6 +117,11 @@ TEST(SiteCompliance, TheClampHoldsAndNoDirectionIsNegative) {
     matrix << c[0], c[3], c[4], c[3], c[1], c[5], c[4], c[5], c[2];
     EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(matrix).eigenvalues().minCoeff(), -1e-12 * matrix.norm());
   }
+  // The bar's faces are flat: away from its edges no curvature.
+  ASSERT_EQ(sites.curvature.size(), m.surface_vertices.size());
+  const std::array<double, 2> mid_face = sites.curvature[nearest_vertex(m, {kLength / 2, kSide / 2, kSide})];
+  EXPECT_NEAR(mid_face[0], 0.0, 1e-6);
+  EXPECT_NEAR(mid_face[1], 0.0, 1e-6);
   model::OrganModel with = m;
   with.sites = sites;
   EXPECT_EQ(model::validate_organ_model(with), "");
@@ -129,6 +135,61 @@ TEST(SiteCompliance, TheSameWhateverTheThreads) {
   const model::SiteCompliance one = compute_site_compliance(m, o);
   o.threads = 2;
   EXPECT_TRUE(compute_site_compliance(m, o) == one);
+}
+
+/// The height field z = f(x, y) on a square grid of `step` (m) over
+/// [−half, half]², triangulated counter-clockwise seen from +z (the outward
+/// normal +z, as on an organ's top).
+model::OrganModel height_field(double half, double step, const std::function<double(double, double)>& f) {
+  model::OrganModel m;
+  const int n = static_cast<int>(std::lround(2 * half / step)) + 1;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const double x = -half + i * step, y = -half + j * step;
+      m.surface_vertices.push_back({x, y, f(x, y)});
+    }
+  auto at = [n](int i, int j) { return static_cast<std::uint32_t>(j * n + i); };
+  for (int j = 0; j + 1 < n; ++j)
+    for (int i = 0; i + 1 < n; ++i) {
+      m.surface_triangles.push_back({at(i, j), at(i + 1, j), at(i + 1, j + 1)});
+      m.surface_triangles.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
+    }
+  return m;
+}
+
+// A sphere's outside is convex, 1/r both ways, wherever the vertex lies on it
+// (the sloped ones need the graph's first fundamental form); a saddle's
+// apex has its two curvatures with their signs; a plane has none.
+TEST(SiteCompliance, TheSurfacesCurvaturesAreThoseOfKnownShapes) {
+  constexpr double kFit = 0.005, kStep = 0.001, kHalf = 0.015;
+  const double r = 0.02;
+  const model::OrganModel cap = height_field(kHalf, kStep, [&](double x, double y) { return std::sqrt(r * r - x * x - y * y) - r; });
+  const std::vector<std::array<double, 2>> sphere = site_curvatures(cap, kFit);
+  ASSERT_EQ(sphere.size(), cap.surface_vertices.size());
+  int inside = 0;
+  for (std::size_t v = 0; v < sphere.size(); ++v) {
+    const model::Point3& p = cap.surface_vertices[v];
+    if (std::max(std::abs(p[0]), std::abs(p[1])) > kHalf - kFit - 1e-9) continue;  // its fit is one-sided
+    ++inside;
+    EXPECT_NEAR(sphere[v][0], 1 / r, 0.02 / r) << v;
+    EXPECT_NEAR(sphere[v][1], 1 / r, 0.02 / r) << v;
+  }
+  EXPECT_GT(inside, 300);
+
+  const model::OrganModel saddle = height_field(kHalf, kStep, [](double x, double y) { return -x * x / (2 * 0.01) + y * y / (2 * 0.04); });
+  const std::array<double, 2> apex = site_curvatures(saddle, kFit)[saddle.surface_vertices.size() / 2];
+  EXPECT_NEAR(apex[0], 100.0, 1.0);  // convex along x (radius 10 mm)
+  EXPECT_NEAR(apex[1], -25.0, 0.5);  // concave along y (radius 40 mm)
+
+  const model::OrganModel plane = height_field(kHalf, kStep, [](double x, double y) { return 0.3 * x - 0.2 * y; });
+  for (const std::array<double, 2>& k : site_curvatures(plane, kFit)) {
+    EXPECT_NEAR(k[0], 0.0, 1e-6);
+    EXPECT_NEAR(k[1], 0.0, 1e-6);
+  }
+  // Fewer neighbours than the quadric's five unknowns: taken as flat.
+  for (const std::array<double, 2>& k : site_curvatures(cap, 1.2 * kStep)) EXPECT_EQ(k, (std::array<double, 2>{0.0, 0.0}));
+  EXPECT_THROW(site_curvatures(cap, 0.0), std::invalid_argument);
+  EXPECT_THROW(site_curvatures(cap, std::nan("")), std::invalid_argument);
 }
 
 TEST(SiteCompliance, RefusesWhatItCannotUse) {

@@ -42,6 +42,7 @@ model::OrganModel small_model() {
     m.sites.compliance.push_back({0.3 + 1e-3 * v, 0.2, 0.1, 0.01, -0.02, 0.005});
   m.sites.depth_curve = {{{0.0, 1.0}}, {{0.005, 1.4}}, {{0.010, 2.1}}};
   m.sites.curve_tip_radius = 0.0025;
+  for (std::size_t v = 0; v < m.surface_vertices.size(); ++v) m.sites.curvature.push_back({40.0 + 1e-2 * v, -5.0});
   return m;
 }
 
@@ -82,7 +83,7 @@ TEST(ModelFile, RoundTripOfEverySection) {
   EXPECT_TRUE(*r.model == model);
   std::set<std::string> tags;
   for (const auto& s : r.file.sections) tags.insert(s.tag);
-  EXPECT_EQ(tags, (std::set<std::string>{"META", "SVRT", "STRI", "SUVC", "TVRT", "TETS", "FIXP", "MATL", "BEAM", "SITE"}));
+  EXPECT_EQ(tags, (std::set<std::string>{"META", "SVRT", "STRI", "SUVC", "TVRT", "TETS", "FIXP", "MATL", "BEAM", "SITE", "CURV"}));
   EXPECT_EQ(r.file.version.major, 1);
   EXPECT_EQ(r.file.file_bytes, bytes.size());
 }
@@ -170,7 +171,7 @@ TEST(ModelFile, TruncationInsideHeaderAndTable) {
 TEST(ModelFile, TruncationAtAndInsideEverySection) {
   const auto bytes = encoded();
   const auto sections = list_sections(bytes);
-  ASSERT_EQ(sections.size(), 10u);
+  ASSERT_EQ(sections.size(), 11u);
   for (const auto& s : sections) {
     EXPECT_ERROR(std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + s.offset),
                  "truncated at the start of section '" + s.tag + "'");
@@ -217,7 +218,7 @@ TEST(ModelFile, FutureMajorVersionIsRefusedWithBothVersions) {
   poke<std::uint16_t>(bytes, 8, 2);
   poke<std::uint16_t>(bytes, 10, 3);
   refresh_checksums(bytes);
-  EXPECT_ERROR(bytes, "format version 2.3 but this organsim reads format 1.2");
+  EXPECT_ERROR(bytes, "format version 2.3 but this organsim reads format 1.3");
 }
 
 TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
@@ -225,7 +226,7 @@ TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
   const auto suvc = find_section(bytes, "SUVC");
   std::memcpy(bytes.data() + suvc.table_entry, "XTRA", 4);
   refresh_checksums(bytes);
-  EXPECT_ERROR(bytes, "section 'XTRA' is unknown in a format 1.2 file");
+  EXPECT_ERROR(bytes, "section 'XTRA' is unknown in a format 1.3 file");
 
   poke<std::uint16_t>(bytes, 10, model::kModelFormatVersion.minor + 1);
   refresh_checksums(bytes);
@@ -265,6 +266,51 @@ TEST(ModelFile, FormatOnePointOneFileWithoutSiteCompliancesLoads) {
   EXPECT_EQ(r.file.version.minor, 1);
   EXPECT_TRUE(r.model->sites.empty());
   EXPECT_TRUE(*r.model == without);
+}
+
+TEST(ModelFile, FormatOnePointTwoFileWithoutCurvaturesLoads) {
+  // A 1.2 writer knew no CURV section: the site law takes the surface as flat.
+  model::OrganModel without = small_model();
+  without.sites.curvature.clear();
+  auto bytes = model::serialize_organ_model(without);
+  EXPECT_THROW(find_section(bytes, "CURV"), std::exception);
+  poke<std::uint16_t>(bytes, 10, 2);
+  refresh_checksums(bytes);
+  const model::ModelReadResult r = model::parse_organ_model(bytes.data(), bytes.size(), "x");
+  ASSERT_TRUE(r) << r.error;
+  EXPECT_EQ(r.file.version.minor, 2);
+  EXPECT_TRUE(r.model->sites.curvature.empty());
+  EXPECT_TRUE(*r.model == without);
+}
+
+TEST(ModelFile, ImplausibleSiteCurvaturesAreRefused) {
+  const auto original = encoded();
+  const auto curv = find_section(original, "CURV");
+  // Header: fields, reserved; the vertices (count, 2 reals each).
+  const std::size_t first_vertex = curv.offset + 8 + 8;
+  auto check = [&](std::size_t at, double value) {
+    auto bytes = original;
+    poke<double>(bytes, at, value);
+    refresh_checksums(bytes);
+    EXPECT_ERROR(bytes, "section 'CURV' (site curvature): ");
+    EXPECT_ERROR(bytes, "curvatures of vertex 0");
+  };
+  check(first_vertex, std::nan(""));
+  check(first_vertex, 2e5);           // a radius of 5 µm
+  check(first_vertex + 8, 100.0);     // κ₂ > κ₁
+  auto fields = original;
+  poke<std::uint32_t>(fields, curv.offset, 3u);
+  refresh_checksums(fields);
+  EXPECT_ERROR(fields, "field count 3 is not 2");
+  auto count = original;
+  poke<std::uint64_t>(count, first_vertex - 8, 3);
+  refresh_checksums(count);
+  EXPECT_ERROR(count, "item count 3 does not match");
+  // Curvatures need the site compliances they belong to.
+  model::OrganModel orphan = small_model();
+  orphan.sites.compliance.clear();
+  orphan.sites.depth_curve.clear();
+  EXPECT_NE(model::validate_organ_model(orphan).find("curvatures without site compliances"), std::string::npos);
 }
 
 TEST(ModelFile, ImplausibleSiteCompliancesAreRefused) {

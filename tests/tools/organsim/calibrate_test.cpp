@@ -212,6 +212,70 @@ TEST_F(Cli, EvaluationAndDepthCurveAreTheSameWhateverTheJobs) {
   EXPECT_EQ(file_bytes(dir_ / "fitted_2.organ"), file_bytes(dir_ / "fitted_1.organ"));
 }
 
+// --reference-cache keeps each site's reference presses: the same run again
+// takes them and prints the same evaluation to the last bit; more sites press
+// only the new ones; a model whose fast models changed (a beam stiffness
+// scale) is measured again against the kept reference; one whose FEM changed
+// (E), or a damaged file, is pressed anew.
+TEST_F(Cli, AReferenceCacheResumesAndMeasuresChangedFastModelsAgain) {
+  model::OrganModel cylinder = testing::make_cylinder_model({});
+  pipeline::SiteComplianceOptions sites;
+  sites.fixed_radius = 0.031;
+  cylinder.sites = pipeline::compute_site_compliance(cylinder, sites);
+  const std::string model = (dir_ / "cylinder.organ").string(), cache = (dir_ / "references").string();
+  model::write_organ_model_file(cylinder, model);
+  const std::string evaluate = " --evaluate --depths 2 --fixed-radius 31 --reference-cells 0 --json";
+  const CommandRun plain = run_organsim("calibrate " + model + evaluate + " --sites 2", dir_);
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  const std::string cached = evaluate + " --reference-cache " + cache;
+  const CommandRun first = run_organsim("calibrate " + model + cached + " --sites 2", dir_);
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  EXPECT_EQ(first.out, plain.out);
+  EXPECT_EQ(std::distance(fs::directory_iterator(cache), fs::directory_iterator()), 2);
+  const CommandRun again = run_organsim("calibrate " + model + cached + " --sites 2", dir_);
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_EQ(again.out, first.out);
+  EXPECT_NE(again.err.find("site 2 of 2: the reference's presses as --reference-cache kept them"), std::string::npos)
+      << again.err;
+  EXPECT_EQ(again.err.find("with psh"), std::string::npos) << again.err;  // nothing pressed by the reference
+
+  const CommandRun more = run_organsim("calibrate " + model + cached + " --sites 3", dir_);
+  ASSERT_EQ(more.exit_code, 0) << more.err;
+  EXPECT_NE(more.err.find("site 3 of 3, straight 2 mm"), std::string::npos) << more.err;
+  EXPECT_EQ(more.err.find("site 1 of 3, straight"), std::string::npos) << more.err;
+  const nlohmann::json two = nlohmann::json::parse(first.out), three = nlohmann::json::parse(more.out);
+  ASSERT_EQ(three["presses"].size(), 6u);
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_EQ(three["presses"][i], two["presses"][i]) << i;
+
+  model::OrganModel stiffer_beams = cylinder;
+  stiffer_beams.material.beam_stiffness_scale = 2.0;
+  stiffer_beams.sites = {};  // the beam's own force, which the scale doubles
+  const std::string fast_changed = (dir_ / "beams.organ").string();
+  model::write_organ_model_file(stiffer_beams, fast_changed);
+  const CommandRun remeasured = run_organsim("calibrate " + fast_changed + cached + " --sites 2", dir_);
+  ASSERT_EQ(remeasured.exit_code, 0) << remeasured.err;
+  EXPECT_EQ(remeasured.err.find("with psh"), std::string::npos) << remeasured.err;
+  const nlohmann::json r = nlohmann::json::parse(remeasured.out);
+  for (std::size_t i = 0; i < 4; ++i) {
+    EXPECT_EQ(r["presses"][i]["reference_force_n"], two["presses"][i]["reference_force_n"]) << i;
+    EXPECT_NE(r["presses"][i]["beam"]["force_n"], two["presses"][i]["beam"]["force_n"]) << i;
+  }
+
+  model::OrganModel softer = cylinder;
+  softer.material.young_modulus *= 0.5;
+  const std::string fem_changed = (dir_ / "softer.organ").string();
+  model::write_organ_model_file(softer, fem_changed);
+  const CommandRun repressed = run_organsim("calibrate " + fem_changed + cached + " --sites 2", dir_);
+  ASSERT_EQ(repressed.exit_code, 0) << repressed.err;
+  EXPECT_NE(repressed.err.find("site 1 of 2, straight 2 mm"), std::string::npos) << repressed.err;
+
+  for (const fs::directory_entry& kept : fs::directory_iterator(cache)) std::ofstream(kept.path()) << "{\"key\": 1";
+  const CommandRun damaged = run_organsim("calibrate " + model + cached + " --sites 2", dir_);
+  ASSERT_EQ(damaged.exit_code, 0) << damaged.err;
+  EXPECT_EQ(damaged.out, first.out);
+  EXPECT_NE(damaged.err.find("site 1 of 2, straight 2 mm"), std::string::npos) << damaged.err;
+}
+
 // A model with site compliances: calibrate fits the site law's depth curve
 // to the reference's presses at other sites than --evaluate's with the same
 // seed; pressed again at the curve's own sites, the fast models (which give

@@ -107,6 +107,7 @@ nlohmann::ordered_json report_json(const pipeline::BakeReport& r, const model::O
     j["site_compliance"] = {{"computed", true},
                             {"boundary_nodes", r.sites.boundary_nodes},
                             {"patch_radius_mm", r.sites.patch_radius * 1e3},
+                            {"curvature_radius_mm", r.sites.curvature_radius * 1e3},
                             {"unknowns", r.sites.unknowns},
                             {"factor_entries", r.sites.factor_entries},
                             {"factorization_seconds", r.sites.factorization_seconds},
@@ -149,9 +150,10 @@ void print_report(const pipeline::BakeReport& r, const model::OrganModel& model,
   else
     fmt::print("beam tables     none (--no-beam-tables): every model but --model beam runs on it\n");
   if (r.sites.unknowns > 0)
-    fmt::print("site compliance {} boundary nodes solved, patch {:.1f} mm; {} unknowns, factor {:.1f} M entries; "
-               "factorization {:.2f} s, solves {:.2f} s\n",
-               r.sites.boundary_nodes, r.sites.patch_radius * 1e3, r.sites.unknowns, r.sites.factor_entries * 1e-6,
+    fmt::print("site compliance {} boundary nodes solved, patch {:.1f} mm, curvature fit {:.1f} mm; {} unknowns, factor "
+               "{:.1f} M entries; factorization {:.2f} s, solves {:.2f} s\n",
+               r.sites.boundary_nodes, r.sites.patch_radius * 1e3, r.sites.curvature_radius * 1e3, r.sites.unknowns,
+               r.sites.factor_entries * 1e-6,
                r.sites.factorization_seconds, r.sites.solve_seconds);
   else if (!r.sites_skipped.empty())
     fmt::print("site compliance none: {}; the fast models give their own forces\n", r.sites_skipped);

@@ -452,6 +452,11 @@ Command add_calibrate_command(CLI::App& app) {
                  "are the same whatever the number; each holds a re-meshed reference, about 0.7 GB on a liver)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  app.add_option("--reference-cache", o->evaluation.reference_cache,
+                 "--evaluate: keep each site's reference presses in this directory as they finish, and take them "
+                 "from there in a later run of the same reference on the same organ (a stopped evaluation resumes; a "
+                 "changed fast model is measured again without the reference's hours)")
+      ->needs("--evaluate");
   app.add_option("--curve-sites", o->curve_sites,
                  "A model with site compliances: sites spread over the surface whose presses (straight and tilted, at "
                  "each of --depths) fit the site law's depth curve (0: none; docs/matching.md)")

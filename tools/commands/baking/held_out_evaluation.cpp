@@ -15,6 +15,7 @@
 #include "plot/power_law.h"
 #include "press_plan.h"
 #include "refined_reference.h"
+#include "reference_cache.h"
 #include "site_jobs.h"
 
 namespace organsim::cli {
@@ -318,19 +319,118 @@ struct Plan {
   std::vector<std::uint32_t> sites;
   double refine_size_mm = 0.0, refine_radius_mm = 0.0;
   PressOptions settled;  ///< the mass-spring model's presses
+  const ReferenceCache& cache;
 };
 
+// A record crosses from a job's process to the parent as JSON, every number
+// to the last bit.
+nlohmann::json exact_vector_json(const Eigen::Vector3d& v) {
+  return nlohmann::json::array({exact_json(v.x()), exact_json(v.y()), exact_json(v.z())});
+}
+Eigen::Vector3d exact_vector(const nlohmann::json& j) {
+  return {exact_double(j.at(0)), exact_double(j.at(1)), exact_double(j.at(2))};
+}
+
+/// Site k's presses by the reference, on the organ re-meshed around the site:
+/// fills each record's reference part and `surfaces` (the reference's
+/// surface, where it solved).
+void press_reference(const Plan& plan, std::size_t k, std::vector<PressRecord>& records,
+                     std::vector<std::vector<model::Point3>>& surfaces) {
+  const EvaluationOptions& o = plan.o;
+  const Eigen::Vector3d at = site_point(plan.organ, plan.sites[k]);
+  const std::unique_ptr<organ::Organ> reference =
+      reference_organ(plan.model, at, plan.refine_size_mm, plan.refine_radius_mm);
+  const std::unique_ptr<organ::Organ> check =
+      o.check_size_mm > 0.0 ? reference_organ(plan.model, at, o.check_size_mm, plan.refine_radius_mm) : nullptr;
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    PressRecord& r = records[i];
+    r.reference_tetrahedra = reference->model().tetrahedra.size();
+    r.reference_cell_mm = 1e3 * cell_size_at(*reference, at);
+    note("calibrate", fmt::format("site {} of {}, {} {:g} mm: {} with {} ({} tetrahedra)", k + 1, plan.sites.size(),
+                                  tilt_name(r.tilt), r.depth_mm, r.tool.text, o.reference, r.reference_tetrahedra));
+    try {
+      PressResult pressed = press(o.reference, *reference, {r.tool}, o.press);
+      r.reference_force = pressed.tools[0].force;
+      r.reference_solved = r.reference_force.norm() > 0.0;
+      if (!r.reference_solved) r.reference_error = "the reference gave no force";
+      surfaces[i] = std::move(pressed.positions);  // the surfaces compare vertex by vertex; the tetrahedra differ
+    } catch (const std::runtime_error& e) {
+      r.reference_error = e.what();
+    }
+    if (!r.reference_solved) {
+      warn("calibrate", fmt::format("site {} {} {:g} mm: the reference did not solve: {}", k + 1, tilt_name(r.tilt),
+                                    r.depth_mm, r.reference_error));
+      continue;
+    }
+    if (check && r.tilt == PressTilt::straight) {
+      try {
+        r.check_force = press(o.reference, *check, {r.tool}, o.press).tools[0].force;
+      } catch (const std::runtime_error& e) {
+        warn("calibrate", fmt::format("site {} {:g} mm on {:g} mm cells: {}", k + 1, r.depth_mm, o.check_size_mm, e.what()));
+      }
+    }
+  }
+}
+
+/// The reference part of a site's records (every press solved) and their
+/// surfaces, as the cache keeps them (every number to the last bit).
+nlohmann::json reference_json(const std::vector<PressRecord>& records,
+                              const std::vector<std::vector<model::Point3>>& surfaces) {
+  nlohmann::json presses = nlohmann::json::array();
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    const PressRecord& r = records[i];
+    nlohmann::json surface = nlohmann::json::array();
+    for (const model::Point3& p : surfaces[i]) surface.push_back(exact_vector_json({p[0], p[1], p[2]}));
+    presses.push_back({{"tool", r.tool.text},
+                       {"solved", r.reference_solved},
+                       {"force", exact_vector_json(r.reference_force)},
+                       {"tetrahedra", r.reference_tetrahedra},
+                       {"cell_mm", exact_json(r.reference_cell_mm)},
+                       {"check_force", r.check_force ? exact_vector_json(*r.check_force) : nlohmann::json(nullptr)},
+                       {"surface", surface}});
+  }
+  return presses;
+}
+
+/// Fills the records' reference part from what the cache kept; false (the
+/// records untouched) when the kept presses are not these or do not parse.
+bool read_reference(const nlohmann::json& kept, std::vector<PressRecord>& records,
+                    std::vector<std::vector<model::Point3>>& surfaces, std::size_t vertices) {
+  if (!kept.is_array() || kept.size() != records.size()) return false;
+  std::vector<PressRecord> read = records;
+  std::vector<std::vector<model::Point3>> read_surfaces(records.size());
+  try {
+    for (std::size_t i = 0; i < records.size(); ++i) {
+      const nlohmann::json& k = kept[i];
+      PressRecord& r = read[i];
+      if (k.at("tool").get<std::string>() != r.tool.text || !k.at("solved").get<bool>()) return false;
+      r.reference_solved = true;
+      r.reference_force = exact_vector(k.at("force"));
+      r.reference_tetrahedra = k.at("tetrahedra").get<std::size_t>();
+      r.reference_cell_mm = exact_double(k.at("cell_mm"));
+      if (!k.at("check_force").is_null()) r.check_force = exact_vector(k.at("check_force"));
+      for (const nlohmann::json& p : k.at("surface")) {
+        const Eigen::Vector3d v = exact_vector(p);
+        read_surfaces[i].push_back({v.x(), v.y(), v.z()});
+      }
+      if (read_surfaces[i].size() != vertices) return false;
+    }
+  } catch (const std::exception&) {  // a damaged file: nlohmann's errors and exact_double's
+    return false;
+  }
+  records = std::move(read);
+  surfaces = std::move(read_surfaces);
+  return true;
+}
+
 /// Site k's presses: straight in and tilted, at every depth, the reference on
-/// the organ re-meshed around the site.
+/// the organ re-meshed around the site (or as --reference-cache kept it),
+/// then the fast models.
 std::vector<PressRecord> press_site(const Plan& plan, std::size_t k) {
   const EvaluationOptions& o = plan.o;
   const organ::Organ& organ = plan.organ;
   const std::uint32_t vertex = plan.sites[k];
   const Eigen::Vector3d at = site_point(organ, vertex);
-  const std::unique_ptr<organ::Organ> reference =
-      reference_organ(plan.model, at, plan.refine_size_mm, plan.refine_radius_mm);
-  const std::unique_ptr<organ::Organ> check =
-      o.check_size_mm > 0.0 ? reference_organ(plan.model, at, o.check_size_mm, plan.refine_radius_mm) : nullptr;
   std::vector<PressRecord> records;
   for (const PressTilt tilt : {PressTilt::straight, static_cast<PressTilt>(1 + k % 2)})
     for (const double depth : o.depths_mm) {
@@ -342,52 +442,41 @@ std::vector<PressRecord> press_site(const Plan& plan, std::size_t k) {
       r.tool = site_press(organ, vertex, plan.normals[vertex], tilt, depth, o.press);
       r.thickness_mm = 1e3 * thickness_along(organ, at, -plan.normals[vertex]);
       r.clamp_distance_mm = 1e3 * (at - organ.fixed_point()).norm();
-      r.reference_tetrahedra = reference->model().tetrahedra.size();
-      r.reference_cell_mm = 1e3 * cell_size_at(*reference, at);
-      note("calibrate", fmt::format("site {} of {}, {} {:g} mm: {} with {} ({} tetrahedra)", k + 1, plan.sites.size(),
-                                    tilt_name(tilt), depth, r.tool.text, o.reference, r.reference_tetrahedra));
-      PressResult pressed;
-      try {
-        pressed = press(o.reference, *reference, {r.tool}, o.press);
-        r.reference_force = pressed.tools[0].force;
-        r.reference_solved = r.reference_force.norm() > 0.0;
-        if (!r.reference_solved) r.reference_error = "the reference gave no force";
-      } catch (const std::runtime_error& e) {
-        r.reference_error = e.what();
-      }
-      if (!r.reference_solved) {
-        warn("calibrate", fmt::format("site {} {} {:g} mm: the reference did not solve: {}", k + 1, tilt_name(tilt),
-                                      depth, r.reference_error));
-        records.push_back(std::move(r));
-        continue;
-      }
-      // The surfaces compare vertex by vertex; the tetrahedra differ.
-      pressed.node_positions.clear();
-      for (const char* name : kFastModels)
-        r.fast[name] = answer(name, organ, r, pressed, std::string(name) == "springs" ? plan.settled : o.press,
-                              plan.extent);
-      if (check && tilt == PressTilt::straight) {
-        try {
-          r.check_force = press(o.reference, *check, {r.tool}, o.press).tools[0].force;
-        } catch (const std::runtime_error& e) {
-          warn("calibrate", fmt::format("site {} {:g} mm on {:g} mm cells: {}", k + 1, depth, o.check_size_mm, e.what()));
-        }
-      }
-      detail("calibrate", fmt::format("|F| {} {:.4f} N, beam {:.4f} N, springs {:.4f} N", o.reference,
-                                      r.reference_force.norm(), r.fast["beam"].force.norm(),
-                                      r.fast["springs"].force.norm()));
       records.push_back(std::move(r));
     }
+  std::vector<std::vector<model::Point3>> surfaces(records.size());
+  const std::string key = plan.cache.site_key(k, vertex);
+  const std::optional<nlohmann::json> kept = plan.cache.find(key);
+  if (kept && read_reference(*kept, records, surfaces, organ.vertex_count())) {
+    note("calibrate", fmt::format("site {} of {}: the reference's presses as --reference-cache kept them", k + 1,
+                                  plan.sites.size()));
+  } else {
+    press_reference(plan, k, records, surfaces);
+    // A site the reference could not press in full is pressed again next time
+    // (a failure can be the machine's: memory short under many jobs).
+    const bool all_solved =
+        std::all_of(records.begin(), records.end(), [](const PressRecord& r) { return r.reference_solved; });
+    if (plan.cache.enabled() && all_solved) {
+      try {
+        plan.cache.keep(key, reference_json(records, surfaces));
+      } catch (const std::runtime_error& e) {
+        warn("calibrate", fmt::format("site {}: --reference-cache could not keep its presses: {}", k + 1, e.what()));
+      }
+    }
+  }
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    PressRecord& r = records[i];
+    if (!r.reference_solved) continue;
+    PressResult reference;
+    reference.positions = std::move(surfaces[i]);
+    for (const char* name : kFastModels)
+      r.fast[name] = answer(name, organ, r, reference, std::string(name) == "springs" ? plan.settled : o.press,
+                            plan.extent);
+    detail("calibrate", fmt::format("|F| {} {:.4f} N, beam {:.4f} N, springs {:.4f} N", o.reference,
+                                    r.reference_force.norm(), r.fast["beam"].force.norm(),
+                                    r.fast["springs"].force.norm()));
+  }
   return records;
-}
-
-// A record crosses from a job's process to the parent as JSON, every number
-// to the last bit.
-nlohmann::json exact_vector_json(const Eigen::Vector3d& v) {
-  return nlohmann::json::array({exact_json(v.x()), exact_json(v.y()), exact_json(v.z())});
-}
-Eigen::Vector3d exact_vector(const nlohmann::json& j) {
-  return {exact_double(j.at(0)), exact_double(j.at(1)), exact_double(j.at(2))};
 }
 
 nlohmann::json record_json(const PressRecord& r) {
@@ -455,17 +544,34 @@ int run_evaluation(const EvaluationOptions& o) {
   // A mass-spring press held longer for a softened network (calibrate's rule).
   PressOptions settled = o.press;
   settled.settle_seconds *= std::min(5.0, 1.0 / std::sqrt(std::min(1.0, model.material.spring_stiffness_scale)));
+  const double refine_size_mm = o.refine_size_mm < 0.0 ? 0.5 * radius_mm : o.refine_size_mm;
+  // The tip's whole path and what it takes in, with a margin: cells of the
+  // refinement size within the deepest press plus two radii of the site.
+  const double refine_radius_mm = *std::max_element(o.depths_mm.begin(), o.depths_mm.end()) + 2.0 * radius_mm;
+  const ReferenceCache cache(
+      o.reference_cache,
+      o.reference_cache.empty()
+          ? std::string()
+          : reference_fingerprint(model, {{"reference", o.reference},
+                                          {"depths_mm", o.depths_mm},
+                                          {"refine_size_mm", exact_json(refine_size_mm)},
+                                          {"refine_radius_mm", exact_json(refine_radius_mm)},
+                                          {"check_size_mm", exact_json(o.check_size_mm)},
+                                          {"snap_distance_mm", exact_json(o.press.snap_distance_mm)},
+                                          {"fixed_radius_mm", exact_json(o.press.tuning.fixed_radius_mm)},
+                                          {"linear_solver", o.press.tuning.linear_solver},
+                                          {"tip_radius_mm", exact_json(radius_mm)},
+                                          {"friction", exact_json(o.press.tuning.friction)}}));
   const Plan plan{o,
                   model,
                   organ,
                   bounding_box_extent(model.surface_vertices),
                   rest_normals(organ),
                   press_sites(organ, o.sites, o.seed, o.press),
-                  o.refine_size_mm < 0.0 ? 0.5 * radius_mm : o.refine_size_mm,
-                  // The tip's whole path and what it takes in, with a margin: cells of the
-                  // refinement size within the deepest press plus two radii of the site.
-                  *std::max_element(o.depths_mm.begin(), o.depths_mm.end()) + 2.0 * radius_mm,
-                  settled};
+                  refine_size_mm,
+                  refine_radius_mm,
+                  settled,
+                  cache};
 
   const std::size_t jobs = std::min(plan.sites.size(), o.jobs > 0 ? static_cast<std::size_t>(o.jobs) : usable_cpus());
   if (jobs > 1) note("calibrate", fmt::format("{} sites shared among {} processes", plan.sites.size(), jobs));

@@ -31,6 +31,9 @@ struct EvaluationOptions {
   /// the table is the same whatever the number); 0: one per CPU, at most one
   /// per site.
   int jobs = 0;
+  /// A directory that keeps the reference's presses of every site as it
+  /// finishes, for later runs to take (reference_cache.h); empty: none.
+  std::string reference_cache;
   PressOptions press;
 };
 

@@ -46,6 +46,7 @@ model::OrganModel surface_in_morton_order(model::OrganModel model, std::vector<s
   if (stations > 0 && model.beams.sections.size() == n * stations)
     model.beams.sections = model::SectionTable(gathered(std::as_const(model.beams.sections), stations));
   if (model.sites.compliance.size() == n) model.sites.compliance = gathered(model.sites.compliance, 1);
+  if (model.sites.curvature.size() == n) model.sites.curvature = gathered(model.sites.curvature, 1);
   for (model::Triangle& t : model.surface_triangles)
     for (std::uint32_t& v : t) v = new_index[v];
   return model;

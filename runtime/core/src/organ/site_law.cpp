@@ -59,6 +59,20 @@ bool SiteLaw::set(const Organ& organ, const geometry::SurfacePoint& at, double t
   normal_ = normal;
   organ_normal_compliance_ = std::max(0.0, normal.dot(compliance * normal));
   radius_ = tip_radius;
+  // Two curved bodies touch as a sphere of radius √(R′R″) on a flat
+  // (Johnson, Contact Mechanics §4.2), 1/R′ = 1/R + κ₁, 1/R″ = 1/R + κ₂. A
+  // concave surface cupping the tip is clipped at −1/(2R): as it nears −1/R
+  // the two conform and the contact is no longer small against the radii.
+  double first = 0.0, second = 0.0;
+  if (sites.curvature.size() == m.surface_vertices.size())
+    for (int k = 0; k < 3; ++k) {
+      first += at.barycentric[k] * sites.curvature[t[k]][0];
+      second += at.barycentric[k] * sites.curvature[t[k]][1];
+    }
+  const double concave_limit = -0.5 / tip_radius;
+  hertz_radius_ = tip_radius / std::sqrt((1.0 + tip_radius * std::max(first, concave_limit)) *
+                                         (1.0 + tip_radius * std::max(second, concave_limit)));
+  buried_indentation_ = tip_radius * (tip_radius / hertz_radius_);  // bit-for-bit R on a flat
   poisson_ = sites.poisson_ratio;
   contact_modulus_ = sites.young_modulus / (1.0 - poisson_ * poisson_);
   shear_ = sites.young_modulus / (2.0 * (1.0 + poisson_));
@@ -69,12 +83,15 @@ bool SiteLaw::set(const Organ& organ, const geometry::SurfacePoint& at, double t
 
 double SiteLaw::tip_force(double indentation) const noexcept {
   if (!(indentation > 0.0)) return 0.0;
-  if (indentation <= radius_) return 4.0 / 3.0 * contact_modulus_ * std::sqrt(radius_) * indentation * std::sqrt(indentation);
-  return contact_modulus_ * radius_ * (4.0 / 3.0 * radius_ + 2.0 * (indentation - radius_));
+  if (indentation <= buried_indentation_)
+    return 4.0 / 3.0 * contact_modulus_ * std::sqrt(hertz_radius_) * indentation * std::sqrt(indentation);
+  // Hertz's force at δ_b = R²/R_e is 4/3 E* R³/R_e; its slope 2 E* R, the punch's.
+  return contact_modulus_ * radius_ *
+         (4.0 / 3.0 * radius_ * (radius_ / hertz_radius_) + 2.0 * (indentation - buried_indentation_));
 }
 
 double SiteLaw::tip_force_slope(double indentation) const noexcept {
-  return 2.0 * contact_modulus_ * std::sqrt(radius_ * std::min(std::max(indentation, 0.0), radius_));
+  return 2.0 * contact_modulus_ * std::sqrt(hertz_radius_ * std::min(std::max(indentation, 0.0), buried_indentation_));
 }
 
 double SiteLaw::tip_indentation(double normal_depth) const noexcept {
@@ -96,7 +113,7 @@ SiteLaw::Secant SiteLaw::secant(double normal_depth, bool with_derivative) const
   const double indentation = tip_indentation(normal_depth);
   const double force = tip_force(indentation);
   if (!(force > 0.0)) return s;
-  const double contact_radius = std::sqrt(radius_ * std::min(indentation, radius_));
+  const double contact_radius = std::sqrt(hertz_radius_ * std::min(indentation, buried_indentation_));
   const double along_normal = indentation / force;
   const double along_surface = (2.0 - poisson_) / (8.0 * shear_ * contact_radius);
   Eigen::Matrix3d stiffness;
@@ -107,9 +124,9 @@ SiteLaw::Secant SiteLaw::secant(double normal_depth, bool with_derivative) const
   if (!invertible || !stiffness.allFinite()) return s;
   s.stiffness = 0.5 * (stiffness + stiffness.transpose());
   if (!with_derivative) return s;
-  // d(δ/F)/dδ = (F − δF')/F²; Mindlin's along the surface ∝ 1/a, a = √(Rδ).
+  // d(δ/F)/dδ = (F − δF')/F²; Mindlin's along the surface ∝ 1/a, a = √(R_e δ).
   const double normal_slope = (force - indentation * tip_force_slope(indentation)) / (force * force);
-  const double surface_slope = indentation < radius_ ? -along_surface / (2.0 * indentation) : 0.0;
+  const double surface_slope = indentation < buried_indentation_ ? -along_surface / (2.0 * indentation) : 0.0;
   const double indentation_per_depth =
       1.0 / (1.0 + organ_normal_compliance_ * tip_force_slope(indentation));  // dδ/dd_n
   s.derivative = -indentation_per_depth * s.stiffness * about_normal(normal_slope, surface_slope, normal_) * s.stiffness;

@@ -171,6 +171,83 @@ TEST(SiteLaw, OnARigidlyHeldSurfaceTheLawIsHertzThenTheBuriedPunch) {
   }
 }
 
+// On a surface of curvatures κ₁, κ₂ the tip touches as two curved bodies
+// (Johnson §4.2): a ball of radius R_s under the tip is Hertz's two spheres,
+// R_e = R R_s/(R + R_s), until the contact disk reaches the tip's radius at
+// δ_b = R²/R_e, where the punch's slope takes over with the same force and
+// slope; zero curvature is the flat law to the last bit; a concave surface
+// is clipped at −1/(2R) (R_e = 2R), where the tip would start to conform.
+TEST(SiteLaw, OnACurvedSurfaceTheTipTouchesAsTwoCurvedBodies) {
+  auto rigid_with_curvature = [](double first, double second) {
+    model::OrganModel m = testing::make_cylinder_model({});
+    m.sites.young_modulus = kYoung;
+    m.sites.poisson_ratio = kPoisson;
+    m.sites.compliance.assign(m.surface_vertices.size(), {});
+    m.sites.curvature.assign(m.surface_vertices.size(), {first, second});
+    return m;
+  };
+  const double e_star = kYoung / (1 - kPoisson * kPoisson), ball = 0.005;
+  const Organ curved(rigid_with_curvature(1 / ball, 1 / ball));
+  const geometry::SurfacePoint at = curved.surface_tree().closest_point({0.1, 0.0, 0.05});
+  SiteLaw law;
+  ASSERT_TRUE(law.set(curved, at, kRadius));
+  const Eigen::Vector3d normal = curved.rest_normal_at(at);
+  const double effective = kRadius * ball / (kRadius + ball), buried = kRadius * kRadius / effective;
+  for (const double depth : {1e-5, 0.0005, 0.002, 0.003, buried, 0.005, 0.010}) {
+    SCOPED_TRACE(depth);
+    const double expected = depth <= buried ? 4.0 / 3.0 * e_star * std::sqrt(effective) * std::pow(depth, 1.5)
+                                            : 4.0 / 3.0 * e_star * std::pow(kRadius, 3) / effective +
+                                                  2 * kRadius * e_star * (depth - buried);
+    EXPECT_NEAR(law.force(-depth * normal).dot(normal), expected, 1e-9 * expected);
+    expect_tangent_is_the_derivative(law, -depth * normal);
+    if (depth != buried) expect_tangent_is_the_derivative(law, -depth * normal + 0.5 * depth * normal.unitOrthogonal());
+  }
+  const double h = 1e-9;
+  EXPECT_NEAR(normal.dot(law.tangent(-(buried - h) * normal) * normal), 2 * kRadius * e_star, 1e-5 * kRadius * e_star);
+  EXPECT_NEAR(normal.dot(law.tangent(-(buried + h) * normal) * normal), 2 * kRadius * e_star, 1e-9 * kRadius * e_star);
+  // Softer than on a flat while shallow (√(R_e/R) = 0.82), the same stiffness once buried.
+  const Organ flat(rigid_with_curvature(0.0, 0.0));
+  SiteLaw plane;
+  ASSERT_TRUE(plane.set(flat, at, kRadius));
+  EXPECT_LT(law.force(-0.001 * normal).dot(normal), 0.85 * plane.force(-0.001 * normal).dot(normal));
+  EXPECT_EQ(law.stiffness(), plane.stiffness());
+
+  // No curvature section and zero curvatures: the same law, bit for bit.
+  model::OrganModel without = rigid_with_curvature(0.0, 0.0);
+  without.sites.curvature.clear();
+  const Organ old(std::move(without));
+  SiteLaw unchanged;
+  ASSERT_TRUE(unchanged.set(old, at, kRadius));
+  for (const Eigen::Vector3d& d : {Eigen::Vector3d(-0.001 * normal), Eigen::Vector3d(-0.004 * normal + Eigen::Vector3d(0.001, 0.002, 0))}) {
+    EXPECT_EQ(unchanged.force(d), plane.force(d));
+    EXPECT_EQ(unchanged.tangent(d), plane.tangent(d));
+  }
+
+  // Curvatures that vary over the surface follow its vertices when the
+  // runtime renumbers them (the cylinder's file order is not the runtime's),
+  // and are interpolated over the touched triangle: κ = 500 x (1/m, x in m) at
+  // every vertex is 500 x at the touched point.
+  model::OrganModel varying = rigid_with_curvature(0.0, 0.0);
+  for (std::size_t v = 0; v < varying.surface_vertices.size(); ++v)
+    varying.sites.curvature[v] = {500.0 * varying.surface_vertices[v][0], 500.0 * varying.surface_vertices[v][0]};
+  const Organ renumbered(std::move(varying));
+  ASSERT_NE(renumbered.file_vertex_index()[0], 0u);
+  SiteLaw following;
+  ASSERT_TRUE(following.set(renumbered, at, kRadius));
+  const double kappa = 500.0 * at.position[0], shallow_depth = 0.0005;
+  const double expected_radius = kRadius / (1 + kRadius * kappa);
+  EXPECT_NEAR(following.force(-shallow_depth * normal).dot(normal),
+              4.0 / 3.0 * e_star * std::sqrt(expected_radius) * std::pow(shallow_depth, 1.5),
+              1e-9 * e_star * kRadius * shallow_depth);
+
+  const Organ cupped(rigid_with_curvature(-10 / kRadius, -10 / kRadius));
+  SiteLaw concave;
+  ASSERT_TRUE(concave.set(cupped, at, kRadius));
+  const double shallow = 0.0005;
+  EXPECT_NEAR(concave.force(-shallow * normal).dot(normal), 4.0 / 3.0 * e_star * std::sqrt(2 * kRadius) * std::pow(shallow, 1.5),
+              1e-9 * e_star * kRadius * shallow);
+}
+
 // The multi-beam and mass-spring models give a tool of finite size the site
 // law's force and stiffness, and their own without site data or when told.
 TEST(SiteLaw, TheFastModelsGiveTheLawsForce) {

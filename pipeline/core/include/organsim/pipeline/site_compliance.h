@@ -22,8 +22,10 @@
 // byte-identical whatever the number of threads.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <string>
+#include <vector>
 
 #include "organsim/model/organ_model.h"
 
@@ -34,19 +36,35 @@ struct SiteComplianceOptions {
   double poisson_ratio = 0.49;      ///< the PSH reference's ν (fem::OrganFemOptions::psh_poisson_ratio)
   double stabilization = 100.0;     ///< the PSH reference's β
   double patch_radius = 0.0;        ///< m; 0: twice the median boundary edge
+  /// m: the surface's curvature at a site is fitted to the surface vertices
+  /// within this distance. 0: twice the default tip's radius (5 mm, the
+  /// reach of a buried 2.5 mm tip's contact), or twice the median surface
+  /// edge where that is longer, so that the fit holds two rings of vertices.
+  double curvature_radius = 0.0;
   unsigned threads = 0;             ///< 0: one per hardware thread
 };
 
 struct SiteComplianceReport {
   double patch_radius = 0.0;        ///< m, as used
+  double curvature_radius = 0.0;    ///< m, as used
   std::size_t boundary_nodes = 0;   ///< solved (free boundary nodes within a patch)
   std::size_t unknowns = 0;         ///< of the factorized matrix (displacements and pressures)
   std::size_t factor_entries = 0;   ///< below the diagonal of its LDLᵀ factor
   double factorization_seconds = 0.0, solve_seconds = 0.0;
 };
 
+/// Per surface vertex of `model`, the surface's principal curvatures κ₁ ≥ κ₂
+/// (1/m, convex positive; model::SiteCompliance::curvature): a quadric
+/// fitted by least squares, in the vertex's tangent frame, to the surface
+/// vertices within `radius` (m) whose normals face its side (less than 90°
+/// from its own). A vertex with fewer than five such
+/// neighbours (the quadric's unknowns) is taken as flat. Throws std::invalid_argument for a radius
+/// that is not a positive length.
+std::vector<std::array<double, 2>> site_curvatures(const model::OrganModel& model, double radius);
+
 /// The site compliances of `model` (its surface, tetrahedra, fixed point and
-/// E). Throws std::invalid_argument with one line when the model has no
+/// E), with the surface's curvatures (site_curvatures, over
+/// options.curvature_radius). Throws std::invalid_argument with one line when the model has no
 /// tetrahedra, the clamp does not hold it, or the options are out of range.
 model::SiteCompliance compute_site_compliance(const model::OrganModel& model, const SiteComplianceOptions& options,
                                              SiteComplianceReport* report = nullptr);

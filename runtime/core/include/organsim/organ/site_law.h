@@ -7,12 +7,17 @@
 // series, the organ's compliance as a held body C_organ (baked per vertex:
 // how far the patch under the tool moves per newton) and the local
 // indentation of the surface by the end (the tip's own compliance, which
-// depends on R, E and ν only). The end is a hemisphere: pressed in by δ it
-// touches a disk of radius a = √(R δ) (Hertz: normal force 4/3 E* √R δ^{3/2},
-// E* = E/(1 − ν²)) until it is buried at δ = R; deeper, the contact stays a
-// disk of radius R and stiffens as a rigid flat punch of that radius does
-// (2 R E* per metre: Boussinesq; the two join with the same slope). Along
-// the surface the disk of radius a resists as Mindlin's, 8 G a/(2 − ν). The
+// depends on R, E, ν and the surface's curvature there). The end is a
+// hemisphere on a surface of principal curvatures κ₁, κ₂ (baked per vertex;
+// flat where the file has none): pressed in by δ it touches a disk of radius
+// a = √(R_e δ) (Hertz: normal force 4/3 E* √R_e δ^{3/2}, E* = E/(1 − ν²),
+// R_e = √(R′R″) with 1/R′ = 1/R + κ₁, 1/R″ = 1/R + κ₂; R_e = R on a flat)
+// until the disk reaches the tip's radius, at δ_b = R²/R_e; deeper, the
+// contact stays a disk of radius R and stiffens as a rigid flat punch of that
+// radius does (2 R E* per metre: Boussinesq; the two join with the same
+// slope). On a convex rim the shallow contact is softer than on a flat, as
+// a ball on a ball is. Along the surface the disk of radius a resists as
+// Mindlin's, 8 G a/(2 − ν). The
 // tip's indentation δ is the part of the press's normal depth d_n that the
 // organ's normal compliance c_n does not take: d_n = δ + c_n F_tip(δ). Law:
 // F = −K(δ) d, K(δ) = (C_organ + C_tip(δ))⁻¹, C_tip(δ) the tip's secant
@@ -89,6 +94,8 @@ class SiteLaw {
   Eigen::Vector3d normal_ = Eigen::Vector3d::UnitZ();            // outward, unit
   double organ_normal_compliance_ = 0.0;                         // nᵀ C_organ n, m/N
   double radius_ = 0.0, contact_modulus_ = 0.0, shear_ = 0.0, poisson_ = 0.0;
+  double hertz_radius_ = 0.0;        // R_e, m
+  double buried_indentation_ = 0.0;  // δ_b = R²/R_e, m
   Eigen::Matrix3d stiffness_ = Eigen::Matrix3d::Zero();
   const std::vector<std::array<double, 2>>* curve_ = nullptr;
   double curve_depth_scale_ = 1.0;  // R_fit / R: the curve is read at d R_fit / R

@@ -146,6 +146,16 @@ struct SiteCompliance {
   /// Fitted by `organsim calibrate` for a tip of radius `curve_tip_radius`.
   std::vector<std::array<double, 2>> depth_curve;
   double curve_tip_radius = 0.0;  ///< m; 0 when there is no depth curve
+  /// Per surface vertex, the surface's principal curvatures κ₁ ≥ κ₂ (1/m),
+  /// positive where the surface curves away from its outward normal (a
+  /// sphere's outside is convex: +1/radius): fitted at bake time over the
+  /// tip's neighbourhood (format 1.3), so that the tip's Hertz contact is that
+  /// of two curved bodies. Empty: the law takes the surface as flat at the
+  /// tip's scale (1.2 files).
+  std::vector<std::array<double, 2>> curvature;
+  /// 1/m: the largest curvature a file may hold (a radius of 10 µm, far
+  /// below any CT's voxel).
+  static constexpr double kMaxCurvature = 1e5;
   bool empty() const { return compliance.empty(); }
   bool operator==(const SiteCompliance& other) const;
 };
@@ -172,7 +182,7 @@ struct OrganModel {
   std::vector<Point3> fixed_points;        ///< (Nf × 3), Nf >= 1; beams are clamped at fixed_points[0]
   Material material;
   BeamTables beams;
-  SiteCompliance sites;  ///< per-site contact law of the FEM reference (format 1.2), or empty
+  SiteCompliance sites;  ///< per-site contact law of the FEM reference (format 1.2; curvatures 1.3), or empty
 
   bool operator==(const OrganModel& other) const;
 };
