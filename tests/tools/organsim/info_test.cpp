@@ -39,6 +39,20 @@ TEST_F(Cli, InfoJsonIsOneParsableObjectWithTheDocumentedKeys) {
   EXPECT_EQ(j["beam"]["stations"].size(), 20u);
   EXPECT_GT(j["beam"]["stations"][10]["area_m2"].get<double>(), 0.0);
   EXPECT_EQ(j["sections"].size(), 9u);
+  EXPECT_TRUE(j["site_compliance"].is_null());
+
+  // With site data and the cylinder side's curvatures (1/r, 0): the tip's
+  // Hertz radius R/√(1 + R/r) everywhere.
+  model::OrganModel with_sites = testing::make_cylinder_model(spec);
+  testing::add_uniform_site_compliance(with_sites, 0.02);
+  with_sites.sites.curvature.assign(with_sites.surface_vertices.size(), {1 / spec.radius, 0.0});
+  model::write_organ_model_file(with_sites, model);
+  const CommandRun sites = run_organsim("info " + model + " --json", dir_);
+  ASSERT_EQ(sites.exit_code, 0) << sites.err;
+  const nlohmann::json s = nlohmann::json::parse(sites.out)["site_compliance"];
+  EXPECT_NEAR(s["hertz_radius_m_at_2_5_mm_tip"]["median"].get<double>(), 0.0025 / std::sqrt(1 + 0.0025 / spec.radius), 1e-15);
+  EXPECT_GT(s["normal_stiffness_n_per_m_at_2_5_mm_tip"]["median"].get<double>(), 0.0);
+  EXPECT_NE(run_organsim("info " + model, dir_).out.find("a 2.5 mm tip's Hertz radius 2.40 (p10)"), std::string::npos);
 }
 
 TEST_F(Cli, InfoTextNamesUnitsAndVolume) {

@@ -79,10 +79,20 @@ nlohmann::json sites_json(const model::OrganModel& m) {
   auto quantile = [&](double q) { return stiffness[static_cast<std::size_t>(q * static_cast<double>(stiffness.size() - 1))]; };
   nlohmann::json curve = nlohmann::json::array();
   for (const auto& [depth, factor] : sites.depth_curve) curve.push_back({{"depth_m", depth}, {"factor", factor}});
+  nlohmann::json hertz = nullptr;
+  if (!sites.curvature.empty()) {
+    std::vector<double> radii;
+    for (const auto& [first, second] : sites.curvature) radii.push_back(organ::hertz_radius(kTipRadius, first, second));
+    std::sort(radii.begin(), radii.end());
+    auto at_quantile = [&](double q) { return radii[static_cast<std::size_t>(q * static_cast<double>(radii.size() - 1))]; };
+    hertz = {{"min", at_quantile(0.0)}, {"p10", at_quantile(0.1)}, {"median", at_quantile(0.5)},
+             {"p90", at_quantile(0.9)}, {"max", at_quantile(1.0)}};
+  }
   return {{"reference_young_modulus_pa", sites.young_modulus},
           {"reference_poisson_ratio", sites.poisson_ratio},
           {"normal_stiffness_n_per_m_at_2_5_mm_tip", {{"min", quantile(0.0)}, {"p10", quantile(0.1)}, {"median", quantile(0.5)},
                                                        {"p90", quantile(0.9)}, {"max", quantile(1.0)}}},
+          {"hertz_radius_m_at_2_5_mm_tip", hertz},
           {"depth_curve", curve},
           {"depth_curve_tip_radius_m", sites.curve_tip_radius}};
 }
@@ -182,6 +192,12 @@ void print_text(const nlohmann::json& j) {
     fmt::print("site compliance the FEM reference's normal stiffness under a 2.5 mm tip {:.3g} (p10) / {:.3g} (median) / "
                "{:.3g} (p90) N/m; ",
                k["p10"].get<double>(), k["median"].get<double>(), k["p90"].get<double>());
+    if (const auto& h = sites["hertz_radius_m_at_2_5_mm_tip"]; !h.is_null())
+      fmt::print("the surface's curvature makes a 2.5 mm tip's Hertz radius {:.2f} (p10) / {:.2f} (median) / {:.2f} "
+                 "(p90) mm; ",
+                 h["p10"].get<double>() * 1e3, h["median"].get<double>() * 1e3, h["p90"].get<double>() * 1e3);
+    else
+      fmt::print("flat at the tip's scale (no curvatures: a format 1.2 file); ");
     if (sites["depth_curve"].empty()) {
       fmt::print("no depth curve (linear law; organsim calibrate fits one)\n");
     } else {

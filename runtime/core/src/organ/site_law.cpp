@@ -37,6 +37,12 @@ Eigen::Matrix3d disk_compliance(double young, double poisson, double radius, con
   return about_normal(8.0 * (1.0 - poisson) * scale, 4.0 * (2.0 - poisson) * scale, normal);
 }
 
+double hertz_radius(double tip_radius, double first, double second) noexcept {
+  const double concave_limit = -0.5 / tip_radius;
+  return tip_radius / std::sqrt((1.0 + tip_radius * std::max(first, concave_limit)) *
+                                (1.0 + tip_radius * std::max(second, concave_limit)));
+}
+
 bool SiteLaw::set(const Organ& organ, const geometry::SurfacePoint& at, double tip_radius) noexcept {
   const model::OrganModel& m = organ.model();
   const model::SiteCompliance& sites = m.sites;
@@ -59,19 +65,13 @@ bool SiteLaw::set(const Organ& organ, const geometry::SurfacePoint& at, double t
   normal_ = normal;
   organ_normal_compliance_ = std::max(0.0, normal.dot(compliance * normal));
   radius_ = tip_radius;
-  // Two curved bodies touch as a sphere of radius √(R′R″) on a flat
-  // (Johnson, Contact Mechanics §4.2), 1/R′ = 1/R + κ₁, 1/R″ = 1/R + κ₂. A
-  // concave surface cupping the tip is clipped at −1/(2R): as it nears −1/R
-  // the two conform and the contact is no longer small against the radii.
   double first = 0.0, second = 0.0;
   if (sites.curvature.size() == m.surface_vertices.size())
     for (int k = 0; k < 3; ++k) {
       first += at.barycentric[k] * sites.curvature[t[k]][0];
       second += at.barycentric[k] * sites.curvature[t[k]][1];
     }
-  const double concave_limit = -0.5 / tip_radius;
-  hertz_radius_ = tip_radius / std::sqrt((1.0 + tip_radius * std::max(first, concave_limit)) *
-                                         (1.0 + tip_radius * std::max(second, concave_limit)));
+  hertz_radius_ = hertz_radius(tip_radius, first, second);
   buried_indentation_ = tip_radius * (tip_radius / hertz_radius_);  // bit-for-bit R on a flat
   poisson_ = sites.poisson_ratio;
   contact_modulus_ = sites.young_modulus / (1.0 - poisson_ * poisson_);

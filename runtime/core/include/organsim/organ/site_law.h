@@ -58,6 +58,13 @@ Eigen::Matrix3d punch_compliance(double young, double poisson, double radius, co
 /// Cerruti's point solutions averaged over the disk twice).
 Eigen::Matrix3d disk_compliance(double young, double poisson, double radius, const Eigen::Vector3d& normal) noexcept;
 
+/// m: the radius of the sphere on a flat that touches as a tip of radius
+/// `tip_radius` (m) touches a surface of principal curvatures `first` and
+/// `second` (1/m, convex positive): √(R′R″), 1/R′ = 1/R + κ₁, 1/R″ = 1/R + κ₂
+/// (Johnson, Contact Mechanics §4.2), a concave κ clipped at −1/(2R), where
+/// the two bodies would start to conform. Exactly R on a flat.
+double hertz_radius(double tip_radius, double first, double second) noexcept;
+
 class SiteLaw {
  public:
   /// The law of a tip of radius `tip_radius` (m) touching the rest surface at
