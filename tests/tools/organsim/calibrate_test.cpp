@@ -18,6 +18,7 @@
 #include "organsim/model/model_file.h"
 #include "organsim/organ/organ.h"
 #include "organsim/pipeline/site_compliance.h"
+#include "press_plan.h"
 #include "test_models.h"
 
 namespace organsim {
@@ -321,6 +322,40 @@ TEST_F(Cli, CalibrateFitsTheSiteLawsDepthCurve) {
                   j["depth_curve"][i]["scatter"].get<double>(), 1e-6)
           << fast << " at " << depth << " mm";
   }
+}
+
+// Every site the evaluation picks takes each of its presses: on the DICOM
+// sample, where some vertices can be pressed straight in but have the organ
+// in the way of a 45° shaft on every side (so a tilted press there would be
+// refused), the 24 sites are all clear both ways.
+TEST_F(Cli, EverySitePickedTakesItsStraightAndItsTiltedPress) {
+  const fs::path samples = kSamples / "real_ct_totalseg", model = dir_ / "dicom.organ";
+  const CommandRun bake = run_organsim("bake " + (samples / "example_ct_dicom").string() + " --label " +
+                                           (samples / "liver_mask_dicom.nii.gz").string() + " -o " + model.string(),
+                                       dir_);
+  ASSERT_EQ(bake.exit_code, 0) << bake.err;
+  const model::ModelReadResult read = model::read_organ_model_file(model.string());
+  ASSERT_TRUE(read) << read.error;
+  const organ::Organ organ(*read.model);
+  const cli::PressOptions press;
+  const std::vector<Eigen::Vector3d> normals = cli::rest_normals(organ);
+  auto shaft_clear = [&](const cli::ToolSpec& tool) {
+    const geometry::SurfacePoint at = organ.surface_tree().closest_point(tool.point_mm * 1e-3);
+    return std::isinf(cli::shaft_entry(organ, at.position, cli::press_tip(organ, at.position, tool.displacement_mm * 1e-3, press)));
+  };
+  auto clear_both_ways = [&](std::uint32_t v) {
+    return shaft_clear(cli::site_press(organ, v, normals[v], cli::PressTilt::straight, 10.0, press)) &&
+           shaft_clear(cli::site_press(organ, v, normals[v], cli::PressTilt::tangent_a, 10.0, press)) &&
+           shaft_clear(cli::site_press(organ, v, normals[v], cli::PressTilt::tangent_b, 10.0, press));
+  };
+  std::size_t straight_only = 0;  // vertices the rule has to leave out
+  for (std::uint32_t v = 0; v < organ.vertex_count(); ++v)
+    straight_only += shaft_clear(cli::site_press(organ, v, normals[v], cli::PressTilt::straight, 10.0, press)) &&
+                     !clear_both_ways(v);
+  EXPECT_GT(straight_only, 0u);
+  const std::vector<std::uint32_t> sites = cli::press_sites(organ, 24, 1, press);
+  ASSERT_EQ(sites.size(), 24u);
+  for (std::size_t k = 0; k < sites.size(); ++k) EXPECT_TRUE(clear_both_ways(sites[k])) << "site " << k + 1;
 }
 
 TEST_F(Cli, CalibrateBadInputFailsWithOneLine) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <random>
 #include <stdexcept>
 
@@ -16,9 +17,32 @@ Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 
 /// Whether a tool pressed from `at` (m) by `displacement` (m) keeps its shaft
 /// out of the organ.
+Eigen::Vector3d first_tangent(const Eigen::Vector3d& normal) {
+  Eigen::Index least = 0;
+  normal.cwiseAbs().minCoeff(&least);
+  return normal.cross(Eigen::Vector3d::Unit(least)).normalized();
+}
+
 bool shaft_clear(const organ::Organ& organ, const Eigen::Vector3d& at, const Eigen::Vector3d& displacement,
                  const PressOptions& o) {
   return std::isinf(shaft_entry(organ, at, press_tip(organ, at, displacement, o)));
+}
+
+/// The direction (unit) of a press at surface point `at` (m) with outward
+/// unit `normal`, 45° from the inward normal and turned about it from the
+/// tangent `first_side` (0 or π/2 from the first tangent), 45° at a time, to
+/// the first side whose shaft stays out of the organ; none where no side is.
+std::optional<Eigen::Vector3d> clear_tilt(const organ::Organ& organ, const Eigen::Vector3d& at,
+                                          const Eigen::Vector3d& normal, double first_side, const PressOptions& o) {
+  constexpr int kSides = 8;
+  const Eigen::Vector3d tangent = first_tangent(normal);
+  for (int side = 0; side < kSides; ++side) {
+    const double turn = first_side + 2.0 * M_PI * side / kSides;
+    const Eigen::Vector3d toward =
+        (std::cos(turn) * tangent + std::sin(turn) * normal.cross(tangent) - normal).normalized();
+    if (shaft_clear(organ, at, 1e-3 * toward, o)) return toward;
+  }
+  return std::nullopt;
 }
 
 }  // namespace
@@ -32,21 +56,22 @@ std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std
   std::vector<std::uint32_t> candidates;
   for (std::uint32_t v = 0; v < vertices.size(); ++v)
     if ((point(vertices[v]) - organ.fixed_point()).norm() >= nearest_allowed) candidates.push_back(v);
-  // A site in a hollow, whose straight press would need its shaft through
-  // the organ elsewhere, is never picked; it stays a candidate so that the
-  // others are the sites they were before the rule.
+  // A site in a hollow, whose straight or tilted press would need its shaft
+  // through the organ elsewhere, is never picked; it stays a candidate so that
+  // the others are the sites they were before the rule. Every side a tilted
+  // press may turn to is tried, so a site picked has a press of every kind.
   const std::vector<Eigen::Vector3d> normals = rest_normals(organ);
   std::vector<bool> reachable(candidates.size());
   std::size_t reachable_count = 0;
   for (std::size_t c = 0; c < candidates.size(); ++c) {
     const Eigen::Vector3d at = point(vertices[candidates[c]]);
-    const Eigen::Vector3d inward = -1e-3 * normals[candidates[c]];
-    reachable[c] = shaft_clear(organ, at, inward, o);
+    const Eigen::Vector3d& normal = normals[candidates[c]];
+    reachable[c] = shaft_clear(organ, at, -1e-3 * normal, o) && clear_tilt(organ, at, normal, 0.0, o).has_value();
     reachable_count += reachable[c];
   }
   if (reachable_count < static_cast<std::size_t>(count))
     throw std::runtime_error(fmt::format("the organ has {} surface vertices away from the clamp that a tool can press "
-                                         "straight in, fewer than the {} presses asked for",
+                                         "straight in and tilted 45°, fewer than the {} presses asked for",
                                          reachable_count, count));
   std::mt19937 random(seed);
   std::size_t start = random() % candidates.size();
@@ -67,24 +92,17 @@ std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std
 
 ToolSpec site_press(const organ::Organ& organ, std::uint32_t site, const Eigen::Vector3d& normal, PressTilt tilt,
                     double depth_mm, const PressOptions& o) {
-  const Eigen::Vector3d at = site_point(organ, site) * 1e3;
-  Eigen::Index least = 0;
-  normal.cwiseAbs().minCoeff(&least);
-  const Eigen::Vector3d tangent = normal.cross(Eigen::Vector3d::Unit(least)).normalized();
-  auto spec = [&](const Eigen::Vector3d& toward) -> ToolSpec {
-    const Eigen::Vector3d by = depth_mm * (toward - normal).normalized();
-    return {fmt::format("{:.2f},{:.2f},{:.2f}/{:.3f},{:.3f},{:.3f}", at[0], at[1], at[2], by[0], by[1], by[2]), at, by};
+  const Eigen::Vector3d at = site_point(organ, site);
+  auto spec = [&](const Eigen::Vector3d& direction) -> ToolSpec {
+    const Eigen::Vector3d point = 1e3 * at, by = depth_mm * direction;
+    return {fmt::format("{:.2f},{:.2f},{:.2f}/{:.3f},{:.3f},{:.3f}", point[0], point[1], point[2], by[0], by[1], by[2]),
+            point, by};
   };
-  if (tilt == PressTilt::straight) return spec(Eigen::Vector3d::Zero());
-  constexpr int kSides = 8;
-  const double first = tilt == PressTilt::tangent_a ? 0.0 : 0.5 * M_PI;
-  for (int side = 0; side < kSides; ++side) {
-    const double turn = first + 2.0 * M_PI * side / kSides;
-    const ToolSpec tool = spec(std::cos(turn) * tangent + std::sin(turn) * normal.cross(tangent));
-    const Eigen::Vector3d point = tool.point_mm * 1e-3;
-    if (shaft_clear(organ, point, tool.displacement_mm * 1e-3, o)) return tool;
-  }
-  return spec(tangent);  // no side is clear: the press reports where the shaft enters
+  if (tilt == PressTilt::straight) return spec((-normal).normalized());
+  const std::optional<Eigen::Vector3d> toward =
+      clear_tilt(organ, at, normal, tilt == PressTilt::tangent_a ? 0.0 : 0.5 * M_PI, o);
+  // No side is clear (a site press_sites would not pick): the press reports where the shaft enters.
+  return spec(toward ? *toward : (first_tangent(normal) - normal).normalized());
 }
 
 Eigen::Vector3d site_point(const organ::Organ& organ, std::uint32_t site) {
