@@ -15,35 +15,39 @@ namespace {
 
 Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 
-/// Whether a tool pressed from `at` (m) by `displacement` (m) keeps its shaft
-/// out of the organ.
+/// The first tangent at a vertex of outward unit `normal`: the side a tilted
+/// press starts from, the same at every call.
 Eigen::Vector3d first_tangent(const Eigen::Vector3d& normal) {
   Eigen::Index least = 0;
   normal.cwiseAbs().minCoeff(&least);
   return normal.cross(Eigen::Vector3d::Unit(least)).normalized();
 }
 
-bool shaft_clear(const organ::Organ& organ, const Eigen::Vector3d& at, const Eigen::Vector3d& displacement,
-                 const PressOptions& o) {
-  return std::isinf(shaft_entry(organ, at, press_tip(organ, at, displacement, o)));
+/// A press of `depth_mm` at surface vertex `site` along `toward` (a unit
+/// tangent, or zero for straight in) less the outward unit `normal`.
+ToolSpec press_along(const organ::Organ& organ, std::uint32_t site, const Eigen::Vector3d& normal,
+                     const Eigen::Vector3d& toward, double depth_mm) {
+  const Eigen::Vector3d at = site_point(organ, site) * 1e3, by = depth_mm * (toward - normal).normalized();
+  return {fmt::format("{:.2f},{:.2f},{:.2f}/{:.3f},{:.3f},{:.3f}", at[0], at[1], at[2], by[0], by[1], by[2]), at, by};
 }
 
-/// The direction (unit) of a press at surface point `at` (m) with outward
-/// unit `normal`, 45° from the inward normal and turned about it from the
-/// tangent `first_side` (0 or π/2 from the first tangent), 45° at a time, to
-/// the first side whose shaft stays out of the organ; none where no side is.
-std::optional<Eigen::Vector3d> clear_tilt(const organ::Organ& organ, const Eigen::Vector3d& at,
-                                          const Eigen::Vector3d& normal, double first_side, const PressOptions& o) {
+/// A press 45° from the inward normal, turned about it from the side
+/// `first_side` radians from first_tangent(normal), 45° at a time, to the
+/// first side whose shaft press() takes (shaft_entry); none where no side's is.
+std::optional<ToolSpec> clear_tilt(const organ::Organ& organ, std::uint32_t site, const Eigen::Vector3d& normal,
+                                   double first_side, double depth_mm, const PressOptions& o) {
   constexpr int kSides = 8;
   const Eigen::Vector3d tangent = first_tangent(normal);
   for (int side = 0; side < kSides; ++side) {
     const double turn = first_side + 2.0 * M_PI * side / kSides;
-    const Eigen::Vector3d toward =
-        (std::cos(turn) * tangent + std::sin(turn) * normal.cross(tangent) - normal).normalized();
-    if (shaft_clear(organ, at, 1e-3 * toward, o)) return toward;
+    const ToolSpec tool =
+        press_along(organ, site, normal, std::cos(turn) * tangent + std::sin(turn) * normal.cross(tangent), depth_mm);
+    if (std::isinf(shaft_entry(organ, tool, o))) return tool;
   }
   return std::nullopt;
 }
+
+constexpr double kFirstSide[] = {0.0, 0.5 * M_PI};  ///< where tangent_a's and tangent_b's turns start
 
 }  // namespace
 
@@ -64,9 +68,10 @@ std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std
   std::vector<bool> reachable(candidates.size());
   std::size_t reachable_count = 0;
   for (std::size_t c = 0; c < candidates.size(); ++c) {
-    const Eigen::Vector3d at = point(vertices[candidates[c]]);
-    const Eigen::Vector3d& normal = normals[candidates[c]];
-    reachable[c] = shaft_clear(organ, at, -1e-3 * normal, o) && clear_tilt(organ, at, normal, 0.0, o).has_value();
+    const std::uint32_t v = candidates[c];
+    reachable[c] = std::isinf(shaft_entry(organ, press_along(organ, v, normals[v], Eigen::Vector3d::Zero(), 1.0), o));
+    for (const double first_side : kFirstSide)
+      reachable[c] = reachable[c] && clear_tilt(organ, v, normals[v], first_side, 1.0, o).has_value();
     reachable_count += reachable[c];
   }
   if (reachable_count < static_cast<std::size_t>(count))
@@ -92,17 +97,11 @@ std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std
 
 ToolSpec site_press(const organ::Organ& organ, std::uint32_t site, const Eigen::Vector3d& normal, PressTilt tilt,
                     double depth_mm, const PressOptions& o) {
-  const Eigen::Vector3d at = site_point(organ, site);
-  auto spec = [&](const Eigen::Vector3d& direction) -> ToolSpec {
-    const Eigen::Vector3d point = 1e3 * at, by = depth_mm * direction;
-    return {fmt::format("{:.2f},{:.2f},{:.2f}/{:.3f},{:.3f},{:.3f}", point[0], point[1], point[2], by[0], by[1], by[2]),
-            point, by};
-  };
-  if (tilt == PressTilt::straight) return spec((-normal).normalized());
-  const std::optional<Eigen::Vector3d> toward =
-      clear_tilt(organ, at, normal, tilt == PressTilt::tangent_a ? 0.0 : 0.5 * M_PI, o);
-  // No side is clear (a site press_sites would not pick): the press reports where the shaft enters.
-  return spec(toward ? *toward : (first_tangent(normal) - normal).normalized());
+  if (tilt == PressTilt::straight) return press_along(organ, site, normal, Eigen::Vector3d::Zero(), depth_mm);
+  const std::optional<ToolSpec> tool =
+      clear_tilt(organ, site, normal, kFirstSide[tilt == PressTilt::tangent_a ? 0 : 1], depth_mm, o);
+  // No side is clear (a site press_sites does not pick): the press reports where the shaft enters.
+  return tool ? *tool : press_along(organ, site, normal, first_tangent(normal), depth_mm);
 }
 
 Eigen::Vector3d site_point(const organ::Organ& organ, std::uint32_t site) {

@@ -468,6 +468,14 @@ double shaft_entry(const organ::Organ& organ, const Eigen::Vector3d& rest_point,
   return hit.along * tip.shaft_length;
 }
 
+double shaft_entry(const organ::Organ& organ, const ToolSpec& tool, const PressOptions& o) {
+  const Eigen::Vector3d point = tool.point_mm * 1e-3, by = tool.displacement_mm * 1e-3;
+  if (!point.allFinite() || !by.allFinite()) return std::numeric_limits<double>::infinity();
+  const geometry::SurfacePoint at = organ.surface_tree().closest_point(point);
+  if (at.distance > o.snap_distance_mm * 1e-3) return std::numeric_limits<double>::infinity();
+  return shaft_entry(organ, at.position, press_tip(organ, at.position, by, o));
+}
+
 ToolSpec parse_tool(const std::string& text) {
   const std::size_t slash = text.find('/');
   if (slash == std::string::npos)
@@ -481,12 +489,9 @@ PressResult press(const std::string& name, const organ::Organ& organ, const std:
   if (!entry) throw std::logic_error("unknown deformation model " + name);
   for (std::size_t i = 0; i < tools.size(); ++i) {
     // A tool the model would refuse (not finite, too far) is left to it: it says why in its words.
-    const Eigen::Vector3d point = tools[i].point_mm * 1e-3, by = tools[i].displacement_mm * 1e-3;
-    if (!point.allFinite() || !by.allFinite()) continue;
-    const geometry::SurfacePoint at = organ.surface_tree().closest_point(point);
-    if (at.distance > o.snap_distance_mm * 1e-3) continue;
-    const geometry::ToolTip tip = press_tip(organ, at.position, by, o);
-    if (const double through = shaft_entry(organ, at.position, tip); std::isfinite(through)) {
+    if (const double through = shaft_entry(organ, tools[i], o); std::isfinite(through)) {
+      const geometry::SurfacePoint at = organ.surface_tree().closest_point(tools[i].point_mm * 1e-3);
+      const geometry::ToolTip tip = press_tip(organ, at.position, tools[i].displacement_mm * 1e-3, o);
       const double tilt = std::acos(std::clamp(tip.axis.dot(organ.rest_normal_at(at)), -1.0, 1.0));
           throw std::runtime_error(fmt::format("tool {} ({}): its shaft, {:.0f} degrees from the surface normal, would pass "
                                            "through the organ {:.1f} mm behind the tip: press closer to the normal or "

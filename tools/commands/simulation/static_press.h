@@ -109,6 +109,12 @@ geometry::ToolTip press_tip(const organ::Organ& organ, const Eigen::Vector3d& re
 /// cannot be made (press() refuses it).
 double shaft_entry(const organ::Organ& organ, const Eigen::Vector3d& rest_point, const geometry::ToolTip& tip);
 
+/// The same for `tool` seated where press() seats it (the surface point
+/// nearest its point): infinity also for a tool press() leaves to the model to
+/// refuse (not finite, beyond `o`'s snap distance). press() refuses a tool
+/// with a finite value.
+double shaft_entry(const organ::Organ& organ, const ToolSpec& tool, const PressOptions& o);
+
 /// Presses the organ with `model` (beam, springs, linear, corotational,
 /// stvk, psh): the multi-beam model's one deformation, the mass-spring model
 /// settled over `settle_seconds`, a FEM model's static equilibrium by Newton's
