@@ -16,8 +16,8 @@ namespace organsim::cli {
 /// quarter of the way from it to the farthest vertex. A vertex a tool of
 /// `o`'s tip cannot press straight in (its shaft would pass through the organ
 /// elsewhere: shaft_entry), or tilted 45° (site_press finds no side whose
-/// shaft is clear, starting from either tangent), is not picked. Throws std::runtime_error when there are fewer such vertices than
-/// `count`.
+/// shaft is clear, starting from either tangent), is not picked. Throws
+/// std::runtime_error when there are fewer such vertices than `count`.
 std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std::uint32_t seed, const PressOptions& o);
 
 /// How a press at a site goes in.
