@@ -48,20 +48,27 @@ MaskSampler::MaskSampler(const MaskImage& mask) : mask_(mask) {
   // trilinear corners span voxels [4b, 4b + 4] along each axis.
   for (int r = 0; r < 3; ++r) blocks_[r] = (size_[r] + kBlock - 1) / kBlock;
   block_.assign(static_cast<std::size_t>(blocks_[0] * blocks_[1] * blocks_[2]), kEmpty);
+  mixed_of_block_.assign(block_.size(), 0);
   for (long bk = 0, b = 0; bk < blocks_[2]; ++bk)
     for (long bj = 0; bj < blocks_[1]; ++bj)
       for (long bi = 0; bi < blocks_[0]; ++bi, ++b) {
         const long first[3] = {bi * kBlock, bj * kBlock, bk * kBlock};
         bool any = false, all = true;
-        for (long k = first[2]; k <= first[2] + kBlock; ++k)
+        std::array<std::uint64_t, 2> bits{};
+        for (long k = first[2], bit = 0; k <= first[2] + kBlock; ++k)
           for (long j = first[1]; j <= first[1] + kBlock; ++j)
-            for (long i = first[0]; i <= first[0] + kBlock; ++i) {
+            for (long i = first[0]; i <= first[0] + kBlock; ++i, ++bit) {
               const bool in_volume = i < size_[0] && j < size_[1] && k < size_[2];
               const bool set = in_volume && v[(k * size_[1] + j) * size_[0] + i] != 0;
               any |= set;
               all &= set;
+              if (set) bits[static_cast<std::size_t>(bit >> 6)] |= std::uint64_t{1} << (bit & 63);
             }
         block_[static_cast<std::size_t>(b)] = all ? kFull : any ? kMixed : kEmpty;
+        if (block_[static_cast<std::size_t>(b)] == kMixed) {
+          mixed_of_block_[static_cast<std::size_t>(b)] = static_cast<std::uint32_t>(mixed_bits_.size());
+          mixed_bits_.push_back(bits);
+        }
       }
   if (hi[0] < 0) return;  // empty mask: radius 0
   MaskImage::PointType a, b;
@@ -89,8 +96,29 @@ bool MaskSampler::inside(const Index& index) const {
       index[2] < size_[2]) {
     const long i = static_cast<long>(index[0]) >> kBlockShift, j = static_cast<long>(index[1]) >> kBlockShift,
                k = static_cast<long>(index[2]) >> kBlockShift;
-    const std::uint8_t state = block_[static_cast<std::size_t>((k * blocks_[1] + j) * blocks_[0] + i)];
-    if (state != kMixed) return state == kFull;
+    const std::size_t block = static_cast<std::size_t>((k * blocks_[1] + j) * blocks_[0] + i);
+    if (block_[block] != kMixed) return block_[block] == kFull;
+    const long base[3] = {static_cast<long>(index[0]), static_cast<long>(index[1]), static_cast<long>(index[2])};
+    if (base[0] + 1 < size_[0] && base[1] + 1 < size_[1] && base[2] + 1 < size_[2]) {
+      // value_at's sum, term by term in its order, on the block's bits.
+      const std::array<std::uint64_t, 2>& bits = mixed_bits_[mixed_of_block_[block]];
+      const long low = ((base[2] & (kBlock - 1)) * (kBlock + 1) + (base[1] & (kBlock - 1))) * (kBlock + 1) +
+                       (base[0] & (kBlock - 1));
+      constexpr long kRow = kBlock + 1, kSlice = kRow * kRow;
+      const long step[8] = {0, 1, kRow, kRow + 1, kSlice, kSlice + 1, kSlice + kRow, kSlice + kRow + 1};
+      const double fraction[3] = {index[0] - static_cast<double>(base[0]), index[1] - static_cast<double>(base[1]),
+                                  index[2] - static_cast<double>(base[2])};
+      double sum = 0.0;
+      for (int corner = 0; corner < 8; ++corner) {
+        const double weight = ((corner & 1) ? fraction[0] : 1.0 - fraction[0]) *
+                              ((corner & 2) ? fraction[1] : 1.0 - fraction[1]) *
+                              ((corner & 4) ? fraction[2] : 1.0 - fraction[2]);
+        const long bit = low + step[corner];
+        const double value = static_cast<double>((bits[static_cast<std::size_t>(bit >> 6)] >> (bit & 63)) & 1);
+        if (weight != 0.0) sum += weight * value;
+      }
+      return sum >= 0.5;
+    }
   }
   return value_at(index) >= 0.5;
 }

@@ -3,6 +3,7 @@
 #include <itkImageRegionIteratorWithIndex.h>
 
 #include <cmath>
+#include <random>
 
 #include "organsim/pipeline/beam_baking.h"
 #include "synthetic_volumes.h"
@@ -92,6 +93,31 @@ TEST(BeamBaking, IsDeterministicAcrossThreadCounts) {
   one.samples_per_side = two.samples_per_side = 48;
   EXPECT_TRUE(bake_beam_tables(*mask, vertices, metres(e.centre_mm), one) ==
               bake_beam_tables(*mask, vertices, metres(e.centre_mm), two));
+}
+
+// inside() answers from its block table and, near the boundary, from each
+// mixed block's voxel bits: it must say exactly what the interpolated value
+// says, at every kind of sample (whole blocks, mixed ones, the volume's edge).
+TEST(BeamBaking, InsideAgreesWithTheInterpolatedValueEverywhere) {
+  const testing::Ellipsoid e;
+  const MaskImage::Pointer mask = testing::make_ellipsoid_mask(e, {1.7, 1.3, 2.1});
+  const MaskSampler sampler(*mask);
+  const auto size = mask->GetLargestPossibleRegion().GetSize();
+  std::mt19937 random(7);
+  int boundary = 0;
+  for (int n = 0; n < 400000; ++n) {
+    MaskSampler::Index index;
+    for (int r = 0; r < 3; ++r)
+      index[r] = std::uniform_real_distribution<double>(-1.5, static_cast<double>(size[r]) + 0.5)(random);
+    // Sample the interpolated value at the same continuous index.
+    MaskImage::PointType p;
+    mask->TransformContinuousIndexToPhysicalPoint(itk::ContinuousIndex<double, 3>(index.data()), p);
+    const double value = sampler.value({p[0] * 1e-3, p[1] * 1e-3, p[2] * 1e-3});
+    const MaskSampler::Index again = sampler.index_of({p[0] * 1e-3, p[1] * 1e-3, p[2] * 1e-3});
+    ASSERT_EQ(sampler.inside(again), value >= 0.5) << index[0] << ", " << index[1] << ", " << index[2];
+    boundary += value > 0.0 && value < 1.0;
+  }
+  EXPECT_GT(boundary, 1000);  // the boundary's samples, where the bits answer, were tried
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <memory>
 
 #include <fmt/format.h>
@@ -44,14 +45,15 @@ std::array<long, 3> to_voxel(const std::vector<double>& v, const char* option) {
 }
 
 /// Progress on stderr: a bar redrawn in place on a terminal, one line per
-/// finished stage otherwise (logs, CI) or with --verbose.
+/// finished stage otherwise (logs, CI) or with --verbose. Stages may overlap
+/// (the beam tables run beside the site compliances): each keeps its own start.
 class ProgressPrinter {
  public:
   explicit ProgressPrinter(bool lines) : terminal_(!lines && ::isatty(STDERR_FILENO) == 1) {}
   void operator()(const std::string& stage, double fraction) {
     const auto now = std::chrono::steady_clock::now();
-    if (fraction == 0.0) started_ = now;
-    const double seconds = std::chrono::duration<double>(now - started_).count();
+    if (fraction == 0.0) started_[stage] = now;
+    const double seconds = std::chrono::duration<double>(now - started_[stage]).count();
     if (!terminal_) {
       if (fraction == 0.0) std::fprintf(stderr, "organsim bake: %s ...\n", stage.c_str());
       if (fraction == 1.0) std::fprintf(stderr, "organsim bake: %s done in %.2f s\n", stage.c_str(), seconds);
@@ -67,7 +69,7 @@ class ProgressPrinter {
 
  private:
   bool terminal_;
-  std::chrono::steady_clock::time_point started_;
+  std::map<std::string, std::chrono::steady_clock::time_point> started_;
 };
 
 nlohmann::ordered_json report_json(const pipeline::BakeReport& r, const model::OrganModel& model, const std::string& output,

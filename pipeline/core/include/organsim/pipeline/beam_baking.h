@@ -50,6 +50,11 @@ class MaskSampler {
   long size_[3];
   long blocks_[3];                   // number of 4³ blocks per axis
   std::vector<std::uint8_t> block_;  // kEmpty, kFull or kMixed for the 5³ voxels a block's samples touch
+  // Per mixed block, its 5³ voxels as bits (x fastest), so that a sample near
+  // the organ's boundary reads a few cached words instead of the mask, whose
+  // scattered bytes a section plane would fetch from memory one line each.
+  std::vector<std::uint32_t> mixed_of_block_;          // block → index into mixed_bits_
+  std::vector<std::array<std::uint64_t, 2>> mixed_bits_;
   model::Point3 centre_{};
   double radius_ = 0.0;
 };
