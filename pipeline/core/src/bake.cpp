@@ -282,8 +282,8 @@ void require_valid(const model::OrganModel& model) {
 }  // namespace
 
 /// A bake's peak memory: the phantom from 128x128x100 to 512x512x1500 voxels
-/// (tools/experiments/scaling.py bake) held 7.2–7.5 bytes per voxel above a
-/// base of about 200 MiB, and the FEM of the site compliances up to 350 MiB
+/// (tools/experiments/scaling.py bake) held 7.2–7.6 bytes per voxel above a
+/// base of 170–200 MiB, and the FEM of the site compliances up to 350 MiB
 /// whatever the CT; a little more is asked, so that a CT that passes fits.
 const MemoryNeed kBakeMemory{8.0, 768.0 * 1024 * 1024, "baking it"};
 
