@@ -51,11 +51,13 @@ void add_model_tuning_options(CLI::App& app, ModelTuning& tuning) {
       ->check(kNonNegativeOrInfinity)
       ->capture_default_str();
   app.add_option("--fixed-radius", tuning.fixed_radius_mm,
-                 "FEM models: clamp the tetrahedral nodes within this distance of the fixed point, mm (docs/fem.md)")
+                 "FEM models (and springs with --volume-springs): clamp the tetrahedral nodes within this distance of the "
+                 "fixed point, mm (docs/fem.md)")
       ->check(kPositive)
       ->capture_default_str();
   app.add_flag("--volume-springs", tuning.volume_springs,
-               "springs: also a spring on every tetrahedron edge, the surface tied to the tetrahedra (docs/springs.md)");
+               "springs: also a spring on every tetrahedron edge, the surface tied to the tetrahedra, held at the "
+               "clamp like the FEM models (--fixed-radius) instead of by body springs (docs/springs.md)");
   app.add_option("--region", tuning.region,
                  "springs: integrate all nodes, only a dynamic region around the tools, or a fixed one (--region-rings)")
       ->check(CLI::IsMember({"all", "dynamic", "fixed"}))
@@ -77,6 +79,14 @@ void apply_model_tuning(const ModelTuning& tuning, fem::OrganFemOptions& fem, re
   fem.fixed_radius = tuning.fixed_radius_mm * 1e-3;
   fem.factorization = factorization_factory(tuning.linear_solver);
   springs.network.volume_springs = tuning.volume_springs;
+  if (tuning.volume_springs) {
+    // The body springs stand in for the interior a surface network lacks, and
+    // pin each vertex in space; with the interior's springs there, the organ is
+    // held where the FEM models hold it, so that it moves about the clamp as
+    // theirs does (docs/springs.md#organ-networks-make_organ_network).
+    springs.network.body_factor = 0.0;
+    springs.network.clamp_radius = tuning.fixed_radius_mm * 1e-3;
+  }
   springs.simulation.region = springs::parse_region(tuning.region);
   springs.simulation.region_rings = tuning.region_rings;
   springs.simulation.threshold = tuning.region_threshold_mm * 1e-3;

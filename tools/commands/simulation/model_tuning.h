@@ -14,8 +14,8 @@ namespace organsim::cli {
 
 /// What shapes the deformation models beyond their name.
 struct ModelTuning {
-  double fixed_radius_mm = 10.0;     ///< --fixed-radius: FEM clamp ball
-  bool volume_springs = false;       ///< --volume-springs: springs on the tetrahedra's edges too
+  double fixed_radius_mm = 10.0;     ///< --fixed-radius: the clamp ball of the FEM models and of the volume springs
+  bool volume_springs = false;       ///< --volume-springs: springs on the tetrahedra's edges too, clamped instead of body springs
   std::string region = "all";        ///< --region all|dynamic|fixed: the springs' integrated region
   std::uint32_t region_rings = 3;    ///< --region-rings: a fixed region's size in springs
   double region_threshold_mm = 1.0;  ///< --region-threshold: displacement that grows a dynamic region
