@@ -185,6 +185,12 @@ int connect_to(int port) {
   return fd;
 }
 
+/// The force loop's onset rate limit lets the force grow by at most 40 N/s,
+/// 40 mN a tick at 1 kHz (docs/realtime.md): a force that rose by half that
+/// has responded to the deeper pose, though a 25 % rise of a 1 N force takes
+/// the ramp another 6 ticks.
+constexpr double kResponseRise = 0.020;  // N
+
 /// What a client's tool does, in 100 ms steps (a 400 ms cycle): out of the
 /// organ, 3 mm in, 5 mm in, 3 mm in.
 enum class Move { onset, deepen, lift, release };
@@ -197,9 +203,13 @@ struct ClientResult {
   bool connected = false;
   std::uint64_t poses_sent = 0, surfaces = 0, own_forces = 0, messages = 0, dropped = 0;
   /// s from the first pose of a move to the first force that shows it: in
-  /// contact (deeper or shallower by 2 mm: the force 25 % up or down) and at
-  /// the contact's start and end (the first non-zero force, the first zero one).
+  /// contact (deeper or shallower by 2 mm: the first force that responds, up by
+  /// kResponseRise or 25 %, down by 20 %) and at the contact's start and end
+  /// (the first non-zero force, the first zero one).
   std::vector<double> in_contact_latency_s, onset_latency_s, release_latency_s;
+  /// s from the first pose of a 2 mm deeper move to the force 25 % up: the
+  /// latency plus the onset rate limit's ramp; and the force before that move, N.
+  std::vector<double> deepen_quarter_s, deepen_force_before_n;
 };
 
 /// Counts what the server sends and times the client's own tool's force.
@@ -212,16 +222,20 @@ class Inbox final : public organsim::igtlink::MessageReader::Handler {
     ++result_.own_forces;
     const auto& m = message.matrix;
     last_force_ = std::sqrt(double{m[9]} * m[9] + double{m[10]} * m[10] + double{m[11]} * m[11]);
+    if (waiting_quarter_ && last_force_ > 1.25 * force_before_) {
+      result_.deepen_quarter_s.push_back(arrived_at_ - moved_at_);
+      waiting_quarter_ = false;
+    }
     if (!waiting_) return;
     bool shown = false;
     switch (move_) {
       case Move::onset: shown = last_force_ > 0.0; break;
       case Move::release: shown = last_force_ == 0.0; break;
-      case Move::deepen: shown = last_force_ > 1.25 * force_before_; break;
+      case Move::deepen: shown = last_force_ > force_before_ + std::min(kResponseRise, 0.25 * force_before_); break;
       case Move::lift: shown = last_force_ < 0.8 * force_before_; break;
     }
     if (!shown) return;
-    record(since(moved_at_));
+    record(arrived_at_ - moved_at_);
     waiting_ = false;
   }
   void dropped(organsim::igtlink::Problem problem, const organsim::igtlink::MessageInfo& info) override {
@@ -237,25 +251,49 @@ class Inbox final : public organsim::igtlink::MessageReader::Handler {
                               : result_.in_contact_latency_s)
         .push_back(latency);
   }
-  /// The first pose of `move` was just sent: time the force's answer (a move
-  /// within contact only once the force before it is known).
-  void moved(Move move, Clock::time_point at) {
+  /// The bytes about to be fed arrived in the client's socket at `at`
+  /// (CLOCK_REALTIME, s): the kernel's receive time, not the time this
+  /// thread, which shares the CPUs with the server, got round to reading them.
+  void arrived(double at) { arrived_at_ = at; }
+  /// The first pose of `move` was just sent, at `at` (CLOCK_REALTIME, s): time
+  /// the force's answer (a move within contact only once the force before it is known).
+  void moved(Move move, double at) {
     // A move still unanswered counts with the time it waited (a lower bound), so the tail shows it.
-    if (waiting_) record(since(moved_at_));
+    if (waiting_) record(at - moved_at_);
+    if (waiting_quarter_) result_.deepen_quarter_s.push_back(at - moved_at_);
     move_ = move;
     moved_at_ = at;
     force_before_ = last_force_;
     waiting_ = move == Move::onset || move == Move::release || last_force_ > 0.0;
+    waiting_quarter_ = move == Move::deepen && last_force_ > 0.0;
+    if (waiting_quarter_) result_.deepen_force_before_n.push_back(force_before_);
   }
 
  private:
   ClientResult& result_;
   std::string force_name_;
   Move move_ = Move::release;
-  bool waiting_ = false;
+  bool waiting_ = false, waiting_quarter_ = false;
   double last_force_ = 0.0, force_before_ = 0.0;  // N
-  Clock::time_point moved_at_;
+  double moved_at_ = 0.0, arrived_at_ = 0.0;  // CLOCK_REALTIME, s
 };
+
+double realtime_now() {
+  timespec t;
+  ::clock_gettime(CLOCK_REALTIME, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+/// The kernel's receive time of what `message` read (CLOCK_REALTIME, s), or now without one.
+double receive_time(msghdr& message) {
+  for (cmsghdr* c = CMSG_FIRSTHDR(&message); c != nullptr; c = CMSG_NXTHDR(&message, c))
+    if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMPNS) {
+      timespec t;
+      std::memcpy(&t, CMSG_DATA(c), sizeof t);
+      return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+    }
+  return realtime_now();
+}
 
 /// Tool k presses the cylinder's side at x = 120 mm from its own direction
 /// (k × 360° / clients), moving as kRadiusMm says, a pose every millisecond.
@@ -270,6 +308,9 @@ void run_client(int port, int k, int clients, double seconds, ClientResult& resu
   for (std::size_t step = 0; step < poses.size(); ++step)
     poses[step] = organsim::testing::transform_message(
         tool, {120.0, kRadiusMm[step] * out.y(), kRadiusMm[step] * out.z()}, {out.x(), out.y(), out.z()});
+  // The kernel stamps what it receives (the stamp of the last segment a read returns).
+  const int stamp = 1;
+  ::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &stamp, sizeof stamp);
   organsim::igtlink::MessageReader reader;
   Inbox inbox(result, tool + "_force");
   std::vector<std::uint8_t> buffer(1 << 16);
@@ -292,15 +333,23 @@ void run_client(int port, int k, int clients, double seconds, ClientResult& resu
       const timespec timeout{static_cast<time_t>(ns / 1000000000), static_cast<long>(ns % 1000000000)};
       pollfd p{fd, POLLIN, 0};
       if (::ppoll(&p, 1, &timeout, nullptr) <= 0) continue;
-      const ssize_t n = ::recv(fd, buffer.data(), buffer.size(), MSG_DONTWAIT);
+      iovec data{buffer.data(), buffer.size()};
+      alignas(cmsghdr) char control[CMSG_SPACE(sizeof(timespec))];
+      msghdr message{};
+      message.msg_iov = &data;
+      message.msg_iovlen = 1;
+      message.msg_control = control;
+      message.msg_controllen = sizeof control;
+      const ssize_t n = ::recvmsg(fd, &message, MSG_DONTWAIT);
       if (n <= 0) break;  // closed or failed: the send below says so
+      inbox.arrived(receive_time(message));
       reader.feed(buffer.data(), static_cast<std::size_t>(n), inbox);
     }
     const std::size_t step = (tick / 100) % poses.size();
     const organsim::testing::Bytes& message = poses[step];
     if (::send(fd, message.data(), message.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(message.size())) break;
     ++result.poses_sent;
-    if (step != previous_step && result.reads) inbox.moved(kMoveInto[step], Clock::now());
+    if (step != previous_step && result.reads) inbox.moved(kMoveInto[step], realtime_now());
     previous_step = step;
   }
   ::close(fd);
@@ -456,7 +505,7 @@ int main(int argc, char** argv) {
     nlohmann::json phases_json = nlohmann::json::array();
     for (const Phase& phase : phases) {
       nlohmann::json clients = nlohmann::json::array();
-      std::vector<double> in_contact, onset, release;
+      std::vector<double> in_contact, onset, release, deepen_quarter, deepen_force;
       for (std::size_t k = 0; k < phase.clients.size(); ++k) {
         const ClientResult& c = phase.clients[k];
         clients.push_back({{"tool", k + 1},
@@ -471,6 +520,8 @@ int main(int argc, char** argv) {
         in_contact.insert(in_contact.end(), c.in_contact_latency_s.begin(), c.in_contact_latency_s.end());
         onset.insert(onset.end(), c.onset_latency_s.begin(), c.onset_latency_s.end());
         release.insert(release.end(), c.release_latency_s.begin(), c.release_latency_s.end());
+        deepen_quarter.insert(deepen_quarter.end(), c.deepen_quarter_s.begin(), c.deepen_quarter_s.end());
+        deepen_force.insert(deepen_force.end(), c.deepen_force_before_n.begin(), c.deepen_force_before_n.end());
         // Forces at the force rate, frames at 60 Hz: a client served far less is not served.
         // At least four times the frame rate's forces (or a quarter of a slower force rate):
         // a loaded 2-core machine delivers fewer than asked, a broken server far fewer.
@@ -485,6 +536,9 @@ int main(int argc, char** argv) {
                              {"in_contact_latency", milliseconds(percentiles(in_contact))},
                              {"onset_latency", milliseconds(percentiles(onset))},
                              {"release_latency", milliseconds(percentiles(release))},
+                             {"deepen_quarter_latency", milliseconds(percentiles(deepen_quarter))},
+                             {"deepen_force_before_n", {{"p50", percentiles(deepen_force).p50},
+                                                        {"p99", percentiles(deepen_force).p99}}},
                              {"server_cpu_share", {{"first_fifth", f.cpu_first}, {"last_fifth", f.cpu_last}}},
                              {"server_resident_mb", {{"first_fifth", f.resident_first_mb}, {"end", f.resident_last_mb}}},
                              {"clients_cpu_share", phase.clients_cpu_share},
@@ -529,12 +583,16 @@ int main(int argc, char** argv) {
       };
       std::cout << fmt::format(
           "{} ({} clients, {:g} s, forces at {} Hz); server CPU {:.0f} % -> {:.0f} % of a core (clients {:.0f} %), "
-          "memory {:.1f} -> {:.1f} MB\n  pose in -> force out in contact: {}\n  contact onset: {}; release: {}\n",
+          "memory {:.1f} -> {:.1f} MB\n  pose in -> force out in contact: {}\n  contact onset: {}; release: {}\n"
+          "  2 mm deeper -> force 25 % up (with the onset limit's ramp): {}; the force before it p50 {:.3f} N, "
+          "p99 {:.3f} N\n",
           p["phase"].get<std::string>(), o.clients, o.seconds, o.force_rate,
           100 * p["server_cpu_share"]["first_fifth"].get<double>(), 100 * p["server_cpu_share"]["last_fifth"].get<double>(),
           100 * p["clients_cpu_share"].get<double>(),
           p["server_resident_mb"]["first_fifth"].get<double>(), p["server_resident_mb"]["end"].get<double>(),
-          latency("in_contact_latency"), latency("onset_latency"), latency("release_latency"));
+          latency("in_contact_latency"), latency("onset_latency"), latency("release_latency"),
+          latency("deepen_quarter_latency"), p["deepen_force_before_n"]["p50"].get<double>(),
+          p["deepen_force_before_n"]["p99"].get<double>());
       for (const auto& c : p["clients"])
         std::cout << fmt::format("  client {}{}: {} poses sent, {} surfaces and {} own forces received\n",
                                  c["tool"].get<int>(), c["reads"].get<bool>() ? "" : " (never reads)",

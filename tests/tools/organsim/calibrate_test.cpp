@@ -180,6 +180,45 @@ TEST_F(Cli, EvaluateMeasuresTheFastModelsOnPressesNoFitSaw) {
   EXPECT_NE(table.out.find("spread        2 mm: "), std::string::npos) << table.out;
 }
 
+// Issue 40's CI bound: on the phantom baked from its CT as a user would (site
+// compliances at the default 8 mm tetrahedra), the matched fast models give
+// the PSH reference's force on presses no fit saw (straight and tilted, 2 and
+// 5 mm, sites picked by the seed) within a factor of 1.2, each press within
+// 1.35 and its direction within 15°; their own contact forces, without the
+// site law (--unmatched), are several times off on the same presses. When
+// written: beam 1.107, springs 1.149 (worst press 0.80); unmatched far more.
+TEST_F(Cli, MatchedFastModelsGiveThePhantomsReferenceForceOnHeldOutPresses) {
+  const fs::path model = dir_ / "phantom.organ";
+  const CommandRun bake = run_organsim("bake " + (fs::path(ORGANSIM_DATA_SAMPLES) / "phantom_ct.nii.gz").string() +
+                                           " --seed -65,5,0 --fixed-point -29.76,16.10,-70.96 --quiet -o " +
+                                           model.string(),
+                                       dir_);
+  ASSERT_EQ(bake.exit_code, 0) << bake.err;
+  const std::string evaluate = "calibrate " + model.string() + " --evaluate --sites 2 --depths 2,5 --reference-cells 0 "
+                               "--json --reference-cache " + (dir_ / "references").string();
+  const CommandRun matched = run_organsim(evaluate, dir_);
+  ASSERT_EQ(matched.exit_code, 0) << matched.err;
+  const nlohmann::json j = nlohmann::json::parse(matched.out);
+  ASSERT_EQ(j["presses"].size(), 8u);  // 2 sites x (straight, tilted) x 2 depths
+  for (const nlohmann::json& p : j["presses"]) {
+    ASSERT_TRUE(p["reference_solved"].get<bool>()) << p.dump();
+    for (const char* fast : {"beam", "springs"}) {
+      const double ratio = p[fast]["force_ratio"].get<double>();
+      EXPECT_LT(std::abs(std::log(ratio)), std::log(1.35)) << fast << ' ' << p.dump();
+      EXPECT_LT(p[fast]["direction_error_deg"].get<double>(), 15.0) << fast << ' ' << p.dump();
+    }
+  }
+  const CommandRun unmatched = run_organsim(evaluate + " --unmatched", dir_);
+  ASSERT_EQ(unmatched.exit_code, 0) << unmatched.err;
+  EXPECT_EQ(unmatched.err.find("with psh"), std::string::npos) << unmatched.err;  // the same reference presses
+  const nlohmann::json u = nlohmann::json::parse(unmatched.out);
+  for (const char* fast : {"beam", "springs"}) {
+    const double factor = j["summary"][fast]["all"]["force_factor"].get<double>();
+    EXPECT_LT(factor, 1.2) << fast;
+    EXPECT_GT(u["summary"][fast]["all"]["force_factor"].get<double>(), 2.0 * factor) << fast;
+  }
+}
+
 // --jobs shares the sites among processes: the same evaluation, byte for
 // byte, whatever their number (three sites among two jobs: one job presses
 // two), re-meshed references and the check on finer cells included; and the
