@@ -1,5 +1,6 @@
 // Force-loop compute per tick with 1, 2, 4 and 8 tools in contact (scripted
-// devices, safety included), on a 100k-vertex organ; and the contact tree's
+// devices, safety included), on a 100k-vertex organ, and with the fast models
+// matched to the FEM reference through the site law; and the contact tree's
 // refit, full vs only above the moved vertices (the paper's partial refit).
 #include <algorithm>
 #include <cmath>
@@ -39,15 +40,15 @@ Trajectory pressing(int k, int count) {
   return t;
 }
 
-void BM_ForceTick(benchmark::State& state) {
-  const int tools = static_cast<int>(state.range(0));
+// Ticks with `tools` tools pressing `organ`'s sphere, each from its own side.
+void tick_pressing_tools(benchmark::State& state, const organ::Organ& organ, const EngineOptions& options, int tools) {
   std::vector<std::unique_ptr<ScriptedDevice>> devices;
   std::vector<HapticDevice*> pointers;
   for (int k = 0; k < tools; ++k) {
     devices.push_back(std::make_unique<ScriptedDevice>(pressing(k, tools), SafetyLimits{}, 1024));
     pointers.push_back(devices.back().get());
   }
-  Engine engine(organ(), pointers, {});
+  Engine engine(organ, pointers, options);
   double time = 0.0;
   for (int tick = 0; tick < 200; ++tick, time += 1e-3) {  // contacts established
     if (tick % 16 == 0) engine.deformation_step(time);
@@ -61,7 +62,35 @@ void BM_ForceTick(benchmark::State& state) {
   for (auto _ : state) engine.force_tick(time);
   state.counters["tools"] = tools;
 }
+
+// The multi-beam model's own force law, the tools' 2.5 mm tips.
+void BM_ForceTick(benchmark::State& state) { tick_pressing_tools(state, organ(), {}, static_cast<int>(state.range(0))); }
 BENCHMARK(BM_ForceTick)->Arg(1)->Arg(2)->Arg(4)->Arg(8)->Unit(benchmark::kMicrosecond);
+
+// The fast models matched to the FEM reference (docs/matching.md): with site
+// compliances the force each tool feels is the site law's for its 2.5 mm tip,
+// evaluated every tick from the touched vertices' compliances and the depth
+// curve. range(0): 0 the multi-beam model, 1 the mass-spring model;
+// range(1): tools. A 10k-vertex sphere: the tick does not depend on the size.
+const organ::Organ& matched_organ() {
+  static const organ::Organ sphere([] {
+    model::OrganModel m = testing::make_sphere_model(10000, 20);
+    testing::add_uniform_site_compliance(m, 0.1);  // m/N: a liver's median site (8.9 N/m)
+    return m;
+  }());
+  return sphere;
+}
+
+void BM_ForceTickSiteLaw(benchmark::State& state) {
+  EngineOptions options;
+  options.model = state.range(0) == 0 ? "beam" : "springs";
+  state.SetLabel(options.model);
+  tick_pressing_tools(state, matched_organ(), options, static_cast<int>(state.range(1)));
+}
+BENCHMARK(BM_ForceTickSiteLaw)
+    ->ArgsProduct({{0, 1}, {1, 8}})
+    ->ArgNames({"model", "tools"})
+    ->Unit(benchmark::kMicrosecond);
 
 // Refit of the contact tree of a sphere with range(0) vertices after a dent:
 // range(1) per mille of the vertices moved (a cap around one contact, as a
