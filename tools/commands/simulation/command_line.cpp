@@ -1,5 +1,6 @@
 #include "command_line.h"
 
+#include <algorithm>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -206,6 +207,25 @@ model::OrganModel load_simulation_model(const std::string& command, const std::s
 
 void warn(const std::string& command, const std::string& message) {
   std::fprintf(stderr, "organsim %s: warning: %s\n", command.c_str(), message.c_str());
+}
+
+void warn_if_depth_curve_rescaled(const std::string& command, const model::OrganModel& model,
+                                  const std::vector<double>& tip_radii_m) {
+  const model::SiteCompliance& sites = model.sites;
+  if (sites.depth_curve.empty()) return;
+  std::vector<double> warned;
+  for (const double radius : tip_radii_m) {
+    if (!(radius > 0.0) || std::abs(radius - sites.curve_tip_radius) <= 1e-9 ||
+        std::find(warned.begin(), warned.end(), radius) != warned.end())
+      continue;
+    warned.push_back(radius);
+    warn(command, fmt::format("the model's depth curve was fitted for a {:g} mm tip, and a tool's is {:g} mm: the "
+                              "curve is read at the same depth relative to the radius, which follows the tip's own "
+                              "contact but not the organ's bending (that depends on the depth alone); for a curve of "
+                              "this tip run organsim calibrate with --tip-radius {:g} "
+                              "(docs/matching.md#the-depth-curve-organsim-calibrate)",
+                              sites.curve_tip_radius * 1e3, radius * 1e3, radius * 1e3));
+  }
 }
 
 void warn_if_frames_overrun(const std::string& command, const realtime::Engine& engine) {

@@ -80,6 +80,12 @@ model::OrganModel load_simulation_model(const std::string& command, const std::s
                                         const std::vector<std::string>& models);
 /// "organsim COMMAND: warning: MESSAGE" on stderr, always.
 void warn(const std::string& command, const std::string& message);
+/// Warns once per radius when the model's depth curve (organsim calibrate) was
+/// fitted for a tip of another radius than one of `tip_radii_m` (m; a point
+/// tool, 0, has no site law): the curve is then read at the same depth
+/// relative to the tip's radius (docs/matching.md#the-depth-curve-organsim-calibrate).
+void warn_if_depth_curve_rescaled(const std::string& command, const model::OrganModel& model,
+                                  const std::vector<double>& tip_radii_m);
 /// Warns, before a session starts, when the engine's deformation model is
 /// estimated from its set-up (DeformationModel::estimated_frame_seconds) to
 /// need more than one deformation period per frame, and says what to do.

@@ -291,6 +291,7 @@ int run_view(const ViewOptions& o) {
     throw std::runtime_error("--screenshot " + o.screenshot_path + ": screenshots are PNG files; name it .png");
   if (o.phantom && !o.session_path.empty()) throw std::runtime_error("--phantom and --session are exclusive; choose one");
   model::OrganModel loaded = load_simulation_model("view", o.model_path, {o.deformation});
+  warn_if_depth_curve_rescaled("view", loaded, {o.tuning.tip_radius_mm * 1e-3});
   const organ::Organ organ(std::move(loaded));
 
   std::vector<std::string> warnings;
