@@ -126,9 +126,11 @@ def test_replay_gives_the_programs_forces(phantom, tmp_path):
 
 
 def test_the_tip_radius_reaches_the_engine_as_the_programs_does(phantom, tmp_path):
-    # The mass-spring model holds every node that enters the tip: a 6 mm tip's
-    # force is not a point's (on this 12 mm mesh a FEM model's tip takes in no
-    # more than a point does); each is the program's --tip-radius, bit for bit.
+    # With the bake's site compliances a tool of finite size gets the FEM
+    # reference's site law for its radius, a point tool the springs' own
+    # reaction: the 6 mm tip's force is not the point's (on this 12 mm mesh a
+    # FEM model's tip holds what a point holds); each is the program's
+    # --tip-radius, bit for bit.
     path = phantom[0]
     model = organsim.load(path)
     session = press_session(model, tmp_path)
