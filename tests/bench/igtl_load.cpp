@@ -5,9 +5,10 @@
 //
 // Each client's tool goes into the organ, 2 mm deeper, back, and out, 100 ms
 // per step. Latency is pose in → force out: from the send of the first pose of
-// a step to the arrival of the first force of that tool that shows it (in
-// contact: 25 % up or down; at the contact's start and end: the first non-zero
-// and the first zero force). The
+// a step to the kernel's receive stamp of the first force of that tool that
+// shows it (in contact: up by 20 mN or 25 %, whichever is less, or down by
+// 20 %; at the contact's start and end: the first non-zero and the first zero
+// force). The
 // server's process is sampled every 0.5 s: CPU, resident memory, open file
 // descriptors. Exit status 1 when a check fails: a reading client served no
 // surface or too few forces, a file descriptor or more than --memory-growth-mb
@@ -204,12 +205,13 @@ struct ClientResult {
   std::uint64_t poses_sent = 0, surfaces = 0, own_forces = 0, messages = 0, dropped = 0;
   /// s from the first pose of a move to the first force that shows it: in
   /// contact (deeper or shallower by 2 mm: the first force that responds, up by
-  /// kResponseRise or 25 %, down by 20 %) and at the contact's start and end
+  /// kResponseRise or 25 %, whichever is less, down by 20 %) and at the contact's start and end
   /// (the first non-zero force, the first zero one).
   std::vector<double> in_contact_latency_s, onset_latency_s, release_latency_s;
   /// s from the first pose of a 2 mm deeper move to the force 25 % up: the
   /// latency plus the onset rate limit's ramp; and the force before that move, N.
   std::vector<double> deepen_quarter_s, deepen_force_before_n;
+  bool receive_stamps = true;  ///< the kernel stamped what it received (SO_TIMESTAMPNS)
 };
 
 /// Counts what the server sends and times the client's own tool's force.
@@ -222,6 +224,10 @@ class Inbox final : public organsim::igtlink::MessageReader::Handler {
     ++result_.own_forces;
     const auto& m = message.matrix;
     last_force_ = std::sqrt(double{m[9]} * m[9] + double{m[10]} * m[10] + double{m[11]} * m[11]);
+    // Received before the move's pose was sent (still queued when it was): it
+    // cannot show the move. A read returns one stamp, its newest segment's, so
+    // a force read together with later ones may still pass as later.
+    if (arrived_at_ < moved_at_) return;
     if (waiting_quarter_ && last_force_ > 1.25 * force_before_) {
       result_.deepen_quarter_s.push_back(arrived_at_ - moved_at_);
       waiting_quarter_ = false;
@@ -310,7 +316,7 @@ void run_client(int port, int k, int clients, double seconds, ClientResult& resu
         tool, {120.0, kRadiusMm[step] * out.y(), kRadiusMm[step] * out.z()}, {out.x(), out.y(), out.z()});
   // The kernel stamps what it receives (the stamp of the last segment a read returns).
   const int stamp = 1;
-  ::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &stamp, sizeof stamp);
+  result.receive_stamps = ::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &stamp, sizeof stamp) == 0;
   organsim::igtlink::MessageReader reader;
   Inbox inbox(result, tool + "_force");
   std::vector<std::uint8_t> buffer(1 << 16);
@@ -347,9 +353,10 @@ void run_client(int port, int k, int clients, double seconds, ClientResult& resu
     }
     const std::size_t step = (tick / 100) % poses.size();
     const organsim::testing::Bytes& message = poses[step];
+    const double sent_at = realtime_now();  // before the send: the answer may be stamped before send() returns
     if (::send(fd, message.data(), message.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(message.size())) break;
     ++result.poses_sent;
-    if (step != previous_step && result.reads) inbox.moved(kMoveInto[step], realtime_now());
+    if (step != previous_step && result.reads) inbox.moved(kMoveInto[step], sent_at);
     previous_step = step;
   }
   ::close(fd);
@@ -528,17 +535,19 @@ int main(int argc, char** argv) {
         if (c.surfaces == 0 || static_cast<double>(c.own_forces) < std::min(0.25 * o.force_rate, 240.0) * o.seconds)
           failures.push_back(fmt::format("{}: client {} got {} surfaces and {} forces in {:g} s", phase.name, k + 1,
                                          c.surfaces, c.own_forces, o.seconds));
+        if (!c.receive_stamps)
+          failures.push_back(fmt::format("{}: client {} got no kernel receive stamps (SO_TIMESTAMPNS)", phase.name, k + 1));
         if (c.in_contact_latency_s.empty())
           failures.push_back(fmt::format("{}: client {} never saw its press's force change", phase.name, k + 1));
       }
       const Flatness f = flatness(phase.samples);
+      const Percentiles force_before = percentiles(deepen_force);
       phases_json.push_back({{"phase", phase.name},
                              {"in_contact_latency", milliseconds(percentiles(in_contact))},
                              {"onset_latency", milliseconds(percentiles(onset))},
                              {"release_latency", milliseconds(percentiles(release))},
                              {"deepen_quarter_latency", milliseconds(percentiles(deepen_quarter))},
-                             {"deepen_force_before_n", {{"p50", percentiles(deepen_force).p50},
-                                                        {"p99", percentiles(deepen_force).p99}}},
+                             {"deepen_force_before_n", {{"p50", force_before.p50}, {"p99", force_before.p99}}},
                              {"server_cpu_share", {{"first_fifth", f.cpu_first}, {"last_fifth", f.cpu_last}}},
                              {"server_resident_mb", {{"first_fifth", f.resident_first_mb}, {"end", f.resident_last_mb}}},
                              {"clients_cpu_share", phase.clients_cpu_share},

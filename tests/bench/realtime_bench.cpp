@@ -75,7 +75,7 @@ BENCHMARK(BM_ForceTick)->Arg(1)->Arg(2)->Arg(4)->Arg(8)->Unit(benchmark::kMicros
 const organ::Organ& matched_organ() {
   static const organ::Organ sphere([] {
     model::OrganModel m = testing::make_sphere_model(10000, 20);
-    testing::add_uniform_site_compliance(m, 0.1);  // m/N: a liver's median site (8.9 N/m)
+    testing::add_uniform_site_compliance(m, 0.1);  // m/N: 10 N/m, about a liver's median site (8.9 N/m)
     return m;
   }());
   return sphere;

@@ -539,7 +539,7 @@ int run_evaluation(const EvaluationOptions& o) {
     if (!(d > 0.0 && std::isfinite(d))) throw CLI::ValidationError("--depths", "each depth must be a positive number of mm");
   if (o.jobs < 0) throw CLI::ValidationError("--jobs", "must be 0 (one per CPU) or more");
   const model::OrganModel model = load_simulation_model("calibrate", o.model_path, {o.reference, "beam", "springs"});
-  warn_if_depth_curve_rescaled("calibrate", model, {o.press.tuning.tip_radius_mm * 1e-3});
+  warn_if_depth_curve_rescaled("calibrate", model, {"beam", "springs"}, o.press.tuning);
   const organ::Organ organ(model);
   const double radius_mm = o.press.tuning.tip_radius_mm;
   // A mass-spring press held longer for a softened network (calibrate's rule).

@@ -11,6 +11,8 @@
 
 #include <fmt/format.h>
 
+#include "model_tuning.h"
+#include "organsim/devices/session_file.h"
 #include "organsim/model/model_file.h"
 #include "organsim/realtime/engine.h"
 #include "organsim/realtime/model_registry.h"
@@ -210,11 +212,20 @@ void warn(const std::string& command, const std::string& message) {
 }
 
 void warn_if_depth_curve_rescaled(const std::string& command, const model::OrganModel& model,
-                                  const std::vector<double>& tip_radii_m) {
+                                  const std::vector<std::string>& models, const ModelTuning& tuning,
+                                  const devices::Session* session) {
   const model::SiteCompliance& sites = model.sites;
-  if (sites.depth_curve.empty()) return;
+  const bool matched = std::any_of(models.begin(), models.end(),
+                                   [](const std::string& m) { return m == "beam" || m == "springs"; });
+  if (sites.depth_curve.empty() || !matched || tuning.unmatched) return;
+  std::vector<double> radii;  // m
+  if (session)
+    for (const devices::Trajectory& tool : session->tools)
+      radii.push_back(tool.tip_radius >= 0.0 ? tool.tip_radius : tuning.tip_radius_mm * 1e-3);
+  else
+    radii.push_back(tuning.tip_radius_mm * 1e-3);
   std::vector<double> warned;
-  for (const double radius : tip_radii_m) {
+  for (const double radius : radii) {
     if (!(radius > 0.0) || std::abs(radius - sites.curve_tip_radius) <= 1e-9 ||
         std::find(warned.begin(), warned.end(), radius) != warned.end())
       continue;

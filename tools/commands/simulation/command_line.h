@@ -16,6 +16,10 @@
 #include "commands.h"
 #include "organsim/model/organ_model.h"
 
+namespace organsim::devices {
+struct Session;
+}
+
 namespace organsim::realtime {
 class Engine;
 }
@@ -80,12 +84,17 @@ model::OrganModel load_simulation_model(const std::string& command, const std::s
                                         const std::vector<std::string>& models);
 /// "organsim COMMAND: warning: MESSAGE" on stderr, always.
 void warn(const std::string& command, const std::string& message);
+struct ModelTuning;
 /// Warns once per radius when the model's depth curve (organsim calibrate) was
-/// fitted for a tip of another radius than one of `tip_radii_m` (m; a point
-/// tool, 0, has no site law): the curve is then read at the same depth
-/// relative to the tip's radius (docs/matching.md#the-depth-curve-organsim-calibrate).
+/// fitted for a tip of another radius than a tool's: the curve is then read at
+/// the same depth relative to the tip's radius
+/// (docs/matching.md#the-depth-curve-organsim-calibrate). Only the fast models
+/// matched to the reference read it (`models` holds beam or springs, without
+/// --unmatched), and a point tool has no site law. The tools' radii: each
+/// `session` tool's own tip line, else --tip-radius.
 void warn_if_depth_curve_rescaled(const std::string& command, const model::OrganModel& model,
-                                  const std::vector<double>& tip_radii_m);
+                                  const std::vector<std::string>& models, const ModelTuning& tuning,
+                                  const devices::Session* session = nullptr);
 /// Warns, before a session starts, when the engine's deformation model is
 /// estimated from its set-up (DeformationModel::estimated_frame_seconds) to
 /// need more than one deformation period per frame, and says what to do.

@@ -134,7 +134,6 @@ int run_compare(CompareOptions o) {
   // Without --models: every model the file can run (one baked with
   // --no-beam-tables runs all but the multi-beam model).
   model::OrganModel loaded = load_simulation_model("compare", o.model_path, o.models_given ? models : std::vector{o.reference});
-  warn_if_depth_curve_rescaled("compare", loaded, {o.press.tuning.tip_radius_mm * 1e-3});
   if (!o.models_given)
     models.erase(std::remove_if(models.begin(), models.end(),
                                 [&](const std::string& m) {
@@ -143,6 +142,7 @@ int run_compare(CompareOptions o) {
                                   return !why.empty();
                                 }),
                  models.end());
+  warn_if_depth_curve_rescaled("compare", loaded, models, o.press.tuning);
   const std::vector<model::Triangle> file_triangles = loaded.surface_triangles;
   const organ::Organ organ(std::move(loaded));
   o.press.command = "compare";

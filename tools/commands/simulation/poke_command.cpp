@@ -74,7 +74,7 @@ int run_poke(const PokeOptions& o) {
   std::vector<std::string> models{o.deformation};
   if (!o.compare.empty()) models.push_back(o.compare);
   model::OrganModel loaded = load_simulation_model("poke", o.model_path, models);
-  warn_if_depth_curve_rescaled("poke", loaded, {o.press.tuning.tip_radius_mm * 1e-3});
+  warn_if_depth_curve_rescaled("poke", loaded, models, o.press.tuning);
   const std::vector<model::Triangle> file_triangles = loaded.surface_triangles;
   const organ::Organ organ(std::move(loaded));
   const bool beam = o.deformation == "beam";

@@ -435,12 +435,9 @@ int run_replay(const ReplayOptions& o) {
     throw CLI::ValidationError("--repeat-for", "longer than a day; pass --long-session to run it on purpose");
   model::OrganModel loaded = load_simulation_model("replay", o.model_path, o.models);
   const Session session = read_session(o.session_path, session_limits(loaded, o.long_session));
-  std::vector<double> tip_radii;
-  for (const devices::Trajectory& tool : session.tools)
-    tip_radii.push_back(tool.tip_radius >= 0.0 ? tool.tip_radius : o.tuning.tip_radius_mm * 1e-3);
-  warn_if_depth_curve_rescaled("replay", loaded, tip_radii);
   if (o.repeat_for > 0.0 && !(session.duration > 0.0))
     throw CLI::ValidationError("--repeat-for", "the session lasts 0 s; it needs samples at two times to repeat");
+  warn_if_depth_curve_rescaled("replay", loaded, o.models, o.tuning, &session);
   const std::vector<model::Triangle> file_triangles = loaded.surface_triangles;
   const organ::Organ organ(std::move(loaded));
 

@@ -70,7 +70,7 @@ nlohmann::json milliseconds(const realtime::Percentiles& p) {
 
 int run_serve(const ServeOptions& o) {
   model::OrganModel loaded = load_simulation_model("serve", o.model_path, {o.deformation});
-  warn_if_depth_curve_rescaled("serve", loaded, {o.tuning.tip_radius_mm * 1e-3});
+  warn_if_depth_curve_rescaled("serve", loaded, {o.deformation}, o.tuning);
   std::vector<model::Triangle> file_triangles = loaded.surface_triangles;
   const organ::Organ organ(std::move(loaded));
 

@@ -51,7 +51,7 @@ void report_device_faults(const std::vector<std::unique_ptr<devices::OpenHaptics
 
 int run_touch(const TouchOptions& o) {
   model::OrganModel loaded = load_simulation_model("touch", o.model_path, {o.deformation});
-  warn_if_depth_curve_rescaled("touch", loaded, {o.tuning.tip_radius_mm * 1e-3});
+  warn_if_depth_curve_rescaled("touch", loaded, {o.deformation}, o.tuning);
   const organ::Organ organ(std::move(loaded));
   const devices::HapticRig rig = devices::open_haptic_rig(o.rig, organ.model());
   const auto& owned = rig.devices;

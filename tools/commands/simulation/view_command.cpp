@@ -291,7 +291,6 @@ int run_view(const ViewOptions& o) {
     throw std::runtime_error("--screenshot " + o.screenshot_path + ": screenshots are PNG files; name it .png");
   if (o.phantom && !o.session_path.empty()) throw std::runtime_error("--phantom and --session are exclusive; choose one");
   model::OrganModel loaded = load_simulation_model("view", o.model_path, {o.deformation});
-  warn_if_depth_curve_rescaled("view", loaded, {o.tuning.tip_radius_mm * 1e-3});
   const organ::Organ organ(std::move(loaded));
 
   std::vector<std::string> warnings;
@@ -311,6 +310,8 @@ int run_view(const ViewOptions& o) {
 
   Session session;
   if (!o.session_path.empty()) session = read_session(o.session_path, session_limits(organ.model(), o.long_session));
+  warn_if_depth_curve_rescaled("view", organ.model(), {o.deformation}, o.tuning,
+                               o.session_path.empty() ? nullptr : &session);
   HapticRig rig;
   if (o.phantom) rig = open_haptic_rig(o.rig, organ.model());
   const std::size_t tool_count =
