@@ -3,7 +3,7 @@
 // and reading everything the server sends, for --seconds; then the same with
 // one client that never reads; then --cycles connections opened and closed.
 //
-// Each client's tool goes into the organ, 2 mm deeper, back, and out, 100 ms
+// Each client's tool goes into the organ, 2 mm deeper, back, and out, 103 ms
 // per step. Latency is pose in → force out: from the send of the first pose of
 // a step to the kernel's receive stamp of the first force of that tool that
 // shows it (in contact: up by 20 mN or 25 %, whichever is less, or down by
@@ -192,9 +192,13 @@ int connect_to(int port) {
 /// the ramp another 6 ticks.
 constexpr double kResponseRise = 0.020;  // N
 
-/// What a client's tool does, in 100 ms steps (a 400 ms cycle): out of the
+/// What a client's tool does, in steps of kStepMs (a 4-step cycle): out of the
 /// organ, 3 mm in, 5 mm in, 3 mm in.
 enum class Move { onset, deepen, lift, release };
+/// ms per step: not a whole number of 60 Hz deformation frames, so that the
+/// steps meet every phase of the frames. With 100 ms (6 frames) each run met
+/// one phase only, and the latency's tail came and went from run to run.
+constexpr std::uint64_t kStepMs = 103;
 constexpr std::array<double, 4> kRadiusMm = {40.0, 27.0, 25.0, 27.0};  // the cylinder's radius is 30 mm
 constexpr std::array<Move, 4> kMoveInto = {Move::release, Move::onset, Move::deepen, Move::lift};
 
@@ -351,7 +355,7 @@ void run_client(int port, int k, int clients, double seconds, ClientResult& resu
       inbox.arrived(receive_time(message));
       reader.feed(buffer.data(), static_cast<std::size_t>(n), inbox);
     }
-    const std::size_t step = (tick / 100) % poses.size();
+    const std::size_t step = (tick / kStepMs) % poses.size();
     const organsim::testing::Bytes& message = poses[step];
     const double sent_at = realtime_now();  // before the send: the answer may be stamped before send() returns
     if (::send(fd, message.data(), message.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(message.size())) break;
