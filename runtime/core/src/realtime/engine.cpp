@@ -72,7 +72,6 @@ Engine::Engine(const organ::Organ& organ, const std::vector<devices::HapticDevic
   for (auto& d : displacement_) d.setZero();
   for (auto& s : slip_) s.setZero();
   for (auto& f : blend_offset_) f.setZero();
-  for (auto& f : model_force_) f.setZero();
   blend_frame_.fill(-1.0);
   fault_start_.fill(-1.0);
   if (options.tick_records > 0)
@@ -145,10 +144,21 @@ void Engine::force_tick(double now) noexcept {
           slip_[i] -= slip_step(contact.stiffness, contact.normal, options_.friction, force);
           // A fresh linearization takes over from the last one over one
           // deformation period: the step between them (a dynamic model's
-          // motion, points taken in or let go of) is felt as a ramp.
+          // motion, points taken in or let go of) is felt as a ramp. At the
+          // switch the hand feels what the last one gives at this tick's
+          // displacement, so the tool's own move since the last tick is felt
+          // at once, as on any other tick (a pose that arrives with a frame).
           if (blend_frame_[i] != contacts.time) {
-            blend_offset_[i] = blend_generation_[i] == contact.generation ? Eigen::Vector3d(model_force_[i] - force)
-                                                                            : Eigen::Vector3d::Zero();
+            Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+            if (blend_generation_[i] == contact.generation) {
+              const HeldLinearization& held = held_[i];
+              Eigen::Vector3d last = held.force - held.stiffness * (displacement - held.reference);
+              slip_step(held.stiffness, contact.normal, options_.friction, last);
+              const double left = std::clamp(1.0 - (now - blend_start_[i]) / options_.deformation_period, 0.0, 1.0);
+              offset = last + left * blend_offset_[i] - force;
+            }
+            blend_offset_[i] = offset;
+            held_[i] = {contact.force, contact.stiffness, contact.reference};
             blend_frame_[i] = contacts.time;
             blend_start_[i] = now;
             blend_generation_[i] = contact.generation;
@@ -159,7 +169,6 @@ void Engine::force_tick(double now) noexcept {
           // displacement, a stiffness coupling the directions, the blend)
           // the cone clips.
           clip_to_cone(contact.normal, options_.friction, force);
-          model_force_[i] = force;
           touching = true;
           depth = std::max(0.0, -displacement.dot(contact.normal));
         }

@@ -265,6 +265,45 @@ TEST_F(CylinderEngine, AFiniteTipEntersSlidesAndLeavesWithoutAForceJump) {
   for (const char* name : {"beam", "springs"}) enter_slide_and_leave(matched, *find_model(name), std::string(name) + "_matched");
 }
 
+// A tool pressed 3 mm into the cylinder's side steps 0.2 mm deeper between two
+// ticks: the force rises by the contact's stiffness times the step in the
+// tick the step arrives, whether or not a fresh deformation frame arrives in
+// that tick too (as every step of a tracker or a network client at 60 Hz may).
+// The blend that ramps one frame's linearization into the next must not ramp
+// the tool's own move: before, a step that met a frame took 1/60 s to be felt.
+TEST_F(CylinderEngine, AStepThatArrivesWithAFreshFrameIsFeltAtOnce) {
+  // N along +y (outward): the force's change from the tick before `step_time` to that tick.
+  const auto rise_at = [&](const std::string& model, double step_time) {
+    ScriptedDevice device(path({{0.0, {0.08, 0.045, 0.0}},
+                                {0.3, {0.08, 0.027, 0.0}},
+                                {step_time - 4e-4, {0.08, 0.027, 0.0}},
+                                {step_time - 1e-4, {0.08, 0.0268, 0.0}}}),
+                          {}, 2000);
+    EngineOptions options;
+    options.model = model;
+    options.fem.fixed_radius = 0.031;  // the clamped cap
+    Engine engine(organ, {&device}, options);
+    run_fast(engine, step_time + 0.05);
+    Eigen::Vector3d before = Eigen::Vector3d::Constant(NAN), after = Eigen::Vector3d::Constant(NAN);
+    for (std::size_t r = 0; r < device.record_count(); ++r) {
+      const ForceRecord& f = device.record(r);
+      if (std::abs(f.time - (step_time - 1e-3)) < 1e-7) before = f.force;
+      if (std::abs(f.time - step_time) < 1e-7) after = f.force;
+    }
+    return after.y() - before.y();
+  };
+  const double device_onset_limit = SafetyLimits{}.onset_rate * 1e-3;  // N per 1 ms tick
+  for (const char* model : {"beam", "springs", "linear"}) {
+    // Frames come at multiples of 1/60 s: 0.5 s is the 30th; 0.508 s lies between two.
+    const double between_frames = rise_at(model, 0.508), with_a_frame = rise_at(model, 0.5);
+    ::testing::Test::RecordProperty(std::string(model) + "_rise_mN", std::to_string(1e3 * with_a_frame) + " with a frame, " +
+                                                              std::to_string(1e3 * between_frames) + " between");
+    EXPECT_GT(between_frames, 1e-3) << model << ": the step is felt (N)";
+    EXPECT_LT(between_frames, 0.9 * device_onset_limit) << model << ": below the onset limit's 40 mN a tick";
+    EXPECT_NEAR(with_a_frame, between_frames, 0.1 * between_frames) << model;
+  }
+}
+
 TEST_F(CylinderEngine, AShaftPressingSidewaysMakesContactAlongTheShaft) {
   // The tip stays below the organ (never inside it); the vertical shaft sweeps
   // into its side (y from +40 mm to +25 mm at x = 100 mm). The contact is where

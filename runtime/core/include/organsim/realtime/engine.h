@@ -202,9 +202,15 @@ class Engine final : public devices::ForceLoop {
   std::array<Eigen::Vector3d, kMaxTools> fault_force_{};  // N, the force sent just before
   std::array<Eigen::Vector3d, kMaxTools> last_valid_tip_{};  // m, the tip where the pose was last valid
   std::array<Eigen::Vector3d, kMaxTools> slip_{};         // m, of the current contact
-  // Blending a fresh linearization in: the force it replaced at the switch
-  // (less its own there), when, and for which frame and contact.
-  std::array<Eigen::Vector3d, kMaxTools> blend_offset_{}, model_force_{};
+  // Blending a fresh linearization in: the one it replaces, the force that
+  // one gave at the switch less the fresh one's, when, and for which frame and contact.
+  struct HeldLinearization {
+    Eigen::Vector3d force = Eigen::Vector3d::Zero();      // F₀, N
+    Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();  // K, N/m
+    Eigen::Vector3d reference = Eigen::Vector3d::Zero();  // d₀, m
+  };
+  std::array<HeldLinearization, kMaxTools> held_{};
+  std::array<Eigen::Vector3d, kMaxTools> blend_offset_{};
   std::array<double, kMaxTools> blend_start_{}, blend_frame_{};
   std::array<std::uint32_t, kMaxTools> blend_generation_{};
   double previous_tick_ = -1.0;
