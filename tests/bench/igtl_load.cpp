@@ -4,18 +4,21 @@
 // one client that never reads; then --cycles connections opened and closed.
 //
 // Each client's tool goes into the organ, 2 mm deeper, back, and out, 103 ms
-// per step. Latency is pose in → force out: from the send of the first pose of
-// a step to the kernel's receive stamp of the first force of that tool that
-// shows it (in contact: up by 20 mN or 25 %, whichever is less, or down by
-// 20 %; at the contact's start and end: the first non-zero and the first zero
-// force). The
-// server's process is sampled every 0.5 s: CPU, resident memory, open file
-// descriptors. Exit status 1 when a check fails: a reading client served no
-// surface or too few forces, a file descriptor or more than --memory-growth-mb
-// of memory kept after the clients left, or the server not ending cleanly. The
+// per step. Latency is pose in → force out: from the kernel's transmit stamp
+// of the first pose of a step to the kernel's receive stamp of the first force
+// of that tool that shows it (in contact: up by 20 mN or 25 %, whichever is
+// less, or down by 20 %; at the contact's start and end: the first non-zero
+// and the first zero force), each message read on its own. The server's
+// process is sampled every 0.5 s: CPU, resident memory, open file descriptors.
+// Exit status 1 when a check fails: a reading client served no surface or too
+// few forces, a file descriptor or more than --memory-growth-mb of memory kept
+// after the clients left, the server not ending cleanly, or more than 1 % of a
+// client's moves without a kernel transmit stamp. The
 // latency goal (p99 ≤ 2 ms at --force-rate 1000) is printed, not checked: it
 // depends on the machine (its own floor is printed beside it).
 #include <arpa/inet.h>
+#include <linux/errqueue.h>
+#include <linux/net_tstamp.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <poll.h>
@@ -215,7 +218,8 @@ struct ClientResult {
   /// s from the first pose of a 2 mm deeper move to the force 25 % up: the
   /// latency plus the onset rate limit's ramp; and the force before that move, N.
   std::vector<double> deepen_quarter_s, deepen_force_before_n;
-  bool receive_stamps = true;  ///< the kernel stamped what it received (SO_TIMESTAMPNS)
+  bool kernel_stamps = true;  ///< the kernel stamps what it receives (SO_TIMESTAMPNS) and sends (SO_TIMESTAMPING)
+  std::uint64_t moves = 0, moves_without_transmit_stamp = 0;
 };
 
 /// Counts what the server sends and times the client's own tool's force.
@@ -229,8 +233,7 @@ class Inbox final : public organsim::igtlink::MessageReader::Handler {
     const auto& m = message.matrix;
     last_force_ = std::sqrt(double{m[9]} * m[9] + double{m[10]} * m[10] + double{m[11]} * m[11]);
     // Received before the move's pose was sent (still queued when it was): it
-    // cannot show the move. A read returns one stamp, its newest segment's, so
-    // a force read together with later ones may still pass as later.
+    // cannot show the move.
     if (arrived_at_ < moved_at_) return;
     if (waiting_quarter_ && last_force_ > 1.25 * force_before_) {
       result_.deepen_quarter_s.push_back(arrived_at_ - moved_at_);
@@ -305,6 +308,83 @@ double receive_time(msghdr& message) {
   return realtime_now();
 }
 
+/// Sends `message`; with `stamped`, the kernel records when it handed the
+/// segment to the (loopback) device, for this send only (transmit_time reads it).
+bool send_message(int fd, const organsim::testing::Bytes& message, bool stamped) {
+  iovec data{const_cast<std::uint8_t*>(message.data()), message.size()};
+  alignas(cmsghdr) char control[CMSG_SPACE(sizeof(std::uint32_t))] = {};
+  msghdr header{};
+  header.msg_iov = &data;
+  header.msg_iovlen = 1;
+  if (stamped) {
+    header.msg_control = control;
+    header.msg_controllen = sizeof control;
+    cmsghdr* c = CMSG_FIRSTHDR(&header);
+    c->cmsg_level = SOL_SOCKET;
+    c->cmsg_type = SO_TIMESTAMPING;
+    c->cmsg_len = CMSG_LEN(sizeof(std::uint32_t));
+    const std::uint32_t flags = SOF_TIMESTAMPING_TX_SOFTWARE;
+    std::memcpy(CMSG_DATA(c), &flags, sizeof flags);
+  }
+  return ::sendmsg(fd, &header, MSG_NOSIGNAL) == static_cast<ssize_t>(message.size());
+}
+
+/// The kernel's transmit stamp of a stamped send (CLOCK_REALTIME, s), taken
+/// from the socket's error queue; negative when none is queued.
+double transmit_time(int fd) {
+  alignas(cmsghdr) char control[512];
+  char byte = 0;
+  iovec data{&byte, 1};
+  msghdr message{};
+  message.msg_iov = &data;
+  message.msg_iovlen = 1;
+  message.msg_control = control;
+  message.msg_controllen = sizeof control;
+  if (::recvmsg(fd, &message, MSG_ERRQUEUE | MSG_DONTWAIT) < 0) return -1.0;
+  for (cmsghdr* c = CMSG_FIRSTHDR(&message); c != nullptr; c = CMSG_NXTHDR(&message, c))
+    if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMPING) {
+      scm_timestamping stamps;
+      std::memcpy(&stamps, CMSG_DATA(c), sizeof stamps);
+      return static_cast<double>(stamps.ts[0].tv_sec) + 1e-9 * static_cast<double>(stamps.ts[0].tv_nsec);
+    }
+  return -1.0;
+}
+
+/// Where the message being received ends: a read that stops there gets the
+/// kernel stamp of the segment that brought that message, not of a later one
+/// queued behind it (a read returns the stamp of the newest segment it took,
+/// and a client the scheduler held back for a tick finds two ticks' forces).
+class MessageBoundaries {
+ public:
+  /// Bytes the next read may take, at most `buffer`.
+  std::size_t next_read(std::size_t buffer) const { return static_cast<std::size_t>(std::min<std::uint64_t>(buffer, left_)); }
+  void consumed(const std::uint8_t* data, std::size_t size) {
+    while (size > 0) {
+      const auto take = static_cast<std::size_t>(std::min<std::uint64_t>(size, left_));
+      if (in_header_) std::memcpy(header_.data() + (kHeaderSize - left_), data, take);
+      data += take;
+      size -= take;
+      left_ -= take;
+      if (left_ > 0) continue;
+      if (in_header_) {
+        std::uint64_t body = 0;  // big-endian, at byte 42 of the header
+        for (std::size_t b = 42; b < 50; ++b) body = (body << 8) | header_[b];
+        in_header_ = body == 0;
+        left_ = body == 0 ? kHeaderSize : body;
+      } else {
+        in_header_ = true;
+        left_ = kHeaderSize;
+      }
+    }
+  }
+
+ private:
+  static constexpr std::size_t kHeaderSize = 58;
+  std::array<std::uint8_t, kHeaderSize> header_{};
+  bool in_header_ = true;
+  std::uint64_t left_ = kHeaderSize;
+};
+
 /// Tool k presses the cylinder's side at x = 120 mm from its own direction
 /// (k × 360° / clients), moving as kRadiusMm says, a pose every millisecond.
 void run_client(int port, int k, int clients, double seconds, ClientResult& result) {
@@ -318,10 +398,16 @@ void run_client(int port, int k, int clients, double seconds, ClientResult& resu
   for (std::size_t step = 0; step < poses.size(); ++step)
     poses[step] = organsim::testing::transform_message(
         tool, {120.0, kRadiusMm[step] * out.y(), kRadiusMm[step] * out.z()}, {out.x(), out.y(), out.z()});
-  // The kernel stamps what it receives (the stamp of the last segment a read returns).
+  // The kernel stamps what it receives (the stamp of the last segment a read
+  // returns) and, asked per send, what it sends: the latency is the network's
+  // and the server's, not this thread's, which shares the CPUs with the
+  // server's real-time loops and may be held between its clock and its send.
   const int stamp = 1;
-  result.receive_stamps = ::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &stamp, sizeof stamp) == 0;
+  const std::uint32_t report = SOF_TIMESTAMPING_SOFTWARE | SOF_TIMESTAMPING_OPT_TSONLY;
+  result.kernel_stamps = ::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &stamp, sizeof stamp) == 0 &&
+                         ::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPING, &report, sizeof report) == 0;
   organsim::igtlink::MessageReader reader;
+  MessageBoundaries boundaries;
   Inbox inbox(result, tool + "_force");
   std::vector<std::uint8_t> buffer(1 << 16);
   const Clock::time_point start = Clock::now();
@@ -343,24 +429,48 @@ void run_client(int port, int k, int clients, double seconds, ClientResult& resu
       const timespec timeout{static_cast<time_t>(ns / 1000000000), static_cast<long>(ns % 1000000000)};
       pollfd p{fd, POLLIN, 0};
       if (::ppoll(&p, 1, &timeout, nullptr) <= 0) continue;
-      iovec data{buffer.data(), buffer.size()};
-      alignas(cmsghdr) char control[CMSG_SPACE(sizeof(timespec))];
-      msghdr message{};
-      message.msg_iov = &data;
-      message.msg_iovlen = 1;
-      message.msg_control = control;
-      message.msg_controllen = sizeof control;
-      const ssize_t n = ::recvmsg(fd, &message, MSG_DONTWAIT);
-      if (n <= 0) break;  // closed or failed: the send below says so
-      inbox.arrived(receive_time(message));
-      reader.feed(buffer.data(), static_cast<std::size_t>(n), inbox);
+      if ((p.revents & POLLERR) != 0) transmit_time(fd);  // a transmit stamp that came late: past use
+      // What is there, a message (or up to 64 KiB of one) per read.
+      bool open = true;
+      for (int reads = 0; reads < 256; ++reads) {
+        iovec data{buffer.data(), boundaries.next_read(buffer.size())};
+        alignas(cmsghdr) char control[256];  // SCM_TIMESTAMPNS, and SCM_TIMESTAMPING where the kernel adds it
+        msghdr message{};
+        message.msg_iov = &data;
+        message.msg_iovlen = 1;
+        message.msg_control = control;
+        message.msg_controllen = sizeof control;
+        const ssize_t n = ::recvmsg(fd, &message, MSG_DONTWAIT);
+        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
+        if (n <= 0) {  // closed or failed: the send below says so
+          open = false;
+          break;
+        }
+        inbox.arrived(receive_time(message));
+        boundaries.consumed(buffer.data(), static_cast<std::size_t>(n));
+        reader.feed(buffer.data(), static_cast<std::size_t>(n), inbox);
+      }
+      if (!open) break;
     }
     const std::size_t step = (tick / kStepMs) % poses.size();
     const organsim::testing::Bytes& message = poses[step];
+    const bool move = step != previous_step && result.reads;
     const double sent_at = realtime_now();  // before the send: the answer may be stamped before send() returns
-    if (::send(fd, message.data(), message.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(message.size())) break;
+    if (!send_message(fd, message, move)) break;
     ++result.poses_sent;
-    if (step != previous_step && result.reads) inbox.moved(kMoveInto[step], sent_at);
+    if (move) {
+      // Loopback hands the segment over within the send, or soon after when
+      // TCP holds it back a moment: wait for its stamp up to 0.5 ms, else
+      // count the move from before the send (a longer latency, never a shorter one).
+      double transmitted = transmit_time(fd);
+      while (transmitted < 0.0 && realtime_now() - sent_at < 5e-4) {
+        std::this_thread::yield();
+        transmitted = transmit_time(fd);
+      }
+      ++result.moves;
+      if (transmitted < 0.0) ++result.moves_without_transmit_stamp;
+      inbox.moved(kMoveInto[step], transmitted < 0.0 ? sent_at : transmitted);
+    }
     previous_step = step;
   }
   ::close(fd);
@@ -525,6 +635,8 @@ int main(int argc, char** argv) {
                            {"surfaces", c.surfaces},
                            {"own_forces", c.own_forces},
                            {"messages", c.messages},
+                           {"moves", c.moves},
+                           {"moves_without_transmit_stamp", c.moves_without_transmit_stamp},
                            {"in_contact_latency", milliseconds(percentiles(c.in_contact_latency_s))}});
         if (!c.connected) failures.push_back(fmt::format("{}: client {} could not connect", phase.name, k + 1));
         if (!c.reads) continue;
@@ -539,8 +651,12 @@ int main(int argc, char** argv) {
         if (c.surfaces == 0 || static_cast<double>(c.own_forces) < std::min(0.25 * o.force_rate, 240.0) * o.seconds)
           failures.push_back(fmt::format("{}: client {} got {} surfaces and {} forces in {:g} s", phase.name, k + 1,
                                          c.surfaces, c.own_forces, o.seconds));
-        if (!c.receive_stamps)
-          failures.push_back(fmt::format("{}: client {} got no kernel receive stamps (SO_TIMESTAMPNS)", phase.name, k + 1));
+        if (!c.kernel_stamps)
+          failures.push_back(fmt::format("{}: client {}'s socket refused kernel stamps (SO_TIMESTAMPNS, SO_TIMESTAMPING)",
+                                         phase.name, k + 1));
+        if (c.moves_without_transmit_stamp * 100 > c.moves)
+          failures.push_back(fmt::format("{}: client {} got no kernel transmit stamp for {} of its {} moves", phase.name,
+                                         k + 1, c.moves_without_transmit_stamp, c.moves));
         if (c.in_contact_latency_s.empty())
           failures.push_back(fmt::format("{}: client {} never saw its press's force change", phase.name, k + 1));
       }

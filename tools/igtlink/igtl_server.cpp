@@ -26,6 +26,7 @@ struct IgtlServer::Client {
   MessageReader reader;
   std::vector<std::uint8_t> outgoing;  // the frame being sent
   std::size_t sent = 0;
+  std::size_t forces_at = 0;  // where `outgoing`'s forces begin (they end it)
   bool needs_surface = true;
   bool busy() const { return sent < outgoing.size(); }
 };
@@ -167,18 +168,13 @@ void IgtlServer::step(double now) {
   if (now >= next_frame_) {
     send_frame();
     next_frame_ = std::max(next_frame_ + options_.frame_period, now);
-    if (!tools_.empty()) forces_sent_at_tick_ = tools_.front()->ticks();  // the frame carried them
   } else if (options_.force_period < options_.frame_period && forces_due()) {
     send_forces();
   }
 }
 
-bool IgtlServer::forces_due() {
-  if (tools_.empty()) return false;
-  const std::uint64_t tick = tools_.front()->ticks();
-  if (tick - forces_sent_at_tick_ < ticks_per_force_send_) return false;
-  forces_sent_at_tick_ = tick;
-  return true;
+bool IgtlServer::forces_due() const {
+  return !tools_.empty() && tools_.front()->ticks() - forces_packed_at_tick_ >= ticks_per_force_send_;
 }
 
 void IgtlServer::read_clients() {
@@ -198,12 +194,20 @@ void IgtlServer::send_forces() {
   const Messages& m = *messages_;
   for (std::size_t i = 0; i < clients_.size();) {
     Client& client = *clients_[i];
-    if (client.busy()) {  // a slow client gets the next frame; its forces now would only queue up
+    if (client.busy()) {
+      // Still sending a frame: forces it has not begun to send are brought up
+      // to date, so that they follow the surface as soon as it has gone;
+      // forces now behind them would only queue up.
+      if (client.sent <= client.forces_at && client.outgoing.size() - client.forces_at == m.force_bytes.size()) {
+        std::copy(m.force_bytes.begin(), m.force_bytes.end(), client.outgoing.begin() + static_cast<std::ptrdiff_t>(client.forces_at));
+        ++counters_.force_updates;
+      }
       ++i;
       continue;
     }
     client.outgoing.assign(m.force_bytes.begin(), m.force_bytes.end());
     client.sent = 0;
+    client.forces_at = 0;
     ++counters_.force_updates;
     if (!write_to(client))
       close(i, fmt::format("sending failed: {}", std::strerror(errno)));
@@ -358,6 +362,7 @@ void IgtlServer::send_frame() {
       client.needs_surface = false;
       ++counters_.surfaces;
     }
+    client.forces_at = client.outgoing.size();
     client.outgoing.insert(client.outgoing.end(), m.force_bytes.begin(), m.force_bytes.end());
     ++counters_.frames;
     if (!write_to(client))
@@ -382,6 +387,10 @@ void IgtlServer::pack_surface(const std::vector<model::Point3>& positions) {
 }
 
 void IgtlServer::pack_forces() {
+  // The count before the forces: each force read after it is at least that
+  // tick's. Read after them, a tick that came while a frame was packed
+  // would count as sent without its force, which then waited a tick more.
+  if (!tools_.empty()) forces_packed_at_tick_ = tools_.front()->ticks();
   Messages& m = *messages_;
   const double flip = options_.ras ? -1.0 : 1.0;
   m.force_bytes.clear();

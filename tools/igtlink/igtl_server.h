@@ -137,10 +137,10 @@ class IgtlServer {
   int port_ = 0;
   std::vector<std::unique_ptr<Client>> clients_;
   /// Whether the force loop has ticked often enough since the last forces sent.
-  bool forces_due();
+  bool forces_due() const;
   double next_frame_ = 0.0;
   std::uint64_t ticks_per_force_send_ = 1;
-  std::uint64_t forces_sent_at_tick_ = 0;  // the first tool's tick count when forces were last sent
+  std::uint64_t forces_packed_at_tick_ = 0;  // the first tool's tick count when forces were last packed
   std::vector<model::Point3> positions_;  // m, file order: the surface last packed
   bool surface_changed_ = true;
   std::unique_ptr<Messages> messages_;  // libOpenIGTLink's messages, packed in place each frame

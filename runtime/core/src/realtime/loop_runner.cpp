@@ -198,13 +198,18 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
       std::this_thread::sleep_for(std::chrono::duration<double>(polling.period));
       continue;
     }
-    // The next poll time still ahead: a late poll skips those it missed.
+    // A poll time that passed while this poll ran (a frame's surface, a
+    // late wake) is kept at once, not skipped: after a tick, its forces
+    // leave now rather than a tick later. The times missed beyond it are skipped.
     const double now = seconds(now_monotonic());
     timespec at = next_tick_poll();
+    bool missed = false;
     while (seconds(at) <= now) {
       ++tick_poll;
       at = next_tick_poll();
+      missed = true;
     }
+    if (missed) continue;
     ++tick_poll;
     clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &at, nullptr);
   }
