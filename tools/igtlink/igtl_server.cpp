@@ -220,7 +220,6 @@ void IgtlServer::accept_clients() {
   // A flood of connections waits in the backlog rather than holding up one
   // step (and every client's forces) while it is drained.
   constexpr int kAcceptsPerStep = 16;
-  bool reaped = false;
   for (int accepted = 0; accepted < kAcceptsPerStep; ++accepted) {
     sockaddr_in peer{};
     socklen_t length = sizeof peer;
@@ -229,12 +228,10 @@ void IgtlServer::accept_clients() {
     char ip[INET_ADDRSTRLEN] = "?";
     ::inet_ntop(AF_INET, &peer.sin_addr, ip, sizeof ip);
     const std::string address = fmt::format("{}:{}", ip, ntohs(peer.sin_port));
-    // Clients that have gone since the last step free their place first: a
-    // client that reconnects at once is not refused by its own old connection.
-    if (clients_.size() >= options_.max_clients && !reaped) {
-      read_clients();
-      reaped = true;
-    }
+    // Clients that have gone free their place first: a client that
+    // reconnects at once is not refused by its own old connection, nor one of
+    // a burst by the connections before it in the same step that have closed.
+    if (clients_.size() >= options_.max_clients) read_clients();
     if (clients_.size() >= options_.max_clients) {
       refuse(fd, fmt::format("organsim serve takes at most {} clients and all are connected; disconnect one and "
                              "connect again",
