@@ -16,6 +16,7 @@
 #include "organsim/model/model_file.h"
 #include "organsim/realtime/engine.h"
 #include "organsim/realtime/model_registry.h"
+#include "organsim/realtime/session_playback.h"
 #include "organsim/version.h"
 
 namespace organsim::cli {
@@ -218,12 +219,11 @@ void warn_if_depth_curve_rescaled(const std::string& command, const model::Organ
   const bool matched = std::any_of(models.begin(), models.end(),
                                    [](const std::string& m) { return m == "beam" || m == "springs"; });
   if (sites.depth_curve.empty() || !matched || tuning.unmatched) return;
-  std::vector<double> radii;  // m
-  if (session)
-    for (const devices::Trajectory& tool : session->tools)
-      radii.push_back(tool.tip_radius >= 0.0 ? tool.tip_radius : tuning.tip_radius_mm * 1e-3);
-  else
-    radii.push_back(tuning.tip_radius_mm * 1e-3);
+  realtime::EngineOptions options;
+  options.tip_radius = tuning.tip_radius_mm * 1e-3;
+  if (session) options = realtime::with_session_tips(options, *session);
+  std::vector<double> radii;  // m, each tool's as the engine will take it
+  for (std::size_t k = 0; k < (session ? session->tools.size() : 1); ++k) radii.push_back(options.tip_radius_of(k));
   std::vector<double> warned;
   for (const double radius : radii) {
     if (!(radius > 0.0) || std::abs(radius - sites.curve_tip_radius) <= 1e-9 ||

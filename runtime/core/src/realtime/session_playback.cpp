@@ -18,20 +18,23 @@ std::size_t records_for_whole_session(double duration, double force_period) noex
   return static_cast<std::size_t>(std::ceil(duration / force_period)) + 16;
 }
 
+EngineOptions with_session_tips(const EngineOptions& options, const devices::Session& session) {
+  EngineOptions with_tips = options;
+  for (std::size_t k = 0; k < session.tools.size(); ++k)
+    if (session.tools[k].tip_radius >= 0.0) {
+      with_tips.tool_tip_radii.resize(session.tools.size(), -1.0);
+      with_tips.tool_tip_radii[k] = session.tools[k].tip_radius;
+    }
+  return with_tips;
+}
+
 SessionPlayback::SessionPlayback(const organ::Organ& organ, const devices::Session& session,
                                  const EngineOptions& engine_options, const PlaybackOptions& options) {
   devices_.reserve(session.tools.size());
   for (const devices::Trajectory& trajectory : session.tools)
     devices_.push_back(std::make_unique<devices::ScriptedDevice>(trajectory, options.limits, options.records_per_tool,
                                                                  options.repeat_period));
-  // A tip radius the session gives for a tool is that tool's.
-  EngineOptions with_tips = engine_options;
-  for (std::size_t k = 0; k < session.tools.size(); ++k)
-    if (session.tools[k].tip_radius >= 0.0) {
-      with_tips.tool_tip_radii.resize(session.tools.size(), -1.0);
-      with_tips.tool_tip_radii[k] = session.tools[k].tip_radius;
-    }
-  engine_ = std::make_unique<Engine>(organ, pointers(devices_), with_tips);
+  engine_ = std::make_unique<Engine>(organ, pointers(devices_), with_session_tips(engine_options, session));
 }
 
 RunTimings SessionPlayback::run_fast(double duration, const std::function<void(const RunTimings&)>& after_frame) {

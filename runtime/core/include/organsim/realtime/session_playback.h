@@ -36,6 +36,11 @@ struct PlaybackOptions {
 /// `force_period` s, with a margin.
 std::size_t records_for_whole_session(double duration, double force_period) noexcept;
 
+/// `options` with the tip radius the session gives for each of its tools (its
+/// tip lines): that tool's; the others keep options.tip_radius. What the
+/// playback's engine runs with (EngineOptions::tip_radius_of reads them).
+EngineOptions with_session_tips(const EngineOptions& options, const devices::Session& session);
+
 class SessionPlayback {
  public:
   SessionPlayback(const organ::Organ& organ, const devices::Session& session, const EngineOptions& engine_options,
