@@ -198,10 +198,8 @@ void IgtlServer::send_forces() {
       // Still sending a frame: forces it has not begun to send are brought up
       // to date, so that they follow the surface as soon as it has gone;
       // forces now behind them would only queue up.
-      if (client.sent <= client.forces_at && client.outgoing.size() - client.forces_at == m.force_bytes.size()) {
+      if (client.sent <= client.forces_at && client.outgoing.size() - client.forces_at == m.force_bytes.size())
         std::copy(m.force_bytes.begin(), m.force_bytes.end(), client.outgoing.begin() + static_cast<std::ptrdiff_t>(client.forces_at));
-        ++counters_.force_updates;
-      }
       ++i;
       continue;
     }
@@ -220,6 +218,7 @@ void IgtlServer::accept_clients() {
   // A flood of connections waits in the backlog rather than holding up one
   // step (and every client's forces) while it is drained.
   constexpr int kAcceptsPerStep = 16;
+  bool accepted_since_reaping = true;  // clients of earlier steps may have gone too
   for (int accepted = 0; accepted < kAcceptsPerStep; ++accepted) {
     sockaddr_in peer{};
     socklen_t length = sizeof peer;
@@ -231,7 +230,12 @@ void IgtlServer::accept_clients() {
     // Clients that have gone free their place first: a client that
     // reconnects at once is not refused by its own old connection, nor one of
     // a burst by the connections before it in the same step that have closed.
-    if (clients_.size() >= options_.max_clients) read_clients();
+    // Only when a client came since the last look: a flood of connections
+    // while the clients stay costs one look a step.
+    if (clients_.size() >= options_.max_clients && accepted_since_reaping) {
+      read_clients();
+      accepted_since_reaping = false;
+    }
     if (clients_.size() >= options_.max_clients) {
       refuse(fd, fmt::format("organsim serve takes at most {} clients and all are connected; disconnect one and "
                              "connect again",
@@ -247,6 +251,7 @@ void IgtlServer::accept_clients() {
     client->fd = fd;
     client->address = address;
     clients_.push_back(std::move(client));
+    accepted_since_reaping = true;
     ++counters_.clients_accepted;
     note_(fmt::format("client {} connected", address));
   }

@@ -187,6 +187,7 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
     return at;
   };
   std::exception_ptr failure;
+  bool kept_missed_poll = false;
   while (!force_done.load() || !deformation_done.load()) {
     try {
       if (poll && !failure && !poll(timings)) stop.store(true);
@@ -200,7 +201,9 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
     }
     // A poll time that passed while this poll ran (a frame's surface, a
     // late wake) is kept at once, not skipped: after a tick, its forces
-    // leave now rather than a tick later. The times missed beyond it are skipped.
+    // leave now rather than a tick later. Once only: polls that keep running
+    // late then sleep to the next time ahead, so that the thread never holds
+    // its CPU from the deformation loop. The times missed beyond it are skipped.
     const double now = seconds(now_monotonic());
     timespec at = next_tick_poll();
     bool missed = false;
@@ -209,7 +212,11 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
       at = next_tick_poll();
       missed = true;
     }
-    if (missed) continue;
+    if (missed && !kept_missed_poll) {
+      kept_missed_poll = true;
+      continue;
+    }
+    kept_missed_poll = false;
     ++tick_poll;
     clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &at, nullptr);
   }
