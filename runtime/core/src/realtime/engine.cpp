@@ -94,6 +94,10 @@ void Engine::publish_linearization(std::size_t tool) noexcept {
   contact.force = model.force;
 }
 
+double Engine::blend_left(std::size_t tool, double now) const noexcept {
+  return std::clamp(1.0 - (now - blend_start_[tool]) / options_.deformation_period, 0.0, 1.0);
+}
+
 void Engine::force_tick(double now) noexcept {
   contact_frames_.update();
   const ContactFrame& contacts = contact_frames_.read();
@@ -154,8 +158,7 @@ void Engine::force_tick(double now) noexcept {
               const HeldLinearization& held = held_[i];
               Eigen::Vector3d last = held.force - held.stiffness * (displacement - held.reference);
               slip_step(held.stiffness, contact.normal, options_.friction, last);
-              const double left = std::clamp(1.0 - (now - blend_start_[i]) / options_.deformation_period, 0.0, 1.0);
-              offset = last + left * blend_offset_[i] - force;
+              offset = last + blend_left(i, now) * blend_offset_[i] - force;
             }
             blend_offset_[i] = offset;
             held_[i] = {contact.force, contact.stiffness, contact.reference};
@@ -163,8 +166,7 @@ void Engine::force_tick(double now) noexcept {
             blend_start_[i] = now;
             blend_generation_[i] = contact.generation;
           }
-          const double remaining = std::clamp(1.0 - (now - blend_start_[i]) / options_.deformation_period, 0.0, 1.0);
-          force += remaining * blend_offset_[i];
+          force += blend_left(i, now) * blend_offset_[i];
           // What the slope cannot take back (a force the model holds at any
           // displacement, a stiffness coupling the directions, the blend)
           // the cone clips.

@@ -211,6 +211,8 @@ class Engine final : public devices::ForceLoop {
   };
   std::array<HeldLinearization, kMaxTools> held_{};
   std::array<Eigen::Vector3d, kMaxTools> blend_offset_{};
+  // What of `tool`'s blend offset is still felt at `now`: 1 at the switch, 0 a deformation period later.
+  double blend_left(std::size_t tool, double now) const noexcept;
   std::array<double, kMaxTools> blend_start_{}, blend_frame_{};
   std::array<std::uint32_t, kMaxTools> blend_generation_{};
   double previous_tick_ = -1.0;
