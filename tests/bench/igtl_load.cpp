@@ -204,6 +204,10 @@ enum class Move { onset, deepen, lift, release };
 constexpr std::uint64_t kStepMs = 103;
 constexpr std::array<double, 4> kRadiusMm = {40.0, 27.0, 25.0, 27.0};  // the cylinder's radius is 30 mm
 constexpr std::array<Move, 4> kMoveInto = {Move::release, Move::onset, Move::deepen, Move::lift};
+/// How long a move waits for its pose's kernel transmit stamp, s: far below a
+/// step (kStepMs), far above the 0.5 ms that let a loaded CI machine's late
+/// softirq leave 1 of a short run's 97 moves unstamped.
+constexpr double kTransmitStampWaitS = 0.020;
 
 /// What one client measured.
 struct ClientResult {
@@ -459,12 +463,20 @@ void run_client(int port, int k, int clients, double seconds, ClientResult& resu
     if (!send_message(fd, message, move)) break;
     ++result.poses_sent;
     if (move) {
-      // Loopback hands the segment over within the send, or soon after when
-      // TCP holds it back a moment: wait for its stamp up to 0.5 ms, else
-      // count the move from before the send (a longer latency, never a shorter one).
+      // Loopback hands the segment over within the send, or later when TCP
+      // holds it back until a softirq runs, which a loaded machine (the
+      // server's two real-time loops on two cores) may delay by milliseconds:
+      // wait for its stamp up to kTransmitStampWaitS, else count the move from
+      // before the send (a longer latency, never a shorter one). Waiting costs
+      // the measurement nothing: both ends are kernel stamps, and the next
+      // move is 103 ms away, so a stamp is never taken for another move's.
       double transmitted = transmit_time(fd);
-      while (transmitted < 0.0 && realtime_now() - sent_at < 5e-4) {
-        std::this_thread::yield();
+      for (double waited = realtime_now() - sent_at; transmitted < 0.0 && waited < kTransmitStampWaitS;
+           waited = realtime_now() - sent_at) {
+        const auto ns = static_cast<long>((kTransmitStampWaitS - waited) * 1e9);
+        const timespec timeout{0, ns};
+        pollfd p{fd, 0, 0};  // POLLERR is always reported: the error queue holds the stamp
+        ::ppoll(&p, 1, &timeout, nullptr);
         transmitted = transmit_time(fd);
       }
       ++result.moves;
