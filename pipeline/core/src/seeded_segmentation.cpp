@@ -6,7 +6,6 @@
 #include <itkBinaryThresholdImageFilter.h>
 #include <itkCastImageFilter.h>
 #include <itkConnectedComponentImageFilter.h>
-#include <itkCurvatureAnisotropicDiffusionImageFilter.h>
 #include <itkGradientMagnitudeRecursiveGaussianImageFilter.h>
 #include <itkImageRegionConstIterator.h>
 #include <itkImageRegionConstIteratorWithIndex.h>
@@ -26,12 +25,12 @@
 
 #include <fmt/format.h>
 
+#include "organsim/pipeline/curvature_diffusion.h"
 #include "organsim/pipeline/segmentation.h"
 
 namespace organsim::pipeline {
 namespace {
 
-using FloatImage = itk::Image<float, 3>;
 using LabelImage = itk::Image<std::uint32_t, 3>;
 
 constexpr double kMillilitresPerCubicMillimetre = 1e-3;
@@ -515,10 +514,11 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
     background.push_back(ct_voxel(ct, o.background_seeds[s], fmt::format("background seed {}", s + 1).c_str()));
 
   // 1. Working grid.
-  auto as_float = itk::CastImageFilter<CtImage, FloatImage>::New();
-  as_float->SetInput(&ct);
-  auto shrink = itk::BinShrinkImageFilter<FloatImage, FloatImage>::New();
-  shrink->SetInput(as_float->GetOutput());
+  // Straight from the CT's int16: BinShrink sums in double either way (an
+  // int16 and its float are the same double), so the working grid is the
+  // same as from a float copy of the CT, without that copy (twice the CT).
+  auto shrink = itk::BinShrinkImageFilter<CtImage, FloatImage>::New();
+  shrink->SetInput(&ct);
   for (unsigned k = 0; k < 3; ++k) {
     const double spacing = ct.GetSpacing()[k];
     const unsigned factor =
@@ -532,14 +532,11 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
 
   // 2. Smoothing.
   if (o.smoothing_iterations > 0) {
-    auto diffusion = itk::CurvatureAnisotropicDiffusionImageFilter<FloatImage, FloatImage>::New();
-    diffusion->SetInput(image);
-    diffusion->SetNumberOfIterations(static_cast<unsigned>(o.smoothing_iterations));
-    diffusion->SetTimeStep(kStableTimeStep);
-    diffusion->SetConductanceParameter(o.smoothing_conductance);
-    diffusion->Update();
-    image = diffusion->GetOutput();
-    image->DisconnectPipeline();
+    CurvatureDiffusionOptions diffusion;
+    diffusion.iterations = static_cast<unsigned>(o.smoothing_iterations);
+    diffusion.time_step = kStableTimeStep;
+    diffusion.conductance = o.smoothing_conductance;
+    image = curvature_diffusion(*image, diffusion);
   }
   clock.lap("smoothing");
 
