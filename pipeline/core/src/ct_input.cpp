@@ -17,6 +17,7 @@
 #include <vector>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -119,14 +120,21 @@ typename Image::Pointer read_volume_file(const std::string& path, const MemoryNe
   // before a byte of a (possibly huge) compressed stream is inflated.
   if (image_dimensions(path, need, sizeof(typename Image::PixelType)) < 3)
     fail(path, "is a 2-D image, not a 3-D volume; pass a CT volume or a DICOM series directory");
-  check_gzip_stream_complete(path);
+  // A compressed stream is inflated twice: once to check that it is whole
+  // (the reader would fill a truncated one's missing voxels silently), once
+  // by the reader. The two run side by side; a damaged stream's message wins,
+  // as it says what to do.
+  std::future<void> complete = std::async(std::launch::async, [&path] { check_gzip_stream_complete(path); });
   auto reader = itk::ImageFileReader<Image>::New();
   reader->SetFileName(path);
+  std::string read_error;
   try {
     reader->Update();
   } catch (const itk::ExceptionObject& e) {
-    fail(path, "cannot read the voxels (" + first_line(e.GetDescription()) + "); the file may be truncated");
+    read_error = first_line(e.GetDescription());
   }
+  complete.get();
+  if (!read_error.empty()) fail(path, "cannot read the voxels (" + read_error + "); the file may be truncated");
   typename Image::Pointer image = reader->GetOutput();
   check_three_dimensional(path, *image);
   return image;
