@@ -297,18 +297,21 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
   const auto size = ct->GetLargestPossibleRegion().GetSize();
   for (unsigned k = 0; k < 3; ++k) report.image_size[k] = size[k], report.image_spacing_mm[k] = ct->GetSpacing()[k];
 
+  // The input's hash for the provenance, on the core the segmentation's
+  // serial steps leave idle.
+  std::future<std::string> input_sha256 = std::async(std::launch::async, [&ct] { return image_sha256(*ct); });
+
   Intermediates intermediates(o.intermediates_dir);
   const MaskImage::Pointer mask = clock.run("segment", [&] {
     MaskImage::Pointer segmented = segment(*ct, o, report);
     if (intermediates.wanted()) write_mask_image(*segmented, intermediates.stage("mask.nii.gz", ".nii.gz"));
     return segmented;
   });
-  const FixedPoint fixed_point =
-      clock.run("fixed point", [&] { return choose_fixed_point(*mask, o.fixed_point_mm, o.fixed_point_voxel); });
-  report.fixed_point_mm = fixed_point.point_mm;
-  report.fixed_point_source = fixed_point.source;
-  report.fixed_point_depth_mm = fixed_point.depth_mm;
-  report.fixed_point_outside_mm = fixed_point.outside_mm;
+  // The fixed point and the surface need only the mask: side by side (the
+  // surface's decimation is serial).
+  StageClock::Beside<FixedPoint> fixed_point_stage;
+  fixed_point_stage.start(clock, "fixed point",
+                          [&] { return choose_fixed_point(*mask, o.fixed_point_mm, o.fixed_point_voxel); });
   const geometry::SurfaceMesh surface = clock.run("surface", [&] {
     geometry::SurfaceMesh extracted = in_runtime_order(extract_surface(*mask, o.surface));
     if (intermediates.wanted()) {
@@ -317,6 +320,11 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
     }
     return extracted;
   });
+  const FixedPoint fixed_point = fixed_point_stage.join(clock);
+  report.fixed_point_mm = fixed_point.point_mm;
+  report.fixed_point_source = fixed_point.source;
+  report.fixed_point_depth_mm = fixed_point.depth_mm;
+  report.fixed_point_outside_mm = fixed_point.outside_mm;
   report.surface_vertices = surface.vertices.size();
   report.surface_triangles = surface.triangles.size();
   report.surface_area_cm2 = geometry::surface_area(surface.vertices, surface.triangles) * 1e4;
@@ -325,6 +333,17 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
   const model::Point3 fixed_point_m{report.fixed_point_mm[0] * kMetresPerMillimetre,
                              report.fixed_point_mm[1] * kMetresPerMillimetre,
                              report.fixed_point_mm[2] * kMetresPerMillimetre};
+  // The beam tables need the mask and the surface, the site compliances the
+  // tetrahedra: the two largest stages overlap, the beam tables from before
+  // the tetrahedra on, each filling the cores the other's serial parts (the
+  // meshing, the factorization) leave idle. Both give the same result on any
+  // number of threads.
+  StageClock::Beside<model::BeamTables> beam_tables;
+  if (o.beam_tables)
+    beam_tables.start(clock, "beam tables", [&] {
+      return bake_beam_tables(*mask, surface.vertices, fixed_point_m, o.beams,
+                              [&](double fraction) { clock.notify("beam tables", fraction); });
+    });
   const geometry::TetrahedralMesh tetrahedra = clock.run("tetrahedra", [&] {
     TetrahedraOptions options = o.tetrahedra;
     if (o.clamp_cells_mm > 0.0)
@@ -339,21 +358,10 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
   report.tetrahedra_volume_ml = report.tetrahedra.total_volume_m3 * kMillilitresPerCubicMetre;
 
   model::OrganModel& model = result.model;
-  // The beam tables need the mask and the surface, the site compliances the
-  // tetrahedra: the two largest stages overlap, each filling the cores the
-  // other's serial parts (the factorization) leave idle. Both give the same
-  // result on any number of threads.
-  StageClock::Beside<model::BeamTables> beam_tables;
-  if (o.beam_tables)
-    beam_tables.start(clock, "beam tables", [&] {
-      return bake_beam_tables(*mask, surface.vertices, fixed_point_m, o.beams,
-                              [&](double fraction) { clock.notify("beam tables", fraction); });
-    });
-
   clock.run("assemble", [&] {
     model.provenance.coordinate_frame = "LPS";
     model.provenance.program_version = o.program_version;
-    model.provenance.input_sha256 = image_sha256(*ct);
+    model.provenance.input_sha256 = input_sha256.get();
     model.provenance.parameters = provenance_parameters(o, report);
     model.surface_vertices = surface.vertices;
     model.surface_triangles = surface.triangles;
