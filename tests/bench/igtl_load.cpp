@@ -467,9 +467,10 @@ void run_client(int port, int k, int clients, double seconds, ClientResult& resu
       // holds it back until a softirq runs, which a loaded machine (the
       // server's two real-time loops on two cores) may delay by milliseconds:
       // wait for its stamp up to kTransmitStampWaitS, else count the move from
-      // before the send (a longer latency, never a shorter one). Waiting costs
-      // the measurement nothing: both ends are kernel stamps, and the next
-      // move is 103 ms away, so a stamp is never taken for another move's.
+      // before the send (a longer latency, never a shorter one). The latency
+      // figures lose nothing by the wait, both ends being kernel stamps; the
+      // client sends no pose meanwhile (the ticks it misses are skipped), and
+      // the next move is 103 ms away, so a stamp is never taken for another's.
       double transmitted = transmit_time(fd);
       for (double waited = realtime_now() - sent_at; transmitted < 0.0 && waited < kTransmitStampWaitS;
            waited = realtime_now() - sent_at) {

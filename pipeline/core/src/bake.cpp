@@ -9,6 +9,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -307,11 +308,17 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
     if (intermediates.wanted()) write_mask_image(*segmented, intermediates.stage("mask.nii.gz", ".nii.gz"));
     return segmented;
   });
-  // The fixed point and the surface need only the mask: side by side (the
-  // surface's decimation is serial).
+  // The fixed point and the surface need only the mask. The deepest
+  // interior point (a distance map) runs beside the surface, whose
+  // decimation is serial; a given point is only checked, and at once, so
+  // that a wrong one is the first thing reported.
+  const auto choose = [&] { return choose_fixed_point(*mask, o.fixed_point_mm, o.fixed_point_voxel); };
   StageClock::Beside<FixedPoint> fixed_point_stage;
-  fixed_point_stage.start(clock, "fixed point",
-                          [&] { return choose_fixed_point(*mask, o.fixed_point_mm, o.fixed_point_voxel); });
+  std::optional<FixedPoint> given_fixed_point;
+  if (o.fixed_point_mm || o.fixed_point_voxel)
+    given_fixed_point = clock.run("fixed point", choose);
+  else
+    fixed_point_stage.start(clock, "fixed point", choose);
   const geometry::SurfaceMesh surface = clock.run("surface", [&] {
     geometry::SurfaceMesh extracted = in_runtime_order(extract_surface(*mask, o.surface));
     if (intermediates.wanted()) {
@@ -320,7 +327,7 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
     }
     return extracted;
   });
-  const FixedPoint fixed_point = fixed_point_stage.join(clock);
+  const FixedPoint fixed_point = given_fixed_point ? *given_fixed_point : fixed_point_stage.join(clock);
   report.fixed_point_mm = fixed_point.point_mm;
   report.fixed_point_source = fixed_point.source;
   report.fixed_point_depth_mm = fixed_point.depth_mm;

@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <fstream>
 #include <future>
+#include <optional>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -97,7 +98,8 @@ int image_dimensions(const std::string& path, const MemoryNeed& need, std::size_
 }
 
 /// ITK reads a truncated gzip stream without complaint (the missing voxels
-/// come back as zeros), so gzip-compressed inputs are checked to the end first.
+/// come back as zeros), so a gzip-compressed input is also inflated to its
+/// end here, beside the reader (read_volume_file).
 void check_gzip_stream_complete(const std::string& path) {
   if (path.size() < 3 || path.compare(path.size() - 3, 3, ".gz") != 0) return;
   gzFile file = ::gzopen(path.c_str(), "rb");
@@ -127,14 +129,14 @@ typename Image::Pointer read_volume_file(const std::string& path, const MemoryNe
   std::future<void> complete = std::async(std::launch::async, [&path] { check_gzip_stream_complete(path); });
   auto reader = itk::ImageFileReader<Image>::New();
   reader->SetFileName(path);
-  std::string read_error;
+  std::optional<std::string> read_error;
   try {
     reader->Update();
   } catch (const itk::ExceptionObject& e) {
     read_error = first_line(e.GetDescription());
   }
   complete.get();
-  if (!read_error.empty()) fail(path, "cannot read the voxels (" + read_error + "); the file may be truncated");
+  if (read_error) fail(path, "cannot read the voxels (" + *read_error + "); the file may be truncated");
   typename Image::Pointer image = reader->GetOutput();
   check_three_dimensional(path, *image);
   return image;

@@ -1,6 +1,7 @@
 #include "organsim/pipeline/curvature_diffusion.h"
 
 #include <itkCurvatureNDAnisotropicDiffusionFunction.h>
+#include <itkMultiThreaderBase.h>
 
 #include <algorithm>
 #include <cmath>
@@ -120,10 +121,18 @@ void compute_updates(const float* image, const long (&size)[3], long first, long
 template <typename Work>
 void over_slices(long slices, unsigned threads, Work work) {
   std::vector<std::thread> pool;
-  for (unsigned t = 1; t < threads; ++t)
-    pool.emplace_back(work, slices * t / threads, slices * (t + 1) / threads);
+  const auto join = [&pool] {
+    for (std::thread& thread : pool) thread.join();
+  };
+  try {
+    for (unsigned t = 1; t < threads; ++t)
+      pool.emplace_back(work, slices * t / threads, slices * (t + 1) / threads);
+  } catch (...) {  // no thread for the rest: those started finish first
+    join();
+    throw;
+  }
   work(0L, slices / threads);
-  for (std::thread& thread : pool) thread.join();
+  join();
 }
 
 }  // namespace
@@ -154,7 +163,9 @@ FloatImage::Pointer curvature_diffusion(const FloatImage& image, const Curvature
   function->SetConductanceParameter(o.conductance);
   function->SetTimeStep(o.time_step);
 
-  const unsigned threads = std::max(1u, o.threads > 0 ? o.threads : std::thread::hardware_concurrency());
+  // As many threads as ITK's filters use (ITK_GLOBAL_DEFAULT_NUMBER_OF_THREADS).
+  const unsigned threads =
+      std::max(1u, o.threads > 0 ? o.threads : itk::MultiThreaderBase::GetGlobalDefaultNumberOfThreads());
   std::vector<float> update(voxels);
   float* values = output->GetBufferPointer();
   for (unsigned iteration = 0; iteration < o.iterations; ++iteration) {

@@ -95,15 +95,23 @@ struct Factor {
 };
 constexpr int kSolveBlock = 24;
 
+// Cloned only where the build itself is below AVX2 (the portable x86-64
+// build): a native build compiles the loops once, for its own CPU.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__AVX2__)
+#define ORGANSIM_SOLVE_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define ORGANSIM_SOLVE_CLONES
+#endif
+
 /// The marked part of L D Lᵀ y = y, in place, for a block of kSolveBlock
 /// right-hand sides side by side (row-major): forward over the columns
 /// marked `forward`, D⁻¹, backward over those marked `backward`. Plain loops
-/// over a row's kSolveBlock values, which the compiler vectorizes; cloned
-/// for AVX2, chosen at load time where the CPU has it. Without FMA (a
-/// separate instruction set, not enabled here) each value gets the same
-/// multiply and subtract, rounded the same, on every clone: the results
-/// have the same bits on every CPU.
-__attribute__((target_clones("avx2", "default"))) void solve_in_place(const Factor& l, int n, const char* forward,
+/// over a row's kSolveBlock values, which the compiler vectorizes; in the
+/// portable build cloned for AVX2, chosen at load time where the CPU has it.
+/// Without FMA (a separate instruction set, not enabled for the clone) each
+/// value gets the same multiply and subtract, rounded the same, on both
+/// clones: a portable build's results have the same bits on every CPU.
+ORGANSIM_SOLVE_CLONES void solve_in_place(const Factor& l, int n, const char* forward,
                                                                         const char* backward, double* y) {
   for (int j = 0; j < n; ++j) {  // L z = P x, column by column
     if (!forward[j]) continue;

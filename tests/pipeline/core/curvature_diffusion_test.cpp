@@ -1,6 +1,6 @@
 // curvature_diffusion() against ITK's CurvatureAnisotropicDiffusionImageFilter:
 // every voxel's bits, on noise (every kind of neighbourhood, the border's
-// clamping included), on the phantom CT's working grid (the bake's own case),
+// clamping included), on thin volumes, on the phantom CT (the bake's case),
 // with anisotropic spacing, several iteration counts and conductances, and
 // on any number of threads.
 #include <gtest/gtest.h>
@@ -87,7 +87,7 @@ TEST(CurvatureDiffusion, ThinVolumesHaveItkFiltersBitsToo) {
   }
 }
 
-TEST(CurvatureDiffusion, ThePhantomsWorkingGridHasItkFiltersBitsOnAnyNumberOfThreads) {
+TEST(CurvatureDiffusion, ThePhantomCtHasItkFiltersBitsOnAnyNumberOfThreads) {
   PhantomOptions options;
   const Phantom phantom = make_phantom(options);
   auto as_float = itk::CastImageFilter<CtImage, FloatImage>::New();

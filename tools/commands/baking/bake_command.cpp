@@ -46,7 +46,8 @@ std::array<long, 3> to_voxel(const std::vector<double>& v, const char* option) {
 
 /// Progress on stderr: a bar redrawn in place on a terminal, one line per
 /// finished stage otherwise (logs, CI) or with --verbose. Stages may overlap
-/// (the beam tables run beside the site compliances): each keeps its own start.
+/// (the fixed point beside the surface, the beam tables beside the tetrahedra
+/// and the site compliances): each keeps its own start.
 class ProgressPrinter {
  public:
   explicit ProgressPrinter(bool lines) : terminal_(!lines && ::isatty(STDERR_FILENO) == 1) {}

@@ -93,9 +93,10 @@ struct BakeReport {
   std::size_t beam_sections = 0;
   SiteComplianceReport sites;  ///< when the model has site compliances (sites.unknowns > 0)
   std::string sites_skipped;   ///< why the site compliances were not computed (the FEM clamp cannot hold the organ)
-  /// Each stage's own time, in pipeline order. The beam tables run beside the
-  /// stages after them (assemble, site compliance), so the times add up to
-  /// more than the total.
+  /// Each stage's own time, in the order they start. The fixed point (the
+  /// deepest interior point) runs beside the surface, and the beam tables
+  /// beside the tetrahedra, assemble and the site compliances, so the times
+  /// add up to more than the total.
   std::vector<std::pair<std::string, double>> stage_seconds;
   double total_seconds = 0.0;  ///< the bake's wall time, reading the CT to the finished model (not writing it)
 };

@@ -8,8 +8,8 @@
 // eighteen face and edge neighbours directly (the volume's border clamped,
 // as ITK's zero-flux Neumann condition does) and does ITK's operations in
 // ITK's order and precision, so a bake's model file stays byte-identical to
-// one smoothed by ITK (tests/pipeline/core/curvature_diffusion_test.cpp
-// compares every voxel's bits). The conductance's scale, a serial sum over
+// one smoothed by ITK in a portable build (tests/pipeline/core/
+// curvature_diffusion_test.cpp compares every voxel's bits). The conductance's scale, a serial sum over
 // the image whose order fixes its last bit, is ITK's own function.
 #pragma once
 
@@ -23,7 +23,7 @@ struct CurvatureDiffusionOptions {
   unsigned iterations = 5;
   double time_step = 0.0625;   ///< ITK's TimeStep (the stability limit in 3D is spacing / 16)
   double conductance = 1.0;    ///< ITK's ConductanceParameter
-  unsigned threads = 0;        ///< 0: one per hardware thread; the result does not depend on it
+  unsigned threads = 0;        ///< 0: as many as ITK's filters use; the result does not depend on it
 };
 
 /// `image` smoothed: the image ITK's CurvatureAnisotropicDiffusionImageFilter
