@@ -284,8 +284,10 @@ void require_valid(const model::OrganModel& model) {
 
 /// A bake's peak memory: the phantom from 128x128x100 to 512x512x1500 voxels
 /// (tools/experiments/scaling.py bake) held 7.2–7.6 bytes per voxel above a
-/// base of 170–200 MiB, and the FEM of the site compliances up to 350 MiB
-/// whatever the CT; a little more is asked, so that a CT that passes fits.
+/// base of 170–200 MiB while the segmentation kept a float copy of the CT,
+/// 4.7 bytes since it bins the int16 CT directly, and the FEM of the site
+/// compliances up to 350 MiB whatever the CT. The ask stays at the former
+/// slope with a margin: a CT that passes fits with room to spare.
 const MemoryNeed kBakeMemory{8.0, 768.0 * 1024 * 1024, "baking it"};
 
 BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
