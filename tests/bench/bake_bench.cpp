@@ -1,4 +1,4 @@
-// End-to-end pipeline speed (issue 3's benchmark): a 512×512×200 phantom CT at
+// End-to-end pipeline speed: a 512×512×200 phantom CT at
 // 0.8 mm, baked to a ~5k-vertex surface (≤ 30k tetrahedra, 20-station beams),
 // with the time of every stage as a counter, plus writing the model file.
 #include <benchmark/benchmark.h>

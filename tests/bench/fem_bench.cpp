@@ -13,16 +13,17 @@
 // (`columns:1`; `columns:0` the same in parts, as a frame with contacts takes
 // it, contact_responses.h; `columns:3` a contact's three directions in one
 // pass), ContactResponse the sparse forward solve that replaced those three
-// columns for a node a contact takes in. PshPress (with a baked model) is
-// issue 16's figure: fem_paper's press of the model's top (top_press_problem)
-// with PSH (E = 1 MPa, ν = 0.49, β = 100), solved as `organsim fem` solves it
-// (kept factorization and GMRES), timed per Newton iteration. FrameEstimate
-// (with ORGANSIM_BENCH_ESTIMATE_MODELS, a comma-separated list of baked
-// models) checks the frame time a FEM model estimates when it is set up
-// (DeformationModel::estimated_frame_seconds, what `replay` warns with)
-// against the p50 of the frames of a 5 mm press: within a factor of 2;
-// PeerStep (same list) times the interactive step of Vega FEM's simulator
-// (stiffness_warping_peer.h) beside our co-rotational frames on that mesh.
+// columns for a node a contact takes in. PshPress (with a baked model) is the
+// PSH paper's figure (Ogata et al.): fem_paper's press of the model's top
+// (top_press_problem) with PSH (E = 1 MPa, ν = 0.49, β = 100), solved as
+// `organsim fem` solves it (kept factorization and GMRES), timed per Newton
+// iteration. FrameEstimate (with ORGANSIM_BENCH_ESTIMATE_MODELS, a
+// comma-separated list of baked models) checks the frame time a FEM model
+// estimates when it is set up (DeformationModel::estimated_frame_seconds, what
+// `replay` warns with) against the p50 of the frames of a 5 mm press: within a
+// factor of 2; PeerStep (same list) times the interactive step of Vega FEM's
+// simulator (stiffness_warping_peer.h) beside our co-rotational frames on that
+// mesh.
 #include <algorithm>
 #include <array>
 #include <chrono>

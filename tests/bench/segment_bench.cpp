@@ -1,4 +1,4 @@
-// Seeded segmentation speed (issue 14's benchmark): `organsim segment`'s work
+// Seeded segmentation speed: `organsim segment`'s work
 // on the shipped real CT (122×101×112 at 3 mm) and on a 512×512×200 phantom at
 // 0.8 mm, with the time of each step as counters. Goal: ≤ 5 s for the
 // 512×512×200 volume on the 2-core CI machine.

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Runs the shell commands of README.md and docs/**/*.md as they are written (issue 39).
+"""Runs the shell commands of README.md and docs/**/*.md as they are written.
 
 Every fenced shell block (```sh, ```bash, ```shell, ```console) in those files carries a
 marker, an HTML comment on the line just above its opening fence:

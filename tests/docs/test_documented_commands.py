@@ -1,7 +1,7 @@
-"""The shell commands of README.md and docs/**/*.md, run as written (issue 39): every fenced
-shell block carries a marker (run_documented_commands.py says which), each document's
-blocks run in order in a scratch copy of the repository, and the README's cohort command
-is one of them, verbatim, baking every case with no optional configuration."""
+"""The shell commands of README.md and docs/**/*.md, run as written: every fenced shell
+block carries a marker (run_documented_commands.py says which), each document's blocks
+run in order in a scratch copy of the repository, and the cohort page's command is one of
+them, verbatim, baking every case with no optional configuration."""
 import csv
 import os
 import pathlib
@@ -44,8 +44,8 @@ def test_every_shell_block_is_run_or_skipped_for_a_reason():
         block.options()  # a marker it cannot read is an error naming the line
 
 
-def test_the_readme_and_the_cohort_page_run_the_cohort_command_verbatim():
-    for document in ("README.md", "docs/cohort.md"):
+def test_the_cohort_page_runs_the_cohort_command_verbatim():
+    for document in ("docs/cohort.md",):
         runnable = [b for b in BLOCKS if b.document == document and "skip" not in b.options()]
         assert any(b.text.strip() == COHORT_COMMAND for b in runnable), f"{document}: `{COHORT_COMMAND}` not run"
 
@@ -59,7 +59,7 @@ def test_documented_block(block, runs):
     assert result.status == "ran", result.message
 
 
-@pytest.mark.parametrize("document", ["README.md", "docs/cohort.md"])
+@pytest.mark.parametrize("document", ["docs/cohort.md"])
 def test_the_documented_cohort_bakes_every_case(document, runs):
     root = runs(document).root
     if root is None or not (root / "models" / "cohort_report.csv").exists():

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The multi-beam paper's Figs. 5 and 8 on the shipped liver (issue #17; shown in
+# The multi-beam paper's Figs. 5 and 8 on the shipped liver (shown in
 # docs/multibeam.md): two tools 38 mm apart on the anterior surface pull apart
 # by 8 mm each (and 4 mm outward). With superposition of the beams' fields
 # (eq. 5, --merge sum) each action point is dragged by the other tool's field

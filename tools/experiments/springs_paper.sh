@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# He et al.'s mass-spring experiment reproduced with `organsim springs` (issue #15;
-# results and discussion in docs/springs.md):
+# He et al.'s mass-spring experiment reproduced with `organsim springs`
+# (results and discussion in docs/springs.md):
 #   1. the paper's settings as printed: 225- and 625-point grids (15x15, 25x25),
 #      explicit Euler, midpoint and RK4, fixed (all) and dynamic region, 100 steps
 #      of dt = 0.01 s, 5 N at the centre vertex: the explicit integrators blow up

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """He et al.'s Table 2 protocol at the printed step, their fixed against dynamic
-deformation region (Fig. 5) and their pull beside the press (Fig. 6), with
+deformation region (Fig. 5) and a pull beside the press, with
 `organsim springs` (docs/springs.md).
 
 The paper's grids (225 and 625 points), 5 N at the centre, threshold 0.001 m,
@@ -132,7 +132,7 @@ def main():
         plot(organsim, active_csv, ",".join(REGIONS), "Integrated vertices by region, 25x25 grid, 5 N, midpoint",
              "vertices", os.path.join(args.out, "regions_active_dt0.01.png"))
 
-        print("\n## Pull beside press (Fig. 6): ±5 N at the centre, 15x15, midpoint, dt = 0.01 s\n")
+        print("\n## Pull beside press: ±5 N at the centre, 15x15, midpoint, dt = 0.01 s\n")
         print("| load | force point dz after 100 steps (mm) | kinetic energy at the last step (J) |")
         print("|---|---|---|")
         columns = {}

@@ -3,8 +3,8 @@
 
 The paper's liver has 2,394 mass points and 9,258 tetrahedra; it reports, per
 tool, 0.082 ms for the force loop and 3.75 ms for the organ's deformation
-(Pentium 4, 3 GHz), and that the multi-beam model changes the organ's volume
-less than a linear FEM under large presses. This bakes the shipped CT at that
+(Pentium 4, 3 GHz); it cites its single-beam predecessor for changing the
+organ's volume less than a linear FEM under large deformations. This bakes the shipped CT at that
 scale (--tet-size 9.5 --clamp-cells 0 --facet-distance 0.6: about 9,200
 tetrahedra on 2,600 nodes, a 3,000-vertex surface), times the beam's force and
 creation and the deformation with 1, 2, 4 and 8 tools (multibeam_bench on the

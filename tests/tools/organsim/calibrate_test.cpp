@@ -180,14 +180,14 @@ TEST_F(Cli, EvaluateMeasuresTheFastModelsOnPressesNoFitSaw) {
   EXPECT_NE(table.out.find("spread        2 mm: "), std::string::npos) << table.out;
 }
 
-// Issue 40's CI bound: on the phantom baked from its CT as a user would (site
-// compliances at the default 8 mm tetrahedra), the matched fast models give
-// the PSH reference's force on presses no fit saw (straight and tilted, 2 and
-// 5 mm, sites picked by the seed) within a factor of 1.2, each press within
-// 1.35 and its direction within 15°; their own contact forces, without the
-// site law (--unmatched), are several times off on the same presses. When
-// written: beam 1.107, springs 1.149 (worst press 0.80), directions within
-// 9.8°; unmatched 161 and 59.
+// The matched models' CI bound: on the phantom baked from its CT as a user
+// would (site compliances at the default 8 mm tetrahedra), the matched fast
+// models give the PSH reference's force on presses no fit saw (straight and
+// tilted, 2 and 5 mm, sites picked by the seed) within a factor of 1.2, each
+// press within 1.35 and its direction within 15°; their own contact forces,
+// without the site law (--unmatched), are several times off on the same
+// presses. When written: beam 1.107, springs 1.149 (worst press 0.80),
+// directions within 9.8°; unmatched 161 and 59.
 TEST_F(Cli, MatchedFastModelsGiveThePhantomsReferenceForceOnHeldOutPresses) {
   const fs::path model = dir_ / "phantom.organ";
   const CommandRun bake = run_organsim("bake " + (fs::path(ORGANSIM_DATA_SAMPLES) / "phantom_ct.nii.gz").string() +

@@ -5,7 +5,7 @@
 // scale. Half the presses fit, the other half measure the error before and
 // after; the fitted values go into a copy of the model with their provenance.
 //
-// Why the fit is so simple (docs/cli.md#calibrate): under a prescribed tool
+// Why the fit is so simple (docs/cli.md, `organsim calibrate`): under a prescribed tool
 // displacement the multi-beam space distortion of a single tool is
 // exp(−κ d) s(x), s independent of the material and κ = β ln α; its force is
 // linear in E. So κ is a one-dimensional minimization of the nodal

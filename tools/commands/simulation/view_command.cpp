@@ -341,7 +341,7 @@ int run_view(const ViewOptions& o) {
 Command add_view_command(CLI::App& app) {
   auto o = std::make_shared<ViewOptions>();
   app.add_option("model", o->model_path, "Model file (.organ)")->required();
-  app.add_option("--session", o->session_path, "Replay this session with scripted tools (default: mouse tools)");
+  app.add_option("--session", o->session_path, "Replay a session file with scripted tools (default: mouse tools)");
   app.add_flag("--long-session", o->long_session, "Allow sessions longer than 24 h");
   app.add_option("--background", o->background_path, "Laparoscopic background: an image or a video (looped)");
   app.add_option("--texture", o->texture_path, "Organ texture image (default: a procedural liver texture)");

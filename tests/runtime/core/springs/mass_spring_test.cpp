@@ -428,8 +428,8 @@ TEST(FixedRegion, NodesOutsideItNeverMoveAndItDoesNotGrow) {
 }
 
 TEST(HeldNode, APullFeelsAForceOppositeToAPressOfTheSameDepth) {
-  // He et al.'s pull beside the press (Fig. 6): the centre of the paper's grid
-  // held 5 mm above and 5 mm below its rest, settled without gravity.
+  // The centre of He et al.'s grid held 5 mm above and 5 mm below its rest,
+  // settled without gravity: a pull must feel the press's force reversed.
   const std::uint32_t size = 15, centre = centre_node(size);
   Eigen::Vector3d reaction[2];
   for (int pull = 0; pull < 2; ++pull) {

@@ -1,8 +1,8 @@
 // A rigid tool tip pressed into an elastic body: frictionless unilateral
 // contact on the body's nodes, solved exactly with Lagrange multipliers on an
-// active set. The reference a finite tool's force is measured against
-// (issue 40): a tip of finite size has a finite indentation stiffness, which a
-// refined mesh converges to, where a point load's does not.
+// active set. The reference a finite tool's force is measured against: a tip
+// of finite size has a finite indentation stiffness, which a refined mesh
+// converges to, where a point load's does not.
 //
 // Small strain, linear elasticity: the stiffness K of the free degrees of
 // freedom is factorized once. Each node i of the active set A is held on the
