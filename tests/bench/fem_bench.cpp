@@ -52,6 +52,9 @@
 #ifdef ORGANSIM_HAVE_FEM_DIRECT
 #include "organsim/fem/direct_factorizations.h"
 #endif
+#ifdef ORGANSIM_CHOOSES_BLAS_KERNELS
+#include "blas_kernels.h"
+#endif
 
 namespace {
 
@@ -545,4 +548,9 @@ const bool estimates_registered = [] {
 
 }  // namespace
 
-ORGANSIM_BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+#ifdef ORGANSIM_CHOOSES_BLAS_KERNELS
+  organsim::fem::use_the_cpus_blas_kernels(argv);  // may start the program over once (blas_kernels.h)
+#endif
+  return organsim::bench::run_benchmarks(argc, argv);
+}

@@ -117,4 +117,13 @@ void add_machine_context() {
                                                        m.simd));
 }
 
+int run_benchmarks(int argc, char** argv) {
+  add_machine_context();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
+
 }  // namespace organsim::bench

@@ -34,16 +34,13 @@ benchmark::Counter times_arithmetic_limit(double flops);
 /// in --benchmark_format=json's "context").
 void add_machine_context();
 
+/// BENCHMARK_MAIN's body with the machine's limits in the context: what a
+/// benchmark program's main() returns.
+int run_benchmarks(int argc, char** argv);
+
 }  // namespace organsim::bench
 
 /// BENCHMARK_MAIN with the machine's limits in the context.
-#define ORGANSIM_BENCHMARK_MAIN()                                          \
-  int main(int argc, char** argv) {                                        \
-    organsim::bench::add_machine_context();                                \
-    benchmark::Initialize(&argc, argv);                                    \
-    if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;      \
-    benchmark::RunSpecifiedBenchmarks();                                   \
-    benchmark::Shutdown();                                                 \
-    return 0;                                                              \
-  }                                                                        \
+#define ORGANSIM_BENCHMARK_MAIN()                                                          \
+  int main(int argc, char** argv) { return organsim::bench::run_benchmarks(argc, argv); } \
   static_assert(true, "")

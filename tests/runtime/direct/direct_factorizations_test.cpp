@@ -6,8 +6,10 @@
 #include "organsim/fem/direct_factorizations.h"
 
 #include <dlfcn.h>
+#include <strings.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 
 #include <gtest/gtest.h>
@@ -16,6 +18,7 @@
 #include "organsim/fem/static_solver.h"
 #include "organsim/fem/tangent_solver.h"
 #include "organsim/fem/tet_mesh.h"
+#include "blas_kernels.h"
 #include "single_column_blas.h"
 
 extern "C" {
@@ -320,4 +323,22 @@ TEST(DirectFactorizations, TheSolverLibrariesRunOnTheCallingThreadOnly) {
   if (blas_threads) {
     EXPECT_EQ(blas_threads(), 1);
   }
+}
+
+TEST(BlasKernels, AProgramThatChoosesThemRunsTheCpusKernels) {
+  using CoreName = char* (*)();
+  const auto core_name = reinterpret_cast<CoreName>(dlsym(RTLD_DEFAULT, "openblas_get_corename"));
+  if (!core_name || !core_name()) GTEST_SKIP() << "the BLAS loaded is not OpenBLAS";
+  __builtin_cpu_init();
+  if (!__builtin_cpu_supports("avx2")) GTEST_SKIP() << "a CPU without AVX2 keeps OpenBLAS's generic kernels";
+  const char* asked = std::getenv("OPENBLAS_CORETYPE");
+  if (asked && strcasecmp(asked, "prescott") == 0) GTEST_SKIP() << "OPENBLAS_CORETYPE=Prescott asks for the generic kernels";
+  EXPECT_NE(strcasecmp(core_name(), "prescott"), 0) << "OpenBLAS runs its generic kernels on a CPU with AVX2";
+}
+
+// This program chooses OpenBLAS's kernels as organsim's own executables do.
+int main(int argc, char** argv) {
+  organsim::fem::use_the_cpus_blas_kernels(argv);
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
 }
