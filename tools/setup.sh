@@ -12,7 +12,7 @@ packages=(
   libinsighttoolkit5-dev libvtk9-dev libcgal-dev libeigen3-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev libxxhash-dev libssl-dev
   libgtest-dev libbenchmark-dev
-  clang-14 libclang-rt-14-dev
+  clang-14 libclang-rt-14-dev clang-format-14
   libopencv-dev xvfb xauth
   calculix-ccx libopenigtlink-dev snakemake
   libsuitesparse-dev libmumps-seq-dev libopenblas-dev

@@ -29,10 +29,12 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (!s.realtime_priority) std::printf("warning: no real-time priority (SCHED_FIFO); gaps include other programs\n");
-  std::printf("%.0f s of %.2f ms spinning windows (%s%s): gaps > 0.1 ms %lld, > 1 ms %lld, > 2 ms %lld; largest %.3f ms\n",
-              seconds, spin_ms, s.realtime_priority ? "SCHED_FIFO 99" : "normal priority", locked ? ", memory locked" : "",
-              s.gaps_over_100us, s.gaps_over_1ms, s.gaps_over_2ms, s.largest_gap * 1e3);
-  std::printf("wake-ups from the sleeps between windows: later than 0.3 ms %lld, 1 ms %lld, 2 ms %lld; latest %.3f ms\n",
-              s.late_over_300us, s.late_over_1ms, s.late_over_2ms, s.latest_wake * 1e3);
+  std::printf(
+      "%.0f s of %.2f ms spinning windows (%s%s): gaps > 0.1 ms %lld, > 1 ms %lld, > 2 ms %lld; largest %.3f ms\n",
+      seconds, spin_ms, s.realtime_priority ? "SCHED_FIFO 99" : "normal priority", locked ? ", memory locked" : "",
+      s.gaps_over_100us, s.gaps_over_1ms, s.gaps_over_2ms, s.largest_gap * 1e3);
+  std::printf(
+      "wake-ups from the sleeps between windows: later than 0.3 ms %lld, 1 ms %lld, 2 ms %lld; latest %.3f ms\n",
+      s.late_over_300us, s.late_over_1ms, s.late_over_2ms, s.latest_wake * 1e3);
   return 0;
 }

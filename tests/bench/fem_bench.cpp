@@ -117,8 +117,9 @@ struct Setup {
     std::vector<bool> clamped(3 * mesh.nodes.size(), false);
     for (std::size_t n = 0; n < mesh.nodes.size(); ++n)
       if (held(which, mesh, n)) clamped[3 * n] = clamped[3 * n + 1] = clamped[3 * n + 2] = true;
-    const Material material = model == MaterialModel::mooney_rivlin ? Material::mooney_rivlin_from_young(5000, 0.49, 100)
-                                                                   : Material::from_young(model, 5000, 0.45);
+    const Material material = model == MaterialModel::mooney_rivlin
+                                  ? Material::mooney_rivlin_from_young(5000, 0.49, 100)
+                                  : Material::from_young(model, 5000, 0.45);
     system = std::make_unique<ElasticitySystem>(mesh, material, clamped);
     // A small deformation, so that the nonlinear materials do real work.
     state = Eigen::VectorXd::Zero(system->dof_count());
@@ -151,7 +152,8 @@ void CorotationalStress(benchmark::State& state) {
   for (std::size_t e = 0; e < blocks * kStressLanes; ++e) {
     const Eigen::Matrix3d F = e < tets ? s.system->deformation_gradient(s.state, e) : Eigen::Matrix3d::Identity();
     if (e < tets) one_by_one[e] = F;
-    for (int k = 0; k < 9; ++k) gradients[e / kStressLanes][static_cast<std::size_t>(k)][e % kStressLanes] = F(k % 3, k / 3);
+    for (int k = 0; k < 9; ++k)
+      gradients[e / kStressLanes][static_cast<std::size_t>(k)][e % kStressLanes] = F(k % 3, k / 3);
   }
   double F[9][kStressLanes], P[9][kStressLanes];
   Eigen::Matrix3d stress;
@@ -164,7 +166,8 @@ void CorotationalStress(benchmark::State& state) {
     } else {
       for (const auto& block : gradients) {
         for (int k = 0; k < 9; ++k)
-          for (int l = 0; l < kStressLanes; ++l) F[k][l] = block[static_cast<std::size_t>(k)][static_cast<std::size_t>(l)];
+          for (int l = 0; l < kStressLanes; ++l)
+            F[k][l] = block[static_cast<std::size_t>(k)][static_cast<std::size_t>(l)];
         corotational_stress_lanes(material, F, P);
         benchmark::DoNotOptimize(P[0]);
       }
@@ -302,8 +305,8 @@ void NewtonIteration(benchmark::State& state) {
 /// the copy bandwidth (MUMPS keeps dense front panels: 8 bytes per entry, 4
 /// for the single-precision factor GMRES refines).
 void PshPress(benchmark::State& state) {
-  const StaticProblem problem =
-      top_press_problem(baked_mesh().mesh, baked_mesh().fixed_point, Material::mooney_rivlin_from_young(1e6, 0.49, 100));
+  const StaticProblem problem = top_press_problem(baked_mesh().mesh, baked_mesh().fixed_point,
+                                                  Material::mooney_rivlin_from_young(1e6, 0.49, 100));
   SolverOptions options;
 #ifdef ORGANSIM_HAVE_FEM_DIRECT
   options.factorization = direct_factorization;
@@ -315,12 +318,14 @@ void PshPress(benchmark::State& state) {
     if (!solution.converged) state.SkipWithError(solution.error.c_str());
     iterations = 0;
     for (const int i : solution.newton_iterations) iterations += i;
-    state.SetIterationTime((solution.assembly_seconds + solution.solve_seconds - solution.analysis_seconds) / iterations);
+    state.SetIterationTime((solution.assembly_seconds + solution.solve_seconds - solution.analysis_seconds) /
+                           iterations);
   }
   ElasticitySystem system(problem.mesh, problem.material, std::vector<bool>(3 * problem.mesh.nodes.size(), false));
   Eigen::VectorXd x = Eigen::VectorXd::Zero(system.dof_count()), gradient(system.dof_count());
   system.assemble(x, gradient, true);
-  const auto factorization = make_factorization(options.factorization, MatrixKind::quasi_definite, SolveUse::preconditioner);
+  const auto factorization =
+      make_factorization(options.factorization, MatrixKind::quasi_definite, SolveUse::preconditioner);
   factorization->analyze(system.tangent_free());
   factorization->factorize(system.tangent_free());
   const double solves = solution.factorizations + solution.krylov_solves + solution.krylov_iterations;
@@ -447,7 +452,8 @@ void PeerStep(benchmark::State& state, const std::string& path) {
   std::vector<bool> clamped(3 * mesh.nodes.size(), false);
   std::size_t loaded = 0;
   for (std::size_t n = 0; n < mesh.nodes.size(); ++n) {
-    if ((mesh.nodes[n] - fixed).norm() <= options.fem.fixed_radius) clamped[3 * n] = clamped[3 * n + 1] = clamped[3 * n + 2] = true;
+    if ((mesh.nodes[n] - fixed).norm() <= options.fem.fixed_radius)
+      clamped[3 * n] = clamped[3 * n + 1] = clamped[3 * n + 2] = true;
     if ((mesh.nodes[n] - press.point).norm() < (mesh.nodes[loaded] - press.point).norm()) loaded = n;
   }
   organsim::bench::PeerOptions peer_options;
@@ -539,7 +545,8 @@ const bool estimates_registered = [] {
                                    [path, name](benchmark::State& state) { FrameEstimate(state, path, name); })
           ->Unit(benchmark::kMillisecond)
           ->Iterations(1);
-    benchmark::RegisterBenchmark(("PeerStep/" + path).c_str(), [path](benchmark::State& state) { PeerStep(state, path); })
+    benchmark::RegisterBenchmark(("PeerStep/" + path).c_str(),
+                                 [path](benchmark::State& state) { PeerStep(state, path); })
         ->Unit(benchmark::kMillisecond)
         ->Iterations(1);
   }

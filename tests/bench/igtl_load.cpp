@@ -86,9 +86,9 @@ std::string read_text(const fs::path& path) {
 
 /// The server's process as /proc shows it.
 struct ProcessSample {
-  double t = 0.0;             ///< s since the server started
-  double cpu_seconds = 0.0;   ///< user + system
-  double resident_mb = 0.0;   ///< VmRSS
+  double t = 0.0;            ///< s since the server started
+  double cpu_seconds = 0.0;  ///< user + system
+  double resident_mb = 0.0;  ///< VmRSS
   int open_descriptors = 0;
 };
 
@@ -108,14 +108,16 @@ ProcessSample sample_process(pid_t pid, Clock::time_point start) {
   std::istringstream status(read_text(fmt::format("/proc/{}/status", pid)));
   for (std::string line; std::getline(status, line);)
     if (line.rfind("VmRSS:", 0) == 0) s.resident_mb = std::stod(line.substr(6)) / 1024.0;
-  for ([[maybe_unused]] const auto& entry : fs::directory_iterator(fmt::format("/proc/{}/fd", pid))) ++s.open_descriptors;
+  for ([[maybe_unused]] const auto& entry : fs::directory_iterator(fmt::format("/proc/{}/fd", pid)))
+    ++s.open_descriptors;
   return s;
 }
 
 /// `organsim serve` in its own process.
 class Server {
  public:
-  Server(const Options& o, const std::string& model, const fs::path& dir) : out_(dir / "serve.out"), err_(dir / "serve.err") {
+  Server(const Options& o, const std::string& model, const fs::path& dir)
+      : out_(dir / "serve.out"), err_(dir / "serve.err") {
     // The server ends by itself if this program is killed before it stops it
     // (a ctest timeout): its --seconds, and the parent's death.
     const std::string command = fmt::format(
@@ -292,7 +294,7 @@ class Inbox final : public organsim::igtlink::MessageReader::Handler {
   Move move_ = Move::release;
   bool waiting_ = false, waiting_quarter_ = false;
   double last_force_ = 0.0, force_before_ = 0.0;  // N
-  double moved_at_ = 0.0, arrived_at_ = 0.0;  // CLOCK_REALTIME, s
+  double moved_at_ = 0.0, arrived_at_ = 0.0;      // CLOCK_REALTIME, s
 };
 
 double realtime_now() {
@@ -361,7 +363,9 @@ double transmit_time(int fd) {
 class MessageBoundaries {
  public:
   /// Bytes the next read may take, at most `buffer`.
-  std::size_t next_read(std::size_t buffer) const { return static_cast<std::size_t>(std::min<std::uint64_t>(buffer, left_)); }
+  std::size_t next_read(std::size_t buffer) const {
+    return static_cast<std::size_t>(std::min<std::uint64_t>(buffer, left_));
+  }
   void consumed(const std::uint8_t* data, std::size_t size) {
     while (size > 0) {
       const auto take = static_cast<std::size_t>(std::min<std::uint64_t>(size, left_));
@@ -499,7 +503,9 @@ Percentiles percentiles(std::vector<double> values) {
   p.count = values.size();
   if (values.empty()) return p;
   std::sort(values.begin(), values.end());
-  const auto at = [&](double q) { return values[std::min(values.size() - 1, static_cast<std::size_t>(q * values.size()))]; };
+  const auto at = [&](double q) {
+    return values[std::min(values.size() - 1, static_cast<std::size_t>(q * values.size()))];
+  };
   p.p50 = at(0.5);
   p.p99 = at(0.99);
   p.max = values.back();
@@ -513,16 +519,17 @@ nlohmann::json milliseconds(const Percentiles& p) {
 /// Samples the server every 0.5 s while `running`.
 class Sampler {
  public:
-  Sampler(const Server& server, std::atomic<bool>& running) : thread_([this, &server, &running] {
-      while (running.load()) {
-        try {
-          samples_.push_back(server.sample());
-        } catch (const std::exception&) {  // the server is gone: the phase's checks say so
-          return;
-        }
-        std::this_thread::sleep_for(std::chrono::milliseconds(500));
-      }
-    }) {}
+  Sampler(const Server& server, std::atomic<bool>& running)
+      : thread_([this, &server, &running] {
+          while (running.load()) {
+            try {
+              samples_.push_back(server.sample());
+            } catch (const std::exception&) {  // the server is gone: the phase's checks say so
+              return;
+            }
+            std::this_thread::sleep_for(std::chrono::milliseconds(500));
+          }
+        }) {}
   std::vector<ProcessSample> finish() {
     thread_.join();
     return samples_;
@@ -543,7 +550,9 @@ struct Phase {
 double own_cpu_seconds() {
   rusage usage{};
   ::getrusage(RUSAGE_SELF, &usage);
-  const auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
+  const auto seconds = [](const timeval& t) {
+    return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec);
+  };
   return seconds(usage.ru_utime) + seconds(usage.ru_stime);
 }
 
@@ -556,7 +565,8 @@ Phase run_phase(const std::string& name, const Server& server, const Options& o,
   Sampler sampler(server, running);
   std::vector<std::thread> threads;
   for (int k = 0; k < o.clients; ++k)
-    threads.emplace_back(run_client, server.port(), k, o.clients, o.seconds, std::ref(phase.clients[static_cast<std::size_t>(k)]));
+    threads.emplace_back(run_client, server.port(), k, o.clients, o.seconds,
+                         std::ref(phase.clients[static_cast<std::size_t>(k)]));
   for (std::thread& t : threads) t.join();
   running = false;
   phase.samples = sampler.finish();
@@ -573,7 +583,9 @@ Flatness flatness(const std::vector<ProcessSample>& s) {
   Flatness f;
   if (s.size() < 10) return f;
   const std::size_t fifth = s.size() / 5;
-  const auto share = [&](std::size_t a, std::size_t b) { return (s[b].cpu_seconds - s[a].cpu_seconds) / (s[b].t - s[a].t); };
+  const auto share = [&](std::size_t a, std::size_t b) {
+    return (s[b].cpu_seconds - s[a].cpu_seconds) / (s[b].t - s[a].t);
+  };
   f.cpu_first = share(0, fifth);
   f.cpu_last = share(s.size() - 1 - fifth, s.size() - 1);
   f.resident_first_mb = s[fifth].resident_mb;  // after the clients' first frames
@@ -593,7 +605,8 @@ int main(int argc, char** argv) {
   app.add_option("--clients", o.clients, "Clients (and tools)")->check(CLI::Range(1, 8))->capture_default_str();
   app.add_option("--force-rate", o.force_rate, "serve's --force-rate, Hz")->capture_default_str();
   app.add_option("--cycles", o.cycles, "Connections opened and closed after the loaded phases")->capture_default_str();
-  app.add_option("--memory-growth-mb", o.memory_growth_mb, "Largest resident-memory growth accepted, MB")->capture_default_str();
+  app.add_option("--memory-growth-mb", o.memory_growth_mb, "Largest resident-memory growth accepted, MB")
+      ->capture_default_str();
   app.add_flag("--json", o.json, "One JSON object instead of the table");
   CLI11_PARSE(app, argc, argv);
 
@@ -636,9 +649,7 @@ int main(int argc, char** argv) {
     std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the server notices the last closes
     const ProcessSample after = server.sample();
     const nlohmann::json summary = server.stop();
-    if (summary.is_null() || summary.is_discarded())
-      failures.push_back("organsim serve did not end cleanly");
-
+    if (summary.is_null() || summary.is_discarded()) failures.push_back("organsim serve did not end cleanly");
 
     nlohmann::json phases_json = nlohmann::json::array();
     for (const Phase& phase : phases) {
@@ -669,26 +680,27 @@ int main(int argc, char** argv) {
           failures.push_back(fmt::format("{}: client {} got {} surfaces and {} forces in {:g} s", phase.name, k + 1,
                                          c.surfaces, c.own_forces, o.seconds));
         if (!c.kernel_stamps)
-          failures.push_back(fmt::format("{}: client {}'s socket refused kernel stamps (SO_TIMESTAMPNS, SO_TIMESTAMPING)",
-                                         phase.name, k + 1));
+          failures.push_back(fmt::format(
+              "{}: client {}'s socket refused kernel stamps (SO_TIMESTAMPNS, SO_TIMESTAMPING)", phase.name, k + 1));
         if (c.moves_without_transmit_stamp * 100 > c.moves)
-          failures.push_back(fmt::format("{}: client {} got no kernel transmit stamp for {} of its {} moves", phase.name,
-                                         k + 1, c.moves_without_transmit_stamp, c.moves));
+          failures.push_back(fmt::format("{}: client {} got no kernel transmit stamp for {} of its {} moves",
+                                         phase.name, k + 1, c.moves_without_transmit_stamp, c.moves));
         if (c.in_contact_latency_s.empty())
           failures.push_back(fmt::format("{}: client {} never saw its press's force change", phase.name, k + 1));
       }
       const Flatness f = flatness(phase.samples);
       const Percentiles force_before = percentiles(deepen_force);
-      phases_json.push_back({{"phase", phase.name},
-                             {"in_contact_latency", milliseconds(percentiles(in_contact))},
-                             {"onset_latency", milliseconds(percentiles(onset))},
-                             {"release_latency", milliseconds(percentiles(release))},
-                             {"deepen_quarter_latency", milliseconds(percentiles(deepen_quarter))},
-                             {"deepen_force_before_n", {{"p50", force_before.p50}, {"p99", force_before.p99}}},
-                             {"server_cpu_share", {{"first_fifth", f.cpu_first}, {"last_fifth", f.cpu_last}}},
-                             {"server_resident_mb", {{"first_fifth", f.resident_first_mb}, {"end", f.resident_last_mb}}},
-                             {"clients_cpu_share", phase.clients_cpu_share},
-                             {"clients", clients}});
+      phases_json.push_back(
+          {{"phase", phase.name},
+           {"in_contact_latency", milliseconds(percentiles(in_contact))},
+           {"onset_latency", milliseconds(percentiles(onset))},
+           {"release_latency", milliseconds(percentiles(release))},
+           {"deepen_quarter_latency", milliseconds(percentiles(deepen_quarter))},
+           {"deepen_force_before_n", {{"p50", force_before.p50}, {"p99", force_before.p99}}},
+           {"server_cpu_share", {{"first_fifth", f.cpu_first}, {"last_fifth", f.cpu_last}}},
+           {"server_resident_mb", {{"first_fifth", f.resident_first_mb}, {"end", f.resident_last_mb}}},
+           {"clients_cpu_share", phase.clients_cpu_share},
+           {"clients", clients}});
     }
     const std::vector<ProcessSample>& loaded = phases.front().samples;
     const double growth_mb = loaded.empty() ? 0.0 : after.resident_mb - loaded[loaded.size() / 5].resident_mb;
@@ -698,7 +710,8 @@ int main(int argc, char** argv) {
                                      o.cycles));
     if (growth_mb > o.memory_growth_mb)
       failures.push_back(fmt::format("resident memory grew by {:.1f} MB (limit {:g})", growth_mb, o.memory_growth_mb));
-    if (refused_cycles > 0) failures.push_back(fmt::format("{} of {} connection cycles refused", refused_cycles, o.cycles));
+    if (refused_cycles > 0)
+      failures.push_back(fmt::format("{} of {} connection cycles refused", refused_cycles, o.cycles));
     report = {{"cpu", organsim::bench::machine_limits().cpu},
               {"machine_floor", {{"gaps_over_1ms", floor.gaps_over_1ms}, {"largest_gap_ms", floor.largest_gap * 1e3}}},
               {"clients", o.clients},
@@ -706,8 +719,10 @@ int main(int argc, char** argv) {
               {"seconds_per_phase", o.seconds},
               {"phases", phases_json},
               {"cycles", {{"count", o.cycles}, {"seconds", cycles_seconds}, {"refused", refused_cycles}}},
-              {"open_descriptors", {{"idle", idle.open_descriptors}, {"after_load", before_cycles.open_descriptors},
-                                    {"after_cycles", after.open_descriptors}}},
+              {"open_descriptors",
+               {{"idle", idle.open_descriptors},
+                {"after_load", before_cycles.open_descriptors},
+                {"after_cycles", after.open_descriptors}}},
               {"resident_mb", {{"idle", idle.resident_mb}, {"after_cycles", after.resident_mb}, {"growth", growth_mb}}},
               {"server", summary},
               {"failures", failures}};
@@ -733,8 +748,8 @@ int main(int argc, char** argv) {
           "  2 mm deeper -> force 25 % up (with the onset limit's ramp): {}; the force before it p50 {:.3f} N, "
           "p99 {:.3f} N\n",
           p["phase"].get<std::string>(), o.clients, o.seconds, o.force_rate,
-          100 * p["server_cpu_share"]["first_fifth"].get<double>(), 100 * p["server_cpu_share"]["last_fifth"].get<double>(),
-          100 * p["clients_cpu_share"].get<double>(),
+          100 * p["server_cpu_share"]["first_fifth"].get<double>(),
+          100 * p["server_cpu_share"]["last_fifth"].get<double>(), 100 * p["clients_cpu_share"].get<double>(),
           p["server_resident_mb"]["first_fifth"].get<double>(), p["server_resident_mb"]["end"].get<double>(),
           latency("in_contact_latency"), latency("onset_latency"), latency("release_latency"),
           latency("deepen_quarter_latency"), p["deepen_force_before_n"]["p50"].get<double>(),
@@ -750,12 +765,11 @@ int main(int argc, char** argv) {
                                report["server"]["frames_missed"].get<std::uint64_t>(),
                                report["server"]["clients_accepted"].get<std::uint64_t>(),
                                report["server"]["clients_refused"].get<std::uint64_t>());
-    std::cout << fmt::format("{} connect/disconnect cycles in {:.1f} s: open descriptors {} idle, {} after; memory "
-                             "{:+.1f} MB\n",
-                             o.cycles, report["cycles"]["seconds"].get<double>(),
-                             report["open_descriptors"]["idle"].get<int>(),
-                             report["open_descriptors"]["after_cycles"].get<int>(),
-                             report["resident_mb"]["growth"].get<double>());
+    std::cout << fmt::format(
+        "{} connect/disconnect cycles in {:.1f} s: open descriptors {} idle, {} after; memory "
+        "{:+.1f} MB\n",
+        o.cycles, report["cycles"]["seconds"].get<double>(), report["open_descriptors"]["idle"].get<int>(),
+        report["open_descriptors"]["after_cycles"].get<int>(), report["resident_mb"]["growth"].get<double>());
   }
   for (const std::string& f : failures) std::cerr << "igtl_load: " << f << '\n';
   return failures.empty() ? 0 : 1;

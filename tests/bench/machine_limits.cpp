@@ -113,8 +113,8 @@ void add_machine_context() {
   benchmark::AddCustomContext("simd", m.simd);
   benchmark::AddCustomContext("copy_bandwidth", fmt::format("{:.1f} GB/s (STREAM-like copy, read + write, one thread)",
                                                             m.copy_bytes_per_s / 1e9));
-  benchmark::AddCustomContext("peak_fp64", fmt::format("{:.1f} GFLOP/s (one core, FMA at {})", m.peak_flops / 1e9,
-                                                       m.simd));
+  benchmark::AddCustomContext("peak_fp64",
+                              fmt::format("{:.1f} GFLOP/s (one core, FMA at {})", m.peak_flops / 1e9, m.simd));
 }
 
 int run_benchmarks(int argc, char** argv) {

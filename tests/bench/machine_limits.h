@@ -15,10 +15,10 @@
 namespace organsim::bench {
 
 struct MachineLimits {
-  std::string cpu;           ///< /proc/cpuinfo's model name
-  std::string simd;          ///< the kernel level: x86-64-v4 (AVX-512), x86-64-v3 (AVX2), x86-64
-  double copy_bytes_per_s;   ///< STREAM-like copy, one thread, bytes read + written
-  double peak_flops;         ///< double-precision flops per second, one core, at `simd`
+  std::string cpu;          ///< /proc/cpuinfo's model name
+  std::string simd;         ///< the kernel level: x86-64-v4 (AVX-512), x86-64-v3 (AVX2), x86-64
+  double copy_bytes_per_s;  ///< STREAM-like copy, one thread, bytes read + written
+  double peak_flops;        ///< double-precision flops per second, one core, at `simd`
 };
 
 /// Measured once per program (about 1 s), on first use.
@@ -41,6 +41,6 @@ int run_benchmarks(int argc, char** argv);
 }  // namespace organsim::bench
 
 /// BENCHMARK_MAIN with the machine's limits in the context.
-#define ORGANSIM_BENCHMARK_MAIN()                                                          \
+#define ORGANSIM_BENCHMARK_MAIN()                                                         \
   int main(int argc, char** argv) { return organsim::bench::run_benchmarks(argc, argv); } \
   static_assert(true, "")

@@ -125,7 +125,11 @@ void BM_NormalsOfDoublePositions(benchmark::State& state) {
   state.counters["x_memory_limit"] = organsim::bench::times_memory_limit(76.0 * n);
   state.counters["x_arithmetic_limit"] = organsim::bench::times_arithmetic_limit(100.0 * n);
 }
-BENCHMARK(BM_NormalsOfDoublePositions)->Arg(2400)->Arg(100000)->Unit(benchmark::kMicrosecond)->ComputeStatistics("min", minimum);
+BENCHMARK(BM_NormalsOfDoublePositions)
+    ->Arg(2400)
+    ->Arg(100000)
+    ->Unit(benchmark::kMicrosecond)
+    ->ComputeStatistics("min", minimum);
 
 // A helper thread that runs the second half of each phase; the caller runs the
 // first half and waits for it (spinning: this is a throughput benchmark).
@@ -201,8 +205,9 @@ void BM_Deformation(benchmark::State& state) {
   // and the normals pass (77 bytes) per vertex.
   state.counters["x_memory_limit"] =
       organsim::bench::times_memory_limit((125.0 + 8.0 * tools) * static_cast<double>(n));
-  state.counters["ns_per_vertex_per_tool"] = benchmark::Counter(
-      static_cast<double>(n) * tools * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["ns_per_vertex_per_tool"] =
+      benchmark::Counter(static_cast<double>(n) * tools * 1e-9,
+                         benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_Deformation)
     ->ArgNames({"vertices", "tools", "threads"})

@@ -64,7 +64,9 @@ void tick_pressing_tools(benchmark::State& state, const organ::Organ& organ, con
 }
 
 // The multi-beam model's own force law, the tools' 2.5 mm tips.
-void BM_ForceTick(benchmark::State& state) { tick_pressing_tools(state, organ(), {}, static_cast<int>(state.range(0))); }
+void BM_ForceTick(benchmark::State& state) {
+  tick_pressing_tools(state, organ(), {}, static_cast<int>(state.range(0)));
+}
 BENCHMARK(BM_ForceTick)->Arg(1)->Arg(2)->Arg(4)->Arg(8)->Unit(benchmark::kMicrosecond);
 
 // The fast models matched to the FEM reference (docs/matching.md): with site

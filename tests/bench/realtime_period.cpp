@@ -49,16 +49,19 @@ int main(int argc, char** argv) {
   std::printf("organ: %zu vertices, %d pressing tools, %.0f s real time%s\n", organ.vertex_count(), pressing, seconds,
               timings.realtime_priority ? ", force loop SCHED_FIFO" : "");
   if (!timings.priority_warning.empty()) std::printf("warning: %s\n", timings.priority_warning.c_str());
-  std::printf("force loop: %zu ticks; period p50 %.4f ms, p99 %.4f ms, max %.4f ms; compute p50 %.2f us, p99 %.2f us, "
-              "max %.2f us; %llu periods > 2 ms\n",
-              static_cast<std::size_t>(timings.force_computes.count()), period.p50 * 1e3, period.p99 * 1e3, period.max * 1e3, compute.p50 * 1e6,
-              compute.p99 * 1e6, compute.max * 1e6, static_cast<unsigned long long>(timings.force_deadline_misses));
+  std::printf(
+      "force loop: %zu ticks; period p50 %.4f ms, p99 %.4f ms, max %.4f ms; compute p50 %.2f us, p99 %.2f us, "
+      "max %.2f us; %llu periods > 2 ms\n",
+      static_cast<std::size_t>(timings.force_computes.count()), period.p50 * 1e3, period.p99 * 1e3, period.max * 1e3,
+      compute.p50 * 1e6, compute.p99 * 1e6, compute.max * 1e6,
+      static_cast<unsigned long long>(timings.force_deadline_misses));
   const auto within = static_cast<double>(timings.force_periods.count_between(0.9e-3, 1.1e-3));
   std::printf("force periods within 1 ms ± 0.1 ms: %.3f %%; min %.4f ms\n",
               100.0 * within / static_cast<double>(std::max<std::uint64_t>(1, timings.force_periods.count())),
               timings.force_periods.min() * 1e3);
   std::printf("deformation loop: %zu frames; compute p50 %.3f ms, p99 %.3f ms, max %.3f ms\n",
-              static_cast<std::size_t>(timings.deformation_computes.count()), deform.p50 * 1e3, deform.p99 * 1e3, deform.max * 1e3);
+              static_cast<std::size_t>(timings.deformation_computes.count()), deform.p50 * 1e3, deform.p99 * 1e3,
+              deform.max * 1e3);
   std::printf("contacts:");
   for (std::size_t k = 0; k < pointers.size(); ++k) std::printf(" tool %zu %u", k + 1, engine.telemetry(k).contacts);
   std::printf("\n");

@@ -17,8 +17,8 @@
 namespace {
 
 using organsim::pipeline::CtImage;
-using organsim::pipeline::SeedPoint;
 using organsim::pipeline::SeededSegmentationOptions;
+using organsim::pipeline::SeedPoint;
 
 void run(benchmark::State& state, const CtImage& ct, const SeededSegmentationOptions& options) {
   std::map<std::string, double> steps;
@@ -28,7 +28,8 @@ void run(benchmark::State& state, const CtImage& ct, const SeededSegmentationOpt
     for (const auto& [step, seconds] : result.report.step_seconds) steps[step] += seconds;
     volume_ml = result.report.volume_ml;
   }
-  for (const auto& [step, seconds] : steps) state.counters[step + " s"] = seconds / static_cast<double>(state.iterations());
+  for (const auto& [step, seconds] : steps)
+    state.counters[step + " s"] = seconds / static_cast<double>(state.iterations());
   state.counters["organ mL"] = volume_ml;
   const auto size = ct.GetLargestPossibleRegion().GetSize();
   state.counters["voxels"] = static_cast<double>(size[0] * size[1] * size[2]);

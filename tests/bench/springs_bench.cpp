@@ -67,9 +67,9 @@ void run_steps(benchmark::State& state, SpringNetwork network, double dt) {
   state.counters["springs"] = static_cast<double>(springs);
   // At least the spring list, streamed once per force evaluation.
   state.counters["x_memory_limit"] = organsim::bench::times_memory_limit(spring_bytes * kEvaluations[which]);
-  state.counters["ns_per_spring_evaluation"] = benchmark::Counter(
-      static_cast<double>(springs * kEvaluations[which]), benchmark::Counter::kIsIterationInvariantRate |
-                                                              benchmark::Counter::kInvert);
+  state.counters["ns_per_spring_evaluation"] =
+      benchmark::Counter(static_cast<double>(springs * kEvaluations[which]),
+                         benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
 void BM_StepGrid225(benchmark::State& state) { run_steps(state, grid(15), 1e-3); }

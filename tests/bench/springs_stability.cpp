@@ -73,8 +73,8 @@ Eigen::VectorXd accelerations(const SpringNetwork& net, const std::vector<int>& 
 
 Complex stability_polynomial(int method, Complex z) {
   switch (method) {
-    case 0: return 1.0 + z;                                  // explicit Euler
-    case 1: return 1.0 + z + z * z / 2.0;                    // midpoint (any 2-stage RK2)
+    case 0: return 1.0 + z;                                                          // explicit Euler
+    case 1: return 1.0 + z + z * z / 2.0;                                            // midpoint (any 2-stage RK2)
     default: return 1.0 + z + z * z / 2.0 + z * z * z / 6.0 + z * z * z * z / 24.0;  // RK4
   }
 }
@@ -84,14 +84,20 @@ bool parse(int argc, char** argv, Setup& s) {
     const std::string option = argv[i];
     if (i + 1 >= argc) return false;
     const char* value = argv[++i];
-    if (option == "--grid") s.side = static_cast<std::uint32_t>(std::atoi(value));
-    else if (option == "--force") s.force_z = std::atof(value);
+    if (option == "--grid")
+      s.side = static_cast<std::uint32_t>(std::atoi(value));
+    else if (option == "--force")
+      s.force_z = std::atof(value);
     else if (option == "--damping") {
       if (std::sscanf(value, "%lf,%lf,%lf", &s.damping[0], &s.damping[1], &s.damping[2]) != 3) return false;
-    } else if (option == "--point-damping") s.point_damping = std::atof(value);
-    else if (option == "--gravity") s.gravity = std::atof(value);
-    else if (option == "--at-dt") s.at_dt = std::atof(value);
-    else return false;
+    } else if (option == "--point-damping")
+      s.point_damping = std::atof(value);
+    else if (option == "--gravity")
+      s.gravity = std::atof(value);
+    else if (option == "--at-dt")
+      s.at_dt = std::atof(value);
+    else
+      return false;
   }
   return s.side >= 3 && s.at_dt > 0.0;
 }
@@ -155,7 +161,8 @@ int main(int argc, char** argv) {
     }
   }
   const Eigen::VectorXd damping_rates = Eigen::SelfAdjointEigenSolver<Matrix>(-0.5 * (D + D.transpose())).eigenvalues();
-  const Eigen::VectorXd stiffness_rates = Eigen::SelfAdjointEigenSolver<Matrix>(-0.5 * (K + K.transpose())).eigenvalues();
+  const Eigen::VectorXd stiffness_rates =
+      Eigen::SelfAdjointEigenSolver<Matrix>(-0.5 * (K + K.transpose())).eigenvalues();
   Matrix A = Matrix::Zero(2 * n, 2 * n);
   A.topRightCorner(n, n).setIdentity();
   A.bottomLeftCorner(n, n) = K;
@@ -167,10 +174,11 @@ int main(int argc, char** argv) {
     if (mu[i].real() > mu[least_damped].real()) least_damped = i;
   }
 
-  std::printf("grid %ux%u, force (0, 0, %g) N at vertex %u, spring damping %g,%g,%g N s/m, point damping %g N s/m, "
-              "gravity %g m/s^2\n",
-              setup.side, setup.side, setup.force_z, loaded, setup.damping[0], setup.damping[1], setup.damping[2],
-              setup.point_damping, setup.gravity);
+  std::printf(
+      "grid %ux%u, force (0, 0, %g) N at vertex %u, spring damping %g,%g,%g N s/m, point damping %g N s/m, "
+      "gravity %g m/s^2\n",
+      setup.side, setup.side, setup.force_z, loaded, setup.damping[0], setup.damping[1], setup.damping[2],
+      setup.point_damping, setup.gravity);
   std::printf("equilibrium: loaded vertex at dz = %.4f m (largest residual acceleration %.2g m/s^2)\n",
               x[loaded].z() - net.rest[loaded].z(), a0.cwiseAbs().maxCoeff());
   std::printf("damping rates (eigenvalues of M^-1 C): %.2f to %.2f 1/s\n", damping_rates.minCoeff(),

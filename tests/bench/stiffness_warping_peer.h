@@ -22,13 +22,13 @@
 namespace organsim::bench {
 
 struct PeerOptions {
-  double young_modulus = 5000.0;      ///< Pa
+  double young_modulus = 5000.0;  ///< Pa
   double poisson_ratio = 0.45;
-  double density = 1000.0;            ///< kg/m³
-  double mass_damping = 0.0;          ///< a, 1/s
-  double stiffness_damping = 0.01;    ///< b, s (Vega's interactive default)
-  double time_step = 1.0 / 60.0;      ///< s: one deformation frame
-  double tolerance = 1e-6;            ///< CG's relative residual
+  double density = 1000.0;          ///< kg/m³
+  double mass_damping = 0.0;        ///< a, 1/s
+  double stiffness_damping = 0.01;  ///< b, s (Vega's interactive default)
+  double time_step = 1.0 / 60.0;    ///< s: one deformation frame
+  double tolerance = 1e-6;          ///< CG's relative residual
   int max_iterations = 10000;
 };
 
@@ -50,13 +50,13 @@ class StiffnessWarpingPeer {
   fem::TetMesh mesh_;
   PeerOptions options_;
   std::vector<Eigen::Matrix<double, 12, 12>> element_stiffness_;
-  std::vector<Eigen::Matrix3d> rest_inverse_;        ///< per tetrahedron: Dm⁻¹
-  std::vector<std::int32_t> free_index_;             ///< per dof: its free index, or −1
+  std::vector<Eigen::Matrix3d> rest_inverse_;  ///< per tetrahedron: Dm⁻¹
+  std::vector<std::int32_t> free_index_;       ///< per dof: its free index, or −1
   std::vector<std::int32_t> free_dofs_;
-  std::vector<std::int32_t> value_of_;               ///< per element entry (144 each): its index in stiffness_'s values, or −1
-  Eigen::VectorXd mass_;                             ///< per free dof (lumped)
-  Eigen::VectorXd internal_;                         ///< per dof
-  Eigen::SparseMatrix<double> stiffness_, system_;   ///< free × free
+  std::vector<std::int32_t> value_of_;  ///< per element entry (144 each): its index in stiffness_'s values, or −1
+  Eigen::VectorXd mass_;                ///< per free dof (lumped)
+  Eigen::VectorXd internal_;            ///< per dof
+  Eigen::SparseMatrix<double> stiffness_, system_;  ///< free × free
 };
 
 }  // namespace organsim::bench

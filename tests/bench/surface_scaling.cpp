@@ -59,8 +59,7 @@ Sized& sized(std::size_t vertices) {
   static std::map<std::size_t, Sized> cache;
   Sized& s = cache[vertices];
   if (s.organ) return s;
-  s.path = (std::filesystem::temp_directory_path() / (scratch_name(vertices)))
-               .string();
+  s.path = (std::filesystem::temp_directory_path() / (scratch_name(vertices))).string();
   model::write_organ_model_file(testing::make_sphere_model(vertices, kStations), s.path);
   s.file_mb = static_cast<double>(std::filesystem::file_size(s.path)) / 1e6;
   const double before = heap_in_use_mb();
@@ -100,8 +99,8 @@ void BM_Deformation(benchmark::State& state) {
   for (int k = 0; k < tools; ++k) {
     // Tools spread over the sphere (a Fibonacci lattice), pressed 5 mm in.
     const double z = 1.0 - (2.0 * k + 1.0) / tools, azimuth = k * M_PI * (3.0 - std::sqrt(5.0));
-    const Eigen::Vector3d p =
-        kRadius * Eigen::Vector3d(std::sqrt(1 - z * z) * std::cos(azimuth), std::sqrt(1 - z * z) * std::sin(azimuth), z);
+    const Eigen::Vector3d p = kRadius * Eigen::Vector3d(std::sqrt(1 - z * z) * std::cos(azimuth),
+                                                        std::sqrt(1 - z * z) * std::sin(azimuth), z);
     if (beams.attach(k, p) != multibeam::Status::ok) state.SkipWithError("attach failed");
     displacements.push_back(-0.005 * p.normalized());
   }
@@ -174,7 +173,6 @@ int main(int argc, char** argv) {
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   for (const std::int64_t n : vertices)
-    std::remove((std::filesystem::temp_directory_path() / (scratch_name(static_cast<std::size_t>(n))))
-                    .c_str());
+    std::remove((std::filesystem::temp_directory_path() / (scratch_name(static_cast<std::size_t>(n)))).c_str());
   return 0;
 }

@@ -13,10 +13,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   (void)organsim::model::parse_organ_model(data, size, "fuzz");
   std::vector<std::uint8_t> patched(data, data + size);
   organsim::testing::refresh_checksums(patched);
-  const organsim::model::ModelReadResult result = organsim::model::parse_organ_model(patched.data(), patched.size(), "fuzz");
+  const organsim::model::ModelReadResult result =
+      organsim::model::parse_organ_model(patched.data(), patched.size(), "fuzz");
   if (result) {
     const std::vector<std::uint8_t> again = organsim::model::serialize_organ_model(*result.model);
-    const organsim::model::ModelReadResult reread = organsim::model::parse_organ_model(again.data(), again.size(), "fuzz");
+    const organsim::model::ModelReadResult reread =
+        organsim::model::parse_organ_model(again.data(), again.size(), "fuzz");
     if (!reread || !(*reread.model == *result.model)) std::abort();
   }
   return 0;

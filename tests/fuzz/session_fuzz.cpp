@@ -27,7 +27,8 @@ void check(const Session& session, const SessionLimits& limits) {
     for (std::size_t i = 0; i < t.times.size(); ++i) {
       if (!std::isfinite(t.times[i]) || t.times[i] < 0.0 || t.times[i] > session.duration) std::abort();
       if (i > 0 && !(t.times[i] > t.times[i - 1])) std::abort();
-      if (!t.positions[i].allFinite() || limits.organ_box.exteriorDistance(t.positions[i]) > limits.max_distance * 1.000001)
+      if (!t.positions[i].allFinite() ||
+          limits.organ_box.exteriorDistance(t.positions[i]) > limits.max_distance * 1.000001)
         std::abort();
       if (!t.shafts.empty() && std::abs(t.shafts[i].norm() - 1.0) > 1e-9) std::abort();
     }

@@ -52,9 +52,7 @@ std::atomic<std::uint64_t> ticks{0};
 std::atomic<int> frame_errors{0};
 std::chrono::steady_clock::time_point start;
 
-double seconds_since_start() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
+double seconds_since_start() { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); }
 
 // FAKEHD_FAIL="DEVICE:FROM_S:TO_S:CODE" (for tests of the organsim program):
 // device DEVICE reports CODE from FROM_S to TO_S after the scheduler started.

@@ -59,15 +59,19 @@ Bytes raw_message(const std::string& type, const std::string& device, const Byte
 Bytes version2_body(const Bytes& content) {
   const std::string key = "Source", value = "test";
   // Metadata header: count (2), then per key: key size (2), value encoding (2), value size (4).
-  Bytes metadata_header = {0, 1, 0, static_cast<std::uint8_t>(key.size()), 0, 3, 0, 0, 0,
-                           static_cast<std::uint8_t>(value.size())};
+  Bytes metadata_header = {0, 1, 0, static_cast<std::uint8_t>(key.size()),  0, 3,
+                           0, 0, 0, static_cast<std::uint8_t>(value.size())};
   Bytes metadata(key.begin(), key.end());
   metadata.insert(metadata.end(), value.begin(), value.end());
   const std::uint16_t extended = 12;
   const auto metadata_header_size = static_cast<std::uint16_t>(metadata_header.size());
   const auto metadata_size = static_cast<std::uint32_t>(metadata.size());
-  Bytes body = {0, static_cast<std::uint8_t>(extended), 0, static_cast<std::uint8_t>(metadata_header_size), 0, 0, 0,
-                static_cast<std::uint8_t>(metadata_size), 0, 0, 0, 7};  // message id 7
+  Bytes body = {0, static_cast<std::uint8_t>(extended),
+                0, static_cast<std::uint8_t>(metadata_header_size),
+                0, 0,
+                0, static_cast<std::uint8_t>(metadata_size),
+                0, 0,
+                0, 7};  // message id 7
   body.insert(body.end(), content.begin(), content.end());
   body.insert(body.end(), metadata_header.begin(), metadata_header.end());
   body.insert(body.end(), metadata.begin(), metadata.end());

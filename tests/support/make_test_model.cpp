@@ -23,10 +23,12 @@ int main(int argc, char** argv) {
   app.add_option("--vertices", sphere_vertices, "Sphere surface vertices")->capture_default_str();
   app.add_option("--stations", stations, "Beam stations")->capture_default_str();
   bool sites = false;
-  app.add_flag("--site-compliance", sites, "Add uniform site compliances and a depth curve (format 1.2's SITE section)");
+  app.add_flag("--site-compliance", sites,
+               "Add uniform site compliances and a depth curve (format 1.2's SITE section)");
   bool curvature = false;
   app.add_flag("--site-curvature", curvature,
-               "With --site-compliance: the cylinder side's curvatures (1/radius, 0) at every vertex (format 1.3's CURV section)");
+               "With --site-compliance: the cylinder side's curvatures (1/radius, 0) at every vertex (format 1.3's "
+               "CURV section)");
   CLI11_PARSE(app, argc, argv);
   try {
     organsim::model::OrganModel model;

@@ -13,7 +13,9 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-model::Point3 add(const model::Point3& a, const model::Point3& b, double s) { return {a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]}; }
+model::Point3 add(const model::Point3& a, const model::Point3& b, double s) {
+  return {a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]};
+}
 
 /// Section of the solid cylinder {0 ≤ x ≤ L, y² + z² ≤ r²} cut by the plane
 /// through `centre` (inside the solid) with normal frame.x. The section is
@@ -25,7 +27,7 @@ model::BeamSection cylinder_section(const CylinderSpec& c, const model::Point3& 
   for (unsigned i = 0; i < n; ++i) {
     const double phi = 2.0 * kPi * i / n;
     const model::Point3 d = add({frame.y[0] * std::cos(phi), frame.y[1] * std::cos(phi), frame.y[2] * std::cos(phi)},
-                         frame.z, std::sin(phi));
+                                frame.z, std::sin(phi));
     double reach = std::numeric_limits<double>::infinity();
     const double a = d[1] * d[1] + d[2] * d[2];
     if (a > 1e-300) {
@@ -119,8 +121,8 @@ model::OrganModel make_cylinder_model(const CylinderSpec& c) {
     const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
     const double v[3] = {cc[0] - a[0], cc[1] - a[1], cc[2] - a[2]};
     const double w[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
-    const double det = u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) +
-                       u[2] * (v[0] * w[1] - v[1] * w[0]);
+    const double det =
+        u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0]);
     if (det < 0) std::swap(t[2], t[3]);
   }
 
@@ -133,8 +135,8 @@ model::OrganModel make_cylinder_model(const CylinderSpec& c) {
     if (!model::make_beam_frame(m.fixed_points[0], m.surface_vertices[v], frame)) continue;  // the near cap centre
     for (std::uint32_t s = 0; s < c.stations; ++s) {
       const double t = (s + 0.5) / c.stations;
-      const model::Point3 centre = add(m.fixed_points[0], {m.surface_vertices[v][0], m.surface_vertices[v][1],
-                                                    m.surface_vertices[v][2]}, t);
+      const model::Point3 centre =
+          add(m.fixed_points[0], {m.surface_vertices[v][0], m.surface_vertices[v][1], m.surface_vertices[v][2]}, t);
       m.beams.sections[v * c.stations + s] = cylinder_section(c, centre, frame);
     }
   }
@@ -159,7 +161,9 @@ model::OrganModel make_sphere_model(std::size_t vertex_count, std::uint32_t stat
   }
   m.surface_vertices.push_back({0.0, 0.0, -radius});
   const auto south = static_cast<std::uint32_t>(m.surface_vertices.size() - 1);
-  auto at = [segments](unsigned r, unsigned s) { return static_cast<std::uint32_t>(1 + (r - 1) * segments + s % segments); };
+  auto at = [segments](unsigned r, unsigned s) {
+    return static_cast<std::uint32_t>(1 + (r - 1) * segments + s % segments);
+  };
   for (unsigned s = 0; s < segments; ++s) {
     m.surface_triangles.push_back({0, at(1, s), at(1, s + 1)});
     m.surface_triangles.push_back({south, at(rings, s + 1), at(rings, s)});

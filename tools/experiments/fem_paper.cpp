@@ -179,10 +179,11 @@ void compare_models(const std::string& title, const std::function<StaticProblem(
   const StaticProblem reference_problem = make(material_named("psh", 100));
   const StaticSolution reference = solve_or_die(reference_problem, "psh");
   const std::vector<DisplacementDifference> rows = table5(make, reference);
-  std::cout << "\n### " << title << "\n\n"
-            << "| model | mean x | mean y | mean z | Table 5 mean | Table 5 max | paper mean | paper max | diagonal mean "
-               "| diagonal max | assembly | solve |\n"
-            << "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  std::cout
+      << "\n### " << title << "\n\n"
+      << "| model | mean x | mean y | mean z | Table 5 mean | Table 5 max | paper mean | paper max | diagonal mean "
+         "| diagonal max | assembly | solve |\n"
+      << "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   std::vector<std::pair<double, double>> times;
   for (const std::string name : kDisplacementModels) {
     const StaticProblem p = make(material_named(name, 0));
@@ -319,10 +320,11 @@ void write_view(const std::vector<plot::FieldPanel>& panels, const plot::FieldVi
 /// The liver's PSH press solved with every tangent factorized and with GMRES
 /// reusing the last factorization: Newton iterations, linear solves, times.
 void newton_linear_solves(const StaticProblem& p) {
-  std::cout << "\n### PSH (β = 100) press on the liver: Newton's linear solves\n\n"
-               "| tangents | Newton iterations | factorizations | GMRES solves (iterations) | analysis (s) | assembly (s) "
-               "| factorizations + solves (s) | per Newton iteration (ms, without the analysis) |\n"
-               "|---|---|---|---|---|---|---|---|\n";
+  std::cout
+      << "\n### PSH (β = 100) press on the liver: Newton's linear solves\n\n"
+         "| tangents | Newton iterations | factorizations | GMRES solves (iterations) | analysis (s) | assembly (s) "
+         "| factorizations + solves (s) | per Newton iteration (ms, without the analysis) |\n"
+         "|---|---|---|---|---|---|---|---|\n";
   std::string linear_solver;
   for (const int krylov : {0, TangentSolverOptions{}.max_krylov_iterations}) {
     SolverOptions options;
@@ -359,12 +361,14 @@ int main(int argc, char** argv) {
     std::filesystem::create_directories(out_dir);
     const StaticProblem base = tube_problem(material_named("psh", 0), 510);
     const Eigen::Vector3d extent = bounding_box_size(base.mesh.nodes);
-    std::printf("Tube: %zu nodes, %zu tetrahedra, %.1f × %.1f × %.1f mm; middle ring +%.1f mm in x, bottom ring "
-                "−%.1f mm in z.\n",
-                base.mesh.nodes.size(), base.mesh.tetrahedra.size(), extent.x() * 1e3, extent.y() * 1e3,
-                extent.z() * 1e3, 0.5 * extent.x() * 1e3, 0.3 * extent.z() * 1e3);
+    std::printf(
+        "Tube: %zu nodes, %zu tetrahedra, %.1f × %.1f × %.1f mm; middle ring +%.1f mm in x, bottom ring "
+        "−%.1f mm in z.\n",
+        base.mesh.nodes.size(), base.mesh.tetrahedra.size(), extent.x() * 1e3, extent.y() * 1e3, extent.z() * 1e3,
+        0.5 * extent.x() * 1e3, 0.3 * extent.z() * 1e3);
 
-    std::cout << "\n### PSH (β = 0) against CalculiX (fractions of the bounding-box diagonal)\n\n| ρ (kg/m³) | mean | max | paper (vs ADINA, mean) |\n|---|---|---|---|\n";
+    std::cout << "\n### PSH (β = 0) against CalculiX (fractions of the bounding-box diagonal)\n\n| ρ (kg/m³) | mean | "
+                 "max | paper (vs ADINA, mean) |\n|---|---|---|---|\n";
     for (const auto& [density, paper] : {std::pair{510.0, "0.89 %"}, std::pair{5.1, "1.72 %"}}) {
       const StaticProblem p = tube_problem(material_named("psh", 0), density);
       const StaticSolution ours = solve_or_die(p, "psh β = 0");
@@ -373,18 +377,21 @@ int main(int argc, char** argv) {
     }
 
     const char* paper_table5[3][2] = {{"22.0 %", "96.2 %"}, {"3.33 %", "13.6 %"}, {"3.36 %", "13.4 %"}};
-    compare_models("Table 5 and 6 on the tube (ρ = 500 kg/m³, PSH β = 100)",
-                   [](const Material& m) { return tube_problem(m, 500); }, paper_table5);
+    compare_models(
+        "Table 5 and 6 on the tube (ρ = 500 kg/m³, PSH β = 100)",
+        [](const Material& m) { return tube_problem(m, 500); }, paper_table5);
     std::cout << "\nPaper's Table 6 (relative to co-rotational assembly): assembly linear 0.09, co-rotational 1, "
                  "St.VK 1.3, PSH 10.1; solve 4.2, 4.2, 4.2, 19.8.\n";
     table5_choices(paper_table5);
     // Section 6.1 reads from Fig. 5 that the models' differences from PSH grow
     // with the density; the paper prints Table 5 at ρ = 500 only.
-    compare_models("Table 5 on the tube at ten times the density (ρ = 5000 kg/m³, PSH β = 100)",
-                   [](const Material& m) { return tube_problem(m, 5000); }, nullptr);
+    compare_models(
+        "Table 5 on the tube at ten times the density (ρ = 5000 kg/m³, PSH β = 100)",
+        [](const Material& m) { return tube_problem(m, 5000); }, nullptr);
 
     std::cout << "\n### Pressure stabilization (ρ = 500 kg/m³)\n\n"
-                 "| β | pressure jump RMS / pressure RMS | min p (kPa) | max p (kPa) | Newton iterations | mean shift vs β = 0 "
+                 "| β | pressure jump RMS / pressure RMS | min p (kPa) | max p (kPa) | Newton iterations | mean shift "
+                 "vs β = 0 "
                  "| Newton iterations from 300 Pa | 300 Pa start vs 0 (max) |\n"
                  "|---|---|---|---|---|---|---|---|\n";
     std::ofstream csv(out_dir / "tube_pressure.csv");
@@ -408,8 +415,8 @@ int main(int argc, char** argv) {
       };
       std::printf("| %g | %.3f | %.1f | %.1f | %d | %s | %d | %.1e |\n", beta, pressure_oscillation(p, s),
                   s.pressures.minCoeff() / 1e3, s.pressures.maxCoeff() / 1e3, total(s),
-                  percent(difference(p.mesh.nodes, s.displacements, sweep.front().displacements).mean).c_str(), total(t),
-                  difference(p.mesh.nodes, t.displacements, s.displacements).max);
+                  percent(difference(p.mesh.nodes, s.displacements, sweep.front().displacements).mean).c_str(),
+                  total(t), difference(p.mesh.nodes, t.displacements, s.displacements).max);
     }
     csv << "\n";
     for (Eigen::Index e = 0; e < sweep.front().pressures.size(); ++e) {
@@ -445,7 +452,8 @@ int main(int argc, char** argv) {
     std::printf("ρ = 5000 against ρ = 500: the nodes sag %.2f mm more on average, %.2f mm at most.\n",
                 mean / static_cast<double>(a.displacements.size() / 3) * 1e3, largest * 1e3);
     Eigen::VectorXd sag(a.displacements.size() / 3);
-    for (Eigen::Index n = 0; n < sag.size(); ++n) sag[n] = 1e3 * (a.displacements[3 * n + 2] - b.displacements[3 * n + 2]);
+    for (Eigen::Index n = 0; n < sag.size(); ++n)
+      sag[n] = 1e3 * (a.displacements[3 * n + 2] - b.displacements[3 * n + 2]);
     plot::FieldView sag_view;
     sag_view.scalar_title = "extra sag (mm)";
     sag_view.low = 0;
@@ -461,8 +469,9 @@ int main(int argc, char** argv) {
       const model::OrganModel organ = *read.model;
       std::printf("\nLiver: %zu nodes, %zu tetrahedra (%s).\n", organ.volume_vertices.size(), organ.tetrahedra.size(),
                   argv[2]);
-      compare_models("(c) Table 5 and 6 on the liver (no gravity; a 10 mm patch at the top pressed down 10 % of the height)",
-                     [&organ](const Material& m) { return liver_problem(organ, m); }, nullptr);
+      compare_models(
+          "(c) Table 5 and 6 on the liver (no gravity; a 10 mm patch at the top pressed down 10 % of the height)",
+          [&organ](const Material& m) { return liver_problem(organ, m); }, nullptr);
       newton_linear_solves(liver_problem(organ, material_named("psh", 100)));
     }
   } catch (const std::exception& e) {

@@ -119,15 +119,15 @@ IgtlServer::IgtlServer(const ServerOptions& options, const organ::Organ& organ,
   if (!(options_.force_period > 0.0 && options_.force_period <= options_.frame_period))
     throw std::invalid_argument(fmt::format("the forces' rate ({:g} Hz) must be at least the frame rate ({:g} Hz)",
                                             1.0 / options_.force_period, 1.0 / options_.frame_period));
-  if (!(options_.force_tick_period > 0.0))
-    throw std::invalid_argument("the force loop's period must be positive");
+  if (!(options_.force_tick_period > 0.0)) throw std::invalid_argument("the force loop's period must be positive");
   ticks_per_force_send_ =
       static_cast<std::uint64_t>(std::max(1.0, std::floor(options_.force_period / options_.force_tick_period + 1e-9)));
   in_addr address{};
   if (::inet_pton(AF_INET, options_.bind_address.c_str(), &address) != 1)
-    throw std::invalid_argument(fmt::format("'{}' is not an IPv4 address (127.0.0.1 serves this machine only, 0.0.0.0 "
-                                            "every network it is on)",
-                                            options_.bind_address));
+    throw std::invalid_argument(
+        fmt::format("'{}' is not an IPv4 address (127.0.0.1 serves this machine only, 0.0.0.0 "
+                    "every network it is on)",
+                    options_.bind_address));
   listener_ = ::socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   if (listener_ < 0) throw std::runtime_error(fmt::format("cannot open a socket: {}", std::strerror(errno)));
   const int yes = 1;
@@ -136,7 +136,8 @@ IgtlServer::IgtlServer(const ServerOptions& options, const organ::Organ& organ,
   where.sin_family = AF_INET;
   where.sin_addr = address;
   where.sin_port = htons(static_cast<std::uint16_t>(options_.port));
-  if (::bind(listener_, reinterpret_cast<const sockaddr*>(&where), sizeof where) != 0 || ::listen(listener_, SOMAXCONN) != 0) {
+  if (::bind(listener_, reinterpret_cast<const sockaddr*>(&where), sizeof where) != 0 ||
+      ::listen(listener_, SOMAXCONN) != 0) {
     const int error = errno;
     ::close(listener_);
     throw std::runtime_error(fmt::format("cannot listen on {}:{}: {}{}", options_.bind_address, options_.port,
@@ -199,7 +200,8 @@ void IgtlServer::send_forces() {
       // to date, so that they follow the surface as soon as it has gone;
       // forces now behind them would only queue up.
       if (client.sent <= client.forces_at && client.outgoing.size() - client.forces_at == m.force_bytes.size())
-        std::copy(m.force_bytes.begin(), m.force_bytes.end(), client.outgoing.begin() + static_cast<std::ptrdiff_t>(client.forces_at));
+        std::copy(m.force_bytes.begin(), m.force_bytes.end(),
+                  client.outgoing.begin() + static_cast<std::ptrdiff_t>(client.forces_at));
       ++i;
       continue;
     }
@@ -290,8 +292,8 @@ IgtlServer::Reading IgtlServer::read_from(Client& client) {
 
 bool IgtlServer::write_to(Client& client) {
   while (client.busy()) {
-    const ssize_t n = ::send(client.fd, client.outgoing.data() + client.sent, client.outgoing.size() - client.sent,
-                             MSG_NOSIGNAL);
+    const ssize_t n =
+        ::send(client.fd, client.outgoing.data() + client.sent, client.outgoing.size() - client.sent, MSG_NOSIGNAL);
     if (n > 0) {
       client.sent += static_cast<std::size_t>(n);
       counters_.bytes_sent += static_cast<std::uint64_t>(n);
@@ -312,9 +314,9 @@ void IgtlServer::close(std::size_t index, const std::string& why) {
       last_poser_[k] = nullptr;
       lost += fmt::format("{}{}", lost.empty() ? "" : ", ", k + 1);
     }
-  note_(fmt::format("client {} disconnected ({}){}", client->address, why,
-                    lost.empty() ? std::string()
-                                 : fmt::format("; tool(s) {} lost their pose and their force fades to zero", lost)));
+  note_(fmt::format(
+      "client {} disconnected ({}){}", client->address, why,
+      lost.empty() ? std::string() : fmt::format("; tool(s) {} lost their pose and their force fades to zero", lost)));
   ::close(client->fd);
   clients_.erase(clients_.begin() + static_cast<std::ptrdiff_t>(index));
 }
@@ -324,8 +326,8 @@ void IgtlServer::dropped(Problem problem, const MessageInfo& info, const Client&
   ++counters_.dropped[kind];
   if (logged_[kind]) return;
   logged_[kind] = true;
-  warn_(fmt::format("client {}: a {} message named '{}' {}; {}", client.address, info.type.data(),
-                    info.device.data(), describe(problem),
+  warn_(fmt::format("client {}: a {} message named '{}' {}; {}", client.address, info.type.data(), info.device.data(),
+                    describe(problem),
                     problem == Problem::out_of_step
                         ? "closing the connection (the client may connect again)"
                         : "dropped (further such messages are dropped without a word and counted)"));

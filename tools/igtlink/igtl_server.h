@@ -58,8 +58,8 @@ struct ServerOptions {
   /// down (never slower than asked: 400 Hz sends every 2 ticks of 1 ms), so
   /// that a pose's force waits for no clock of the server's own.
   double force_tick_period = 1e-3;
-  bool ras = false;                        ///< clients use RAS (3D Slicer): x and y change sign at the boundary
-  bool shaft_from_rotation = true;         ///< false: poses give the tip only
+  bool ras = false;                 ///< clients use RAS (3D Slicer): x and y change sign at the boundary
+  bool shaft_from_rotation = true;  ///< false: poses give the tip only
   std::size_t max_clients = 8;
 };
 
@@ -84,9 +84,9 @@ class IgtlServer {
   /// the server reads (its only reader); `file_triangles` are the model file's.
   /// `warn` receives bad messages (once per kind) and failures, `note` clients
   /// coming and going. Throws std::runtime_error when it cannot listen.
-  IgtlServer(const ServerOptions& options, const organ::Organ& organ,
-             std::vector<model::Triangle> file_triangles, std::vector<devices::StreamedTool*> tools,
-             lockfree::TripleBuffer<realtime::SurfaceFrame>& surfaces, Log warn, Log note);
+  IgtlServer(const ServerOptions& options, const organ::Organ& organ, std::vector<model::Triangle> file_triangles,
+             std::vector<devices::StreamedTool*> tools, lockfree::TripleBuffer<realtime::SurfaceFrame>& surfaces,
+             Log warn, Log note);
   ~IgtlServer();
   IgtlServer(const IgtlServer&) = delete;
   IgtlServer& operator=(const IgtlServer&) = delete;
@@ -101,7 +101,9 @@ class IgtlServer {
   std::size_t clients() const noexcept { return clients_.size(); }
   /// Called with every new deformation frame the server reads (a training
   /// report's recorder, say), on step()'s thread.
-  void observe_frames(std::function<void(const realtime::SurfaceFrame&)> observer) { frame_observer_ = std::move(observer); }
+  void observe_frames(std::function<void(const realtime::SurfaceFrame&)> observer) {
+    frame_observer_ = std::move(observer);
+  }
 
  private:
   struct Client;
@@ -141,9 +143,9 @@ class IgtlServer {
   double next_frame_ = 0.0;
   std::uint64_t ticks_per_force_send_ = 1;
   std::uint64_t forces_packed_at_tick_ = 0;  // the first tool's tick count when forces were last packed
-  std::vector<model::Point3> positions_;  // m, file order: the surface last packed
+  std::vector<model::Point3> positions_;     // m, file order: the surface last packed
   bool surface_changed_ = true;
-  std::unique_ptr<Messages> messages_;  // libOpenIGTLink's messages, packed in place each frame
+  std::unique_ptr<Messages> messages_;     // libOpenIGTLink's messages, packed in place each frame
   std::vector<const Client*> last_poser_;  // per tool: the client whose pose it holds, or null
   std::array<bool, kProblemKinds> logged_{};
   ServerCounters counters_;

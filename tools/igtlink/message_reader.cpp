@@ -109,10 +109,9 @@ bool MessageReader::start_body(Handler& handler) {
   info_.version = header.version;
   info_.body_size = header.body_size;
   crc_ = header.crc;
-  const bool readable = (header.version == 1 || header.version == 2) &&
-                        is_text_field(header.name, IGTL_HEADER_TYPE_SIZE, false) &&
-                        is_text_field(header.device_name, IGTL_HEADER_NAME_SIZE, true) &&
-                        header.body_size <= kLargestBody;
+  const bool readable =
+      (header.version == 1 || header.version == 2) && is_text_field(header.name, IGTL_HEADER_TYPE_SIZE, false) &&
+      is_text_field(header.device_name, IGTL_HEADER_NAME_SIZE, true) && header.body_size <= kLargestBody;
   if (!readable) {
     // The fields may hold anything: keep the names printable for the log.
     for (char& c : info_.type) c = (c == '\0' || (c >= 0x20 && c <= 0x7e)) ? c : '?';

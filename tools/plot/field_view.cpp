@@ -28,7 +28,6 @@
 #include <vtkTextProperty.h>
 #include <vtkUnstructuredGrid.h>
 
-
 namespace organsim::plot {
 namespace {
 
@@ -53,8 +52,7 @@ void check(const std::vector<FieldPanel>& panels, const FieldView& view) {
     const std::size_t cells = p.tetrahedra.size() + p.triangles.size();
     const bool per_cell = p.cell_values.size() == cells && p.point_values.empty();
     const bool per_point = p.point_values.size() == p.points.size() && p.cell_values.empty();
-    if (!per_cell && !per_point)
-      throw std::invalid_argument(where + "give one value per cell or one per node");
+    if (!per_cell && !per_point) throw std::invalid_argument(where + "give one value per cell or one per node");
     for (const std::vector<double>* values : {&p.cell_values, &p.point_values})
       for (double v : *values)
         if (!std::isfinite(v)) throw std::invalid_argument(where + "a value is not finite");

@@ -17,7 +17,7 @@ namespace organsim::plot {
 
 struct FieldPanel {
   std::string title;
-  std::vector<std::array<double, 3>> points;             ///< the mesh's nodes where they are drawn (any length unit)
+  std::vector<std::array<double, 3>> points;  ///< the mesh's nodes where they are drawn (any length unit)
   /// 0-based node indices: tetrahedra (their boundary is drawn), or a
   /// surface's triangles.
   std::vector<std::array<std::int32_t, 4>> tetrahedra;
@@ -31,11 +31,11 @@ struct FieldPanel {
 };
 
 struct FieldView {
-  std::string scalar_title;                                ///< the colour bar's title, with units
-  double low = 0, high = 1;                                ///< the colour scale (values outside are clamped)
-  std::array<double, 3> view_direction{0, 1, 0};           ///< from the camera towards the meshes
+  std::string scalar_title;                       ///< the colour bar's title, with units
+  double low = 0, high = 1;                       ///< the colour scale (values outside are clamped)
+  std::array<double, 3> view_direction{0, 1, 0};  ///< from the camera towards the meshes
   std::array<double, 3> view_up{0, 0, 1};
-  int panel_width = 320, height = 560;                     ///< pixels
+  int panel_width = 320, height = 560;  ///< pixels
 };
 
 /// Renders the panels left to right, each mesh's boundary coloured by its

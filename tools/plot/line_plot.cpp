@@ -28,21 +28,20 @@
 #include <vtkTable.h>
 #include <vtkTextProperty.h>
 
-
 namespace organsim::plot {
 namespace {
 
 // Matplotlib's "tab10" colours: distinct, and readable on white.
 constexpr std::array<std::array<unsigned char, 3>, 10> kColours{{{31, 119, 180},
-                                                                  {255, 127, 14},
-                                                                  {44, 160, 44},
-                                                                  {214, 39, 40},
-                                                                  {148, 103, 189},
-                                                                  {140, 86, 75},
-                                                                  {227, 119, 194},
-                                                                  {127, 127, 127},
-                                                                  {188, 189, 34},
-                                                                  {23, 190, 207}}};
+                                                                 {255, 127, 14},
+                                                                 {44, 160, 44},
+                                                                 {214, 39, 40},
+                                                                 {148, 103, 189},
+                                                                 {140, 86, 75},
+                                                                 {227, 119, 194},
+                                                                 {127, 127, 127},
+                                                                 {188, 189, 34},
+                                                                 {23, 190, 207}}};
 
 void check_size(const char* function, int width, int height) {
   if (width < 64 || width > 8192 || height < 64 || height > 8192)
@@ -69,8 +68,9 @@ void check_positive(const std::vector<Series>& series, LogAxes log) {
   for (const Series& s : series)
     for (std::size_t i = 0; i < s.x.size(); ++i)
       if ((log.x && s.x[i] <= 0.0) || (log.y && s.y[i] <= 0.0))
-        throw std::invalid_argument("write_line_plot_png: series '" + s.name + "' has a value that is not positive at point " +
-                                    std::to_string(i + 1) + ", which a logarithmic axis cannot show");
+        throw std::invalid_argument("write_line_plot_png: series '" + s.name +
+                                    "' has a value that is not positive at point " + std::to_string(i + 1) +
+                                    ", which a logarithmic axis cannot show");
 }
 
 /// Fixes an axis whose data span nothing (a constant series) to a visible range.
@@ -172,8 +172,8 @@ void write_bar_chart_png(const std::vector<std::string>& categories, const std::
   for (const BarSeries& s : series) {
     if (s.values.size() != categories.size())
       throw std::invalid_argument("write_bar_chart_png: series '" + s.name + "' has " +
-                                  std::to_string(s.values.size()) + " values for " +
-                                  std::to_string(categories.size()) + " categories");
+                                  std::to_string(s.values.size()) + " values for " + std::to_string(categories.size()) +
+                                  " categories");
     for (std::size_t i = 0; i < s.values.size(); ++i) {
       if (!std::isfinite(s.values[i]))
         throw std::invalid_argument("write_bar_chart_png: series '" + s.name + "' has a non-finite value for '" +

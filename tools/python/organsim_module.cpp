@@ -193,14 +193,16 @@ class Simulation {
     geometry::ToolTip tip = tip_;
     const Eigen::Vector3d normal = organ_->rest_normal_at(organ_->surface_tree().closest_point(rest_point));
     if (shaft) {
-      if (!(shaft->norm() > 0.0) || !shaft->allFinite()) throw std::invalid_argument("the shaft direction is zero or not finite");
+      if (!(shaft->norm() > 0.0) || !shaft->allFinite())
+        throw std::invalid_argument("the shaft direction is zero or not finite");
       tip.axis = shaft->normalized();
     } else {
       tip.axis = normal;
     }
     tip.seat_on(normal);
     if (!model_->attach(tool, rest_point, tip, contacts_[tool]))
-      throw std::runtime_error("the model cannot take a contact here (too near the clamp, or too far from the surface)");
+      throw std::runtime_error(
+          "the model cannot take a contact here (too near the clamp, or too far from the surface)");
     attached_[tool] = true;
     return contact(tool);
   }
@@ -305,18 +307,30 @@ void bind_bake_options(py::module_& m) {
   using namespace organsim::pipeline;
   py::class_<SeededSegmentationOptions>(m, "SeededSegmentationOptions")
       .def(py::init<>())
-      .def("add_seed", [](SeededSegmentationOptions& o, const std::array<double, 3>& mm) {
-        o.seeds.push_back(SeedPoint::at_mm(mm));
-      }, py::arg("point_mm"), "A seed inside the organ, X,Y,Z in mm (LPS)")
-      .def("add_seed_voxel", [](SeededSegmentationOptions& o, const std::array<long, 3>& voxel) {
-        o.seeds.push_back(SeedPoint::at_voxel(voxel));
-      }, py::arg("voxel"))
-      .def("add_background_seed", [](SeededSegmentationOptions& o, const std::array<double, 3>& mm) {
-        o.background_seeds.push_back(SeedPoint::at_mm(mm));
-      }, py::arg("point_mm"))
-      .def("add_background_seed_voxel", [](SeededSegmentationOptions& o, const std::array<long, 3>& voxel) {
-        o.background_seeds.push_back(SeedPoint::at_voxel(voxel));
-      }, py::arg("voxel"))
+      .def(
+          "add_seed",
+          [](SeededSegmentationOptions& o, const std::array<double, 3>& mm) {
+            o.seeds.push_back(SeedPoint::at_mm(mm));
+          },
+          py::arg("point_mm"), "A seed inside the organ, X,Y,Z in mm (LPS)")
+      .def(
+          "add_seed_voxel",
+          [](SeededSegmentationOptions& o, const std::array<long, 3>& voxel) {
+            o.seeds.push_back(SeedPoint::at_voxel(voxel));
+          },
+          py::arg("voxel"))
+      .def(
+          "add_background_seed",
+          [](SeededSegmentationOptions& o, const std::array<double, 3>& mm) {
+            o.background_seeds.push_back(SeedPoint::at_mm(mm));
+          },
+          py::arg("point_mm"))
+      .def(
+          "add_background_seed_voxel",
+          [](SeededSegmentationOptions& o, const std::array<long, 3>& voxel) {
+            o.background_seeds.push_back(SeedPoint::at_voxel(voxel));
+          },
+          py::arg("voxel"))
       .def_readwrite("working_spacing_mm", &SeededSegmentationOptions::working_spacing_mm)
       .def_readwrite("smoothing_iterations", &SeededSegmentationOptions::smoothing_iterations)
       .def_readwrite("seed_radius_mm", &SeededSegmentationOptions::seed_radius_mm)
@@ -349,7 +363,9 @@ void bind_bake_options(py::module_& m) {
       .def_readwrite("density", &model::Material::density)
       .def_readwrite("attenuation_alpha", &model::Material::attenuation_alpha)
       .def_readwrite("attenuation_beta", &model::Material::attenuation_beta);
-  py::class_<BakeOptions>(m, "BakeOptions", "organsim bake's options: pipeline::BakeOptions (pipeline/core/include/organsim/pipeline/bake.h)")
+  py::class_<BakeOptions>(
+      m, "BakeOptions",
+      "organsim bake's options: pipeline::BakeOptions (pipeline/core/include/organsim/pipeline/bake.h)")
       .def(py::init<>())
       .def_readwrite("ct_path", &BakeOptions::ct_path)
       .def_readwrite("series_uid", &BakeOptions::series_uid)
@@ -381,65 +397,86 @@ PYBIND11_MODULE(_organsim, m) {
   py::register_exception<std::runtime_error>(m, "Error", PyExc_RuntimeError);
 
   py::class_<OrganModel, Model>(m, "Model",
-                                                              "A loaded .organ model; its arrays are read-only "
-                                                              "views of its memory (m, the file's order)")
-      .def_property_readonly("surface_vertices", [](py::object self) {
-        const auto& v = self.cast<const OrganModel&>().surface_vertices;
-        return view(v.empty() ? nullptr : v.front().data(), v.size(), 3, self);
-      }, "(N, 3) float64: the simulation surface's rest vertices, m")
-      .def_property_readonly("surface_triangles", [](py::object self) {
-        const auto& t = self.cast<const OrganModel&>().surface_triangles;
-        return view(t.empty() ? nullptr : t.front().data(), t.size(), 3, self);
-      }, "(M, 3) uint32: counter-clockwise seen from outside")
-      .def_property_readonly("volume_vertices", [](py::object self) {
-        const auto& v = self.cast<const OrganModel&>().volume_vertices;
-        return view(v.empty() ? nullptr : v.front().data(), v.size(), 3, self);
-      }, "(K, 3) float64: the tetrahedral mesh's nodes, m")
-      .def_property_readonly("tetrahedra", [](py::object self) {
-        const auto& t = self.cast<const OrganModel&>().tetrahedra;
-        return view(t.empty() ? nullptr : t.front().data(), t.size(), 4, self);
-      }, "(T, 4) uint32: positively oriented")
-      .def_property_readonly("fixed_points", [](py::object self) {
-        const auto& p = self.cast<const OrganModel&>().fixed_points;
-        return view(p.empty() ? nullptr : p.front().data(), p.size(), 3, self);
-      }, "(F, 3) float64: the beams' clamp, m")
-      .def_property_readonly("beam_sections", [](py::object self) {
-        const OrganModel& model = self.cast<const OrganModel&>();
-        static_assert(sizeof(model::BeamSection) == 7 * sizeof(double));
-        const std::size_t stations = model.beams.stations_per_beam;
-        const std::size_t vertices = stations == 0 ? 0 : model.beams.sections.size() / stations;
-        const double* data = model.beams.sections.empty() ? nullptr : &model.beams.sections.front().area;
-        return read_only(py::array(py::dtype::of<double>(), {vertices, stations, std::size_t{7}},
-                                   {stations * 7 * sizeof(double), 7 * sizeof(double), sizeof(double)}, data, self));
-      }, "(N, S, 7) float64: per surface vertex and station: area m², i_yy, i_zz, i_yz m⁴, torsion J m⁴, "
-         "centroid y, z m (beam_section_fields)")
-      .def_property_readonly("material", [](const OrganModel& model) {
-        const model::Material& mat = model.material;
-        py::dict d;
-        d["young_modulus_pa"] = mat.young_modulus;
-        d["poisson_ratio"] = mat.poisson_ratio;
-        d["density_kg_m3"] = mat.density;
-        d["attenuation_alpha"] = mat.attenuation_alpha;
-        d["attenuation_beta_per_m"] = mat.attenuation_beta;
-        d["beam_stiffness_scale"] = mat.beam_stiffness_scale;
-        d["spring_stiffness_scale"] = mat.spring_stiffness_scale;
-        return d;
-      })
-      .def_property_readonly("provenance", [](const OrganModel& model) {
-        py::dict d;
-        d["coordinate_frame"] = model.provenance.coordinate_frame;
-        d["program_version"] = model.provenance.program_version;
-        d["input_sha256"] = model.provenance.input_sha256;
-        d["parameters"] = model.provenance.parameters;
-        return d;
-      })
+                                "A loaded .organ model; its arrays are read-only "
+                                "views of its memory (m, the file's order)")
+      .def_property_readonly(
+          "surface_vertices",
+          [](py::object self) {
+            const auto& v = self.cast<const OrganModel&>().surface_vertices;
+            return view(v.empty() ? nullptr : v.front().data(), v.size(), 3, self);
+          },
+          "(N, 3) float64: the simulation surface's rest vertices, m")
+      .def_property_readonly(
+          "surface_triangles",
+          [](py::object self) {
+            const auto& t = self.cast<const OrganModel&>().surface_triangles;
+            return view(t.empty() ? nullptr : t.front().data(), t.size(), 3, self);
+          },
+          "(M, 3) uint32: counter-clockwise seen from outside")
+      .def_property_readonly(
+          "volume_vertices",
+          [](py::object self) {
+            const auto& v = self.cast<const OrganModel&>().volume_vertices;
+            return view(v.empty() ? nullptr : v.front().data(), v.size(), 3, self);
+          },
+          "(K, 3) float64: the tetrahedral mesh's nodes, m")
+      .def_property_readonly(
+          "tetrahedra",
+          [](py::object self) {
+            const auto& t = self.cast<const OrganModel&>().tetrahedra;
+            return view(t.empty() ? nullptr : t.front().data(), t.size(), 4, self);
+          },
+          "(T, 4) uint32: positively oriented")
+      .def_property_readonly(
+          "fixed_points",
+          [](py::object self) {
+            const auto& p = self.cast<const OrganModel&>().fixed_points;
+            return view(p.empty() ? nullptr : p.front().data(), p.size(), 3, self);
+          },
+          "(F, 3) float64: the beams' clamp, m")
+      .def_property_readonly(
+          "beam_sections",
+          [](py::object self) {
+            const OrganModel& model = self.cast<const OrganModel&>();
+            static_assert(sizeof(model::BeamSection) == 7 * sizeof(double));
+            const std::size_t stations = model.beams.stations_per_beam;
+            const std::size_t vertices = stations == 0 ? 0 : model.beams.sections.size() / stations;
+            const double* data = model.beams.sections.empty() ? nullptr : &model.beams.sections.front().area;
+            return read_only(py::array(py::dtype::of<double>(), {vertices, stations, std::size_t{7}},
+                                       {stations * 7 * sizeof(double), 7 * sizeof(double), sizeof(double)}, data,
+                                       self));
+          },
+          "(N, S, 7) float64: per surface vertex and station: area m², i_yy, i_zz, i_yz m⁴, torsion J m⁴, "
+          "centroid y, z m (beam_section_fields)")
+      .def_property_readonly("material",
+                             [](const OrganModel& model) {
+                               const model::Material& mat = model.material;
+                               py::dict d;
+                               d["young_modulus_pa"] = mat.young_modulus;
+                               d["poisson_ratio"] = mat.poisson_ratio;
+                               d["density_kg_m3"] = mat.density;
+                               d["attenuation_alpha"] = mat.attenuation_alpha;
+                               d["attenuation_beta_per_m"] = mat.attenuation_beta;
+                               d["beam_stiffness_scale"] = mat.beam_stiffness_scale;
+                               d["spring_stiffness_scale"] = mat.spring_stiffness_scale;
+                               return d;
+                             })
+      .def_property_readonly("provenance",
+                             [](const OrganModel& model) {
+                               py::dict d;
+                               d["coordinate_frame"] = model.provenance.coordinate_frame;
+                               d["program_version"] = model.provenance.program_version;
+                               d["input_sha256"] = model.provenance.input_sha256;
+                               d["parameters"] = model.provenance.parameters;
+                               return d;
+                             })
       .def("__repr__", [](const OrganModel& model) {
         return "<organsim.Model: " + std::to_string(model.surface_vertices.size()) + " surface vertices, " +
                std::to_string(model.tetrahedra.size()) + " tetrahedra, " +
                std::to_string(model.beams.stations_per_beam) + " beam stations>";
       });
-  m.attr("beam_section_fields") = py::make_tuple("area_m2", "i_yy_m4", "i_zz_m4", "i_yz_m4", "torsion_j_m4",
-                                                 "centroid_y_m", "centroid_z_m");
+  m.attr("beam_section_fields") =
+      py::make_tuple("area_m2", "i_yy_m4", "i_zz_m4", "i_yz_m4", "torsion_j_m4", "centroid_y_m", "centroid_z_m");
 
   m.def("_load", &load, py::arg("path"), "Reads a .organ model file (checked: a bad file raises organsim.Error)");
   bind_bake_options(m);

@@ -29,8 +29,8 @@ double enclosed_volume(const organ::Organ& organ, const std::vector<model::Point
     const model::Point3& a = positions[t[0]];
     const model::Point3& b = positions[t[1]];
     const model::Point3& c = positions[t[2]];
-    six_volume += a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
-                  a[2] * (b[0] * c[1] - b[1] * c[0]);
+    six_volume +=
+        a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
   }
   return six_volume / 6.0;
 }
@@ -102,8 +102,8 @@ void RunRecorder::take_frame(const realtime::SurfaceFrame& frame) {
     for (int k = 0; k < 3; ++k) inward -= (frame.positions[v][k] - rest[v][k]) * normals[v][k];
     peak_indentation_[v] = std::max(peak_indentation_[v], inward);
   }
-  const int length = std::snprintf(line_, sizeof line_, "%.6f,%.6f\n", frame.time,
-                                   enclosed_volume(organ_, frame.positions) * 1e6);
+  const int length =
+      std::snprintf(line_, sizeof line_, "%.6f,%.6f\n", frame.time, enclosed_volume(organ_, frame.positions) * 1e6);
   frames_->append(line_, static_cast<std::size_t>(length));
   ++frame_count_;
 }
@@ -165,15 +165,16 @@ nlohmann::json describe_session(const SessionFacts& facts, const realtime::Engin
   health["pose_faults"] = pose_faults;
   health["refused_contacts"] = engine.refused_contacts();
   health["machine_floor"] = facts.real_time ? machine_floor(facts.duration_s) : nlohmann::json();
-  return {{"deformation_model", facts.deformation_model},
-          {"model_sha256", file_sha256(facts.model_path)},
-          {"session_sha256", facts.session_path.empty() ? "none: " + facts.live_tools : file_sha256(facts.session_path)},
-          {"date", utc_date_now()},
-          {"duration_s", facts.duration_s},
-          {"mode", facts.mode},
-          {"device_max_force_n", facts.device_max_force_n},
-          {"machine", machine_description()},
-          {"loop_health", health}};
+  return {
+      {"deformation_model", facts.deformation_model},
+      {"model_sha256", file_sha256(facts.model_path)},
+      {"session_sha256", facts.session_path.empty() ? "none: " + facts.live_tools : file_sha256(facts.session_path)},
+      {"date", utc_date_now()},
+      {"duration_s", facts.duration_s},
+      {"mode", facts.mode},
+      {"device_max_force_n", facts.device_max_force_n},
+      {"machine", machine_description()},
+      {"loop_health", health}};
 }
 
 }  // namespace organsim::report

@@ -43,26 +43,28 @@ std::string svg_chart(const std::vector<ChartSeries>& series, const ChartAxes& a
       "<svg width=\"{0}\" height=\"{1}\" viewBox=\"0 0 {0} {1}\" "
       "font-family=\"sans-serif\" font-size=\"12\" role=\"img\">\n",
       kWidth, kHeight);
-  svg += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"#888\"/>\n", kLeft, kTop,
-                     plot_w, plot_h);
+  svg += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"#888\"/>\n", kLeft,
+                     kTop, plot_w, plot_h);
   const double xs = tick_step(x_low, x_high), ys = tick_step(y_low, y_high);
   for (double x = std::ceil(x_low / xs) * xs; x <= x_high + 1e-9 * xs; x += xs)
-    svg += fmt::format("<line x1=\"{0:.1f}\" y1=\"{1}\" x2=\"{0:.1f}\" y2=\"{2}\" stroke=\"#eee\"/>"
-                       "<text x=\"{0:.1f}\" y=\"{3}\" text-anchor=\"middle\">{4:g}</text>\n",
-                       px(x), kTop, kTop + plot_h, kTop + plot_h + 15, x);
+    svg += fmt::format(
+        "<line x1=\"{0:.1f}\" y1=\"{1}\" x2=\"{0:.1f}\" y2=\"{2}\" stroke=\"#eee\"/>"
+        "<text x=\"{0:.1f}\" y=\"{3}\" text-anchor=\"middle\">{4:g}</text>\n",
+        px(x), kTop, kTop + plot_h, kTop + plot_h + 15, x);
   for (double y = std::ceil(y_low / ys) * ys; y <= y_high + 1e-9 * ys; y += ys)
-    svg += fmt::format("<line x1=\"{0}\" y1=\"{1:.1f}\" x2=\"{2}\" y2=\"{1:.1f}\" stroke=\"#eee\"/>"
-                       "<text x=\"{3}\" y=\"{4:.1f}\" text-anchor=\"end\">{5:g}</text>\n",
-                       kLeft, py(y), kLeft + plot_w, kLeft - 5, py(y) + 4, y);
+    svg += fmt::format(
+        "<line x1=\"{0}\" y1=\"{1:.1f}\" x2=\"{2}\" y2=\"{1:.1f}\" stroke=\"#eee\"/>"
+        "<text x=\"{3}\" y=\"{4:.1f}\" text-anchor=\"end\">{5:g}</text>\n",
+        kLeft, py(y), kLeft + plot_w, kLeft - 5, py(y) + 4, y);
   svg += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>\n", kLeft + plot_w / 2, kHeight - 8,
                      axes.x_label);
   svg += fmt::format("<text x=\"15\" y=\"{0}\" text-anchor=\"middle\" transform=\"rotate(-90 15 {0})\">{1}</text>\n",
                      kTop + plot_h / 2, axes.y_label);
   if (!axes.line_label.empty())
-    svg += fmt::format("<line x1=\"{0}\" y1=\"{1:.1f}\" x2=\"{2}\" y2=\"{1:.1f}\" stroke=\"#d00\" stroke-dasharray=\"6 4\"/>"
-                       "<text x=\"{3}\" y=\"{4:.1f}\" fill=\"#d00\">{5} {6:g}</text>\n",
-                       kLeft, py(axes.line_at), kLeft + plot_w, kLeft + 6, py(axes.line_at) - 4, axes.line_label,
-                       axes.line_at);
+    svg += fmt::format(
+        "<line x1=\"{0}\" y1=\"{1:.1f}\" x2=\"{2}\" y2=\"{1:.1f}\" stroke=\"#d00\" stroke-dasharray=\"6 4\"/>"
+        "<text x=\"{3}\" y=\"{4:.1f}\" fill=\"#d00\">{5} {6:g}</text>\n",
+        kLeft, py(axes.line_at), kLeft + plot_w, kLeft + 6, py(axes.line_at) - 4, axes.line_label, axes.line_at);
   for (std::size_t k = 0; k < series.size(); ++k) {
     const ChartSeries& s = series[k];
     // Buckets without a sample (frames are sparser than ticks) are skipped, not gaps.
@@ -70,12 +72,13 @@ std::string svg_chart(const std::vector<ChartSeries>& series, const ChartAxes& a
     for (std::size_t i = 0; i < s.x.size() && i < s.y.size(); ++i)
       if (std::isfinite(s.y[i])) points += fmt::format("{:.1f},{:.1f} ", px(s.x[i]), py(s.y[i]));
     if (!points.empty())
-      svg += fmt::format("<polyline fill=\"none\" stroke=\"{}\" stroke-width=\"2\" points=\"{}\"/>\n", s.colour, points);
+      svg +=
+          fmt::format("<polyline fill=\"none\" stroke=\"{}\" stroke-width=\"2\" points=\"{}\"/>\n", s.colour, points);
     const double legend_y = kTop + 14.0 + 18.0 * static_cast<double>(k);
-    svg += fmt::format("<line x1=\"{0}\" y1=\"{1:.1f}\" x2=\"{2}\" y2=\"{1:.1f}\" stroke=\"{3}\" stroke-width=\"3\"/>"
-                       "<text x=\"{4}\" y=\"{5:.1f}\">{6}</text>\n",
-                       kLeft + plot_w + 8, legend_y, kLeft + plot_w + 28, s.colour, kLeft + plot_w + 32, legend_y + 4,
-                       s.name);
+    svg += fmt::format(
+        "<line x1=\"{0}\" y1=\"{1:.1f}\" x2=\"{2}\" y2=\"{1:.1f}\" stroke=\"{3}\" stroke-width=\"3\"/>"
+        "<text x=\"{4}\" y=\"{5:.1f}\">{6}</text>\n",
+        kLeft + plot_w + 8, legend_y, kLeft + plot_w + 28, s.colour, kLeft + plot_w + 32, legend_y + 4, s.name);
   }
   return svg + "</svg>\n";
 }

@@ -8,13 +8,13 @@
 namespace organsim::report {
 
 struct ChartSeries {
-  std::string name, colour;     ///< colour: a CSS colour (#rrggbb)
-  std::vector<double> x, y;     ///< same length; points with a NaN y are left out
+  std::string name, colour;  ///< colour: a CSS colour (#rrggbb)
+  std::vector<double> x, y;  ///< same length; points with a NaN y are left out
 };
 
 struct ChartAxes {
   std::string x_label, y_label;
-  double line_at = 0.0;         ///< a dashed horizontal line at this y (with `line_label`), when the label is set
+  double line_at = 0.0;  ///< a dashed horizontal line at this y (with `line_label`), when the label is set
   std::string line_label;
 };
 

@@ -44,14 +44,15 @@ class CsvRows {
       while (true) {
         char* end = nullptr;
         row.push_back(std::strtod(p, &end));
-        if (end == p) throw std::runtime_error(fmt::format("{}: line {}: not a number", path_.string(), line_number_ + 1));
+        if (end == p)
+          throw std::runtime_error(fmt::format("{}: line {}: not a number", path_.string(), line_number_ + 1));
         p = end;
         if (*p != ',') break;
         ++p;
       }
       if (row.size() != columns_)
-        throw std::runtime_error(fmt::format("{}: line {}: {} values, expected {}", path_.string(), line_number_ + 1,
-                                             row.size(), columns_));
+        throw std::runtime_error(
+            fmt::format("{}: line {}: {} values, expected {}", path_.string(), line_number_ + 1, row.size(), columns_));
       return true;
     }
     return false;
@@ -130,8 +131,8 @@ Pictures render_organ(const fs::path& directory, const RunMetrics& metrics) {
   }
   CsvRows triangles(directory / "triangles.csv", 3);
   while (triangles.next(row))
-    panel.triangles.push_back({static_cast<std::int32_t>(row[0]), static_cast<std::int32_t>(row[1]),
-                               static_cast<std::int32_t>(row[2])});
+    panel.triangles.push_back(
+        {static_cast<std::int32_t>(row[0]), static_cast<std::int32_t>(row[1]), static_cast<std::int32_t>(row[2])});
   for (const ToolMetrics& tool : metrics.tools)
     for (const LimitEvent& e : tool.events) panel.markers.push_back({e.where_mm[0], e.where_mm[1], e.where_mm[2]});
   panel.marker_radius = 3.0;
@@ -159,8 +160,9 @@ Pictures render_organ(const fs::path& directory, const RunMetrics& metrics) {
       std::ifstream in(png, std::ios::binary);
       const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
       std::string encoded(bytes.size() * 4 / 3 + 8, '\0');
-      const unsigned long length = vtkBase64Utilities::Encode(reinterpret_cast<const unsigned char*>(bytes.data()),
-                                                              bytes.size(), reinterpret_cast<unsigned char*>(encoded.data()));
+      const unsigned long length =
+          vtkBase64Utilities::Encode(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(),
+                                     reinterpret_cast<unsigned char*>(encoded.data()));
       encoded.resize(length);
       pictures.views.emplace_back(side.title, "data:image/png;base64," + encoded);
       fs::remove(png);
@@ -201,7 +203,8 @@ std::string tool_table(const RunMetrics& m, const RunMetrics* reference) {
                 {"mean tip speed", t.mean_speed_mm_s, r ? r->mean_speed_mm_s : 0, "mm/s"}};
     for (const auto& row : rows) {
       const int digits = row.count ? 0 : 3;
-      html += fmt::format("<tr><td>{}</td><td>{}</td><td>{:.{}f} {}</td>", t.tool, row.name, row.ours, digits, row.unit);
+      html +=
+          fmt::format("<tr><td>{}</td><td>{}</td><td>{:.{}f} {}</td>", t.tool, row.name, row.ours, digits, row.unit);
       if (reference)
         html += r ? fmt::format("<td>{:.{}f} {}</td><td>{:+.{}f} {}</td>", row.theirs, digits, row.unit,
                                 row.ours - row.theirs, digits, row.unit)
@@ -223,10 +226,11 @@ std::string session_table(const RunMetrics& m, const RunMetrics& reference) {
                       m.largest_volume_change_percent - reference.largest_volume_change_percent);
   const nlohmann::json ours = m.run.value("loop_health", nlohmann::json::object()),
                        theirs = reference.run.value("loop_health", nlohmann::json::object());
-  for (const auto& [key, name] : {std::pair<const char*, const char*>{"force_deadline_misses", "force-loop deadline misses"},
-                                  {"frames_dropped", "deformation frames dropped"},
-                                  {"pose_faults", "device faults (lost poses)"},
-                                  {"refused_contacts", "contacts refused"}}) {
+  for (const auto& [key, name] :
+       {std::pair<const char*, const char*>{"force_deadline_misses", "force-loop deadline misses"},
+        {"frames_dropped", "deformation frames dropped"},
+        {"pose_faults", "device faults (lost poses)"},
+        {"refused_contacts", "contacts refused"}}) {
     const nlohmann::json a = ours.value(key, nlohmann::json()), b = theirs.value(key, nlohmann::json());
     const auto text = [](const nlohmann::json& count) { return count.is_number() ? count.dump() : std::string("–"); };
     const std::string difference =
@@ -239,13 +243,14 @@ std::string session_table(const RunMetrics& m, const RunMetrics& reference) {
 std::string page(const RunMetrics& m, const RunMetrics* reference, const Pictures& pictures) {
   const nlohmann::json& run = m.run;
   std::string html;
-  html += "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n"
-          "<meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; style-src 'unsafe-inline'; "
-          "img-src data:\">\n<title>organsim training report</title>\n<style>\n"
-          "body{font-family:sans-serif;margin:1.5em;max-width:1100px;color:#222}"
-          "table{border-collapse:collapse;margin:0.5em 0}td,th{border:1px solid #bbb;padding:3px 8px;text-align:left}"
-          "th{background:#eee}.warn{color:#a00;font-weight:bold}.ok{color:#060}"
-          "figure{display:inline-block;margin:0.3em}svg{background:#fff}\n</style></head><body>\n";
+  html +=
+      "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n"
+      "<meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; style-src 'unsafe-inline'; "
+      "img-src data:\">\n<title>organsim training report</title>\n<style>\n"
+      "body{font-family:sans-serif;margin:1.5em;max-width:1100px;color:#222}"
+      "table{border-collapse:collapse;margin:0.5em 0}td,th{border:1px solid #bbb;padding:3px 8px;text-align:left}"
+      "th{background:#eee}.warn{color:#a00;font-weight:bold}.ok{color:#060}"
+      "figure{display:inline-block;margin:0.3em}svg{background:#fff}\n</style></head><body>\n";
   html += "<h1>Training report</h1>\n<table>\n";
   const auto info = [&](const std::string& key, const std::string& value) {
     html += fmt::format("<tr><th>{}</th><td>{}</td></tr>\n", escape(key), escape(value));
@@ -262,7 +267,8 @@ std::string page(const RunMetrics& m, const RunMetrics* reference, const Picture
   html += "<h2>Loop health</h2>\n<table>\n";
   const nlohmann::json health = run.value("loop_health", nlohmann::json::object());
   std::uint64_t lost_records = 0;
-  for (const auto& d : run.value("tick_records_dropped", nlohmann::json::array())) lost_records += d.get<std::uint64_t>();
+  for (const auto& d : run.value("tick_records_dropped", nlohmann::json::array()))
+    lost_records += d.get<std::uint64_t>();
   // A count the command did not measure (a loop it does not own: the HD
   // servo's deadlines, a replay stepped in session time) is said to be so,
   // never shown as a healthy zero.
@@ -277,21 +283,24 @@ std::string page(const RunMetrics& m, const RunMetrics* reference, const Picture
   };
   const auto counted = [&](const char* key) { return health.value(key, nlohmann::json()); };
   html += fmt::format("<tr><th>force loop</th><td>{} ticks; period p50 {} ms, p99 {} ms, max {} ms</td></tr>\n",
-                      health.value("force_ticks", 0), number_or_dash(health.value("period_p50_ms", nlohmann::json()), "{:.3f}"),
+                      health.value("force_ticks", 0),
+                      number_or_dash(health.value("period_p50_ms", nlohmann::json()), "{:.3f}"),
                       number_or_dash(health.value("period_p99_ms", nlohmann::json()), "{:.3f}"),
                       number_or_dash(health.value("period_max_ms", nlohmann::json()), "{:.3f}"));
   health_row("force-loop deadline misses (> 2 ms)", counted("force_deadline_misses"), "the hand felt late forces");
   const nlohmann::json floor = health.value("machine_floor", nlohmann::json());
   if (floor.is_object())
-    html += fmt::format("<tr><th>the machine's own floor</th><td>{} stalls over 2 ms and {} wake-ups later than 2 ms "
-                        "in a {:.1f} s probe after the session{} (a spinning real-time thread, as "
-                        "build/tests/cpu_stalls measures): misses up to about as many are the machine's, not the "
-                        "simulation's</td></tr>\n",
-                        floor.value("stalls_over_2ms", 0), floor.value("late_wakes_over_2ms", 0),
-                        floor.value("probe_s", 0.0), floor.value("realtime_priority", false) ? "" : " (no real-time priority)");
+    html += fmt::format(
+        "<tr><th>the machine's own floor</th><td>{} stalls over 2 ms and {} wake-ups later than 2 ms "
+        "in a {:.1f} s probe after the session{} (a spinning real-time thread, as "
+        "build/tests/cpu_stalls measures): misses up to about as many are the machine's, not the "
+        "simulation's</td></tr>\n",
+        floor.value("stalls_over_2ms", 0), floor.value("late_wakes_over_2ms", 0), floor.value("probe_s", 0.0),
+        floor.value("realtime_priority", false) ? "" : " (no real-time priority)");
   health_row("deformation frames dropped", counted("frames_dropped"), "the organ's picture lagged the tools");
   health_row("device faults (lost poses)", counted("pose_faults"), "a tool's device stopped giving its pose");
-  health_row("contacts refused", counted("refused_contacts"), "a tool touched where no contact can be built (the clamp)");
+  health_row("contacts refused", counted("refused_contacts"),
+             "a tool touched where no contact can be built (the clamp)");
   health_row("force records lost", lost_records, "the recorder fell behind; the metrics miss those ticks");
   html += fmt::format("<tr><th>the machine</th><td>{}</td></tr>\n</table>\n", escape(run.value("machine", "")));
 
@@ -317,20 +326,22 @@ std::string page(const RunMetrics& m, const RunMetrics* reference, const Picture
     if (tool.events.empty()) {
       html += "<p>No force above the limit.</p>\n";
     } else {
-      html += "<table><tr><th>event</th><th>start (s)</th><th>duration (s)</th><th>peak model force (N)</th>"
-              "<th>where (LPS, mm)</th></tr>\n";
+      html +=
+          "<table><tr><th>event</th><th>start (s)</th><th>duration (s)</th><th>peak model force (N)</th>"
+          "<th>where (LPS, mm)</th></tr>\n";
       for (std::size_t e = 0; e < tool.events.size(); ++e) {
         const LimitEvent& ev = tool.events[e];
-        html += fmt::format("<tr><td>{}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.1f}, {:.1f}, {:.1f}</td></tr>\n",
-                            e + 1, ev.start_s, ev.duration_s, ev.peak_force_n, ev.where_mm[0], ev.where_mm[1],
-                            ev.where_mm[2]);
+        html += fmt::format(
+            "<tr><td>{}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.1f}, {:.1f}, {:.1f}</td></tr>\n", e + 1,
+            ev.start_s, ev.duration_s, ev.peak_force_n, ev.where_mm[0], ev.where_mm[1], ev.where_mm[2]);
       }
       html += "</table>\n";
     }
   }
 
-  html += "<h2>The organ</h2>\n<p>The surface coloured by the deepest indentation each point reached; black balls "
-          "mark where a force went above the limit.</p>\n";
+  html +=
+      "<h2>The organ</h2>\n<p>The surface coloured by the deepest indentation each point reached; black balls "
+      "mark where a force went above the limit.</p>\n";
   for (const auto& [title, uri] : pictures.views)
     html += fmt::format("<figure><img alt=\"{}\" src=\"{}\"><figcaption>{}</figcaption></figure>\n", escape(title), uri,
                         escape(title));
@@ -374,7 +385,9 @@ RunMetrics compute_metrics(const std::string& directory, double force_limit_n) {
   while (ticks.next(row)) {
     const double t = row[0];
     const auto i = static_cast<std::size_t>(row[1]) - 1;
-    if (i >= tools) throw std::runtime_error(fmt::format("{}: tool {} beyond the run's {}", (dir / "ticks.csv").string(), i + 1, tools));
+    if (i >= tools)
+      throw std::runtime_error(
+          fmt::format("{}: tool {} beyond the run's {}", (dir / "ticks.csv").string(), i + 1, tools));
     ToolMetrics& tool = m.tools[i];
     State& s = state[i];
     tool.tool = static_cast<int>(i + 1);
@@ -480,8 +493,7 @@ std::vector<std::string> write_report(const std::string& directory, const Report
     reference = std::make_unique<RunMetrics>(compute_metrics(options.reference_run, options.force_limit_n));
   const Pictures pictures = render_organ(directory, metrics);
   io::write_file_atomically((fs::path(directory) / "metrics.json").string(), metrics_json(metrics).dump(2) + "\n");
-  io::write_file_atomically((fs::path(directory) / "index.html").string(),
-                            page(metrics, reference.get(), pictures));
+  io::write_file_atomically((fs::path(directory) / "index.html").string(), page(metrics, reference.get(), pictures));
   return pictures.problems;
 }
 

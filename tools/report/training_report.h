@@ -21,8 +21,8 @@ constexpr double kDefaultForceLimit = 2.0;
 /// clamp) was above the limit.
 struct LimitEvent {
   double start_s = 0.0, duration_s = 0.0;
-  double peak_force_n = 0.0;                            ///< the model's, before the clamp
-  Eigen::Vector3d where_mm = Eigen::Vector3d::Zero();   ///< the tip at the peak, LPS
+  double peak_force_n = 0.0;                           ///< the model's, before the clamp
+  Eigen::Vector3d where_mm = Eigen::Vector3d::Zero();  ///< the tip at the peak, LPS
 };
 
 /// A curve over the session in equal time buckets (memory stays flat).
@@ -43,10 +43,10 @@ struct ToolMetrics {
 };
 
 struct RunMetrics {
-  nlohmann::json run;             ///< run.json as the recorder wrote it
+  nlohmann::json run;  ///< run.json as the recorder wrote it
   double duration_s = 0.0, force_limit_n = kDefaultForceLimit, bucket_s = 0.0;
   std::vector<ToolMetrics> tools;
-  Curve volume_change_percent;    ///< of the enclosed volume at rest
+  Curve volume_change_percent;  ///< of the enclosed volume at rest
   double largest_volume_change_percent = 0.0;
 };
 

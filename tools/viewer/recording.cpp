@@ -21,8 +21,8 @@ Recorder::Recorder(const std::string& path, cv::Size size) {
   if (std::filesystem::path(path).extension() != ".avi")
     throw std::runtime_error("--record " + path + ": recordings are Motion-JPEG AVI files; name it .avi");
   output_ = std::make_unique<io::AtomicFile>(path, ".avi");
-  writer_ = std::make_unique<cv::VideoWriter>(output_->temp_path(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 60.0,
-                                              size);
+  writer_ =
+      std::make_unique<cv::VideoWriter>(output_->temp_path(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 60.0, size);
   if (!writer_->isOpened()) throw std::runtime_error("cannot write the recording " + path + "; check the directory");
 }
 

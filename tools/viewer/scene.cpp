@@ -50,12 +50,14 @@ vtkSmartPointer<vtkImageData> to_vtk(const cv::Mat& bgr) {
 // Spherical (u, v) about the centroid, for models without texture coordinates.
 std::vector<model::TexCoord> spherical(const std::vector<model::Point3>& vertices) {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  for (const model::Point3& p : vertices) centre += Eigen::Vector3d(p[0], p[1], p[2]) / static_cast<double>(vertices.size());
+  for (const model::Point3& p : vertices)
+    centre += Eigen::Vector3d(p[0], p[1], p[2]) / static_cast<double>(vertices.size());
   std::vector<model::TexCoord> uv;
   for (const model::Point3& p : vertices) {
     const Eigen::Vector3d d = Eigen::Vector3d(p[0], p[1], p[2]) - centre;
     const double r = d.norm();
-    uv.push_back({0.5 + std::atan2(d[1], d[0]) / (2.0 * M_PI), r > 0 ? std::acos(std::clamp(d[2] / r, -1.0, 1.0)) / M_PI : 0.5});
+    uv.push_back(
+        {0.5 + std::atan2(d[1], d[0]) / (2.0 * M_PI), r > 0 ? std::acos(std::clamp(d[2] / r, -1.0, 1.0)) / M_PI : 0.5});
   }
   return uv;
 }

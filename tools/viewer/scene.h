@@ -24,10 +24,10 @@ struct SceneOptions {
   int width = 960;
   int height = 720;
   bool offscreen = false;
-  cv::Mat texture;                          ///< BGR; empty: the procedural liver texture
-  std::unique_ptr<Background> background;   ///< may be null: a dark abdominal backdrop
-  double shaft_length = 0.30;               ///< m
-  double force_arrow_scale = 0.03;          ///< m of arrow per newton
+  cv::Mat texture;                         ///< BGR; empty: the procedural liver texture
+  std::unique_ptr<Background> background;  ///< may be null: a dark abdominal backdrop
+  double shaft_length = 0.30;              ///< m
+  double force_arrow_scale = 0.03;         ///< m of arrow per newton
 };
 
 class OrganScene {

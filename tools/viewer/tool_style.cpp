@@ -55,11 +55,13 @@ void ToolStyle::OnMouseMove() {
   camera->GetViewUp(up);
   camera->GetFocalPoint(focal);
   camera->GetPosition(eye);
-  const Eigen::Vector3d view = (Eigen::Vector3d(focal[0], focal[1], focal[2]) - Eigen::Vector3d(eye[0], eye[1], eye[2])).normalized();
+  const Eigen::Vector3d view =
+      (Eigen::Vector3d(focal[0], focal[1], focal[2]) - Eigen::Vector3d(eye[0], eye[1], eye[2])).normalized();
   const Eigen::Vector3d upward = Eigen::Vector3d(up[0], up[1], up[2]).normalized();
   const Eigen::Vector3d right = view.cross(upward).normalized();
   const double distance = (poses_[selected_].tip - Eigen::Vector3d(eye[0], eye[1], eye[2])).norm();
-  const double pixel = 2.0 * distance * std::tan(camera->GetViewAngle() * M_PI / 360.0) / scene_->window()->GetSize()[1];
+  const double pixel =
+      2.0 * distance * std::tan(camera->GetViewAngle() * M_PI / 360.0) / scene_->window()->GetSize()[1];
   poses_[selected_].tip += pixel * ((now[0] - before[0]) * right + (now[1] - before[1]) * upward);
   (*tools_)[selected_].place(poses_[selected_]);
 }
@@ -74,13 +76,13 @@ void ToolStyle::OnMouseWheelBackward() {
   vtkInteractorStyleTrackballCamera::OnMouseWheelBackward();
 }
 
-
 void ToolStyle::depth(double metres) {
   if (!present_[selected_]) return;
   double focal[3], eye[3];
   scene_->renderer()->GetActiveCamera()->GetFocalPoint(focal);
   scene_->renderer()->GetActiveCamera()->GetPosition(eye);
-  const Eigen::Vector3d view = (Eigen::Vector3d(focal[0], focal[1], focal[2]) - Eigen::Vector3d(eye[0], eye[1], eye[2])).normalized();
+  const Eigen::Vector3d view =
+      (Eigen::Vector3d(focal[0], focal[1], focal[2]) - Eigen::Vector3d(eye[0], eye[1], eye[2])).normalized();
   poses_[selected_].tip += metres * view;
   (*tools_)[selected_].place(poses_[selected_]);
 }

@@ -19,9 +19,9 @@ class ToolStyle : public vtkInteractorStyleTrackballCamera {
   static ToolStyle* New();
   vtkTypeMacro(ToolStyle, vtkInteractorStyleTrackballCamera)
 
-  /// The tools it moves and the scene it picks in; `poses` and `present` say
-  /// where each tool is and whether it is placed (read by the drawing).
-  void attach(std::vector<devices::StreamedTool>& tools, OrganScene& scene);
+      /// The tools it moves and the scene it picks in; `poses` and `present` say
+      /// where each tool is and whether it is placed (read by the drawing).
+      void attach(std::vector<devices::StreamedTool>& tools, OrganScene& scene);
   const std::vector<devices::ToolPose>& poses() const { return poses_; }
   const std::vector<bool>& present() const { return present_; }
 

@@ -133,7 +133,8 @@ void check_options(const BakeOptions& o) {
     throw std::runtime_error("background seeds go with --seed, not with a label map");
   const model::Material& m = o.material;
   if (!(std::isfinite(m.young_modulus) && m.young_modulus > 0.0))
-    throw std::runtime_error(fmt::format("--young-modulus must be a positive number of pascals (got {})", m.young_modulus));
+    throw std::runtime_error(
+        fmt::format("--young-modulus must be a positive number of pascals (got {})", m.young_modulus));
   if (!(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5))
     throw std::runtime_error(fmt::format("--poisson-ratio must lie in (-1, 0.5) (got {})", m.poisson_ratio));
   if (!(std::isfinite(m.density) && m.density > 0.0))
@@ -141,15 +142,19 @@ void check_options(const BakeOptions& o) {
   if (!(std::isfinite(m.attenuation_alpha) && m.attenuation_alpha > 0.0))
     throw std::runtime_error(fmt::format("--alpha must be positive (got {})", m.attenuation_alpha));
   if (!(std::isfinite(m.attenuation_beta) && m.attenuation_beta >= 0.0))
-    throw std::runtime_error(fmt::format("--beta must be a non-negative number per metre (got {})", m.attenuation_beta));
+    throw std::runtime_error(
+        fmt::format("--beta must be a non-negative number per metre (got {})", m.attenuation_beta));
   if (o.beam_tables && (o.beams.stations < 1 || o.beams.stations > 4096))
-    throw std::runtime_error(fmt::format("--stations must lie in 1..4096 (got {}); to bake a model without beam tables "
-                                         "(every model but the multi-beam one runs on it), pass --no-beam-tables",
-                                         o.beams.stations));
+    throw std::runtime_error(
+        fmt::format("--stations must lie in 1..4096 (got {}); to bake a model without beam tables "
+                    "(every model but the multi-beam one runs on it), pass --no-beam-tables",
+                    o.beams.stations));
   if (!(o.clamp_cells_mm >= 0.0 && std::isfinite(o.clamp_cells_mm)))
-    throw std::runtime_error(fmt::format("--clamp-cells must be a non-negative number of mm (got {})", o.clamp_cells_mm));
+    throw std::runtime_error(
+        fmt::format("--clamp-cells must be a non-negative number of mm (got {})", o.clamp_cells_mm));
   if (o.surface.target_vertices < 100)
-    throw std::runtime_error(fmt::format("--surface-vertices must be at least 100 (got {})", o.surface.target_vertices));
+    throw std::runtime_error(
+        fmt::format("--surface-vertices must be at least 100 (got {})", o.surface.target_vertices));
 }
 
 MaskImage::Pointer segment(const CtImage& ct, const BakeOptions& o, BakeReport& report) {
@@ -162,16 +167,16 @@ MaskImage::Pointer segment(const CtImage& ct, const BakeOptions& o, BakeReport& 
     seeded.minimum_voxels = o.minimum_voxels;
     SeededSegmentation segmented = segment_from_seeds(ct, seeded);
     mask = segmented.mask;
-    report.segmentation = fmt::format("seeds ({} in the organ, {} background)", o.seeded.seeds.size(),
-                                      o.seeded.background_seeds.size());
+    report.segmentation =
+        fmt::format("seeds ({} in the organ, {} background)", o.seeded.seeds.size(), o.seeded.background_seeds.size());
     report.segmentation_warnings = segmented.report.warnings;
     report.seeded = std::move(segmented.report);
   }
   report.mask_voxels = count_voxels(*mask);
   if (report.mask_voxels < o.minimum_voxels)
-    throw std::runtime_error(fmt::format(
-        "the segmentation has only {} voxels (fewer than {}); check the label value or the seeds",
-        report.mask_voxels, o.minimum_voxels));
+    throw std::runtime_error(
+        fmt::format("the segmentation has only {} voxels (fewer than {}); check the label value or the seeds",
+                    report.mask_voxels, o.minimum_voxels));
   const auto spacing = mask->GetSpacing();
   report.mask_volume_ml = static_cast<double>(report.mask_voxels) * spacing[0] * spacing[1] * spacing[2] * 1e-3;
   if (!o.label_path.empty()) {
@@ -236,7 +241,9 @@ std::map<std::string, std::string> provenance_parameters(const BakeOptions& o, c
     p["seeds"] = seeds_text(s.seeds);
     p["background_seeds"] = seeds_text(s.background_seeds);
     p["hu_window"] = fmt::format("{},{}", report.seeded->hu_low, report.seeded->hu_high);
-    p["hu_window_source"] = report.seeded->window_given ? "given" : fmt::format("seed median -{}/+{} robust sigma", s.window_sigmas_below, s.window_sigmas_above);
+    p["hu_window_source"] = report.seeded->window_given ? "given"
+                                                        : fmt::format("seed median -{}/+{} robust sigma",
+                                                                      s.window_sigmas_below, s.window_sigmas_above);
     p["working_spacing_mm"] = fmt::format("{}", s.working_spacing_mm);
     p["smoothing"] = fmt::format("curvature anisotropic diffusion, {} iterations, conductance {}",
                                  s.smoothing_iterations, s.smoothing_conductance);
@@ -340,8 +347,8 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
   report.surface_volume_ml = geometry::enclosed_volume(surface.vertices, surface.triangles) * kMillilitresPerCubicMetre;
 
   const model::Point3 fixed_point_m{report.fixed_point_mm[0] * kMetresPerMillimetre,
-                             report.fixed_point_mm[1] * kMetresPerMillimetre,
-                             report.fixed_point_mm[2] * kMetresPerMillimetre};
+                                    report.fixed_point_mm[1] * kMetresPerMillimetre,
+                                    report.fixed_point_mm[2] * kMetresPerMillimetre};
   // The beam tables need the mask and the surface, the site compliances the
   // tetrahedra: the two largest stages overlap, the beam tables from before
   // the tetrahedra on, each filling the cores the other's serial parts (the

@@ -166,7 +166,8 @@ double MaskSampler::value_at(const Index& index) const {
   return sum;
 }
 
-model::BeamSection organ_section(const MaskSampler& sampler, const model::Point3& c, const model::BeamFrame& frame, unsigned n) {
+model::BeamSection organ_section(const MaskSampler& sampler, const model::Point3& c, const model::BeamFrame& frame,
+                                 unsigned n) {
   model::BeamSection section;
   // The section lies in the disc where the plane cuts the organ's bounding sphere.
   const model::Point3& o = sampler.organ_centre();
@@ -183,7 +184,7 @@ model::BeamSection organ_section(const MaskSampler& sampler, const model::Point3
   // Grid point (i, j) has the continuous voxel index first + i di + j dj.
   auto physical = [&](double y, double z) {
     return model::Point3{c[0] + y * frame.y[0] + z * frame.z[0], c[1] + y * frame.y[1] + z * frame.z[1],
-                  c[2] + y * frame.y[2] + z * frame.z[2]};
+                         c[2] + y * frame.y[2] + z * frame.z[2]};
   };
   const auto [y0, z0] = local(0, 0);
   const MaskSampler::Index first = sampler.index_of(physical(y0, z0)), along_i = sampler.index_of(physical(y0 + h, z0)),
@@ -191,8 +192,8 @@ model::BeamSection organ_section(const MaskSampler& sampler, const model::Point3
   const double di[3] = {along_i[0] - first[0], along_i[1] - first[1], along_i[2] - first[2]};
   const double dj[3] = {along_j[0] - first[0], along_j[1] - first[1], along_j[2] - first[2]};
   auto inside_at = [&](unsigned i, unsigned j) {
-    return sampler.inside({first[0] + i * di[0] + j * dj[0], first[1] + i * di[1] + j * dj[1],
-                           first[2] + i * di[2] + j * dj[2]});
+    return sampler.inside(
+        {first[0] + i * di[0] + j * dj[0], first[1] + i * di[1] + j * dj[1], first[2] + i * di[2] + j * dj[2]});
   };
   // Coarse pass: the organ's extent in the plane, plus one coarse step, plus
   // the neighbourhood of the axis point (small sections near the beam's tip).
@@ -207,11 +208,14 @@ model::BeamSection organ_section(const MaskSampler& sampler, const model::Point3
   if (axis_i >= 0.0 && axis_i < n && axis_j >= 0.0 && axis_j < n)
     include(static_cast<long>(axis_i), static_cast<long>(axis_j));
   if (hi_i < 0) return section;
-  lo_i = std::max(0L, lo_i - static_cast<long>(kCoarseStep)), hi_i = std::min(n - 1L, hi_i + static_cast<long>(kCoarseStep));
-  lo_j = std::max(0L, lo_j - static_cast<long>(kCoarseStep)), hi_j = std::min(n - 1L, hi_j + static_cast<long>(kCoarseStep));
+  lo_i = std::max(0L, lo_i - static_cast<long>(kCoarseStep)),
+  hi_i = std::min(n - 1L, hi_i + static_cast<long>(kCoarseStep));
+  lo_j = std::max(0L, lo_j - static_cast<long>(kCoarseStep)),
+  hi_j = std::min(n - 1L, hi_j + static_cast<long>(kCoarseStep));
   // The fine pass covers the coarse extent only; samples outside it count as
   // outside. Buffers are reused per thread: a bake calls this 100,000 times.
-  const std::size_t width = static_cast<std::size_t>(hi_i - lo_i + 1), height = static_cast<std::size_t>(hi_j - lo_j + 1);
+  const std::size_t width = static_cast<std::size_t>(hi_i - lo_i + 1),
+                    height = static_cast<std::size_t>(hi_j - lo_j + 1);
   constexpr std::uint8_t kUnknown = 0, kOutside = 1, kInside = 2, kTaken = 3;
   thread_local std::vector<std::uint8_t> state;
   thread_local std::vector<std::size_t> stack;
@@ -259,8 +263,8 @@ model::BeamSection organ_section(const MaskSampler& sampler, const model::Point3
     const std::size_t at = stack.back();
     stack.pop_back();
     const std::size_t i = at % width, j = at / width;
-    const auto [y, z] = local(static_cast<unsigned>(lo_i + static_cast<long>(i)),
-                              static_cast<unsigned>(lo_j + static_cast<long>(j)));
+    const auto [y, z] =
+        local(static_cast<unsigned>(lo_i + static_cast<long>(i)), static_cast<unsigned>(lo_j + static_cast<long>(j)));
     count += 1;
     sy += y, sz += z, syy += y * y, szz += z * z, syz += y * z;
     const std::size_t neighbours[4] = {i > 0 ? at - 1 : at, i + 1 < width ? at + 1 : at, j > 0 ? at - width : at,
@@ -282,8 +286,9 @@ model::BeamSection organ_section(const MaskSampler& sampler, const model::Point3
   return section;
 }
 
-model::BeamTables bake_beam_tables(const MaskImage& mask, const std::vector<model::Point3>& vertices, const model::Point3& fixed_point,
-                            const BeamBakingOptions& options, const std::function<void(double)>& progress) {
+model::BeamTables bake_beam_tables(const MaskImage& mask, const std::vector<model::Point3>& vertices,
+                                   const model::Point3& fixed_point, const BeamBakingOptions& options,
+                                   const std::function<void(double)>& progress) {
   const MaskSampler sampler(mask);
   model::BeamTables tables;
   tables.stations_per_beam = options.stations;
@@ -293,14 +298,14 @@ model::BeamTables bake_beam_tables(const MaskImage& mask, const std::vector<mode
     for (std::size_t v = next++; v < vertices.size(); v = next++) {
       if (reports && progress && v % 64 == 0 && v > 0) progress(static_cast<double>(v) / vertices.size());
       model::BeamFrame frame;
-      if (!model::make_beam_frame(fixed_point, vertices[v], frame)) continue;  // vertex at the fixed point: zero sections
+      if (!model::make_beam_frame(fixed_point, vertices[v], frame))
+        continue;  // vertex at the fixed point: zero sections
       for (std::uint32_t s = 0; s < options.stations; ++s) {
         const double t = (s + 0.5) / options.stations;
         const model::Point3 axis_point{fixed_point[0] + t * (vertices[v][0] - fixed_point[0]),
-                                fixed_point[1] + t * (vertices[v][1] - fixed_point[1]),
-                                fixed_point[2] + t * (vertices[v][2] - fixed_point[2])};
-        tables.sections[v * options.stations + s] =
-            organ_section(sampler, axis_point, frame, options.samples_per_side);
+                                       fixed_point[1] + t * (vertices[v][1] - fixed_point[1]),
+                                       fixed_point[2] + t * (vertices[v][2] - fixed_point[2])};
+        tables.sections[v * options.stations + s] = organ_section(sampler, axis_point, frame, options.samples_per_side);
       }
     }
   };

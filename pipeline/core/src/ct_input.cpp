@@ -78,8 +78,9 @@ int image_dimensions(const std::string& path, const MemoryNeed& need, std::size_
   register_image_io_factories();
   auto io = itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::CommonEnums::IOFileMode::ReadMode);
   if (!io)
-    fail(path, "is not an image ITK can read; pass a DICOM series directory, NIfTI (.nii, .nii.gz), NRRD or "
-               "MetaImage (.mha, .mhd) file");
+    fail(path,
+         "is not an image ITK can read; pass a DICOM series directory, NIfTI (.nii, .nii.gz), NRRD or "
+         "MetaImage (.mha, .mhd) file");
   try {
     io->SetFileName(path);
     io->ReadImageInformation();
@@ -92,7 +93,8 @@ int image_dimensions(const std::string& path, const MemoryNeed& need, std::size_
   double volumes = 1.0;  // a 4-D file is read whole before its first volume is kept
   for (unsigned k = 3; k < dimensions; ++k) volumes *= static_cast<double>(io->GetDimensions(k));
   const std::size_t file_bytes = io->GetComponentSize() * io->GetNumberOfComponents();
-  const double file_buffer = volumes > 1.0 || file_bytes != pixel_bytes ? static_cast<double>(file_bytes) * volumes : 0.0;
+  const double file_buffer =
+      volumes > 1.0 || file_bytes != pixel_bytes ? static_cast<double>(file_bytes) * volumes : 0.0;
   check_fits_in_memory(path, size, need, file_buffer);
   return static_cast<int>(dimensions);
 }
@@ -112,7 +114,8 @@ void check_gzip_stream_complete(const std::string& path) {
   int error = Z_OK;
   const std::string message = ::gzerror(file, &error);
   ::gzclose(file);
-  if (n < 0 || error != Z_OK) fail(path, "is damaged (" + message + "); the file is probably truncated: copy or export it again");
+  if (n < 0 || error != Z_OK)
+    fail(path, "is damaged (" + message + "); the file is probably truncated: copy or export it again");
 }
 
 template <typename Image>
@@ -221,7 +224,8 @@ double available_memory_bytes() {
     if (key == "MemAvailable:") available = kib * 1024.0;
   // In a container the cgroup's limit is the one that kills (cgroup v2; "max": none).
   double limit = 0.0, current = 0.0;
-  if ((std::ifstream("/sys/fs/cgroup/memory.max") >> limit) && (std::ifstream("/sys/fs/cgroup/memory.current") >> current))
+  if ((std::ifstream("/sys/fs/cgroup/memory.max") >> limit) &&
+      (std::ifstream("/sys/fs/cgroup/memory.current") >> current))
     available = available > 0.0 ? std::min(available, std::max(0.0, limit - current)) : std::max(0.0, limit - current);
   return available;
 }

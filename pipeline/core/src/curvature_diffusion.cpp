@@ -125,8 +125,7 @@ void over_slices(long slices, unsigned threads, Work work) {
     for (std::thread& thread : pool) thread.join();
   };
   try {
-    for (unsigned t = 1; t < threads; ++t)
-      pool.emplace_back(work, slices * t / threads, slices * (t + 1) / threads);
+    for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work, slices * t / threads, slices * (t + 1) / threads);
   } catch (...) {  // no thread for the rest: those started finish first
     join();
     throw;
@@ -171,13 +170,13 @@ FloatImage::Pointer curvature_diffusion(const FloatImage& image, const Curvature
   for (unsigned iteration = 0; iteration < o.iterations; ++iteration) {
     function->CalculateAverageGradientMagnitudeSquared(output);
     // CurvatureNDAnisotropicDiffusionFunction::InitializeIteration.
-    const auto k = static_cast<float>(function->GetAverageGradientMagnitudeSquared() * function->GetConductanceParameter() *
-                                      function->GetConductanceParameter() * -2.0f);
+    const auto k =
+        static_cast<float>(function->GetAverageGradientMagnitudeSquared() * function->GetConductanceParameter() *
+                           function->GetConductanceParameter() * -2.0f);
     // Every update from the same image (DenseFiniteDifferenceImageFilter's
     // CalculateChange), then all applied (its ApplyUpdate).
-    over_slices(size[2], threads, [&](long first, long end) {
-      compute_updates(values, size, first, end, k, scale, update.data());
-    });
+    over_slices(size[2], threads,
+                [&](long first, long end) { compute_updates(values, size, first, end, k, scale, update.data()); });
     const double dt = function->GetTimeStep();
     for (std::size_t v = 0; v < voxels; ++v) values[v] += static_cast<float>(update[v] * dt);
   }

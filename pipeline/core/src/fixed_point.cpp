@@ -18,7 +18,9 @@ namespace {
 
 std::array<double, 3> to_array(const itk::Point<double, 3>& p) { return {p[0], p[1], p[2]}; }
 template <typename T>
-std::string format_triple(const std::array<T, 3>& v) { return fmt::format("{},{},{}", v[0], v[1], v[2]); }
+std::string format_triple(const std::array<T, 3>& v) {
+  return fmt::format("{},{},{}", v[0], v[1], v[2]);
+}
 
 }  // namespace
 

@@ -30,8 +30,7 @@ std::string image_extension(const std::string& path) {
     const std::size_t n = std::strlen(extension);
     if (lower.size() > n && lower.compare(lower.size() - n, n, extension) == 0) return path.substr(path.size() - n);
   }
-  throw std::runtime_error("cannot write '" + path +
-                           "': unsupported extension; use .nii.gz, .nii, .nrrd or .mha");
+  throw std::runtime_error("cannot write '" + path + "': unsupported extension; use .nii.gz, .nii, .nrrd or .mha");
 }
 
 template <typename ImageType>
@@ -84,7 +83,9 @@ void write_dicom_series(const CtImage& image, const std::string& directory, cons
   std::vector<std::string> file_names;
   for (unsigned s = 0; s < slices; ++s) {
     itk::MetaDataDictionary& d = dictionaries[s];
-    auto set = [&d](const char* tag, const std::string& value) { itk::EncapsulateMetaData<std::string>(d, tag, value); };
+    auto set = [&d](const char* tag, const std::string& value) {
+      itk::EncapsulateMetaData<std::string>(d, tag, value);
+    };
     CtImage::IndexType index{{0, 0, static_cast<itk::IndexValueType>(s)}};
     CtImage::PointType position;
     image.TransformIndexToPhysicalPoint(index, position);

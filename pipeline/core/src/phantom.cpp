@@ -49,9 +49,8 @@ constexpr double kVeinRadius = 7.0;
 double segment_distance(const Vec& p, const Vec& a, const Vec& b) {
   const Vec ab{b[0] - a[0], b[1] - a[1], b[2] - a[2]};
   const Vec ap{p[0] - a[0], p[1] - a[1], p[2] - a[2]};
-  const double t = std::clamp((ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]) /
-                                  (ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2]),
-                              0.0, 1.0);
+  const double t = std::clamp(
+      (ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]) / (ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2]), 0.0, 1.0);
   return length({ap[0] - t * ab[0], ap[1] - t * ab[1], ap[2] - t * ab[2]});
 }
 
@@ -67,10 +66,10 @@ double background_hu(const Vec& p) {
   if (wall >= 0.94 && wall < 0.99 && p[1] < 40.0 && rib_level) return 650.0;
   if (wall >= 0.93) return 50.0;  // muscle
   const double vertebra = std::hypot(p[0], p[1] - 75.0);
-  if (vertebra < 20.0) return vertebra > 16.0 ? 800.0 : 350.0;  // cortical rim, cancellous core
+  if (vertebra < 20.0) return vertebra > 16.0 ? 800.0 : 350.0;    // cortical rim, cancellous core
   if (std::hypot(p[0] - 15.0, p[1] - 50.0) < 11.0) return 180.0;  // contrast-filled aorta
   if (ellipsoid_distance(p, {-75.0, 85.0, -70.0}, {22.0, 15.0, 40.0}) < 0.0) return 30.0;  // kidney
-  return -100.0;  // visceral fat
+  return -100.0;                                                                           // visceral fat
 }
 
 /// Deterministic standard normal numbers on every platform (std::normal_distribution

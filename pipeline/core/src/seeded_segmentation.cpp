@@ -74,9 +74,10 @@ CtImage::IndexType ct_voxel(const CtImage& ct, const SeedPoint& seed, const char
   const auto size = ct.GetLargestPossibleRegion().GetSize();
   for (unsigned k = 0; k < 3; ++k)
     if (v[k] < 0 || v[k] >= static_cast<long>(size[k]))
-      throw std::runtime_error(fmt::format("{} voxel ({}, {}, {}) lies outside the volume ({}x{}x{} voxels); choose a "
-                                           "voxel inside the organ",
-                                           what, v[0], v[1], v[2], size[0], size[1], size[2]));
+      throw std::runtime_error(
+          fmt::format("{} voxel ({}, {}, {}) lies outside the volume ({}x{}x{} voxels); choose a "
+                      "voxel inside the organ",
+                      what, v[0], v[1], v[2], size[0], size[1], size[2]));
   CtImage::IndexType index;
   for (unsigned k = 0; k < 3; ++k) index[k] = v[k];
   return index;
@@ -137,16 +138,18 @@ constexpr double kFatBelowHu = -30.0;
 /// air, lung, fat or bone is a user error, not a region to grow.
 void check_soft_tissue(double median_hu, const std::string& what) {
   if (median_hu < -300.0)
-    throw std::runtime_error(fmt::format("{} lies in air or lung ({:.0f} HU); place it inside the organ (liver: 20 to "
-                                         "200 HU)",
-                                         what, median_hu));
+    throw std::runtime_error(
+        fmt::format("{} lies in air or lung ({:.0f} HU); place it inside the organ (liver: 20 to "
+                    "200 HU)",
+                    what, median_hu));
   if (median_hu < kFatBelowHu)
-    throw std::runtime_error(fmt::format("{} lies in fat ({:.0f} HU); place it inside the organ (liver: 20 to 200 HU)",
-                                         what, median_hu));
+    throw std::runtime_error(
+        fmt::format("{} lies in fat ({:.0f} HU); place it inside the organ (liver: 20 to 200 HU)", what, median_hu));
   if (median_hu > 300.0)
-    throw std::runtime_error(fmt::format("{} lies in bone or a contrast-filled vessel ({:.0f} HU); place it in the "
-                                         "organ's tissue (liver: 20 to 200 HU)",
-                                         what, median_hu));
+    throw std::runtime_error(
+        fmt::format("{} lies in bone or a contrast-filled vessel ({:.0f} HU); place it in the "
+                    "organ's tissue (liver: 20 to 200 HU)",
+                    what, median_hu));
 }
 
 MaskImage::Pointer threshold(const FloatImage& image, double low, double high) {
@@ -424,7 +427,8 @@ MaskImage::Pointer with_enclosed_dents(const MaskImage& organ, const FloatImage&
         const std::uint32_t l = label[at];
         if (l == 0) continue;
         if (l >= border.size())
-          border.resize(l + 1, 0), touching_organ.resize(l + 1, 0), voxels.resize(l + 1, 0), window_voxels.resize(l + 1, 0);
+          border.resize(l + 1, 0), touching_organ.resize(l + 1, 0), voxels.resize(l + 1, 0),
+              window_voxels.resize(l + 1, 0);
         ++voxels[l];
         window_voxels[l] += in_window[at] != 0;
         const long index[3] = {i, j, k}, extent[3] = {nx, ny, nz};
@@ -521,8 +525,9 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
   shrink->SetInput(&ct);
   for (unsigned k = 0; k < 3; ++k) {
     const double spacing = ct.GetSpacing()[k];
-    const unsigned factor =
-        o.working_spacing_mm > 0.0 ? std::max(1u, static_cast<unsigned>(std::floor(o.working_spacing_mm / spacing + 1e-6))) : 1u;
+    const unsigned factor = o.working_spacing_mm > 0.0
+                                ? std::max(1u, static_cast<unsigned>(std::floor(o.working_spacing_mm / spacing + 1e-6)))
+                                : 1u;
     shrink->SetShrinkFactor(k, factor);
   }
   shrink->Update();
@@ -558,9 +563,10 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
     const std::string what = fmt::format("seed {}", s + 1);
     if (o.hu_window) {
       if (local.median < o.hu_window->first || local.median > o.hu_window->second)
-        throw std::runtime_error(fmt::format("{} lies at {:.0f} HU, outside the window {},{}; move the seed into the "
-                                             "organ or widen --hu-window",
-                                             what, local.median, o.hu_window->first, o.hu_window->second));
+        throw std::runtime_error(
+            fmt::format("{} lies at {:.0f} HU, outside the window {},{}; move the seed into the "
+                        "organ or widen --hu-window",
+                        what, local.median, o.hu_window->first, o.hu_window->second));
     } else if (local.median < kFatBelowHu && local.median >= o.lesion_low_hu && o.lesion_radius_mm > 0.0) {
       lesion_like.emplace_back(what, local);
       work_lesions.push_back(at);
@@ -591,13 +597,14 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
     // the organ that enhances less (the posterior liver in a portal phase is
     // 30 HU darker) must still find the brighter rest.
     window_from(statistics, o.opening_radius_mm > 0.0 ? std::max(o.discovery_sigmas_above, o.window_sigmas_above)
-                                                    : o.window_sigmas_above);
+                                                      : o.window_sigmas_above);
     // A seed's neighbourhood sees a few centimetres of an organ whose HU
     // drifts across it (enhancement, beam hardening) or a darker patch
     // (a vessel, a lesion): the window is taken again from the organ's
     // certain part that the first window finds.
     if (o.opening_radius_mm > 0.0) {
-      const MaskImage::Pointer first = components_holding(*threshold(*image, report.hu_low, report.hu_high), work_seeds);
+      const MaskImage::Pointer first =
+          components_holding(*threshold(*image, report.hu_low, report.hu_high), work_seeds);
       if (count_voxels(*first) > 0) {
         const MaskImage::Pointer certain = certain_part(*first, work_seeds, o);
         std::vector<float> values;
@@ -718,7 +725,8 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
     near_seed->SetRegions(image->GetLargestPossibleRegion());
     near_seed->Allocate(true);
     for (const auto& l : work_lesions)
-      for_each_in_ball(*image, l, o.lesion_radius_mm, [&](const FloatImage::IndexType& v) { near_seed->SetPixel(v, 1); });
+      for_each_in_ball(*image, l, o.lesion_radius_mm,
+                       [&](const FloatImage::IndexType& v) { near_seed->SetPixel(v, 1); });
     const MaskImage::Pointer lesions = components_holding(*logical_and(*dark, *near_seed), work_lesions);
     std::uint8_t* v = organ->GetBufferPointer();
     const std::uint8_t* l = lesions->GetBufferPointer();

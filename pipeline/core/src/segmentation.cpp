@@ -89,8 +89,11 @@ MaskImage::RegionType organ_bounding_box(const MaskImage& mask, const std::array
       const std::uint8_t* first = std::find_if(row, row + nx, [](std::uint8_t x) { return x != 0; });
       if (first == row + nx) continue;
       const std::uint8_t* last = std::find_if(std::make_reverse_iterator(row + nx), std::make_reverse_iterator(row),
-                                              [](std::uint8_t x) { return x != 0; }).base() - 1;
-      lower[0] = std::min(lower[0], static_cast<long>(first - row)), upper[0] = std::max(upper[0], static_cast<long>(last - row));
+                                              [](std::uint8_t x) { return x != 0; })
+                                     .base() -
+                                 1;
+      lower[0] = std::min(lower[0], static_cast<long>(first - row)),
+      upper[0] = std::max(upper[0], static_cast<long>(last - row));
       lower[1] = std::min(lower[1], j), upper[1] = std::max(upper[1], j);
       lower[2] = std::min(lower[2], k), upper[2] = std::max(upper[2], k);
     }

@@ -38,7 +38,8 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 class PointGrid {
  public:
   PointGrid(const std::vector<Eigen::Vector3d>& points, double cell) : points_(points), cell_(cell) {
-    for (std::size_t i = 0; i < points.size(); ++i) cells_[key(cell_of(points[i]))].push_back(static_cast<std::uint32_t>(i));
+    for (std::size_t i = 0; i < points.size(); ++i)
+      cells_[key(cell_of(points[i]))].push_back(static_cast<std::uint32_t>(i));
   }
   /// Indices of the points within `radius` of `at`, in increasing order.
   std::vector<std::uint32_t> within(const Eigen::Vector3d& at, double radius) const {
@@ -74,7 +75,8 @@ class PointGrid {
 #ifdef ORGANSIM_HAVE_FEM_DIRECT
 struct FillReducingOrdering {
   /// Eigen's convention: the inverse of the permutation P of P A Pᵀ.
-  void operator()(const fem::SparseMatrix& full, Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int>& inverse) const {
+  void operator()(const fem::SparseMatrix& full,
+                  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int>& inverse) const {
     Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> permutation;
     fem::cholmod_ordering(full, permutation.indices());
     inverse = permutation.inverse();
@@ -111,8 +113,8 @@ constexpr int kSolveBlock = 24;
 /// Without FMA (a separate instruction set, not enabled for the clone) each
 /// value gets the same multiply and subtract, rounded the same, on both
 /// clones: a portable build's results have the same bits on every CPU.
-ORGANSIM_SOLVE_CLONES void solve_in_place(const Factor& l, int n, const char* forward,
-                                                                        const char* backward, double* y) {
+ORGANSIM_SOLVE_CLONES void solve_in_place(const Factor& l, int n, const char* forward, const char* backward,
+                                          double* y) {
   for (int j = 0; j < n; ++j) {  // L z = P x, column by column
     if (!forward[j]) continue;
     double zj[kSolveBlock];
@@ -174,7 +176,8 @@ class BlockSolver {
     const int* inner = lower_.innerIndexPtr();
     for (Eigen::Index j = 0; j < lower_.cols(); ++j)
       for (int p = outer[j]; p < outer[j + 1]; ++p)
-        if (inner[p] > j && (parent_[static_cast<std::size_t>(j)] < 0 || inner[p] < parent_[static_cast<std::size_t>(j)]))
+        if (inner[p] > j &&
+            (parent_[static_cast<std::size_t>(j)] < 0 || inner[p] < parent_[static_cast<std::size_t>(j)]))
           parent_[static_cast<std::size_t>(j)] = inner[p];
   }
 
@@ -256,8 +259,11 @@ std::array<double, 2> fitted_curvatures(const Eigen::Vector3d& origin, const Eig
   first_form << 1 + slope_x * slope_x, slope_x * slope_y, slope_x * slope_y, 1 + slope_y * slope_y;
   second_form << 2 * q[0], q[1], q[1], 2 * q[2];
   second_form /= std::sqrt(1 + slope_x * slope_x + slope_y * slope_y);
-  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::Matrix2d> shape(-second_form, first_form, Eigen::EigenvaluesOnly);
-  const auto clamped = [](double k) { return std::clamp(k, -model::SiteCompliance::kMaxCurvature, model::SiteCompliance::kMaxCurvature); };
+  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::Matrix2d> shape(-second_form, first_form,
+                                                                        Eigen::EigenvaluesOnly);
+  const auto clamped = [](double k) {
+    return std::clamp(k, -model::SiteCompliance::kMaxCurvature, model::SiteCompliance::kMaxCurvature);
+  };
   return {clamped(shape.eigenvalues()[1]), clamped(shape.eigenvalues()[0])};
 }
 
@@ -268,7 +274,8 @@ std::array<double, 6> packed(const Eigen::Matrix3d& c) {
 }  // namespace
 
 std::vector<std::array<double, 2>> site_curvatures(const model::OrganModel& model, double radius) {
-  if (!(radius > 0) || !std::isfinite(radius)) throw std::invalid_argument("the curvature's fit radius must be a length > 0");
+  if (!(radius > 0) || !std::isfinite(radius))
+    throw std::invalid_argument("the curvature's fit radius must be a length > 0");
   std::vector<Eigen::Vector3d> places;
   places.reserve(model.surface_vertices.size());
   for (const model::Point3& p : model.surface_vertices) places.push_back(point(p));
@@ -290,16 +297,19 @@ std::vector<std::array<double, 2>> site_curvatures(const model::OrganModel& mode
 }
 
 model::SiteCompliance compute_site_compliance(const model::OrganModel& model, const SiteComplianceOptions& o,
-                                             SiteComplianceReport* report) {
+                                              SiteComplianceReport* report) {
   if (model.tetrahedra.empty() || model.volume_vertices.empty())
     throw std::invalid_argument("site compliances need the model's tetrahedra");
-  if (!(o.poisson_ratio > 0 && o.poisson_ratio < 0.5)) throw std::invalid_argument("the reference's Poisson's ratio must lie in (0, 0.5)");
+  if (!(o.poisson_ratio > 0 && o.poisson_ratio < 0.5))
+    throw std::invalid_argument("the reference's Poisson's ratio must lie in (0, 0.5)");
   if (!(o.stabilization >= 0) || !std::isfinite(o.stabilization))
     throw std::invalid_argument("the reference's stabilization must be a finite number >= 0");
-  if (!(o.patch_radius >= 0) || !std::isfinite(o.patch_radius)) throw std::invalid_argument("the patch radius must be a length >= 0");
+  if (!(o.patch_radius >= 0) || !std::isfinite(o.patch_radius))
+    throw std::invalid_argument("the patch radius must be a length >= 0");
   if (!(o.curvature_radius >= 0) || !std::isfinite(o.curvature_radius))
     throw std::invalid_argument("the curvature's fit radius must be a length >= 0");
-  if (!(o.fixed_radius > 0) || !std::isfinite(o.fixed_radius)) throw std::invalid_argument("the clamp radius must be a length > 0");
+  if (!(o.fixed_radius > 0) || !std::isfinite(o.fixed_radius))
+    throw std::invalid_argument("the clamp radius must be a length > 0");
 
   // The PSH stiffness at rest, clamped as the FEM models clamp it.
   const fem::TetMesh mesh = fem::tet_mesh_of(model);
@@ -313,7 +323,8 @@ model::SiteCompliance compute_site_compliance(const model::OrganModel& model, co
   // Quasi-definite: an LDLᵀ without pivoting exists for every symmetric ordering.
   const LdltFactor factor(system.tangent_free());
   if (factor.info() != Eigen::Success)
-    throw std::invalid_argument("the FEM stiffness at rest is singular: the clamp does not hold the organ (raise the clamp radius)");
+    throw std::invalid_argument(
+        "the FEM stiffness at rest is singular: the clamp does not hold the organ (raise the clamp radius)");
   const double factorization_seconds = seconds_since(factorization_start);
 
   // The free boundary nodes, their lumped areas, and the patch radius.
@@ -402,7 +413,8 @@ model::SiteCompliance compute_site_compliance(const model::OrganModel& model, co
         for (std::uint32_t b : near[m]) {
           Response r{b, Eigen::Matrix3d::Zero()};
           for (int k = 0; k < 3; ++k)
-            r.displacement.row(k) = block.row(free_index[3 * nodes[b] + k]).segment<3>(static_cast<Eigen::Index>(3 * m));
+            r.displacement.row(k) =
+                block.row(free_index[3 * nodes[b] + k]).segment<3>(static_cast<Eigen::Index>(3 * m));
           green[a].push_back(r);
         }
       }
@@ -435,8 +447,7 @@ model::SiteCompliance compute_site_compliance(const model::OrganModel& model, co
     for (std::uint32_t a : patches[v])
       for (const Response& r : green[a]) c += weight[a] * weight[r.node] * r.displacement;
     for (std::uint32_t p : patches[v]) weight[p] = 0.0;
-    c = 0.5 * (c + c.transpose()) -
-        organ::disk_compliance(young, o.poisson_ratio, std::sqrt(total / M_PI), normals[v]);
+    c = 0.5 * (c + c.transpose()) - organ::disk_compliance(young, o.poisson_ratio, std::sqrt(total / M_PI), normals[v]);
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(c);
     c = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() * eigen.eigenvectors().transpose();
     sites.compliance[v] = packed(c);

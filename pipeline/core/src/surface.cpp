@@ -76,7 +76,8 @@ Ptr<vtkImageData> to_vtk(const MaskImage& mask, const MaskImage::RegionType& box
   long blocks[3];
   auto image = Ptr<vtkImageData>::New();
   for (unsigned k = 0; k < 3; ++k) blocks[k] = (static_cast<long>(box.GetSize(k)) + factor - 1) / factor;
-  image->SetDimensions(static_cast<int>(blocks[0] + 2), static_cast<int>(blocks[1] + 2), static_cast<int>(blocks[2] + 2));
+  image->SetDimensions(static_cast<int>(blocks[0] + 2), static_cast<int>(blocks[1] + 2),
+                       static_cast<int>(blocks[2] + 2));
   image->SetSpacing(factor * spacing[0], factor * spacing[1], factor * spacing[2]);
   image->SetOrigin((box.GetIndex(0) - factor + 0.5 * (factor - 1)) * spacing[0],
                    (box.GetIndex(1) - factor + 0.5 * (factor - 1)) * spacing[1],
@@ -184,8 +185,7 @@ Contour smoothed_contour(const MaskImage& mask, const MaskImage::RegionType& box
   if (clean->GetOutput()->GetNumberOfCells() == 0) throw std::runtime_error("the segmentation is empty");
 
   const auto spacing = mask.GetSpacing();
-  const double mask_volume_mm3 =
-      static_cast<double>(count_voxels(mask)) * spacing[0] * spacing[1] * spacing[2];
+  const double mask_volume_mm3 = static_cast<double>(count_voxels(mask)) * spacing[0] * spacing[1] * spacing[2];
   auto [all_volume, all_area] = volume_and_area(contour->GetOutput());
   auto [kept_volume, kept_area] = volume_and_area(clean->GetOutput());
   if (all_volume < 0.0) all_volume = -all_volume, kept_volume = -kept_volume;  // the axes' handedness
@@ -247,8 +247,8 @@ geometry::SurfaceMesh to_mesh(vtkPolyData* surface, const MaskImage& mask) {
   const vtkIdType* ids = nullptr;
   while (polys->GetNextCell(n, ids))
     if (n == 3)
-      mesh.triangles.push_back({static_cast<std::uint32_t>(ids[0]), static_cast<std::uint32_t>(ids[1]),
-                                static_cast<std::uint32_t>(ids[2])});
+      mesh.triangles.push_back(
+          {static_cast<std::uint32_t>(ids[0]), static_cast<std::uint32_t>(ids[1]), static_cast<std::uint32_t>(ids[2])});
   // Flying edges' orientation depends on the image axes' handedness: make it outward.
   if (geometry::enclosed_volume(mesh.vertices, mesh.triangles) < 0)
     for (model::Triangle& t : mesh.triangles) std::swap(t[1], t[2]);
@@ -259,9 +259,8 @@ geometry::SurfaceMesh to_mesh(vtkPolyData* surface, const MaskImage& mask) {
 
 geometry::SurfaceMesh extract_surface(const MaskImage& mask, const SurfaceOptions& options) {
   if (options.block_factor < 0 || options.block_factor > kLargestBlock)
-    throw std::invalid_argument(
-        fmt::format("the contouring block must be 1 to {} voxels, or 0 to choose it (got {})", kLargestBlock,
-                    options.block_factor));
+    throw std::invalid_argument(fmt::format("the contouring block must be 1 to {} voxels, or 0 to choose it (got {})",
+                                            kLargestBlock, options.block_factor));
   const MaskImage::RegionType box = organ_bounding_box(mask, {0, 0, 0});
   // Down-sample when full resolution would give far more vertices than the
   // target: decimation, not contouring, dominates the cost on fine CTs.

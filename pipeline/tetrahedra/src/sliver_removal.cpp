@@ -212,7 +212,8 @@ class Slivers {
         std::uint32_t other[2], k = 0;
         for (std::uint32_t corner : tets[i])
           if (corner != a && corner != b) other[k++] = corner;
-        if (signed_volume(vec(v[a]), vec(v[b]), vec(v[other[0]]), vec(v[other[1]])) < 0.0) std::swap(other[0], other[1]);
+        if (signed_volume(vec(v[a]), vec(v[b]), vec(v[other[0]]), vec(v[other[1]])) < 0.0)
+          std::swap(other[0], other[1]);
         if (!next.emplace(other[0], other[1]).second) return false;
       }
       ring.push_back(std::min_element(next.begin(), next.end())->first);
@@ -354,14 +355,14 @@ class Slivers {
       Eigen::Vector3d new_vertex;
       bool inserted = false;
       if (best.added.empty()) {
-        const Eigen::Vector3d centroid =
-            (vec(v[t[0]]) + vec(v[t[1]]) + vec(v[t[2]]) + vec(v[t[3]])) / 4.0;
+        const Eigen::Vector3d centroid = (vec(v[t[0]]) + vec(v[t[1]]) + vec(v[t[2]]) + vec(v[t[3]])) / 4.0;
         for (const auto& e : kEdges) {
           const Eigen::Vector3d midpoint = 0.5 * (vec(v[t[e[0]]]) + vec(v[t[e[1]]]));
           insert_vertex(live_tets_with(t[e[0]], t[e[1]]), 0.5 * (midpoint + centroid), best, new_vertex);
         }
         std::vector<std::uint32_t> star{static_cast<std::uint32_t>(i)};
-        for (int corner = 0; corner < 4; ++corner) star.push_back(neighbour_across(static_cast<std::uint32_t>(i), corner));
+        for (int corner = 0; corner < 4; ++corner)
+          star.push_back(neighbour_across(static_cast<std::uint32_t>(i), corner));
         insert_vertex(star, centroid, best, new_vertex);
         inserted = !best.added.empty();
       }
@@ -593,7 +594,8 @@ class Slivers {
 
 }  // namespace
 
-double min_dihedral_deg(const model::Point3& a, const model::Point3& b, const model::Point3& c, const model::Point3& d) {
+double min_dihedral_deg(const model::Point3& a, const model::Point3& b, const model::Point3& c,
+                        const model::Point3& d) {
   const Eigen::Vector3d p[4] = {vec(a), vec(b), vec(c), vec(d)};
   // The dihedral angle at the edge shared by the faces opposite corners k and
   // l is π less the angle between their outward normals: cos θ = −n_k·n_l.
@@ -612,7 +614,8 @@ double min_dihedral_deg(const model::Point3& a, const model::Point3& b, const mo
   return std::acos(std::clamp(largest_cosine, -1.0, 1.0)) * kDegrees;
 }
 
-double shape_quality_deg(const model::Point3& a, const model::Point3& b, const model::Point3& c, const model::Point3& d) {
+double shape_quality_deg(const model::Point3& a, const model::Point3& b, const model::Point3& c,
+                         const model::Point3& d) {
   return quality(vec(a), vec(b), vec(c), vec(d));
 }
 

@@ -67,21 +67,23 @@ CgalSurface to_cgal(const geometry::SurfaceMesh& surface) {
 
 void check_options(const TetrahedraOptions& o) {
   auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
-  if (!positive(o.tet_size_mm)) throw std::runtime_error(fmt::format("--tet-size must be positive (got {})", o.tet_size_mm));
+  if (!positive(o.tet_size_mm))
+    throw std::runtime_error(fmt::format("--tet-size must be positive (got {})", o.tet_size_mm));
   if (!positive(o.facet_distance_mm))
     throw std::runtime_error(fmt::format("--facet-distance must be positive (got {} mm)", o.facet_distance_mm));
   if (!(o.facet_angle_deg > 0.0 && o.facet_angle_deg <= 30.0))
-    throw std::runtime_error(
-        fmt::format("the facet angle must lie in (0, 30] degrees, where Mesh_3 terminates (got {})", o.facet_angle_deg));
+    throw std::runtime_error(fmt::format(
+        "the facet angle must lie in (0, 30] degrees, where Mesh_3 terminates (got {})", o.facet_angle_deg));
   for (const LocalRefinement& r : o.refinements)
     if (!std::isfinite(r.centre[0]) || !std::isfinite(r.centre[1]) || !std::isfinite(r.centre[2]) ||
         !(r.radius_mm >= 0.0 && std::isfinite(r.radius_mm)) || !positive(r.size_mm))
-      throw std::runtime_error(fmt::format(
-          "a refinement needs a finite centre, a radius of 0 or more and a positive size (got radius {} mm, size {} mm)",
-          r.radius_mm, r.size_mm));
+      throw std::runtime_error(
+          fmt::format("a refinement needs a finite centre, a radius of 0 or more and a positive size (got radius {} "
+                      "mm, size {} mm)",
+                      r.radius_mm, r.size_mm));
   if (!(o.radius_edge_ratio >= 2.0 && std::isfinite(o.radius_edge_ratio)))
-    throw std::runtime_error(
-        fmt::format("the radius-edge ratio bound must be at least 2, where Mesh_3 terminates (got {})", o.radius_edge_ratio));
+    throw std::runtime_error(fmt::format(
+        "the radius-edge ratio bound must be at least 2, where Mesh_3 terminates (got {})", o.radius_edge_ratio));
 }
 
 Eigen::Vector3d vec(const model::Point3& p) { return {p[0], p[1], p[2]}; }
@@ -112,7 +114,6 @@ class GradedSize {
   double uniform_;
   std::vector<Refinement> refinements_;
 };
-
 
 /// Mesh_3 visits cells in an order that depends on memory addresses, so the
 /// same mesh comes out in different orders from run to run. Sorting vertices by
@@ -159,7 +160,8 @@ geometry::TetrahedralMesh make_tetrahedra(const geometry::SurfaceMesh& surface, 
     if (options.refinements.empty()) {
       const Criteria criteria(p::facet_angle = options.facet_angle_deg, p::facet_size = options.tet_size_mm,
                               p::facet_distance = options.facet_distance_mm,
-                              p::cell_radius_edge_ratio = options.radius_edge_ratio, p::cell_size = options.tet_size_mm);
+                              p::cell_radius_edge_ratio = options.radius_edge_ratio,
+                              p::cell_size = options.tet_size_mm);
       // Mesh_3's own optimizers are not used (see above): refinement only.
       return CGAL::make_mesh_3<Complex>(domain, criteria, p::no_perturb(), p::no_exude());
     }
@@ -169,7 +171,6 @@ geometry::TetrahedralMesh make_tetrahedra(const geometry::SurfaceMesh& surface, 
                             p::cell_radius_edge_ratio = options.radius_edge_ratio, p::cell_size = size);
     return CGAL::make_mesh_3<Complex>(domain, criteria, p::no_perturb(), p::no_exude());
   }();
-
 
   geometry::TetrahedralMesh mesh;
   std::unordered_map<Triangulation::Vertex_handle, std::uint32_t> index;

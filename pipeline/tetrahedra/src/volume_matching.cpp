@@ -61,10 +61,11 @@ VolumeMatch offset_to_volume(std::vector<model::Point3>& vertices, const std::ve
   VolumeMatch match;
   match.volume_before_m3 = geometry::enclosed_volume(vertices, triangles);
   if (!(match.volume_before_m3 > 0.0))
-    throw std::invalid_argument(fmt::format(
-        "volume matching needs a closed, outward surface (it encloses {:.3g} m³)", match.volume_before_m3));
+    throw std::invalid_argument(
+        fmt::format("volume matching needs a closed, outward surface (it encloses {:.3g} m³)", match.volume_before_m3));
   if (!(target_m3 > 0.0 && std::isfinite(target_m3)))
-    throw std::invalid_argument(fmt::format("volume matching needs a positive target volume (got {:.3g} m³)", target_m3));
+    throw std::invalid_argument(
+        fmt::format("volume matching needs a positive target volume (got {:.3g} m³)", target_m3));
   // The normals stay those of the rest surface: the offset is one number, found
   // by Newton on V(δ), a cubic in δ.
   const std::vector<model::Point3> rest = vertices;

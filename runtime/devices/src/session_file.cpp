@@ -70,8 +70,8 @@ Session parse_session(std::istream& in, const std::string& path, const SessionLi
       const std::string tool_field = text.substr(4, comma - 4), radius_field = text.substr(comma + 1);
       char* stop = nullptr;
       const double tool_value = std::strtod(tool_field.c_str(), &stop);
-      if (tool_field.empty() || stop != tool_field.c_str() + tool_field.size() || !(tool_value >= 1 && tool_value <= 16) ||
-          tool_value != std::floor(tool_value))
+      if (tool_field.empty() || stop != tool_field.c_str() + tool_field.size() ||
+          !(tool_value >= 1 && tool_value <= 16) || tool_value != std::floor(tool_value))
         fail(path, line_number, "tool numbers are 1 to 16");
       const double radius = std::strtod(radius_field.c_str(), &stop);
       if (radius_field.empty() || stop != radius_field.c_str() + radius_field.size() || !(radius >= 0.0) ||
@@ -88,7 +88,8 @@ Session parse_session(std::istream& in, const std::string& path, const SessionLi
     }
     const auto fields = static_cast<int>(std::count(text.begin(), text.end(), ',')) + 1;
     if (fields != 5 && fields != 8)
-      fail(path, line_number, "expected 5 or 8 comma-separated fields: time_s,tool,x_mm,y_mm,z_mm[,shaft_x,shaft_y,shaft_z]");
+      fail(path, line_number,
+           "expected 5 or 8 comma-separated fields: time_s,tool,x_mm,y_mm,z_mm[,shaft_x,shaft_y,shaft_z]");
     double values[8];
     std::size_t start = 0;
     for (int k = 0; k < fields; ++k) {
@@ -111,8 +112,7 @@ Session parse_session(std::istream& in, const std::string& path, const SessionLi
       fail(path, line_number,
            fmt(values[0]) + " s is later than a session may last (" + fmt(limits.max_duration / 3600.0) +
                " h); check that times are in seconds, or pass --long-session to run it on purpose");
-    if (!t.times.empty() && values[0] <= t.times.back())
-      fail(path, line_number, "times of a tool must increase");
+    if (!t.times.empty() && values[0] <= t.times.back()) fail(path, line_number, "times of a tool must increase");
     if (!t.times.empty() && t.shafts.empty() != (fields == 5))
       fail(path, line_number, "a tool's samples must all have a shaft direction or all have none");
     const Eigen::Vector3d tip(values[2] * 1e-3, values[3] * 1e-3, values[4] * 1e-3);
@@ -140,8 +140,8 @@ Session parse_session(std::istream& in, const std::string& path, const SessionLi
 
 void write_session(const Session& session, const std::string& path) {
   std::ostringstream out;
-  const bool tips = std::any_of(session.tools.begin(), session.tools.end(),
-                                [](const Trajectory& t) { return t.tip_radius >= 0.0; });
+  const bool tips =
+      std::any_of(session.tools.begin(), session.tools.end(), [](const Trajectory& t) { return t.tip_radius >= 0.0; });
   out << (tips ? "# organsim session 2\n" : "# organsim session 1\n")
       << "# time_s,tool,x_mm,y_mm,z_mm[,shaft_x,shaft_y,shaft_z] (model frame)\n";
   char line[200];

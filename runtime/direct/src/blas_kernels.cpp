@@ -15,7 +15,9 @@ void use_the_cpus_blas_kernels(char** argv) noexcept {
   const auto core_name = reinterpret_cast<CoreName>(dlsym(RTLD_DEFAULT, "openblas_get_corename"));
   if (!core_name || !core_name() || strcasecmp(core_name(), "prescott") != 0) return;
   __builtin_cpu_init();
-  const char* kernels = __builtin_cpu_supports("avx512f") ? "SkylakeX" : __builtin_cpu_supports("avx2") ? "Haswell" : nullptr;
+  const char* kernels = __builtin_cpu_supports("avx512f") ? "SkylakeX"
+                        : __builtin_cpu_supports("avx2")  ? "Haswell"
+                                                          : nullptr;
   if (!kernels) return;  // a CPU that old gets what it is
   setenv("OPENBLAS_CORETYPE", kernels, 1);
   execv("/proc/self/exe", argv);

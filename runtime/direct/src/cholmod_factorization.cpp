@@ -62,8 +62,8 @@ class CholmodFactorization final : public Factorization {
     cholmod_factorize(&a, factor_, &common_);
     // CHOLMOD_NOT_POSDEF is a warning (status > 0): the factor stops at the
     // first non-positive pivot (`minor` < n).
-    factorized_ = common_.status == CHOLMOD_OK && factor_->minor == factor_->n && factor_->is_super &&
-                  factor_->is_ll && factor_->Perm;
+    factorized_ = common_.status == CHOLMOD_OK && factor_->minor == factor_->n && factor_->is_super && factor_->is_ll &&
+                  factor_->Perm;
     supernodal_ = {};
     if (factorized_) size_workspace();
     return factorized_;
@@ -121,8 +121,8 @@ class CholmodFactorization final : public Factorization {
       single_values_.resize(factor_->xsize);
       std::transform(values, values + factor_->xsize, single_values_.begin(),
                      [](double v) { return static_cast<float>(v); });
-      single_view_ = {view_.supernodes, view_.first, view_.rows, view_.value_start, view_.row_index,
-                      single_values_.data()};
+      single_view_ = {view_.supernodes,  view_.first,     view_.rows,
+                      view_.value_start, view_.row_index, single_values_.data()};
     }
     permuted_.resize(rows_, 3);
     below_.resize(std::max<Eigen::Index>(view_.most_rows_below(), 1), 3);

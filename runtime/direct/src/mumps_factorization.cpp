@@ -53,7 +53,8 @@ class MumpsFactorization final : public Factorization {
     id_.sym = 2;  // general symmetric, with pivoting: any symmetric matrix (SYM 1 would assume positive definite)
     id_.comm_fortran = kUseCommWorld;
     Library::call(&id_);
-    if (id_.infog[0] < 0) throw std::runtime_error("MUMPS failed to start (INFOG(1) = " + std::to_string(id_.infog[0]) + ")");
+    if (id_.infog[0] < 0)
+      throw std::runtime_error("MUMPS failed to start (INFOG(1) = " + std::to_string(id_.infog[0]) + ")");
     id_.icntl[0] = id_.icntl[1] = id_.icntl[2] = -1;  // no messages
     id_.icntl[3] = 0;
     // ICNTL(7) = 4: PORD, MUMPS's own nested dissection. On the liver's PSH
@@ -122,7 +123,8 @@ class MumpsFactorization final : public Factorization {
       solution.setConstant(std::nan(""));
       return;
     }
-    for (Eigen::Index i = 0; i < rhs.size(); ++i) workspace_[static_cast<std::size_t>(i)] = static_cast<Value>(scaled(rhs[i], i));
+    for (Eigen::Index i = 0; i < rhs.size(); ++i)
+      workspace_[static_cast<std::size_t>(i)] = static_cast<Value>(scaled(rhs[i], i));
     id_.rhs = workspace_.data();
     id_.nrhs = 1;
     id_.lrhs = id_.n;
@@ -139,7 +141,8 @@ class MumpsFactorization final : public Factorization {
   bool realtime_solve() const noexcept override { return false; }
   std::size_t factor_nonzeros() const noexcept override {
     // INFOG(29): entries in the factors (negative: millions).
-    return id_.infog[28] >= 0 ? static_cast<std::size_t>(id_.infog[28]) : static_cast<std::size_t>(-id_.infog[28]) * 1000000;
+    return id_.infog[28] >= 0 ? static_cast<std::size_t>(id_.infog[28])
+                              : static_cast<std::size_t>(-id_.infog[28]) * 1000000;
   }
   const char* name() const noexcept override { return Library::name; }
 
@@ -187,7 +190,8 @@ std::unique_ptr<Factorization> direct_factorization(MatrixKind kind, SolveUse us
   switch (use) {
     case SolveUse::newton: return make_mumps_factorization();
     case SolveUse::preconditioner:
-      return kind == MatrixKind::quasi_definite ? make_single_precision_mumps_factorization() : make_mumps_factorization();
+      return kind == MatrixKind::quasi_definite ? make_single_precision_mumps_factorization()
+                                                : make_mumps_factorization();
     case SolveUse::realtime:
     case SolveUse::realtime_iteration:
       if (kind == MatrixKind::positive_definite) return make_cholmod_factorization(use == SolveUse::realtime_iteration);

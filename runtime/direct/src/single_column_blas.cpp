@@ -44,10 +44,9 @@ Function* next_definition(const char* name) {
 template <typename T>
 const LoadedBlas<T>& loaded_blas() {
   constexpr bool single = sizeof(T) == sizeof(float);
-  static const LoadedBlas<T> blas{next_definition<Gemm<T>>(single ? "sgemm_" : "dgemm_"),
-                                  next_definition<Trsm<T>>(single ? "strsm_" : "dtrsm_"),
-                                  next_definition<Gemv<T>>(single ? "sgemv_" : "dgemv_"),
-                                  next_definition<Trsv<T>>(single ? "strsv_" : "dtrsv_")};
+  static const LoadedBlas<T> blas{
+      next_definition<Gemm<T>>(single ? "sgemm_" : "dgemm_"), next_definition<Trsm<T>>(single ? "strsm_" : "dtrsm_"),
+      next_definition<Gemv<T>>(single ? "sgemv_" : "dgemv_"), next_definition<Trsv<T>>(single ? "strsv_" : "dtrsv_")};
   return blas;
 }
 

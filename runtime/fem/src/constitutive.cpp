@@ -58,9 +58,7 @@ double stvk(const Constitutive& m, const Matrix3d& F, Matrix3d& P, Matrix9d* tan
   return 0.5 * m.lambda * trace * trace + m.mu * double_dot(E, E);
 }
 
-Eigen::Vector3d axial(const Matrix3d& skew) noexcept {
-  return {skew(2, 1), skew(0, 2), skew(1, 0)};
-}
+Eigen::Vector3d axial(const Matrix3d& skew) noexcept { return {skew(2, 1), skew(0, 2), skew(1, 0)}; }
 
 Matrix3d cross_matrix(const Eigen::Vector3d& w) noexcept {
   Matrix3d m;
@@ -121,9 +119,9 @@ void mooney_rivlin_tangent(const Constitutive& m, const Matrix3d& F, const Moone
           const double first = 2 * identity - (4.0 / 3.0) * (F(r, s) * G(i, j) + G(r, s) * F(i, j)) +
                                (4.0 / 9.0) * k.I1 * GG + (2.0 / 3.0) * k.I1 * cross;
           const double second = 4 * F(r, s) * F(i, j) + 2 * k.I1 * identity - 2 * (i == r ? k.C(s, j) : 0.0) -
-                                 2 * F(i, s) * F(r, j) - 2 * (j == s ? B(i, r) : 0.0) -
-                                 (8.0 / 3.0) * (H(r, s) * G(i, j) + G(r, s) * H(i, j)) + (16.0 / 9.0) * k.I2 * GG +
-                                 (4.0 / 3.0) * k.I2 * cross;
+                                2 * F(i, s) * F(r, j) - 2 * (j == s ? B(i, r) : 0.0) -
+                                (8.0 / 3.0) * (H(r, s) * G(i, j) + G(r, s) * H(i, j)) + (16.0 / 9.0) * k.I2 * GG +
+                                (4.0 / 3.0) * k.I2 * cross;
           A(i + 3 * j, r + 3 * s) = A(r + 3 * s, i + 3 * j) = c1a * first + c2b * second + pJ * (GG - cross);
         }
 }

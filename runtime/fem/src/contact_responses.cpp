@@ -38,9 +38,8 @@ class FullResponses final : public ContactResponses {
 
   Eigen::Matrix3d coupling(std::size_t s, std::size_t t) const noexcept override {
     Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
-    for_each_load(loads_[s], [&](std::int32_t unknown, int i, double weight) {
-      m.row(i) += weight * responses_[t].row(unknown);
-    });
+    for_each_load(loads_[s],
+                  [&](std::int32_t unknown, int i, double weight) { m.row(i) += weight * responses_[t].row(unknown); });
     return m;
   }
 
@@ -78,7 +77,8 @@ class SupernodalResponses final : public ContactResponses {
         y_(Eigen::MatrixX3d::Zero(factor.rows, 3)),
         below_(Eigen::MatrixX3d::Zero(std::max<Eigen::Index>(l.most_rows_below(), 1), 3)) {
     for (std::size_t s = 0; s < l.supernodes; ++s)
-      for (int row = l.first[s]; row < l.first[s + 1]; ++row) supernode_of_row_[static_cast<std::size_t>(row)] = static_cast<int>(s);
+      for (int row = l.first[s]; row < l.first[s + 1]; ++row)
+        supernode_of_row_[static_cast<std::size_t>(row)] = static_cast<int>(s);
     for (Slot& slot : slots_) {
       slot.z = Eigen::MatrixX3d::Zero(factor.rows, 3);
       slot.support.reserve(l.supernodes);
@@ -108,7 +108,8 @@ class SupernodalResponses final : public ContactResponses {
       marked_[s] = 0;
       slot.support.push_back(static_cast<int>(s));
       const int* rows = l_.row_index + l_.rows[s];
-      for (Eigen::Index i = l_.columns(s); i < l_.height(s); ++i) marked_[static_cast<std::size_t>(supernode_of_row_[static_cast<std::size_t>(rows[i])])] = 1;
+      for (Eigen::Index i = l_.columns(s); i < l_.height(s); ++i)
+        marked_[static_cast<std::size_t>(supernode_of_row_[static_cast<std::size_t>(rows[i])])] = 1;
     }
     double* y[3] = {slot.z.col(0).data(), slot.z.col(1).data(), slot.z.col(2).data()};
     double* t[3] = {below_.col(0).data(), below_.col(1).data(), below_.col(2).data()};
@@ -193,8 +194,10 @@ class SupernodalResponses final : public ContactResponses {
 std::unique_ptr<ContactResponses> ContactResponses::make(Factorization& factorization, Eigen::Index rows,
                                                          std::size_t slots) {
   if (const SupernodalFactor* factor = factorization.supernodal_factor()) {
-    if (factor->single_values) return std::make_unique<SupernodalResponses<float>>(*factor, *factor->single_values, slots);
-    if (factor->double_values) return std::make_unique<SupernodalResponses<double>>(*factor, *factor->double_values, slots);
+    if (factor->single_values)
+      return std::make_unique<SupernodalResponses<float>>(*factor, *factor->single_values, slots);
+    if (factor->double_values)
+      return std::make_unique<SupernodalResponses<double>>(*factor, *factor->double_values, slots);
   }
   return std::make_unique<FullResponses>(factorization, rows, slots);
 }

@@ -52,7 +52,9 @@ ElasticitySystem::ElasticitySystem(const TetMesh& mesh, const Material& material
       if (n < 0 || static_cast<std::size_t>(n) >= nodes)
         throw std::invalid_argument("tetrahedra[" + std::to_string(e) + "]: node " + std::to_string(n) +
                                     " does not exist");
-    const auto x = [&](int corner) -> const Eigen::Vector3d& { return mesh_.nodes[static_cast<std::size_t>(t[corner])]; };
+    const auto x = [&](int corner) -> const Eigen::Vector3d& {
+      return mesh_.nodes[static_cast<std::size_t>(t[corner])];
+    };
     Eigen::Matrix3d edges;
     edges << x(1) - x(0), x(2) - x(0), x(3) - x(0);
     volume_[e] = edges.determinant() / 6;
@@ -94,9 +96,9 @@ ElasticitySystem::ElasticitySystem(const TetMesh& mesh, const Material& material
     for (std::size_t i = 0; i + 1 < faces.size(); ++i) {
       if (faces[i].nodes != faces[i + 1].nodes) continue;
       const auto& n = faces[i].nodes;
-      const double area = triangle_area(mesh_.nodes[static_cast<std::size_t>(n[0])],
-                                        mesh_.nodes[static_cast<std::size_t>(n[1])],
-                                        mesh_.nodes[static_cast<std::size_t>(n[2])]);
+      const double area =
+          triangle_area(mesh_.nodes[static_cast<std::size_t>(n[0])], mesh_.nodes[static_cast<std::size_t>(n[1])],
+                        mesh_.nodes[static_cast<std::size_t>(n[2])]);
       const std::int32_t e = faces[i].tet, j = faces[i + 1].tet;
       const double h = diameter[static_cast<std::size_t>(e)] + diameter[static_cast<std::size_t>(j)];
       jump_faces_.push_back({e, j, material_.stabilization * h * area / material_.bulk_modulus});
@@ -209,7 +211,8 @@ std::int64_t ElasticitySystem::assemble(const Eigen::VectorXd& x, Eigen::VectorX
     const double V = volume_[e];
     const Eigen::Matrix<double, 4, 3>& g = gradients_[e];
     const Eigen::Matrix<double, 3, 4> forces = V * P * g.transpose();  // column a: ∂Π/∂u_a
-    for (int a = 0; a < 4; ++a) gradient.segment<3>(3 * mesh_.tetrahedra[e][static_cast<std::size_t>(a)]) += forces.col(a);
+    for (int a = 0; a < 4; ++a)
+      gradient.segment<3>(3 * mesh_.tetrahedra[e][static_cast<std::size_t>(a)]) += forces.col(a);
     if (has_pressure())
       gradient[static_cast<Eigen::Index>(3 * nodes + e)] += V * (J - 1 - pressure / material_.bulk_modulus);
     if (!tangent) continue;
@@ -254,7 +257,8 @@ std::int64_t ElasticitySystem::assemble(const Eigen::VectorXd& x, Eigen::VectorX
   return -1;
 }
 
-std::int64_t ElasticitySystem::corotational_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& gradient) const noexcept {
+std::int64_t ElasticitySystem::corotational_gradient(const Eigen::VectorXd& x,
+                                                     Eigen::VectorXd& gradient) const noexcept {
   // The stresses kStressLanes tetrahedra at a time (corotational_stress_lanes);
   // a short last block is filled with undeformed ones.
   const Constitutive constitutive(material_);
@@ -273,7 +277,8 @@ std::int64_t ElasticitySystem::corotational_gradient(const Eigen::VectorXd& x, E
       Eigen::Matrix3d stress;
       for (int k = 0; k < 9; ++k) stress(k % 3, k / 3) = P[k][l];
       const Eigen::Matrix<double, 3, 4> forces = volume_[e] * stress * gradients_[e].transpose();  // column a: ∂Π/∂u_a
-      for (int a = 0; a < 4; ++a) gradient.segment<3>(3 * mesh_.tetrahedra[e][static_cast<std::size_t>(a)]) += forces.col(a);
+      for (int a = 0; a < 4; ++a)
+        gradient.segment<3>(3 * mesh_.tetrahedra[e][static_cast<std::size_t>(a)]) += forces.col(a);
     }
   }
   return -1;

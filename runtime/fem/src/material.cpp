@@ -13,8 +13,8 @@ const char* material_name(MaterialModel model) noexcept {
 }
 
 bool parse_material_model(const std::string& name, MaterialModel& model) noexcept {
-  for (MaterialModel candidate : {MaterialModel::linear, MaterialModel::corotational, MaterialModel::stvk,
-                                  MaterialModel::mooney_rivlin})
+  for (MaterialModel candidate :
+       {MaterialModel::linear, MaterialModel::corotational, MaterialModel::stvk, MaterialModel::mooney_rivlin})
     if (name == material_name(candidate)) {
       model = candidate;
       return true;

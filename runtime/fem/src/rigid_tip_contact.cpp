@@ -56,7 +56,8 @@ ContactSolution press_rigid_tip(const ContactProblem& problem, const RigidTip& t
   std::vector<bool> constrained(3 * nodes, false);
   for (const std::int32_t n : problem.fixed)
     for (int c = 0; c < 3; ++c) constrained[3 * static_cast<std::size_t>(n) + c] = true;
-  for (const PrescribedDisplacement& r : problem.rollers) constrained[3 * static_cast<std::size_t>(r.node) + r.component] = true;
+  for (const PrescribedDisplacement& r : problem.rollers)
+    constrained[3 * static_cast<std::size_t>(r.node) + r.component] = true;
 
   ElasticitySystem system(mesh, problem.material, constrained);
   Eigen::VectorXd gradient(system.dof_count());
@@ -78,7 +79,8 @@ ContactSolution press_rigid_tip(const ContactProblem& problem, const RigidTip& t
   candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
   const auto c_count = static_cast<Eigen::Index>(candidates.size());
   std::vector<std::int32_t> slot(nodes, -1);  // node → its place among the candidates
-  for (Eigen::Index k = 0; k < c_count; ++k) slot[static_cast<std::size_t>(candidates[static_cast<std::size_t>(k)])] = static_cast<std::int32_t>(k);
+  for (Eigen::Index k = 0; k < c_count; ++k)
+    slot[static_cast<std::size_t>(candidates[static_cast<std::size_t>(k)])] = static_cast<std::int32_t>(k);
 
   // Only the candidates' displacements matter until the end: K⁻¹ restricted
   // to their rows and an active node's three columns is kept per node, so a
@@ -145,7 +147,8 @@ ContactSolution press_rigid_tip(const ContactProblem& problem, const RigidTip& t
     }
     Eigen::MatrixXd s(m, m);
     for (Eigen::Index i = 0; i < m; ++i)
-      s.row(i) = normals[static_cast<std::size_t>(i)].transpose() * w.middleRows<3>(3 * active[static_cast<std::size_t>(i)]);
+      s.row(i) =
+          normals[static_cast<std::size_t>(i)].transpose() * w.middleRows<3>(3 * active[static_cast<std::size_t>(i)]);
     lambda = s.ldlt().solve(b);
     const Eigen::VectorXd before = u_candidates;
     u_candidates = w * lambda;

@@ -34,13 +34,14 @@ class NewtonSolver {
         options_(options),
         out_(out),
         system_(problem.mesh, problem.material, constraint_mask(problem)),
-        tangent_solver_(make_factorization(
-                            options.factorization,
-                            system_.has_pressure() ? MatrixKind::quasi_definite : MatrixKind::positive_definite,
-                            SolveUse::preconditioner),
-                        options.tangent) {
+        tangent_solver_(
+            make_factorization(options.factorization,
+                               system_.has_pressure() ? MatrixKind::quasi_definite : MatrixKind::positive_definite,
+                               SolveUse::preconditioner),
+            options.tangent) {
     out_.linear_solver = tangent_solver_.name();
-    const Eigen::Index dofs = system_.dof_count(), displacement_dofs = static_cast<Eigen::Index>(3 * problem.mesh.nodes.size());
+    const Eigen::Index dofs = system_.dof_count(),
+                       displacement_dofs = static_cast<Eigen::Index>(3 * problem.mesh.nodes.size());
     x_ = Eigen::VectorXd::Zero(dofs);
     x_.tail(dofs - displacement_dofs).setConstant(problem.initial_pressure);
     gradient_.resize(dofs);
@@ -108,7 +109,8 @@ class NewtonSolver {
     std::vector<bool> mask(3 * problem.mesh.nodes.size(), false);
     for (std::int32_t n : problem.fixed)
       for (int c = 0; c < 3; ++c) mask[static_cast<std::size_t>(3 * n + c)] = true;
-    for (const PrescribedDisplacement& p : problem.prescribed) mask[static_cast<std::size_t>(3 * p.node + p.component)] = true;
+    for (const PrescribedDisplacement& p : problem.prescribed)
+      mask[static_cast<std::size_t>(3 * p.node + p.component)] = true;
     return mask;
   }
 
@@ -118,7 +120,8 @@ class NewtonSolver {
     const auto& index = system_.free_index();
     for (std::size_t d = 0; d < index.size(); ++d)
       if (index[d] >= 0)
-        residual[index[d]] = gradient_[static_cast<Eigen::Index>(d)] - load_factor * full_load_[static_cast<Eigen::Index>(d)];
+        residual[index[d]] =
+            gradient_[static_cast<Eigen::Index>(d)] - load_factor * full_load_[static_cast<Eigen::Index>(d)];
   }
 
   double scaled_norm(const Eigen::VectorXd& residual) const { return residual.cwiseProduct(row_scale_).norm(); }
@@ -171,7 +174,8 @@ class NewtonSolver {
       out_.analysis_seconds = tangent_solver_.analysis_seconds();
       // No Newton step of a held body moves a node by more than ten times the
       // body's size; one that does solved a singular system.
-      if (!factorized || !step_.allFinite() || step_.cwiseAbs().cwiseProduct(displacement_rows_).maxCoeff() > step_limit_) {
+      if (!factorized || !step_.allFinite() ||
+          step_.cwiseAbs().cwiseProduct(displacement_rows_).maxCoeff() > step_limit_) {
         failure = "the tangent stiffness is singular (is the body held by fixed or prescribed nodes?)";
         out_.residual_history.push_back(history);
         return false;
@@ -227,9 +231,9 @@ void validate(const StaticProblem& problem) {
   for (std::size_t e = 0; e < problem.mesh.tetrahedra.size(); ++e) {
     const Tetrahedron& t = problem.mesh.tetrahedra[e];
     for (std::int32_t n : t)
-      require(n >= 0 && static_cast<std::size_t>(n) < nodes,
-              "tetrahedra[" + std::to_string(e) + "]: node " + std::to_string(n) + " is out of range (0.." +
-                  std::to_string(nodes - 1) + ")");
+      require(n >= 0 && static_cast<std::size_t>(n) < nodes, "tetrahedra[" + std::to_string(e) + "]: node " +
+                                                                 std::to_string(n) + " is out of range (0.." +
+                                                                 std::to_string(nodes - 1) + ")");
     for (int a = 0; a < 4; ++a)
       for (int b = a + 1; b < 4; ++b)
         require(t[static_cast<std::size_t>(a)] != t[static_cast<std::size_t>(b)],
@@ -242,7 +246,8 @@ void validate(const StaticProblem& problem) {
     require(std::isfinite(m.bulk_modulus) && m.bulk_modulus > 0, "material.bulk_modulus: must be finite and > 0 (Pa)");
     require(std::isfinite(m.stabilization) && m.stabilization >= 0, "material.stabilization: must be finite and ≥ 0");
   } else {
-    require(std::isfinite(m.young_modulus) && m.young_modulus > 0, "material.young_modulus: must be finite and > 0 (Pa)");
+    require(std::isfinite(m.young_modulus) && m.young_modulus > 0,
+            "material.young_modulus: must be finite and > 0 (Pa)");
     require(std::isfinite(m.poisson_ratio) && m.poisson_ratio > -1 && m.poisson_ratio < 0.5,
             "material.poisson_ratio: must be in (−1, 0.5)");
   }

@@ -6,8 +6,9 @@ namespace {
 enum class Part { whole, forward, backward };
 
 template <int K, typename Scalar>
-ORGANSIM_SUPERNODAL_INLINE void solve_columns(const SupernodalView<Scalar>& l, const double* pivots, Eigen::Ref<Eigen::MatrixX3d> y,
-                          Eigen::Ref<Eigen::MatrixX3d> below, Part part) noexcept {
+ORGANSIM_SUPERNODAL_INLINE void solve_columns(const SupernodalView<Scalar>& l, const double* pivots,
+                                              Eigen::Ref<Eigen::MatrixX3d> y, Eigen::Ref<Eigen::MatrixX3d> below,
+                                              Part part) noexcept {
   if (part != Part::backward) supernodal_forward<K>(l, y, below);
   if (part == Part::forward) return;
   if (pivots)
@@ -17,8 +18,9 @@ ORGANSIM_SUPERNODAL_INLINE void solve_columns(const SupernodalView<Scalar>& l, c
 }
 
 template <typename Scalar>
-ORGANSIM_SUPERNODAL_INLINE void solve_any(const SupernodalView<Scalar>& l, const double* pivots, Eigen::Ref<Eigen::MatrixX3d> y,
-                      int columns, Eigen::Ref<Eigen::MatrixX3d> below, Part part) noexcept {
+ORGANSIM_SUPERNODAL_INLINE void solve_any(const SupernodalView<Scalar>& l, const double* pivots,
+                                          Eigen::Ref<Eigen::MatrixX3d> y, int columns,
+                                          Eigen::Ref<Eigen::MatrixX3d> below, Part part) noexcept {
   if (columns == 3)
     solve_columns<3>(l, pivots, y, below, part);
   else
@@ -29,13 +31,13 @@ ORGANSIM_SUPERNODAL_INLINE void solve_any(const SupernodalView<Scalar>& l, const
 // The same loops inlined into functions compiled for AVX2 and FMA.
 #define ORGANSIM_SOLVE_LEVELS 1
 __attribute__((target("arch=x86-64-v3"))) void solve_v3(const SupernodalView<double>& l, const double* pivots,
-                                                          Eigen::Ref<Eigen::MatrixX3d> y, int columns,
-                                                          Eigen::Ref<Eigen::MatrixX3d> below, Part part) noexcept {
+                                                        Eigen::Ref<Eigen::MatrixX3d> y, int columns,
+                                                        Eigen::Ref<Eigen::MatrixX3d> below, Part part) noexcept {
   solve_any(l, pivots, y, columns, below, part);
 }
 __attribute__((target("arch=x86-64-v3"))) void solve_v3(const SupernodalView<float>& l, const double* pivots,
-                                                          Eigen::Ref<Eigen::MatrixX3d> y, int columns,
-                                                          Eigen::Ref<Eigen::MatrixX3d> below, Part part) noexcept {
+                                                        Eigen::Ref<Eigen::MatrixX3d> y, int columns,
+                                                        Eigen::Ref<Eigen::MatrixX3d> below, Part part) noexcept {
   solve_any(l, pivots, y, columns, below, part);
 }
 const bool kHasV3 = [] {
@@ -60,8 +62,8 @@ void supernodal_solve(const SupernodalView<double>& l, const double* pivots, Eig
   dispatch(l, pivots, y, columns, below, Part::whole);
 }
 
-void supernodal_solve(const SupernodalView<float>& l, const double* pivots, Eigen::Ref<Eigen::MatrixX3d> y,
-                      int columns, Eigen::Ref<Eigen::MatrixX3d> below) noexcept {
+void supernodal_solve(const SupernodalView<float>& l, const double* pivots, Eigen::Ref<Eigen::MatrixX3d> y, int columns,
+                      Eigen::Ref<Eigen::MatrixX3d> below) noexcept {
   dispatch(l, pivots, y, columns, below, Part::whole);
 }
 

@@ -17,11 +17,17 @@ class KeptFactorization {
   template <typename Matrix>
   explicit KeptFactorization(const Matrix&) {}
   template <typename Matrix>
-  KeptFactorization& analyzePattern(const Matrix&) { return *this; }
+  KeptFactorization& analyzePattern(const Matrix&) {
+    return *this;
+  }
   template <typename Matrix>
-  KeptFactorization& factorize(const Matrix&) { return *this; }
+  KeptFactorization& factorize(const Matrix&) {
+    return *this;
+  }
   template <typename Matrix>
-  KeptFactorization& compute(const Matrix&) { return *this; }
+  KeptFactorization& compute(const Matrix&) {
+    return *this;
+  }
 
   void use(Factorization* factorization) noexcept { factorization_ = factorization; }
 
@@ -96,8 +102,8 @@ bool TangentSolver::solve(const SparseMatrix& tangent, const Eigen::VectorXd& rh
   if (!factorization_->exact()) {
     // The tangent's own approximate factor: GMRES refines its answer in a
     // few iterations (whatever the budget for kept factorizations).
-    return krylov_solve(tangent, rhs, solution, tolerance, std::max(options_.max_krylov_iterations, kRefinementIterations),
-                        false);
+    return krylov_solve(tangent, rhs, solution, tolerance,
+                        std::max(options_.max_krylov_iterations, kRefinementIterations), false);
   }
   solution.resize(rhs.size());
   factorization_->solve(rhs, solution);

@@ -94,10 +94,9 @@ TetMesh curved_tube(const TubeOptions& o) {
       for (int a = 0; a < o.around; ++a) {
         const double s = o.length * r / (o.rings - 1);  // arc length from the top
         const double theta = o.bend_angle > 0 ? s / bend_radius : 0.0;
-        const Eigen::Vector3d axis = o.bend_angle > 0
-                                         ? Eigen::Vector3d(bend_radius * (1 - std::cos(theta)), 0,
-                                                           o.length - bend_radius * std::sin(theta))
-                                         : Eigen::Vector3d(0, 0, o.length - s);
+        const Eigen::Vector3d axis = o.bend_angle > 0 ? Eigen::Vector3d(bend_radius * (1 - std::cos(theta)), 0,
+                                                                        o.length - bend_radius * std::sin(theta))
+                                                      : Eigen::Vector3d(0, 0, o.length - s);
         const Eigen::Vector3d in_plane(std::cos(theta), 0, std::sin(theta)), across(0, 1, 0);
         const double radius = o.inner_radius + (o.outer_radius - o.inner_radius) * l / o.through;
         const double phi = 2 * pi * a / o.around;

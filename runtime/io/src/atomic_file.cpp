@@ -45,7 +45,8 @@ void sync_directory_of(const std::string& path) { sync_path(parent_directory(pat
 
 /// Renames `temp` over `path` and flushes the directory entry.
 void publish(const std::string& temp, const std::string& path) {
-  if (::rename(temp.c_str(), path.c_str()) != 0) throw failure(path, "cannot rename the temporary output into place", errno);
+  if (::rename(temp.c_str(), path.c_str()) != 0)
+    throw failure(path, "cannot rename the temporary output into place", errno);
   sync_directory_of(path);
 }
 
@@ -163,9 +164,11 @@ void AtomicStream::commit() {
 AtomicDirectory::AtomicDirectory(const std::string& path) : path_(path) {
   std::error_code error;
   if (fs::exists(path, error) && !(fs::is_directory(path, error) && fs::is_empty(path, error)))
-    throw std::runtime_error("cannot write '" + path + "': it exists and is not an empty directory; choose a new directory");
+    throw std::runtime_error("cannot write '" + path +
+                             "': it exists and is not an empty directory; choose a new directory");
   std::string pattern = temp_pattern(path, "");
-  if (::mkdtemp(pattern.data()) == nullptr) throw failure(path, "cannot create a temporary directory next to it", errno);
+  if (::mkdtemp(pattern.data()) == nullptr)
+    throw failure(path, "cannot create a temporary directory next to it", errno);
   ::chmod(pattern.c_str(), 0755);
   temp_ = pattern;
 }

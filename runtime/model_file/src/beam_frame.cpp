@@ -4,8 +4,7 @@
 
 namespace organsim::model {
 
-bool make_beam_frame(const std::array<double, 3>& from, const std::array<double, 3>& to,
-                     BeamFrame& frame) noexcept {
+bool make_beam_frame(const std::array<double, 3>& from, const std::array<double, 3>& to, BeamFrame& frame) noexcept {
   std::array<double, 3> x{to[0] - from[0], to[1] - from[1], to[2] - from[2]};
   const double length = std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
   if (!(length > 0.0) || !std::isfinite(length)) return false;

@@ -8,8 +8,7 @@
 
 namespace organsim::model::format {
 
-static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
-              "the .organ reader and writer assume a little-endian host");
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "the .organ reader and writer assume a little-endian host");
 
 // PNG-style magic: a non-ASCII first byte and CR LF / SUB catch text-mode transfers.
 inline constexpr std::uint8_t kMagic[8] = {0x89, 'O', 'R', 'G', 'N', '\r', '\n', 0x1A};
@@ -58,9 +57,19 @@ inline constexpr std::uint64_t kMaxDepthCurvePoints = 256;
 /// Format 1.3's site curvature: reals per vertex (κ₁, κ₂).
 inline constexpr std::uint32_t kCurvatureFieldsV1_3 = 2;
 
-enum class Section { Metadata, SurfaceVertices, SurfaceTriangles, SurfaceTexcoords,
-                     VolumeVertices, Tetrahedra, FixedPoints, Material, BeamTables, SiteCompliance,
-                     SiteCurvature };
+enum class Section {
+  Metadata,
+  SurfaceVertices,
+  SurfaceTriangles,
+  SurfaceTexcoords,
+  VolumeVertices,
+  Tetrahedra,
+  FixedPoints,
+  Material,
+  BeamTables,
+  SiteCompliance,
+  SiteCurvature
+};
 
 struct SectionDescription {
   Section id;
@@ -84,9 +93,7 @@ inline constexpr SectionDescription kSections[] = {
     {Section::SiteCurvature, "CURV", "site curvature", false},
 };
 
-inline const SectionDescription& describe(Section id) {
-  return kSections[static_cast<std::size_t>(id)];
-}
+inline const SectionDescription& describe(Section id) { return kSections[static_cast<std::size_t>(id)]; }
 
 /// "section 'TETS' (tetrahedra)" — the prefix of every section-specific message.
 inline std::string section_label(Section id) {

@@ -102,8 +102,8 @@ std::vector<std::uint8_t> encode_section(Section id, const OrganModel& m) {
       const Material& mat = m.material;
       w.put<std::uint32_t>(format::kMaterialFieldsV1_1);
       w.put<std::uint32_t>(0);
-      for (double v : {mat.young_modulus, mat.poisson_ratio, mat.density, mat.attenuation_alpha,
-                       mat.attenuation_beta, mat.beam_stiffness_scale, mat.spring_stiffness_scale})
+      for (double v : {mat.young_modulus, mat.poisson_ratio, mat.density, mat.attenuation_alpha, mat.attenuation_beta,
+                       mat.beam_stiffness_scale, mat.spring_stiffness_scale})
         w.put<double>(v);
       break;
     }
@@ -112,8 +112,7 @@ std::vector<std::uint8_t> encode_section(Section id, const OrganModel& m) {
       w.put<std::uint32_t>(format::kBeamFieldsV1);
       w.put<std::uint64_t>(m.beams.sections.size() / m.beams.stations_per_beam);
       for (const BeamSection& s : m.beams.sections)
-        for (double v : {s.area, s.i_yy, s.i_zz, s.i_yz, s.torsion_j, s.centroid_y, s.centroid_z})
-          w.put<double>(v);
+        for (double v : {s.area, s.i_yy, s.i_zz, s.i_yz, s.torsion_j, s.centroid_y, s.centroid_z}) w.put<double>(v);
       break;
     }
     case Section::SiteCompliance: {
@@ -215,14 +214,14 @@ template <typename T, std::size_t N>
 std::vector<std::array<T, N>> read_array(Section id, const std::uint8_t* data, std::size_t size) {
   PayloadReader r(data, size);
   std::uint64_t count = 0;
-  if (!r.get(count)) fail_section(id, std::string("payload of ") + std::to_string(size) +
-                                          " bytes is too short for its item count; " + kDamagedAdvice);
+  if (!r.get(count))
+    fail_section(id, std::string("payload of ") + std::to_string(size) + " bytes is too short for its item count; " +
+                         kDamagedAdvice);
   constexpr std::size_t item_bytes = sizeof(T) * N;
   // Compare by division so that an absurd count can neither overflow nor allocate.
   if (count > r.remaining() / item_bytes || count * item_bytes != r.remaining())
-    fail_section(id, "item count " + std::to_string(count) + " does not match the payload of " +
-                         std::to_string(size) + " bytes (" + std::to_string(item_bytes) +
-                         " bytes per item); " + kDamagedAdvice);
+    fail_section(id, "item count " + std::to_string(count) + " does not match the payload of " + std::to_string(size) +
+                         " bytes (" + std::to_string(item_bytes) + " bytes per item); " + kDamagedAdvice);
   std::vector<std::array<T, N>> items;
   reserve_in_huge_pages(items, static_cast<std::size_t>(count));
   items.resize(static_cast<std::size_t>(count));
@@ -240,19 +239,22 @@ void read_metadata(const std::uint8_t* data, std::size_t size, ModelProvenance& 
                          std::to_string(format::kMaxMetadataEntries) + "; " + kDamagedAdvice);
   std::string previous_key, key, value, units;
   for (std::uint32_t i = 0; i < count; ++i) {
-    if (!r.get_string(key, format::kMaxMetadataKeyBytes) ||
-        !r.get_string(value, format::kMaxMetadataValueBytes))
-      fail_section(id, "entry " + std::to_string(i) + " runs past the payload or exceeds the length limits; " +
-                           kDamagedAdvice);
+    if (!r.get_string(key, format::kMaxMetadataKeyBytes) || !r.get_string(value, format::kMaxMetadataValueBytes))
+      fail_section(
+          id, "entry " + std::to_string(i) + " runs past the payload or exceeds the length limits; " + kDamagedAdvice);
     if (i > 0 && key <= previous_key)
-      fail_section(id, "keys are not strictly sorted (duplicate or out-of-order key '" + key + "'); " +
-                           kDamagedAdvice);
+      fail_section(id, "keys are not strictly sorted (duplicate or out-of-order key '" + key + "'); " + kDamagedAdvice);
     previous_key = key;
-    if (key == "units") units = value;
-    else if (key == "coordinate_frame") p.coordinate_frame = value;
-    else if (key == "program_version") p.program_version = value;
-    else if (key == "input_sha256") p.input_sha256 = value;
-    else if (key.rfind("param.", 0) == 0) p.parameters[key.substr(6)] = value;
+    if (key == "units")
+      units = value;
+    else if (key == "coordinate_frame")
+      p.coordinate_frame = value;
+    else if (key == "program_version")
+      p.program_version = value;
+    else if (key == "input_sha256")
+      p.input_sha256 = value;
+    else if (key.rfind("param.", 0) == 0)
+      p.parameters[key.substr(6)] = value;
     // Other keys come from newer writers and carry nothing this reader needs.
   }
   if (r.remaining() != 0)
@@ -271,8 +273,8 @@ void read_material(const std::uint8_t* data, std::size_t size, Material& mat) {
       fields * sizeof(double) != r.remaining())
     fail_section(id, "field count " + std::to_string(fields) + " does not match the payload of " +
                          std::to_string(size) + " bytes; " + kDamagedAdvice);
-  double* targets[] = {&mat.young_modulus,     &mat.poisson_ratio,         &mat.density,
-                       &mat.attenuation_alpha, &mat.attenuation_beta,      &mat.beam_stiffness_scale,
+  double* targets[] = {&mat.young_modulus,         &mat.poisson_ratio,    &mat.density,
+                       &mat.attenuation_alpha,     &mat.attenuation_beta, &mat.beam_stiffness_scale,
                        &mat.spring_stiffness_scale};
   // Fields beyond those known (a newer minor version's) are skipped; known
   // fields a 1.0 file lacks keep their defaults.
@@ -298,8 +300,8 @@ void read_sites(const std::uint8_t* data, std::size_t size, SiteCompliance& site
   std::uint64_t vertices = 0;
   constexpr std::size_t kVertexBytes = format::kSiteFieldsV1_2 * sizeof(double);
   if (!r.get(vertices) || vertices > r.remaining() / kVertexBytes || vertices * kVertexBytes != r.remaining())
-    fail_section(id, "the vertex count does not match the payload of " + std::to_string(size) + " bytes; " +
-                         kDamagedAdvice);
+    fail_section(
+        id, "the vertex count does not match the payload of " + std::to_string(size) + " bytes; " + kDamagedAdvice);
   sites.compliance.resize(static_cast<std::size_t>(vertices));
   if (vertices > 0) std::memcpy(sites.compliance.data(), r.here(), static_cast<std::size_t>(vertices) * kVertexBytes);
 }
@@ -331,8 +333,8 @@ bool read_beams(const std::uint8_t* data, std::size_t size, BeamTables& beams,
     fail_section(id, "stations per beam " + std::to_string(stations) + " is outside 1.." +
                          std::to_string(format::kMaxStationsPerBeam) + "; " + kDamagedAdvice);
   if (fields < format::kBeamFieldsV1 || fields > 64)
-    fail_section(id, "field count " + std::to_string(fields) + " is outside " +
-                         std::to_string(format::kBeamFieldsV1) + "..64; " + kDamagedAdvice);
+    fail_section(id, "field count " + std::to_string(fields) + " is outside " + std::to_string(format::kBeamFieldsV1) +
+                         "..64; " + kDamagedAdvice);
   const std::uint64_t row_bytes = std::uint64_t{stations} * fields * sizeof(double);
   if (vertices > r.remaining() / row_bytes || vertices * row_bytes != r.remaining())
     fail_section(id, "vertex count " + std::to_string(vertices) + " with " + std::to_string(stations) +
@@ -408,12 +410,10 @@ std::string describe_cut(const std::uint8_t* data, std::size_t actual, std::uint
   const std::size_t table_end = format::kHeaderBytes + std::size_t{section_count} * format::kTableEntryBytes;
   if (section_count > format::kMaxSections || actual < table_end) return "inside the section table";
   std::vector<TableEntry> table = read_table(data, section_count);
-  std::sort(table.begin(), table.end(),
-            [](const TableEntry& a, const TableEntry& b) { return a.offset < b.offset; });
+  std::sort(table.begin(), table.end(), [](const TableEntry& a, const TableEntry& b) { return a.offset < b.offset; });
   for (const TableEntry& e : table) {
     const auto* known = find_known_section(e.tag);
-    const std::string label = known ? format::section_label(known->id)
-                                    : "section '" + printable_tag(e.tag) + "'";
+    const std::string label = known ? format::section_label(known->id) : "section '" + printable_tag(e.tag) + "'";
     if (e.offset >= actual) return "at the start of " + label;
     if (e.size > actual - e.offset) return "inside " + label;
   }
@@ -443,8 +443,7 @@ struct BeamValueCheck {
   /// The bytes up to `end` have been read: check the sections that lie before it.
   void read_up_to(const std::uint8_t* end) noexcept {
     if (begin == nullptr || end <= begin) return;
-    const std::size_t upto =
-        std::min(count, static_cast<std::size_t>(end - begin) / sizeof(BeamSection));
+    const std::size_t upto = std::min(count, static_cast<std::size_t>(end - begin) / sizeof(BeamSection));
     if (upto <= checked) return;
     plausible &= beam_values_plausible(reinterpret_cast<const BeamSection*>(begin) + checked, upto - checked);
     checked = upto;
@@ -474,22 +473,23 @@ std::size_t check_header(const std::uint8_t* data, std::size_t size, ModelFileSu
   const std::size_t magic_bytes = std::min<std::size_t>(size, sizeof kMagic);
   if (size == 0) fail("the file is empty; pass a .organ model file written by 'organsim bake'");
   if (std::memcmp(data, kMagic, magic_bytes) != 0)
-    fail("not an organsim model file (wrong magic bytes at the start); pass a .organ file written by "
-         "'organsim bake'");
+    fail(
+        "not an organsim model file (wrong magic bytes at the start); pass a .organ file written by "
+        "'organsim bake'");
   if (size < kHeaderBytes)
-    fail("truncated inside the header (" + std::to_string(size) + " of " + std::to_string(kHeaderBytes) +
-         " bytes); " + kDamagedAdvice);
+    fail("truncated inside the header (" + std::to_string(size) + " of " + std::to_string(kHeaderBytes) + " bytes); " +
+         kDamagedAdvice);
 
   const std::uint32_t bom = load<std::uint32_t>(data + kOffByteOrder);
   if (bom == kByteOrderMarkSwapped)
-    fail("the file was written on a big-endian machine, which format v1 does not support; re-bake it on "
-         "this machine");
+    fail(
+        "the file was written on a big-endian machine, which format v1 does not support; re-bake it on "
+        "this machine");
   if (bom != kByteOrderMark) fail(std::string("the byte-order mark in the header is corrupt; ") + kDamagedAdvice);
 
   summary.version.major = load<std::uint16_t>(data + kOffVersionMajor);
   summary.version.minor = load<std::uint16_t>(data + kOffVersionMinor);
-  const std::string file_version =
-      std::to_string(summary.version.major) + "." + std::to_string(summary.version.minor);
+  const std::string file_version = std::to_string(summary.version.major) + "." + std::to_string(summary.version.minor);
   const std::string our_version =
       std::to_string(kModelFormatVersion.major) + "." + std::to_string(kModelFormatVersion.minor);
   if (summary.version.major > kModelFormatVersion.major)
@@ -514,11 +514,10 @@ std::size_t check_header(const std::uint8_t* data, std::size_t size, ModelFileSu
     fail(std::to_string(size - declared_bytes) + " unexpected bytes after the declared end of the file (" +
          std::to_string(declared_bytes) + " bytes); " + kDamagedAdvice);
   if (section_count > kMaxSections)
-    fail("section count " + std::to_string(section_count) + " exceeds the limit of " +
-         std::to_string(kMaxSections) + "; " + kDamagedAdvice);
+    fail("section count " + std::to_string(section_count) + " exceeds the limit of " + std::to_string(kMaxSections) +
+         "; " + kDamagedAdvice);
   const std::size_t table_end = kHeaderBytes + std::size_t{section_count} * kTableEntryBytes;
-  if (table_end > size)
-    fail("the section table runs past the end of the file; " + std::string(kDamagedAdvice));
+  if (table_end > size) fail("the section table runs past the end of the file; " + std::string(kDamagedAdvice));
   if (load<std::uint64_t>(data + kOffTableChecksum) != checksum(data + kHeaderBytes, table_end - kHeaderBytes))
     fail(std::string("section table checksum mismatch; ") + kDamagedAdvice);
   return table_end;
@@ -538,23 +537,20 @@ struct SectionIndex {
 SectionIndex index_sections(const std::vector<TableEntry>& table, std::size_t table_end, std::size_t size,
                             ModelFileSummary& summary) {
   using namespace format;
-  const std::string file_version =
-      std::to_string(summary.version.major) + "." + std::to_string(summary.version.minor);
+  const std::string file_version = std::to_string(summary.version.major) + "." + std::to_string(summary.version.minor);
   const bool newer_minor = summary.version.minor > kModelFormatVersion.minor;
   SectionIndex index;
   std::vector<std::pair<std::uint64_t, std::uint64_t>> extents;
   for (const TableEntry& e : table) {
     const auto* known = find_known_section(e.tag);
     const std::string label = known ? section_label(known->id) : "section '" + printable_tag(e.tag) + "'";
-    if (e.offset < table_end || e.offset % kPayloadAlignment != 0 || e.offset > size ||
-        e.size > size - e.offset)
+    if (e.offset < table_end || e.offset % kPayloadAlignment != 0 || e.offset > size || e.size > size - e.offset)
       fail(label + ": offset " + std::to_string(e.offset) + " and size " + std::to_string(e.size) +
            " lie outside the payload area; " + kDamagedAdvice);
     extents.emplace_back(e.offset, e.size);
     summary.sections.push_back({printable_tag(e.tag), e.size, known != nullptr});
     if (!known) {
-      if (!newer_minor)
-        fail(label + " is unknown in a format " + file_version + " file; " + kDamagedAdvice);
+      if (!newer_minor) fail(label + " is unknown in a format " + file_version + " file; " + kDamagedAdvice);
       continue;  // Added by a newer minor version: safe to skip by definition of "minor".
     }
     const std::size_t k = static_cast<std::size_t>(known->id);
@@ -575,7 +571,8 @@ SectionIndex index_sections(const std::vector<TableEntry>& table, std::size_t ta
 void check_payloads(const std::uint8_t* data, std::size_t size, const std::vector<TableEntry>& table,
                     BeamValueCheck& beam_check) {
   using namespace format;
-  if (load<std::uint64_t>(data + kOffFileChecksum) == checksum_checking(data + kHeaderBytes, size - kHeaderBytes, beam_check))
+  if (load<std::uint64_t>(data + kOffFileChecksum) ==
+      checksum_checking(data + kHeaderBytes, size - kHeaderBytes, beam_check))
     return;
   for (const TableEntry& e : table)
     if (checksum(data + e.offset, static_cast<std::size_t>(e.size)) != e.checksum) {
@@ -595,20 +592,20 @@ OrganModel read_sections(const std::uint8_t* data, const SectionIndex& index, co
   read_metadata(payload(Section::Metadata), bytes(Section::Metadata), m.provenance);
   m.surface_vertices = read_array<double, 3>(Section::SurfaceVertices, payload(Section::SurfaceVertices),
                                              bytes(Section::SurfaceVertices));
-  m.surface_triangles = read_array<std::uint32_t, 3>(
-      Section::SurfaceTriangles, payload(Section::SurfaceTriangles), bytes(Section::SurfaceTriangles));
+  m.surface_triangles = read_array<std::uint32_t, 3>(Section::SurfaceTriangles, payload(Section::SurfaceTriangles),
+                                                     bytes(Section::SurfaceTriangles));
   if (index.has(Section::SurfaceTexcoords))
     m.surface_texcoords = read_array<double, 2>(Section::SurfaceTexcoords, payload(Section::SurfaceTexcoords),
                                                 bytes(Section::SurfaceTexcoords));
   if (index.has(Section::Tetrahedra) && !index.has(Section::VolumeVertices))
-    fail_section(Section::Tetrahedra, std::string("present without section 'TVRT' (tetrahedron vertices); ") +
-                                          kDamagedAdvice);
+    fail_section(Section::Tetrahedra,
+                 std::string("present without section 'TVRT' (tetrahedron vertices); ") + kDamagedAdvice);
   if (index.has(Section::VolumeVertices))
     m.volume_vertices = read_array<double, 3>(Section::VolumeVertices, payload(Section::VolumeVertices),
                                               bytes(Section::VolumeVertices));
   if (index.has(Section::Tetrahedra))
-    m.tetrahedra = read_array<std::uint32_t, 4>(Section::Tetrahedra, payload(Section::Tetrahedra),
-                                                bytes(Section::Tetrahedra));
+    m.tetrahedra =
+        read_array<std::uint32_t, 4>(Section::Tetrahedra, payload(Section::Tetrahedra), bytes(Section::Tetrahedra));
   m.fixed_points =
       read_array<double, 3>(Section::FixedPoints, payload(Section::FixedPoints), bytes(Section::FixedPoints));
   read_material(payload(Section::Material), bytes(Section::Material), m.material);
@@ -617,10 +614,10 @@ OrganModel read_sections(const std::uint8_t* data, const SectionIndex& index, co
     beams_plausible = read_beams(payload(Section::BeamTables), bytes(Section::BeamTables), m.beams, mapping,
                                  beam_check.done() ? std::optional<bool>(beam_check.plausible) : std::nullopt);
     if (m.beams.sections.size() / m.beams.stations_per_beam != m.surface_vertices.size())
-      fail_section(Section::BeamTables,
-                   "tables for " + std::to_string(m.beams.sections.size() / m.beams.stations_per_beam) +
-                       " vertices but the surface has " + std::to_string(m.surface_vertices.size()) + "; " +
-                       kDamagedAdvice);
+      fail_section(Section::BeamTables, "tables for " +
+                                            std::to_string(m.beams.sections.size() / m.beams.stations_per_beam) +
+                                            " vertices but the surface has " +
+                                            std::to_string(m.surface_vertices.size()) + "; " + kDamagedAdvice);
   }
   if (index.has(Section::SiteCompliance))
     read_sites(payload(Section::SiteCompliance), bytes(Section::SiteCompliance), m.sites);
@@ -639,8 +636,7 @@ OrganModel parse(const std::uint8_t* data, std::size_t size, ModelFileSummary& s
   BeamValueCheck beam_check(index.entry(Section::BeamTables), data);
   check_payloads(data, size, table, beam_check);
   for (const auto& d : format::kSections)
-    if (d.required && !index.has(d.id))
-      fail(section_label(d.id) + " is missing but required; " + kDamagedAdvice);
+    if (d.required && !index.has(d.id)) fail(section_label(d.id) + " is missing but required; " + kDamagedAdvice);
   return read_sections(data, index, beam_check, mapping);
 }
 
@@ -697,8 +693,7 @@ ModelReadResult read_organ_model_file(const std::string& path) {
 }
 
 std::vector<std::uint8_t> serialize_organ_model(const OrganModel& model) {
-  if (const auto issue = find_model_issue(model))
-    throw std::invalid_argument("invalid organ model: " + issue->message);
+  if (const auto issue = find_model_issue(model)) throw std::invalid_argument("invalid organ model: " + issue->message);
   using namespace format;
 
   std::vector<Section> present;

@@ -19,8 +19,8 @@ std::string first_non_finite(const std::vector<std::array<double, N>>& values, c
 }
 
 template <std::size_t N>
-std::string first_bad_index(const std::vector<std::array<std::uint32_t, N>>& cells,
-                            std::size_t vertex_count, const char* what, const char* vertices) {
+std::string first_bad_index(const std::vector<std::array<std::uint32_t, N>>& cells, std::size_t vertex_count,
+                            const char* what, const char* vertices) {
   for (std::size_t i = 0; i < cells.size(); ++i)
     for (std::uint32_t v : cells[i])
       if (v >= vertex_count)
@@ -48,7 +48,8 @@ std::string site_curvature_issue(const OrganModel& m) {
            std::to_string(m.surface_vertices.size()) + " surface vertices";
   for (std::size_t v = 0; v < sites.curvature.size(); ++v) {
     const auto& [first, second] = sites.curvature[v];
-    if (!(std::abs(first) <= SiteCompliance::kMaxCurvature && std::abs(second) <= SiteCompliance::kMaxCurvature && first >= second))
+    if (!(std::abs(first) <= SiteCompliance::kMaxCurvature && std::abs(second) <= SiteCompliance::kMaxCurvature &&
+          first >= second))
       return "the curvatures of vertex " + std::to_string(v) + " are not finite numbers kappa1 >= kappa2 within +-" +
              std::to_string(static_cast<int>(SiteCompliance::kMaxCurvature)) + " 1/m";
   }
@@ -124,12 +125,15 @@ std::optional<ModelIssue> find_model_issue(const OrganModel& m, bool beam_values
   if (!p.input_sha256.empty() && (p.input_sha256.size() != 64 || !is_lower_hex(p.input_sha256)))
     return issue(format::Section::Metadata, "input SHA-256 is not 64 lowercase hexadecimal digits");
 
-  if (m.surface_vertices.size() < 4) return issue(format::Section::SurfaceVertices, "the surface has fewer than 4 vertices");
-  if (m.surface_triangles.size() < 4) return issue(format::Section::SurfaceTriangles, "the surface has fewer than 4 triangles");
-  if (m.surface_vertices.size() > UINT32_MAX) return issue(format::Section::SurfaceVertices, "the surface has more than 2^32-1 vertices");
-  if (auto e = first_non_finite(m.surface_vertices, "surface vertex"); !e.empty()) return issue(format::Section::SurfaceVertices, e);
-  if (auto e = first_bad_index(m.surface_triangles, m.surface_vertices.size(), "surface triangle",
-                               "surface vertices");
+  if (m.surface_vertices.size() < 4)
+    return issue(format::Section::SurfaceVertices, "the surface has fewer than 4 vertices");
+  if (m.surface_triangles.size() < 4)
+    return issue(format::Section::SurfaceTriangles, "the surface has fewer than 4 triangles");
+  if (m.surface_vertices.size() > UINT32_MAX)
+    return issue(format::Section::SurfaceVertices, "the surface has more than 2^32-1 vertices");
+  if (auto e = first_non_finite(m.surface_vertices, "surface vertex"); !e.empty())
+    return issue(format::Section::SurfaceVertices, e);
+  if (auto e = first_bad_index(m.surface_triangles, m.surface_vertices.size(), "surface triangle", "surface vertices");
       !e.empty())
     return issue(format::Section::SurfaceTriangles, e);
   for (std::size_t i = 0; i < m.surface_triangles.size(); ++i) {
@@ -139,29 +143,34 @@ std::optional<ModelIssue> find_model_issue(const OrganModel& m, bool beam_values
   }
   if (!m.surface_texcoords.empty()) {
     if (m.surface_texcoords.size() != m.surface_vertices.size())
-      return issue(format::Section::SurfaceTexcoords, "there are " + std::to_string(m.surface_texcoords.size()) + " texture coordinates for " +
-             std::to_string(m.surface_vertices.size()) + " surface vertices");
-    if (auto e = first_non_finite(m.surface_texcoords, "texture coordinate"); !e.empty()) return issue(format::Section::SurfaceTexcoords, e);
+      return issue(format::Section::SurfaceTexcoords,
+                   "there are " + std::to_string(m.surface_texcoords.size()) + " texture coordinates for " +
+                       std::to_string(m.surface_vertices.size()) + " surface vertices");
+    if (auto e = first_non_finite(m.surface_texcoords, "texture coordinate"); !e.empty())
+      return issue(format::Section::SurfaceTexcoords, e);
   }
 
   if (!m.tetrahedra.empty() && m.volume_vertices.empty())
     return issue(format::Section::Tetrahedra, "there are tetrahedra but no tetrahedron vertices");
-  if (m.volume_vertices.size() > UINT32_MAX) return issue(format::Section::VolumeVertices, "the volume mesh has more than 2^32-1 vertices");
-  if (auto e = first_non_finite(m.volume_vertices, "tetrahedron vertex"); !e.empty()) return issue(format::Section::VolumeVertices, e);
-  if (auto e = first_bad_index(m.tetrahedra, m.volume_vertices.size(), "tetrahedron",
-                               "tetrahedron vertices");
+  if (m.volume_vertices.size() > UINT32_MAX)
+    return issue(format::Section::VolumeVertices, "the volume mesh has more than 2^32-1 vertices");
+  if (auto e = first_non_finite(m.volume_vertices, "tetrahedron vertex"); !e.empty())
+    return issue(format::Section::VolumeVertices, e);
+  if (auto e = first_bad_index(m.tetrahedra, m.volume_vertices.size(), "tetrahedron", "tetrahedron vertices");
       !e.empty())
     return issue(format::Section::Tetrahedra, e);
 
   if (m.fixed_points.empty()) return issue(format::Section::FixedPoints, "there is no fixed point");
-  if (auto e = first_non_finite(m.fixed_points, "fixed point"); !e.empty()) return issue(format::Section::FixedPoints, e);
+  if (auto e = first_non_finite(m.fixed_points, "fixed point"); !e.empty())
+    return issue(format::Section::FixedPoints, e);
 
   const Material& mat = m.material;
   if (!(std::isfinite(mat.young_modulus) && mat.young_modulus > 0))
     return issue(format::Section::Material, "Young's modulus must be a positive number of pascals");
   if (!(std::isfinite(mat.poisson_ratio) && mat.poisson_ratio > -1.0 && mat.poisson_ratio < 0.5))
     return issue(format::Section::Material, "Poisson's ratio must lie in (-1, 0.5)");
-  if (!(std::isfinite(mat.density) && mat.density > 0)) return issue(format::Section::Material, "density must be a positive number of kg/m^3");
+  if (!(std::isfinite(mat.density) && mat.density > 0))
+    return issue(format::Section::Material, "density must be a positive number of kg/m^3");
   if (!(std::isfinite(mat.attenuation_alpha) && mat.attenuation_alpha > 0))
     return issue(format::Section::Material, "attenuation alpha must be positive");
   if (!(std::isfinite(mat.attenuation_beta) && mat.attenuation_beta >= 0))
@@ -175,14 +184,16 @@ std::optional<ModelIssue> find_model_issue(const OrganModel& m, bool beam_values
 
   const BeamTables& b = m.beams;
   if (b.empty()) {
-    if (!b.sections.empty()) return issue(format::Section::BeamTables, "beam sections are present but stations per beam is zero");
+    if (!b.sections.empty())
+      return issue(format::Section::BeamTables, "beam sections are present but stations per beam is zero");
   } else {
     if (b.sections.size() / b.stations_per_beam != m.surface_vertices.size() ||
         b.sections.size() % b.stations_per_beam != 0)
-      return issue(format::Section::BeamTables, "beam tables hold " + std::to_string(b.sections.size()) + " sections, expected " +
-             std::to_string(m.surface_vertices.size()) + " vertices x " +
-             std::to_string(b.stations_per_beam) + " stations");
-    if (beam_values_plausible_already || beam_values_plausible(b.sections.data(), b.sections.size())) return std::nullopt;
+      return issue(format::Section::BeamTables, "beam tables hold " + std::to_string(b.sections.size()) +
+                                                    " sections, expected " + std::to_string(m.surface_vertices.size()) +
+                                                    " vertices x " + std::to_string(b.stations_per_beam) + " stations");
+    if (beam_values_plausible_already || beam_values_plausible(b.sections.data(), b.sections.size()))
+      return std::nullopt;
     for (std::size_t i = 0; i < b.sections.size(); ++i) {
       const BeamSection& s = b.sections[i];
       const double v[] = {s.area, s.i_yy, s.i_zz, s.i_yz, s.torsion_j, s.centroid_y, s.centroid_z};
@@ -192,7 +203,8 @@ std::optional<ModelIssue> find_model_issue(const OrganModel& m, bool beam_values
                std::to_string(i % b.stations_per_beam);
       };
       for (double x : v)
-        if (!std::isfinite(x)) return issue(format::Section::BeamTables, where() + " has a non-finite value (NaN or Inf)");
+        if (!std::isfinite(x))
+          return issue(format::Section::BeamTables, where() + " has a non-finite value (NaN or Inf)");
       if (s.area < 0 || s.i_yy < 0 || s.i_zz < 0 || s.torsion_j < 0)
         return issue(format::Section::BeamTables, where() + " has a negative area, second moment or torsion constant");
     }

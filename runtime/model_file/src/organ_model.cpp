@@ -21,15 +21,14 @@ Material liver_default_material() {
 }
 
 bool Material::operator==(const Material& o) const {
-  return young_modulus == o.young_modulus && poisson_ratio == o.poisson_ratio &&
-         density == o.density && attenuation_alpha == o.attenuation_alpha &&
-         attenuation_beta == o.attenuation_beta && beam_stiffness_scale == o.beam_stiffness_scale &&
-         spring_stiffness_scale == o.spring_stiffness_scale;
+  return young_modulus == o.young_modulus && poisson_ratio == o.poisson_ratio && density == o.density &&
+         attenuation_alpha == o.attenuation_alpha && attenuation_beta == o.attenuation_beta &&
+         beam_stiffness_scale == o.beam_stiffness_scale && spring_stiffness_scale == o.spring_stiffness_scale;
 }
 
 bool BeamSection::operator==(const BeamSection& o) const {
-  return area == o.area && i_yy == o.i_yy && i_zz == o.i_zz && i_yz == o.i_yz &&
-         torsion_j == o.torsion_j && centroid_y == o.centroid_y && centroid_z == o.centroid_z;
+  return area == o.area && i_yy == o.i_yy && i_zz == o.i_zz && i_yz == o.i_yz && torsion_j == o.torsion_j &&
+         centroid_y == o.centroid_y && centroid_z == o.centroid_z;
 }
 
 SectionTable SectionTable::view(const BeamSection* data, std::size_t count, std::shared_ptr<const void> keep_alive) {
@@ -98,9 +97,8 @@ bool ModelProvenance::operator==(const ModelProvenance& o) const {
 bool OrganModel::operator==(const OrganModel& o) const {
   return provenance == o.provenance && surface_vertices == o.surface_vertices &&
          surface_triangles == o.surface_triangles && surface_texcoords == o.surface_texcoords &&
-         volume_vertices == o.volume_vertices && tetrahedra == o.tetrahedra &&
-         fixed_points == o.fixed_points && material == o.material && beams == o.beams &&
-         sites == o.sites;
+         volume_vertices == o.volume_vertices && tetrahedra == o.tetrahedra && fixed_points == o.fixed_points &&
+         material == o.material && beams == o.beams && sites == o.sites;
 }
 
 std::string validate_organ_model(const OrganModel& model) {

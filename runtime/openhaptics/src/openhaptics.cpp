@@ -110,8 +110,8 @@ bool OpenHapticsDevice::read_pose(double, ToolPose& pose) noexcept {
   const Eigen::Vector3d device(transform[12] * 1e-3, transform[13] * 1e-3, transform[14] * 1e-3);
   const Eigen::Vector3d stylus_z(transform[8], transform[9], transform[10]);
   pose.tip = placement_.offset + placement_.scale * (placement_.rotation * device);
-  pose.shaft = stylus_z.norm() > 0.0 ? Eigen::Vector3d(placement_.rotation * stylus_z.normalized())
-                                     : Eigen::Vector3d::Zero();
+  pose.shaft =
+      stylus_z.norm() > 0.0 ? Eigen::Vector3d(placement_.rotation * stylus_z.normalized()) : Eigen::Vector3d::Zero();
   const bool valid = pose.tip.allFinite() && pose.shaft.allFinite();
   seen_.write_slot() = {valid, pose};
   seen_.publish();
@@ -146,13 +146,13 @@ bool OpenHapticsDevice::note_error() noexcept {
   const HDErrorInfo error = library_.api().get_error();
   if (error.errorCode == 0) return false;
   last_error_.store(error.errorCode, std::memory_order_relaxed);
-  if (!error_this_tick_) error_ticks_.store(error_ticks_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+  if (!error_this_tick_)
+    error_ticks_.store(error_ticks_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
   error_this_tick_ = true;
   return true;
 }
 
-OpenHapticsServo::OpenHapticsServo(const HdLibrary& library, std::vector<OpenHapticsDevice*> devices,
-                                   ForceLoop& loop)
+OpenHapticsServo::OpenHapticsServo(const HdLibrary& library, std::vector<OpenHapticsDevice*> devices, ForceLoop& loop)
     : library_(library), devices_(std::move(devices)), loop_(loop) {}
 
 OpenHapticsServo::~OpenHapticsServo() { stop(); }
@@ -180,9 +180,7 @@ void OpenHapticsServo::stop() noexcept {
   running_ = false;
 }
 
-std::uint64_t OpenHapticsServo::ticks() const noexcept {
-  return ticks_.load(std::memory_order_relaxed);
-}
+std::uint64_t OpenHapticsServo::ticks() const noexcept { return ticks_.load(std::memory_order_relaxed); }
 
 unsigned int OpenHapticsServo::tick(void* self) noexcept {
   auto& servo = *static_cast<OpenHapticsServo*>(self);

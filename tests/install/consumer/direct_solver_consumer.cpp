@@ -72,7 +72,8 @@ int main() {
   std::printf("dgemm_ defined by %s\n", library.c_str());
   const std::string file = library.substr(library.find_last_of('/') + 1);
   if (file.rfind("lib", 0) != 0 || file.find("blas") == std::string::npos) {
-    std::fprintf(stderr, "direct_solver_consumer: dgemm_ comes from %s, not the system BLAS library\n", library.c_str());
+    std::fprintf(stderr, "direct_solver_consumer: dgemm_ comes from %s, not the system BLAS library\n",
+                 library.c_str());
     return 1;
   }
   return 0;

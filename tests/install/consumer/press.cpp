@@ -21,7 +21,7 @@ int main(int argc, char** argv) {
   organsim::multibeam::MultiBeam beam(organ, {});
   std::vector<organsim::model::Point3> normals(organ.vertex_count()), positions(organ.vertex_count());
   organsim::organ::compute_vertex_normals(organ, organ.model().surface_vertices.data(), normals.data(), 0,
-                                              organ.vertex_count());
+                                          organ.vertex_count());
   const auto& rest = organ.model().surface_vertices[0];
   const Eigen::Vector3d at(rest[0], rest[1], rest[2]);
   const Eigen::Vector3d press = -0.005 * Eigen::Vector3d(normals[0][0], normals[0][1], normals[0][2]);

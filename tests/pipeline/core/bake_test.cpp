@@ -30,7 +30,6 @@ const fs::path kSamples = ORGANSIM_DATA_SAMPLES;
 
 class Bake : public organsim::testing::TempDirectoryTest {
  protected:
-
   /// Options for the shipped phantom, segmented from a seed in the right lobe.
   static BakeOptions phantom_options() {
     BakeOptions o;
@@ -100,7 +99,7 @@ TEST_F(Bake, PhantomFromASeedGivesAValidModelWithConsistentVolumes) {
   const BakeReport& r = result.report;
   EXPECT_EQ(model::validate_organ_model(m), "");
   EXPECT_EQ(stages, (std::vector<std::string>{"read CT", "segment", "fixed point", "surface", "beam tables",
-                                               "tetrahedra", "assemble", "site compliance"}));
+                                              "tetrahedra", "assemble", "site compliance"}));
   EXPECT_EQ(m.sites.compliance.size(), m.surface_vertices.size());  // the portal-vein clamp holds the phantom
   EXPECT_EQ(r.stage_seconds.size(), stages.size());
 
@@ -128,7 +127,8 @@ TEST_F(Bake, PhantomFromASeedGivesAValidModelWithConsistentVolumes) {
   EXPECT_EQ(m.provenance.input_sha256.size(), 64u);
   EXPECT_EQ(m.provenance.parameters.at("tet_size_mm"), "10");
   EXPECT_EQ(m.provenance.parameters.at("fixed_point_source"), "given point");
-  for (const auto& [key, value] : m.provenance.parameters) EXPECT_EQ(value.find("phantom_ct"), std::string::npos) << key;
+  for (const auto& [key, value] : m.provenance.parameters)
+    EXPECT_EQ(value.find("phantom_ct"), std::string::npos) << key;
   EXPECT_EQ(m.material, model::liver_default_material());
 
   ASSERT_EQ(m.surface_texcoords.size(), m.surface_vertices.size());
@@ -237,7 +237,8 @@ TEST_F(Bake, RealCtDicomSeriesWithAFlippedLabelMap) {
   // faces of the data, and where one meets a ridge the organ has a corner
   // like a cube's (90°): 93° there.
   double low_z = 1e9, high_z = -1e9;
-  for (const model::Point3& p : result.model.surface_vertices) low_z = std::min(low_z, p[2]), high_z = std::max(high_z, p[2]);
+  for (const model::Point3& p : result.model.surface_vertices)
+    low_z = std::min(low_z, p[2]), high_z = std::max(high_z, p[2]);
   const auto at_a_cut = [&](const model::Point3& p) { return p[2] < low_z + 0.002 || p[2] > high_z - 0.002; };
   const Spikes inside = surface_spikes(result.model, [&](const model::Point3& p) { return !at_a_cut(p); });
   EXPECT_LE(inside.over_45_deg, 3u);

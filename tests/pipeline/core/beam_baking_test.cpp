@@ -85,8 +85,8 @@ TEST(BeamBaking, IsDeterministicAcrossThreadCounts) {
   const MaskImage::Pointer mask = testing::make_ellipsoid_mask(e, {2.0, 2.0, 2.0});
   std::vector<model::Point3> vertices;
   for (int k = 0; k < 12; ++k)
-    vertices.push_back(metres({e.centre_mm[0] + 25.0 * std::cos(k), e.centre_mm[1] + 25.0 * std::sin(k),
-                               e.centre_mm[2] + 2.0 * k - 10.0}));
+    vertices.push_back(metres(
+        {e.centre_mm[0] + 25.0 * std::cos(k), e.centre_mm[1] + 25.0 * std::sin(k), e.centre_mm[2] + 2.0 * k - 10.0}));
   BeamBakingOptions one, two;
   one.threads = 1;
   two.threads = 2;

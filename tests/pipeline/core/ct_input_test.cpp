@@ -112,7 +112,8 @@ TEST_F(CtInput, BadFilesGetOneLineErrors) {
   write_ct_image(*phantom_.ct, path("ct.nii.gz"));
   std::vector<char> bytes(fs::file_size(path("ct.nii.gz")));
   std::ifstream(path("ct.nii.gz"), std::ios::binary).read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  std::ofstream(path("truncated.nii.gz"), std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
+  std::ofstream(path("truncated.nii.gz"), std::ios::binary)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
   const std::string truncated = error_of([&] { read_ct(path("truncated.nii.gz")); });
   EXPECT_NE(truncated.find("probably truncated"), std::string::npos) << truncated;
   EXPECT_EQ(truncated.find('\n'), std::string::npos) << truncated;
@@ -147,8 +148,9 @@ TEST_F(CtInput, LabelMapsMustMatchTheGridAndHoldTheLabel) {
   EXPECT_EQ(std::memcmp(mask->GetBufferPointer(), phantom_.liver_mask->GetBufferPointer(),
                         mask->GetLargestPossibleRegion().GetNumberOfPixels()),
             0);
-  EXPECT_NE(error_of([&] { read_label_mask(path("labels.nii.gz"), 5, *phantom_.ct); }).find("no voxel has label value 5"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of([&] { read_label_mask(path("labels.nii.gz"), 5, *phantom_.ct); }).find("no voxel has label value 5"),
+      std::string::npos);
   PhantomOptions other;
   other.size = {40, 36, 21};
   const Phantom different = make_phantom(other);

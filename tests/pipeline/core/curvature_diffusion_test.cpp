@@ -77,7 +77,8 @@ TEST(CurvatureDiffusion, EveryVoxelHasItkFiltersBitsOnNoise) {
 
 TEST(CurvatureDiffusion, ThinVolumesHaveItkFiltersBitsToo) {
   // One or two voxels across: every neighbour beyond the border is clamped.
-  for (const auto& size : {std::array<unsigned, 3>{9, 7, 1}, std::array<unsigned, 3>{6, 1, 5}, std::array<unsigned, 3>{2, 3, 2}}) {
+  for (const auto& size :
+       {std::array<unsigned, 3>{9, 7, 1}, std::array<unsigned, 3>{6, 1, 5}, std::array<unsigned, 3>{2, 3, 2}}) {
     const FloatImage::Pointer image = noise(size, {1.0, 1.5, 2.0}, 11);
     CurvatureDiffusionOptions o;
     o.iterations = 3;

@@ -98,7 +98,8 @@ TEST(FixedPoint, BadPointsAreOneLineErrorsThatSayWhatToDo) {
   testing::Ellipsoid e;
   e.semi_axes_mm = {20.0, 20.0, 20.0};
   const MaskImage::Pointer mask = testing::make_ellipsoid_mask(e, {1.0, 1.0, 1.0});
-  auto message = [&](const std::optional<std::array<double, 3>>& point, const std::optional<std::array<long, 3>>& voxel) {
+  auto message = [&](const std::optional<std::array<double, 3>>& point,
+                     const std::optional<std::array<long, 3>>& voxel) {
     try {
       choose_fixed_point(*mask, point, voxel);
     } catch (const std::runtime_error& error) {

@@ -47,10 +47,11 @@ LesionCase make_case(const std::string& name, const char* ct_name, const char* l
   testing::LesionOptions options;
   options.seed = seed;
   c.lesion_ct = testing::insert_lesions(*ct, *c.label, options);
-  const FloatImage::Pointer depth = testing::depth_map(*c.label), to_lesion = testing::depth_map(*c.lesion_ct.lesion_mask);
+  const FloatImage::Pointer depth = testing::depth_map(*c.label),
+                            to_lesion = testing::depth_map(*c.lesion_ct.lesion_mask);
   std::vector<std::array<long, 3>> parenchyma, neighbours;
-  for (itk::ImageRegionConstIteratorWithIndex<MaskImage> it(c.label, c.label->GetLargestPossibleRegion()); !it.IsAtEnd();
-       ++it) {
+  for (itk::ImageRegionConstIteratorWithIndex<MaskImage> it(c.label, c.label->GetLargestPossibleRegion());
+       !it.IsAtEnd(); ++it) {
     const auto index = it.GetIndex();
     const double d = depth->GetPixel(index);
     const std::array<long, 3> voxel{index[0], index[1], index[2]};

@@ -22,26 +22,26 @@
 namespace organsim::pipeline::testing {
 
 struct Lesion {
-  std::array<double, 3> centre_mm{};                   ///< physical point (LPS)
+  std::array<double, 3> centre_mm{};  ///< physical point (LPS)
   std::array<double, 3> semi_axes_mm{};
-  std::array<std::array<double, 3>, 3> axes{};         ///< unit principal axes
-  double contrast_hu = 0.0;                            ///< darker than the parenchyma by this much
+  std::array<std::array<double, 3>, 3> axes{};  ///< unit principal axes
+  double contrast_hu = 0.0;                     ///< darker than the parenchyma by this much
   bool reaches_surface = false;
 };
 
 struct LesionOptions {
   std::uint64_t seed = 1;
-  int deep = 3;                          ///< lesions whose border stays ≥ 3 mm inside the liver
-  int at_surface = 3;                    ///< lesions whose border reaches the liver's surface
+  int deep = 3;        ///< lesions whose border stays ≥ 3 mm inside the liver
+  int at_surface = 3;  ///< lesions whose border reaches the liver's surface
   double min_diameter_mm = 10.0, max_diameter_mm = 40.0;
   double min_contrast_hu = 30.0, max_contrast_hu = 80.0;
-  double rim_hu = 15.0, rim_mm = 2.0;    ///< rim just inside the border, this much brighter than the parenchyma
+  double rim_hu = 15.0, rim_mm = 2.0;  ///< rim just inside the border, this much brighter than the parenchyma
 };
 
 struct LesionCt {
   CtImage::Pointer ct;
   std::vector<Lesion> lesions;
-  MaskImage::Pointer lesion_mask;        ///< voxels whose centre lies in a lesion
+  MaskImage::Pointer lesion_mask;  ///< voxels whose centre lies in a lesion
 };
 
 /// Distance (mm) to the mask's border, > 0 inside it.
@@ -83,7 +83,8 @@ inline LesionCt insert_lesions(const CtImage& ct, const MaskImage& label, const 
   const itk::Image<float, 3>& depth = *depth_pointer;
 
   std::vector<CtImage::IndexType> inside;
-  for (itk::ImageRegionConstIteratorWithIndex<MaskImage> it(&label, label.GetLargestPossibleRegion()); !it.IsAtEnd(); ++it)
+  for (itk::ImageRegionConstIteratorWithIndex<MaskImage> it(&label, label.GetLargestPossibleRegion()); !it.IsAtEnd();
+       ++it)
     if (it.Get()) inside.push_back(it.GetIndex());
 
   LesionCt result;
@@ -149,7 +150,8 @@ inline LesionCt insert_lesions(const CtImage& ct, const MaskImage& label, const 
   constexpr int kSamples = 4;
   const auto spacing = ct.GetSpacing();
   const auto direction = ct.GetDirection();
-  for (itk::ImageRegionConstIteratorWithIndex<MaskImage> it(&label, label.GetLargestPossibleRegion()); !it.IsAtEnd(); ++it) {
+  for (itk::ImageRegionConstIteratorWithIndex<MaskImage> it(&label, label.GetLargestPossibleRegion()); !it.IsAtEnd();
+       ++it) {
     if (!it.Get()) continue;
     const std::array<double, 3> centre = point_of(it.GetIndex());
     for (const Lesion& l : result.lesions) {
@@ -163,7 +165,8 @@ inline LesionCt insert_lesions(const CtImage& ct, const MaskImage& label, const 
       for (int a = 0; a < kSamples; ++a)
         for (int b = 0; b < kSamples; ++b)
           for (int c = 0; c < kSamples; ++c) {
-            const double offset[3] = {((a + 0.5) / kSamples - 0.5) * spacing[0], ((b + 0.5) / kSamples - 0.5) * spacing[1],
+            const double offset[3] = {((a + 0.5) / kSamples - 0.5) * spacing[0],
+                                      ((b + 0.5) / kSamples - 0.5) * spacing[1],
                                       ((c + 0.5) / kSamples - 0.5) * spacing[2]};
             std::array<double, 3> p = centre;
             for (int r = 0; r < 3; ++r)

@@ -98,8 +98,7 @@ TEST(Phantom, IsNonConvex) {
   ASSERT_TRUE(inside(60, -30, 25));
   ASSERT_TRUE(inside(-40, 25, -45));
   bool left_the_organ = false;
-  for (double t = 0; t <= 1; t += 0.01)
-    left_the_organ |= !inside(60 - t * 100, -30 + t * 55, 25 - t * 70);
+  for (double t = 0; t <= 1; t += 0.01) left_the_organ |= !inside(60 - t * 100, -30 + t * 55, 25 - t * 70);
   EXPECT_TRUE(left_the_organ);
 }
 

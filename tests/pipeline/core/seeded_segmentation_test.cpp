@@ -140,7 +140,7 @@ void expect_one_line_error(const SeededSegmentationOptions& o, const std::string
 }
 
 TEST(SeededSegmentation, SeedsThatCannotBeTheOrganAreOneLineErrors) {
-  expect_one_line_error(one_seed_voxel(2, 2, 60), "air");               // outside the body
+  expect_one_line_error(one_seed_voxel(2, 2, 60), "air");  // outside the body
   expect_one_line_error(one_seed_voxel(60, 50, 200), "outside the volume");
   SeededSegmentationOptions point;
   point.seeds = {SeedPoint::at_mm({5000.0, 0.0, 0.0})};

@@ -163,7 +163,8 @@ model::OrganModel height_field(double half, double step, const std::function<dou
 TEST(SiteCompliance, TheSurfacesCurvaturesAreThoseOfKnownShapes) {
   constexpr double kFit = 0.005, kStep = 0.001, kHalf = 0.015;
   const double r = 0.02;
-  const model::OrganModel cap = height_field(kHalf, kStep, [&](double x, double y) { return std::sqrt(r * r - x * x - y * y) - r; });
+  const model::OrganModel cap =
+      height_field(kHalf, kStep, [&](double x, double y) { return std::sqrt(r * r - x * x - y * y) - r; });
   const std::vector<std::array<double, 2>> sphere = site_curvatures(cap, kFit);
   ASSERT_EQ(sphere.size(), cap.surface_vertices.size());
   int inside = 0;
@@ -176,7 +177,8 @@ TEST(SiteCompliance, TheSurfacesCurvaturesAreThoseOfKnownShapes) {
   }
   EXPECT_GT(inside, 300);
 
-  const model::OrganModel saddle = height_field(kHalf, kStep, [](double x, double y) { return -x * x / (2 * 0.01) + y * y / (2 * 0.04); });
+  const model::OrganModel saddle =
+      height_field(kHalf, kStep, [](double x, double y) { return -x * x / (2 * 0.01) + y * y / (2 * 0.04); });
   const std::array<double, 2> apex = site_curvatures(saddle, kFit)[saddle.surface_vertices.size() / 2];
   EXPECT_NEAR(apex[0], 100.0, 1.0);  // convex along x (radius 10 mm)
   EXPECT_NEAR(apex[1], -25.0, 0.5);  // concave along y (radius 40 mm)
@@ -187,7 +189,8 @@ TEST(SiteCompliance, TheSurfacesCurvaturesAreThoseOfKnownShapes) {
     EXPECT_NEAR(k[1], 0.0, 1e-6);
   }
   // Fewer neighbours than the quadric's five unknowns: taken as flat.
-  for (const std::array<double, 2>& k : site_curvatures(cap, 1.2 * kStep)) EXPECT_EQ(k, (std::array<double, 2>{0.0, 0.0}));
+  for (const std::array<double, 2>& k : site_curvatures(cap, 1.2 * kStep))
+    EXPECT_EQ(k, (std::array<double, 2>{0.0, 0.0}));
   EXPECT_THROW(site_curvatures(cap, 0.0), std::invalid_argument);
   EXPECT_THROW(site_curvatures(cap, std::nan("")), std::invalid_argument);
 }

@@ -34,7 +34,7 @@ TEST(Surface, EllipsoidVolumeAndAreaMatchTheAnalyticValues) {
   EXPECT_LE(mesh.vertices.size(), 4400u);
   EXPECT_GE(mesh.vertices.size(), 3000u);
   const double volume = geometry::enclosed_volume(mesh.vertices, mesh.triangles) * 1e9;  // mm³
-  const double area = geometry::surface_area(mesh.vertices, mesh.triangles) * 1e6; // mm²
+  const double area = geometry::surface_area(mesh.vertices, mesh.triangles) * 1e6;       // mm²
   EXPECT_NEAR(volume, e.volume_mm3(), 0.01 * e.volume_mm3());
   EXPECT_NEAR(area, ellipsoid_area_mm2(e.semi_axes_mm), 0.02 * ellipsoid_area_mm2(e.semi_axes_mm));
   RecordProperty("volume_error", std::to_string(volume / e.volume_mm3() - 1));
@@ -90,15 +90,14 @@ TEST(Surface, AwkwardMaskGivesOneClosedManifoldAtEverySize) {
   }
 }
 
-
 /// Volume and shape against the analytic ellipsoid, with the mask's own
 /// volume beside it (the mask is the best any surface of it can do).
 struct VolumeCase {
-  double about_z, about_x;              ///< the ellipsoid's orientation, rad
-  std::array<double, 3> spacing;        ///< the grid's voxel size, mm
+  double about_z, about_x;        ///< the ellipsoid's orientation, rad
+  std::array<double, 3> spacing;  ///< the grid's voxel size, mm
   long block_factor;
   std::size_t target_vertices;
-  double tolerance;                     ///< relative volume error allowed
+  double tolerance;  ///< relative volume error allowed
 };
 
 void expect_volume_true(const VolumeCase& c) {
@@ -135,7 +134,8 @@ void expect_volume_true(const VolumeCase& c) {
     };
     const Eigen::Vector3d a = corner_mm(0), b = corner_mm(1), d = corner_mm(2);
     const double area = 0.5 * (b - a).cross(d - a).norm();
-    for (const Eigen::Vector3d& m : {Eigen::Vector3d((a + b) / 2), Eigen::Vector3d((b + d) / 2), Eigen::Vector3d((d + a) / 2)})
+    for (const Eigen::Vector3d& m :
+         {Eigen::Vector3d((a + b) / 2), Eigen::Vector3d((b + d) / 2), Eigen::Vector3d((d + a) / 2)})
       weighted += area / 3.0 * e.signed_distance_mm({m[0], m[1], m[2]});
     area_sum += area;
   }
@@ -146,7 +146,8 @@ void expect_volume_true(const VolumeCase& c) {
   }
   const double n = static_cast<double>(mesh.vertices.size());
   const double coarsest = c.block_factor * std::max({c.spacing[0], c.spacing[1], c.spacing[2]});
-  EXPECT_LT(std::abs(weighted / area_sum), 0.05 * coarsest) << "mean signed distance of the surface to the ellipsoid, mm";
+  EXPECT_LT(std::abs(weighted / area_sum), 0.05 * coarsest)
+      << "mean signed distance of the surface to the ellipsoid, mm";
   EXPECT_LT(std::sqrt(squares / n), 0.25 * coarsest) << "RMS distance to the ellipsoid, mm";
 }
 

@@ -28,8 +28,8 @@ struct Ellipsoid {
   bool contains(const std::array<double, 3>& p) const {
     double sum = 0.0;
     for (int k = 0; k < 3; ++k) {
-      const double along = (p[0] - centre_mm[0]) * axes[k][0] + (p[1] - centre_mm[1]) * axes[k][1] +
-                           (p[2] - centre_mm[2]) * axes[k][2];
+      const double along =
+          (p[0] - centre_mm[0]) * axes[k][0] + (p[1] - centre_mm[1]) * axes[k][1] + (p[2] - centre_mm[2]) * axes[k][2];
       sum += along * along / (semi_axes_mm[k] * semi_axes_mm[k]);
     }
     return sum <= 1.0;
@@ -41,8 +41,8 @@ struct Ellipsoid {
   double signed_distance_mm(const std::array<double, 3>& p) const {
     double f2 = 0.0, g2 = 0.0;
     for (int k = 0; k < 3; ++k) {
-      const double along = (p[0] - centre_mm[0]) * axes[k][0] + (p[1] - centre_mm[1]) * axes[k][1] +
-                           (p[2] - centre_mm[2]) * axes[k][2];
+      const double along =
+          (p[0] - centre_mm[0]) * axes[k][0] + (p[1] - centre_mm[1]) * axes[k][1] + (p[2] - centre_mm[2]) * axes[k][2];
       const double a2 = semi_axes_mm[k] * semi_axes_mm[k];
       f2 += along * along / a2;
       g2 += along * along / (a2 * a2);
@@ -123,17 +123,17 @@ inline MaskImage::Pointer make_awkward_mask() {
       for (long j = j0; j < j1; ++j)
         for (long i = i0; i < i1; ++i) set(i, j, k);
   };
-  block(8, 36, 12, 44, 12, 44);                        // first block
-  block(52, 80, 14, 42, 14, 42);                       // second block
-  for (long i = 36; i < 52; ++i) set(i, 28, 28);       // one-voxel bridge
-  for (long k = 44; k < 52; ++k) set(66, 28, k);       // one-voxel spike
-  for (long k = 20; k < 36; ++k)                        // a tunnel through the second block
+  block(8, 36, 12, 44, 12, 44);                   // first block
+  block(52, 80, 14, 42, 14, 42);                  // second block
+  for (long i = 36; i < 52; ++i) set(i, 28, 28);  // one-voxel bridge
+  for (long k = 44; k < 52; ++k) set(66, 28, k);  // one-voxel spike
+  for (long k = 20; k < 36; ++k)                  // a tunnel through the second block
     for (long j = 24; j < 32; ++j)
       for (long i = 14 + 52; i < 16 + 52; ++i) mask->SetPixel({{i, j, k}}, 0);
-  for (long k = 24; k < 30; ++k)                        // an interior cavity in the first block
+  for (long k = 24; k < 30; ++k)  // an interior cavity in the first block
     for (long j = 24; j < 30; ++j)
       for (long i = 18; i < 24; ++i) mask->SetPixel({{i, j, k}}, 0);
-  for (int a = 0; a < 360; ++a) {                      // a ring standing on the first block
+  for (int a = 0; a < 360; ++a) {  // a ring standing on the first block
     const double t = a * M_PI / 180.0;
     const long i = 22 + std::lround(10.0 * std::cos(t)), k = 44 + std::lround(10.0 * std::sin(t));
     if (k >= 44) block(i, i + 2, 26, 30, k, k + 2);

@@ -37,7 +37,8 @@ TEST(Tetrahedra, VolumeTrueOnRotatedAnisotropicEllipsoids) {
       SCOPED_TRACE(::testing::Message() << "rotation " << r[0] << "," << r[1] << " rad, spacing " << spacing[0] << "x"
                                         << spacing[1] << "x" << spacing[2] << " mm");
       const testing::Ellipsoid e(r[0], r[1]);
-      const geometry::SurfaceMesh surface = extract_surface(*testing::make_ellipsoid_mask(e, spacing), SurfaceOptions{});
+      const geometry::SurfaceMesh surface =
+          extract_surface(*testing::make_ellipsoid_mask(e, spacing), SurfaceOptions{});
       const TetrahedralQuality q = measure_quality(make_tetrahedra(surface, TetrahedraOptions{}));
       const double surface_mm3 = geometry::enclosed_volume(surface.vertices, surface.triangles) * 1e9;
       EXPECT_NEAR(q.total_volume_m3 * 1e9, surface_mm3, 1e-6 * surface_mm3);
@@ -121,7 +122,8 @@ TEST(Tetrahedra, RefinementMakesTheCellsFineAroundAPointOnly) {
   uniform.tet_size_mm = refined.tet_size_mm = 8.0;
   refined.refinements.push_back({*at, 6.0, 2.0});
   const geometry::TetrahedralMesh coarse = make_tetrahedra(surface, uniform), fine = make_tetrahedra(surface, refined);
-  const double coarse_near = mean_edge_mm(coarse, centre_mm, 0.0, 6.0), fine_near = mean_edge_mm(fine, centre_mm, 0.0, 6.0);
+  const double coarse_near = mean_edge_mm(coarse, centre_mm, 0.0, 6.0),
+               fine_near = mean_edge_mm(fine, centre_mm, 0.0, 6.0);
   RecordProperty("mean_edge_near_mm", std::to_string(fine_near));
   EXPECT_LT(fine_near, 0.4 * coarse_near);
   EXPECT_LT(fine_near, 2.0 * 2.0) << "Mesh_3's size bounds circumradii: edges up to about 1.6 times";
@@ -166,8 +168,8 @@ void expect_valid_with_manifold_boundary(const geometry::TetrahedralMesh& mesh) 
     const auto& v = mesh.vertices;
     auto e = [&](int i) { return Eigen::Vector3d(v[t[i]][0], v[t[i]][1], v[t[i]][2]); };
     ASSERT_GT((e(1) - e(0)).cross(e(2) - e(0)).dot(e(3) - e(0)), 0.0);
-    for (const auto& f : {std::array<std::uint32_t, 3>{t[1], t[2], t[3]}, {t[0], t[2], t[3]}, {t[0], t[1], t[3]},
-                          {t[0], t[1], t[2]}}) {
+    for (const auto& f :
+         {std::array<std::uint32_t, 3>{t[1], t[2], t[3]}, {t[0], t[2], t[3]}, {t[0], t[1], t[3]}, {t[0], t[1], t[2]}}) {
       auto key = f;
       std::sort(key.begin(), key.end());
       ++faces[key];
@@ -205,7 +207,8 @@ TEST(SliverRemoval, AnInteriorVertexPressedOntoAFaceIsMovedBack) {
   // A tetrahedron cut into four by an inner vertex that sits 1 % of the height above face ABC.
   geometry::TetrahedralMesh mesh;
   mesh.vertices = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
-  const Eigen::Vector3d face_centre = (Eigen::Vector3d(1, 1, 1) + Eigen::Vector3d(1, -1, -1) + Eigen::Vector3d(-1, 1, -1)) / 3;
+  const Eigen::Vector3d face_centre =
+      (Eigen::Vector3d(1, 1, 1) + Eigen::Vector3d(1, -1, -1) + Eigen::Vector3d(-1, 1, -1)) / 3;
   const Eigen::Vector3d inner = face_centre + 0.01 * (Eigen::Vector3d(-1, -1, 1) - face_centre);
   mesh.vertices.push_back({inner[0], inner[1], inner[2]});
   for (const model::Tetrahedron& t : {model::Tetrahedron{0, 1, 2, 4}, {0, 1, 4, 3}, {0, 4, 2, 3}, {4, 1, 2, 3}}) {
@@ -230,8 +233,8 @@ TEST(SliverRemoval, AnInteriorVertexPressedOntoAFaceIsMovedBack) {
 std::map<std::array<std::uint32_t, 3>, int> boundary_faces(const geometry::TetrahedralMesh& mesh) {
   std::map<std::array<std::uint32_t, 3>, int> faces;
   for (const model::Tetrahedron& t : mesh.tetrahedra)
-    for (const auto& f : {std::array<std::uint32_t, 3>{t[1], t[2], t[3]}, {t[0], t[2], t[3]}, {t[0], t[1], t[3]},
-                          {t[0], t[1], t[2]}}) {
+    for (const auto& f :
+         {std::array<std::uint32_t, 3>{t[1], t[2], t[3]}, {t[0], t[2], t[3]}, {t[0], t[1], t[3]}, {t[0], t[1], t[2]}}) {
       auto key = f;
       std::sort(key.begin(), key.end());
       ++faces[key];
@@ -273,8 +276,8 @@ TEST(SliverRemoval, PinnedSliversAreFlippedNotMoved) {
 // apart: only the first two stay, with the vertices they use, renumbered.
 TEST(ConnectedPart, KeepsTheLargestFaceConnectedPart) {
   geometry::TetrahedralMesh mesh;
-  mesh.vertices = {{9, 9, 9},  {0, 0, 0},  {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1},
-                   {2, 2, 2},  {3, 2, 2},  {2, 3, 2}, {5, 5, 5}, {6, 5, 5}, {5, 6, 5}, {5, 5, 6}};
+  mesh.vertices = {{9, 9, 9}, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}, {2, 2, 2},
+                   {3, 2, 2}, {2, 3, 2}, {5, 5, 5}, {6, 5, 5}, {5, 6, 5}, {5, 5, 6}};
   mesh.tetrahedra = {{9, 10, 11, 12}, {1, 2, 3, 4}, {2, 3, 4, 5}, {5, 6, 7, 8}};
   const ConnectedPartReport r = keep_largest_connected_part(mesh);
   EXPECT_EQ(r.tetrahedra_dropped, 2u);

@@ -129,14 +129,14 @@ TEST_F(SessionFile, ReadsTwoToolsWithAndWithoutShaftColumns) {
 }
 
 TEST_F(SessionFile, ReadsTheExampleFromTheFormatDocument) {
-  const Session s = read_session(write(
-      "# organsim session 1\n"
-      "# free comment lines start with '#'\n"
-      "# time_s,tool,x_mm,y_mm,z_mm\n"
-      "0.000,1,-7.660,-243.088,351.719\n"
-      "0.200,1,-7.660,-243.088,351.719\n"
-      "0.900,1,-6.820,-256.471,358.441\n"
-      "0.000,2,-107.631,-221.041,383.849\n"));
+  const Session s =
+      read_session(write("# organsim session 1\n"
+                         "# free comment lines start with '#'\n"
+                         "# time_s,tool,x_mm,y_mm,z_mm\n"
+                         "0.000,1,-7.660,-243.088,351.719\n"
+                         "0.200,1,-7.660,-243.088,351.719\n"
+                         "0.900,1,-6.820,-256.471,358.441\n"
+                         "0.000,2,-107.631,-221.041,383.849\n"));
   ASSERT_EQ(s.tools.size(), 2u);
   EXPECT_EQ(s.tools[0].times.size(), 3u);
   EXPECT_EQ(s.tools[1].times.size(), 1u);
@@ -160,7 +160,8 @@ TEST_F(SessionFile, CrlfLineEndingsReadTheSameAsLf) {
   for (std::size_t k = 0; k < 2; ++k) {
     EXPECT_EQ(b.tools[k].times, a.tools[k].times);
     ASSERT_EQ(b.tools[k].positions.size(), a.tools[k].positions.size());
-    for (std::size_t i = 0; i < a.tools[k].positions.size(); ++i) EXPECT_EQ(b.tools[k].positions[i], a.tools[k].positions[i]);
+    for (std::size_t i = 0; i < a.tools[k].positions.size(); ++i)
+      EXPECT_EQ(b.tools[k].positions[i], a.tools[k].positions[i]);
     ASSERT_EQ(b.tools[k].shafts.size(), a.tools[k].shafts.size());
   }
   EXPECT_EQ(b.tools[1].shafts[0], Eigen::Vector3d(0.0, 0.0, 1.0));  // the last field lost its '\r'
@@ -516,8 +517,7 @@ TEST(ScriptedDevice, RecordsForcesUpToItsCapacityAndCountsTheRest) {
   EXPECT_EQ(device.limits().stall_timeout, 0.25);
   EXPECT_EQ(device.record_count(), 0u);
   EXPECT_EQ(device.dropped_records(), 0u);
-  for (int k = 0; k < 5; ++k)
-    device.write_force(0.001 * k, Eigen::Vector3d(1.0 * k, -1.0 * k, 0.5 * k), k % 2 == 1);
+  for (int k = 0; k < 5; ++k) device.write_force(0.001 * k, Eigen::Vector3d(1.0 * k, -1.0 * k, 0.5 * k), k % 2 == 1);
   EXPECT_EQ(device.record_count(), 3u);
   EXPECT_EQ(device.dropped_records(), 2u);
   for (std::size_t k = 0; k < 3; ++k) {  // the first three, in order

@@ -1,8 +1,8 @@
 // The direct library (CHOLMOD, MUMPS) against the simplicial factorization:
 // the same solutions and inertia on definite, indefinite and quasi-definite
 // tangents, the same static solves, CHOLMOD's solves allocate nothing once
-// warm, and the library's one-column BLAS products equal the matrix products. Its own program: it replaces malloc to count allocations (the
-// libraries are C and Fortran: operator new would not see them).
+// warm, and the library's one-column BLAS products equal the matrix products. Its own program: it replaces malloc to
+// count allocations (the libraries are C and Fortran: operator new would not see them).
 #include "organsim/fem/direct_factorizations.h"
 
 #include <dlfcn.h>
@@ -154,8 +154,8 @@ TEST(DirectFactorizations, TheFactoryGivesRealTimeSolvesOnlyWhereItCanAndApproxi
 }
 
 TEST(DirectFactorizations, StaticSolvesEqualTheSimplicialOnes) {
-  for (const Material& material : {Material::from_young(MaterialModel::stvk, 5000, 0.45),
-                                   Material::mooney_rivlin_from_young(5000, 0.49, 100)}) {
+  for (const Material& material :
+       {Material::from_young(MaterialModel::stvk, 5000, 0.45), Material::mooney_rivlin_from_young(5000, 0.49, 100)}) {
     StaticProblem problem;
     problem.mesh = curved_tube(TubeOptions{});
     problem.material = material;
@@ -258,9 +258,10 @@ TEST(SingleColumnBlas, OneRowOrColumnProductsEqualTheMatrixProducts) {
           const Matrix c = c_stored.topRows(m);
           const double alpha = -1.5;
           const std::uint64_t routed = detail::single_column_blas_calls();
-          dgemm_(transa, transb, &m, &n, &k, &alpha, a_stored.data(), &ld, b_stored.data(), &ld, &beta,
-                 c_stored.data(), &ld);
-          const Matrix expected = alpha * op(transa, a) * op(transb, b) + (beta == 0 ? Matrix::Zero(m, n) : Matrix(beta * c));
+          dgemm_(transa, transb, &m, &n, &k, &alpha, a_stored.data(), &ld, b_stored.data(), &ld, &beta, c_stored.data(),
+                 &ld);
+          const Matrix expected =
+              alpha * op(transa, a) * op(transb, b) + (beta == 0 ? Matrix::Zero(m, n) : Matrix(beta * c));
           EXPECT_LT((c_stored.topRows(m) - expected).cwiseAbs().maxCoeff(), 1e-14)
               << transa << transb << " beta " << beta << (one_column ? " one column" : " one row");
           EXPECT_EQ(detail::single_column_blas_calls(), routed + 1);
@@ -332,7 +333,8 @@ TEST(BlasKernels, AProgramThatChoosesThemRunsTheCpusKernels) {
   __builtin_cpu_init();
   if (!__builtin_cpu_supports("avx2")) GTEST_SKIP() << "a CPU without AVX2 keeps OpenBLAS's generic kernels";
   const char* asked = std::getenv("OPENBLAS_CORETYPE");
-  if (asked && strcasecmp(asked, "prescott") == 0) GTEST_SKIP() << "OPENBLAS_CORETYPE=Prescott asks for the generic kernels";
+  if (asked && strcasecmp(asked, "prescott") == 0)
+    GTEST_SKIP() << "OPENBLAS_CORETYPE=Prescott asks for the generic kernels";
   EXPECT_NE(strcasecmp(core_name(), "prescott"), 0) << "OpenBLAS runs its generic kernels on a CPU with AVX2";
 }
 

@@ -44,9 +44,9 @@ TEST(Constitutive, StressIsTheEnergysDerivative) {
       Matrix3d plus = F, minus = F;
       plus(i % 3, i / 3) += h;
       minus(i % 3, i / 3) -= h;
-      const double numeric =
-          (evaluate_material(m, plus, pressure, ignored, nullptr) - evaluate_material(m, minus, pressure, ignored, nullptr)) /
-          (2 * h);
+      const double numeric = (evaluate_material(m, plus, pressure, ignored, nullptr) -
+                              evaluate_material(m, minus, pressure, ignored, nullptr)) /
+                             (2 * h);
       EXPECT_NEAR(P(i % 3, i / 3), numeric, 1e-6 * P.norm()) << material_name(model) << " component " << i;
     }
   }
@@ -141,8 +141,9 @@ TEST(Constitutive, CorotationalStressInLanesIsEachLanesStress) {
   gradients[3] = 0.7937 * strained_gradient();
   gradients[4] = 1.4422 * Eigen::AngleAxisd(2.5, Eigen::Vector3d(0, 1, 0)).toRotationMatrix();
   for (std::size_t l = 5; l < gradients.size(); ++l)
-    gradients[l] = Eigen::AngleAxisd(0.3 * static_cast<double>(l), Eigen::Vector3d(1, -1, 2).normalized()).toRotationMatrix() *
-                   (Matrix3d::Identity() + 0.05 * static_cast<double>(l) * Matrix3d::Identity().reverse());
+    gradients[l] =
+        Eigen::AngleAxisd(0.3 * static_cast<double>(l), Eigen::Vector3d(1, -1, 2).normalized()).toRotationMatrix() *
+        (Matrix3d::Identity() + 0.05 * static_cast<double>(l) * Matrix3d::Identity().reverse());
   double F[9][kStressLanes], P[9][kStressLanes];
   for (int l = 0; l < kStressLanes; ++l)
     for (int k = 0; k < 9; ++k) F[k][l] = gradients[static_cast<std::size_t>(l)](k % 3, k / 3);

@@ -57,15 +57,16 @@ SparseMatrix box_tangent(const Material& material, std::unique_ptr<ElasticitySys
 }
 
 TEST(ContactResponses, CouplingsProjectionsAndStepsAreThoseOfTheInverse) {
-  for (const Case& c : {Case{"corotational, double", Material::from_young(MaterialModel::corotational, 5000, 0.45), false, false},
-                        Case{"corotational, single", Material::from_young(MaterialModel::corotational, 5000, 0.45), true, false},
-                        Case{"psh, single", Material::mooney_rivlin_from_young(5000, 0.49, 100), true, false},
-                        Case{"psh, full responses", Material::mooney_rivlin_from_young(5000, 0.49, 100), false, true}}) {
+  for (const Case& c :
+       {Case{"corotational, double", Material::from_young(MaterialModel::corotational, 5000, 0.45), false, false},
+        Case{"corotational, single", Material::from_young(MaterialModel::corotational, 5000, 0.45), true, false},
+        Case{"psh, single", Material::mooney_rivlin_from_young(5000, 0.49, 100), true, false},
+        Case{"psh, full responses", Material::mooney_rivlin_from_young(5000, 0.49, 100), false, true}}) {
     SCOPED_TRACE(c.name);
     std::unique_ptr<ElasticitySystem> system;
     const SparseMatrix a = box_tangent(c.material, system);
-    std::unique_ptr<Factorization> f =
-        c.dense ? std::unique_ptr<Factorization>(std::make_unique<DenseFactorization>()) : make_simplicial_factorization(c.single_precision);
+    std::unique_ptr<Factorization> f = c.dense ? std::unique_ptr<Factorization>(std::make_unique<DenseFactorization>())
+                                               : make_simplicial_factorization(c.single_precision);
     f->analyze(a);
     ASSERT_TRUE(f->factorize(a));
     EXPECT_EQ(f->supernodal_factor() == nullptr, c.dense);
@@ -78,7 +79,8 @@ TEST(ContactResponses, CouplingsProjectionsAndStepsAreThoseOfTheInverse) {
     auto node_load = [&](std::int32_t node, Eigen::Index unknowns_per_node = 3) {
       PointLoad load;
       load.weights[0] = 1.0;
-      for (std::size_t k = 0; k < 3; ++k) load.dofs[0][k] = system->free_index()[static_cast<std::size_t>(unknowns_per_node * node) + k];
+      for (std::size_t k = 0; k < 3; ++k)
+        load.dofs[0][k] = system->free_index()[static_cast<std::size_t>(unknowns_per_node * node) + k];
       return load;
     };
     // Nodes by their place: the free end's corner and one halfway along.
@@ -92,13 +94,13 @@ TEST(ContactResponses, CouplingsProjectionsAndStepsAreThoseOfTheInverse) {
     std::array<PointLoad, 3> loads{node_load(static_cast<std::int32_t>(nodes - 1)), PointLoad{}, node_load(halfway)};
     loads[1].weights = Eigen::Vector3d(0.2, 0.3, 0.5);
     for (std::size_t i = 0; i < 3; ++i)
-      for (std::size_t k = 0; k < 3; ++k)
-        loads[1].dofs[i][k] = system->free_index()[3 * (nodes - 2 - i) + k];
+      for (std::size_t k = 0; k < 3; ++k) loads[1].dofs[i][k] = system->free_index()[3 * (nodes - 2 - i) + k];
     auto columns = [&](const PointLoad& load) {
       Eigen::MatrixX3d e = Eigen::MatrixX3d::Zero(a.rows(), 3);
       for (std::size_t i = 0; i < 3; ++i)
         for (std::size_t k = 0; k < 3; ++k)
-          if (load.dofs[i][k] >= 0) e(load.dofs[i][k], static_cast<Eigen::Index>(k)) += load.weights[static_cast<Eigen::Index>(i)];
+          if (load.dofs[i][k] >= 0)
+            e(load.dofs[i][k], static_cast<Eigen::Index>(k)) += load.weights[static_cast<Eigen::Index>(i)];
       return e;
     };
 
@@ -111,7 +113,8 @@ TEST(ContactResponses, CouplingsProjectionsAndStepsAreThoseOfTheInverse) {
         EXPECT_LT((responses->coupling(s, t) - expected).norm(), tolerance * expected.norm()) << s << ", " << t;
       }
 
-    const Eigen::VectorXd r = Eigen::VectorXd::LinSpaced(a.rows(), -1.0, 2.0).cwiseProduct(a.diagonal().cwiseAbs().cwiseSqrt());
+    const Eigen::VectorXd r =
+        Eigen::VectorXd::LinSpaced(a.rows(), -1.0, 2.0).cwiseProduct(a.diagonal().cwiseAbs().cwiseSqrt());
     responses->begin_step(r);
     const Eigen::VectorXd unconstrained = inverse * r;
     for (std::size_t s = 0; s < 3; ++s) {

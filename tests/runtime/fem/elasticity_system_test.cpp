@@ -143,9 +143,9 @@ TEST(ElasticitySystem, RejectsInvertedAndDegenerateTetrahedra) {
   }
   mesh.nodes.push_back(mesh.nodes[0]);
   mesh.tetrahedra[3] = {0, 1, 2, static_cast<std::int32_t>(mesh.nodes.size() - 1)};  // two coincident nodes
-  EXPECT_THROW(ElasticitySystem(mesh, material_for(MaterialModel::linear),
-                                std::vector<bool>(3 * mesh.nodes.size(), false)),
-               std::invalid_argument);
+  EXPECT_THROW(
+      ElasticitySystem(mesh, material_for(MaterialModel::linear), std::vector<bool>(3 * mesh.nodes.size(), false)),
+      std::invalid_argument);
 }
 
 TEST(ElasticitySystem, ReportsTheFirstInvertedElement) {

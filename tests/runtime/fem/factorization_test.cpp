@@ -24,11 +24,14 @@ struct BoxTangent {
     system = std::make_unique<ElasticitySystem>(mesh, material, constrained);
     Eigen::VectorXd x = Eigen::VectorXd::Zero(system->dof_count()), gradient(system->dof_count());
     for (std::size_t n = 0; n < mesh.nodes.size(); ++n)
-      if (system->free_index()[3 * n] >= 0) x[static_cast<Eigen::Index>(3 * n + 2)] = 0.05 * mesh.nodes[n].x() * mesh.nodes[n].x();
+      if (system->free_index()[3 * n] >= 0)
+        x[static_cast<Eigen::Index>(3 * n + 2)] = 0.05 * mesh.nodes[n].x() * mesh.nodes[n].x();
     system->assemble(x, gradient, true);
   }
   const SparseMatrix& matrix() const { return system->tangent_free(); }
-  Eigen::Index pressures() const { return system->has_pressure() ? static_cast<Eigen::Index>(mesh.tetrahedra.size()) : 0; }
+  Eigen::Index pressures() const {
+    return system->has_pressure() ? static_cast<Eigen::Index>(mesh.tetrahedra.size()) : 0;
+  }
 };
 
 /// Solves to `accuracy` (relative backward error; the three-column solve as
@@ -51,9 +54,9 @@ void expect_solves(Factorization& f, const SparseMatrix& matrix, double accuracy
 }
 
 TEST(Factorization, SimplicialSolvesDefiniteAndQuasiDefiniteTangentsWithTheirInertia) {
-  for (const Material& material : {Material::from_young(MaterialModel::corotational, 5000, 0.45),
-                                   Material::mooney_rivlin_from_young(5000, 0.49, 100),
-                                   Material::mooney_rivlin_from_young(5000, 0.49, 0)}) {
+  for (const Material& material :
+       {Material::from_young(MaterialModel::corotational, 5000, 0.45),
+        Material::mooney_rivlin_from_young(5000, 0.49, 100), Material::mooney_rivlin_from_young(5000, 0.49, 0)}) {
     const BoxTangent box(material, true);
     const auto f = make_simplicial_factorization();
     f->analyze(box.matrix());

@@ -62,7 +62,8 @@ QuarterBlock quarter_block(double contact_radius, double fine) {
   for (std::size_t n = 0; n < p.mesh.nodes.size(); ++n) {
     const Eigen::Vector3d& x = p.mesh.nodes[n];
     const auto node = static_cast<std::int32_t>(n);
-    if (x.z() == -length) p.fixed.push_back(node);
+    if (x.z() == -length)
+      p.fixed.push_back(node);
     else {
       if (x.x() == 0.0) p.rollers.push_back({node, 0, 0.0});
       if (x.y() == 0.0) p.rollers.push_back({node, 1, 0.0});

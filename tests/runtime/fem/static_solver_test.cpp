@@ -55,8 +55,8 @@ TEST(StaticSolver, PatchTestReproducesAnAffineFieldForEveryMaterial) {
       const StaticSolution s = solve_static(problem);
       ASSERT_TRUE(s.converged) << material_name(model) << ": " << s.error;
       for (std::size_t n = 0; n < problem.mesh.nodes.size(); ++n)
-        EXPECT_NEAR((s.displacements.segment<3>(3 * static_cast<Eigen::Index>(n)) - H * problem.mesh.nodes[n]).norm(), 0,
-                    1e-9 * size.norm())
+        EXPECT_NEAR((s.displacements.segment<3>(3 * static_cast<Eigen::Index>(n)) - H * problem.mesh.nodes[n]).norm(),
+                    0, 1e-9 * size.norm())
             << material_name(model) << " node " << n;
       if (model == MaterialModel::mooney_rivlin) {
         const double J = (Eigen::Matrix3d::Identity() + H).determinant();
@@ -201,7 +201,7 @@ TEST(StaticSolver, ClampedCompressedBlockConvergesUnderRefinement) {
   const double change_coarse = std::abs(forces[1] - forces[0]), change_fine = std::abs(forces[2] - forces[1]);
   EXPECT_LT(change_fine, 0.6 * change_coarse) << forces[0] << " " << forces[1] << " " << forces[2];
   EXPECT_LT(change_fine, 0.1 * std::abs(forces[2]));  // 2, 4, 8 cells: −4.28, −3.34, −3.13 N
-  EXPECT_LT(forces[2], 0);  // the top plate pushes the block down
+  EXPECT_LT(forces[2], 0);                            // the top plate pushes the block down
 }
 
 /// m³ of the tetrahedra moved by `u`.

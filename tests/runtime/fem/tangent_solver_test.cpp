@@ -33,7 +33,8 @@ struct Block {
 
   SparseMatrix tangent_at(double strain) {
     Eigen::VectorXd x = Eigen::VectorXd::Zero(system.dof_count()), gradient(system.dof_count());
-    for (std::size_t n = 0; n < mesh.nodes.size(); ++n) x[3 * static_cast<Eigen::Index>(n) + 2] = strain * mesh.nodes[n].z();
+    for (std::size_t n = 0; n < mesh.nodes.size(); ++n)
+      x[3 * static_cast<Eigen::Index>(n) + 2] = strain * mesh.nodes[n].z();
     EXPECT_LT(system.assemble(x, gradient, true), 0);
     return system.tangent_free();
   }
@@ -88,7 +89,8 @@ TEST(TangentSolver, ASystemThatNeedsFewerDigitsStopsGmresEarlier) {
     const double sufficient = accurate ? 0.0 : 1e-3;  // 0: the options' 1e-6
     ASSERT_TRUE(solver.solve(sys.stretched, sys.b, sys.x, sufficient));
     iterations[accurate] = solver.krylov_iterations();
-    EXPECT_LT((sys.x - exact).norm(), 10 * std::max(sufficient, TangentSolverOptions{}.krylov_tolerance) * exact.norm());
+    EXPECT_LT((sys.x - exact).norm(),
+              10 * std::max(sufficient, TangentSolverOptions{}.krylov_tolerance) * exact.norm());
   }
   EXPECT_LT(iterations[0], iterations[1]);
 }
@@ -145,9 +147,9 @@ TEST(TangentSolver, ASingularTangentIsReportedNotSolved) {
 }
 
 TEST(TangentSolver, StaticSolvesAgreeWithFactorizingEveryTangent) {
-  for (const Material& material :
-       {Material::mooney_rivlin_from_young(1e5, 0.49, 100), Material::from_young(MaterialModel::corotational, 1e5, 0.45),
-        Material::from_young(MaterialModel::stvk, 1e5, 0.45)}) {
+  for (const Material& material : {Material::mooney_rivlin_from_young(1e5, 0.49, 100),
+                                   Material::from_young(MaterialModel::corotational, 1e5, 0.45),
+                                   Material::from_young(MaterialModel::stvk, 1e5, 0.45)}) {
     StaticProblem problem;
     problem.mesh = box_mesh({3, 3, 6}, {0.02, 0.02, 0.06});
     problem.material = material;

@@ -13,8 +13,11 @@ double dot(const std::array<double, 3>& a, const std::array<double, 3>& b) {
 
 TEST(BeamFrame, IsRightHandedOrthonormal) {
   const std::array<double, 3> from{0.01, -0.02, 0.03};
-  for (const std::array<double, 3>& to : {std::array<double, 3>{0.1, 0.0, 0.0}, {0.0, 0.2, 0.0}, {0.0, 0.0, -0.3},
-                                          {0.05, 0.07, -0.02}, {-1e-6, 2e-6, 3e-6}}) {
+  for (const std::array<double, 3>& to : {std::array<double, 3>{0.1, 0.0, 0.0},
+                                          {0.0, 0.2, 0.0},
+                                          {0.0, 0.0, -0.3},
+                                          {0.05, 0.07, -0.02},
+                                          {-1e-6, 2e-6, 3e-6}}) {
     model::BeamFrame f;
     ASSERT_TRUE(model::make_beam_frame(from, to, f));
     EXPECT_NEAR(dot(f.x, f.x), 1.0, 1e-12);

@@ -83,7 +83,8 @@ TEST(ModelFile, RoundTripOfEverySection) {
   EXPECT_TRUE(*r.model == model);
   std::set<std::string> tags;
   for (const auto& s : r.file.sections) tags.insert(s.tag);
-  EXPECT_EQ(tags, (std::set<std::string>{"META", "SVRT", "STRI", "SUVC", "TVRT", "TETS", "FIXP", "MATL", "BEAM", "SITE", "CURV"}));
+  EXPECT_EQ(tags, (std::set<std::string>{"META", "SVRT", "STRI", "SUVC", "TVRT", "TETS", "FIXP", "MATL", "BEAM", "SITE",
+                                         "CURV"}));
   EXPECT_EQ(r.file.version.major, 1);
   EXPECT_EQ(r.file.file_bytes, bytes.size());
 }
@@ -121,7 +122,8 @@ TEST(ModelFile, FileRoundTripIsAtomicAndLeavesNothingElse) {
   model::OrganModel bad = small_model();
   bad.material.young_modulus = -1;
   EXPECT_THROW(model::write_organ_model_file(bad, (dir / "bad.organ").string()), std::invalid_argument);
-  EXPECT_THROW(model::write_organ_model_file(small_model(), (dir / "missing" / "m.organ").string()), std::runtime_error);
+  EXPECT_THROW(model::write_organ_model_file(small_model(), (dir / "missing" / "m.organ").string()),
+               std::runtime_error);
   EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), {}), 1);
   std::filesystem::remove_all(dir);
 }
@@ -296,8 +298,8 @@ TEST(ModelFile, ImplausibleSiteCurvaturesAreRefused) {
     EXPECT_ERROR(bytes, "curvatures of vertex 0");
   };
   check(first_vertex, std::nan(""));
-  check(first_vertex, 2e5);           // a radius of 5 µm
-  check(first_vertex + 8, 100.0);     // κ₂ > κ₁
+  check(first_vertex, 2e5);        // a radius of 5 µm
+  check(first_vertex + 8, 100.0);  // κ₂ > κ₁
   auto fields = original;
   poke<std::uint32_t>(fields, curv.offset, 3u);
   refresh_checksums(fields);
@@ -328,10 +330,10 @@ TEST(ModelFile, ImplausibleSiteCompliancesAreRefused) {
   };
   check(site.offset + 8, -5.0, "Young's modulus");
   check(site.offset + 16, 0.5, "Poisson's ratio");
-  check(curve + 8 + 16, 0.0, "increasing");              // the second depth equals the first
-  check(curve + 8 + 8, -1.0, "factors");                 // the first factor
+  check(curve + 8 + 16, 0.0, "increasing");  // the second depth equals the first
+  check(curve + 8 + 8, -1.0, "factors");     // the first factor
   check(first_vertex, std::nan(""), "vertex 0");
-  check(first_vertex + 8, -0.1, "vertex 0");              // yy < 0
+  check(first_vertex + 8, -0.1, "vertex 0");                 // yy < 0
   check(first_vertex + 24, 10.0, "positive semi-definite");  // xy² > xx yy
   auto count = original;
   poke<std::uint64_t>(count, curve, 1000);

@@ -57,7 +57,8 @@ TEST(CylinderModel, ObliqueSectionsAreClippedEllipses) {
   const model::BeamSection& mid = m.beams.at(rim, 10);
   EXPECT_NEAR(mid.area, kPi * a * r, 1e-4 * kPi * a * r);
   EXPECT_NEAR(mid.i_yy + mid.i_zz, kPi * a * r * (a * a + r * r) / 4, 1e-4 * kPi * a * r * (a * a + r * r) / 4);
-  EXPECT_NEAR(mid.torsion_j, kPi * std::pow(a * r, 3) / (a * a + r * r), 1e-3 * kPi * std::pow(a * r, 3) / (a * a + r * r));
+  EXPECT_NEAR(mid.torsion_j, kPi * std::pow(a * r, 3) / (a * a + r * r),
+              1e-3 * kPi * std::pow(a * r, 3) / (a * a + r * r));
   // The beam passes through the axis only at the fixed point, so the centroid is offset.
   EXPECT_GT(std::hypot(mid.centroid_y, mid.centroid_z), 0.1 * r);
 }

@@ -32,7 +32,7 @@ TEST(OpenHaptics, ServoDrivesTheForceLoopWithinTheDeviceLimits) {
   const organ::Organ organ(testing::make_cylinder_model(spec));
 
   OpenHapticsDevice device(library, "", DevicePlacement{}, devices::SafetyLimits{});
-  EXPECT_DOUBLE_EQ(device.limits().max_force, 2.5);       // the device's nominal maximum, below the default 3.3 N
+  EXPECT_DOUBLE_EQ(device.limits().max_force, 2.5);        // the device's nominal maximum, below the default 3.3 N
   EXPECT_DOUBLE_EQ(device.limits().max_stiffness, 800.0);  // 0.8 N/mm
   // The tool moves from 10 mm off the far cap to 6 mm into it in 0.3 s, then holds.
   const double from[3] = {160.0, 0.0, 0.0}, to[3] = {144.0, 0.0, 0.0};
@@ -125,8 +125,10 @@ TEST(OpenHaptics, ADeviceThatFailsMidSessionFadesItsForceWhileTheOtherGoesOn) {
     const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
     if (t > kGiveUp || (recovered_at_time >= 0.0 && t > recovered_at_time + kAfter)) break;
     const bool holding = latest_force(lost.handle()) > kHolding && latest_force(steady.handle()) > kHolding;
-    if (!holding) holding_since = -1.0;
-    else if (holding_since < 0.0) holding_since = t;
+    if (!holding)
+      holding_since = -1.0;
+    else if (holding_since < 0.0)
+      holding_since = t;
     if (failed_at < 0.0 && t > 0.6 && holding_since >= 0.0 && t > holding_since + kHeldFor) {
       fail(lost.handle(), 0x0302);  // HD_COMM_ERROR
       failed_at = t;
@@ -155,7 +157,7 @@ TEST(OpenHaptics, ADeviceThatFailsMidSessionFadesItsForceWhileTheOtherGoesOn) {
   const std::size_t recovered_at = first_failed + failed_frames;
   for (std::size_t i = first_failed; i < recovered_at; ++i) ASSERT_EQ(frame_failed(lost.handle(), i), 1) << i;
   const double fault_start = frame_time(lost.handle(), first_failed);
-  constexpr double kRamp = devices::SafetyLimits{}.ramp_down_time;  // s
+  constexpr double kRamp = devices::SafetyLimits{}.ramp_down_time;                     // s
   ASSERT_GT(frame_time(lost.handle(), recovered_at - 1) - fault_start, kRamp + 0.05);  // failed longer than the ramp
 
   const double held = force(lost, first_failed - 1);

@@ -20,7 +20,9 @@ struct Collected final : MessageReader::Handler {
   std::vector<TransformMessage> transforms;
   std::vector<std::pair<Problem, std::string>> problems;  // with the device name
   void transform(const TransformMessage& message) override { transforms.push_back(message); }
-  void dropped(Problem problem, const MessageInfo& info) override { problems.emplace_back(problem, info.device.data()); }
+  void dropped(Problem problem, const MessageInfo& info) override {
+    problems.emplace_back(problem, info.device.data());
+  }
 };
 
 Bytes operator+(Bytes a, const Bytes& b) {
@@ -94,10 +96,10 @@ TEST(IgtlMessageReader, ReadsVersionTwoHeadersWithExtendedHeaderAndMetadata) {
 }
 
 TEST(IgtlMessageReader, AHeaderThatCannotStartAMessageStopsTheStream) {
-  for (const Bytes& garbage : {Bytes(58, 0xff), testing::raw_message("TRANSFORM", "tool1", Bytes(48, 0), 9),
-                               testing::raw_message("TRANS\x01", "tool1", Bytes(48, 0)),
-                               testing::raw_message("", "tool1", Bytes(48, 0)),
-                               testing::raw_message("IMAGE", "ct", Bytes(), 1, false, std::uint64_t{1} << 50)}) {
+  for (const Bytes& garbage :
+       {Bytes(58, 0xff), testing::raw_message("TRANSFORM", "tool1", Bytes(48, 0), 9),
+        testing::raw_message("TRANS\x01", "tool1", Bytes(48, 0)), testing::raw_message("", "tool1", Bytes(48, 0)),
+        testing::raw_message("IMAGE", "ct", Bytes(), 1, false, std::uint64_t{1} << 50)}) {
     MessageReader reader;
     Collected got;
     const Bytes stream = garbage + testing::transform_message("tool1", {1, 2, 3});

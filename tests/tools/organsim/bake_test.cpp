@@ -130,9 +130,11 @@ TEST_F(Cli, BakeRefinesTheTetrahedraWhereAsked) {
   const model::ModelReadResult before = model::read_organ_model_file(plain.string());
   ASSERT_TRUE(before) << before.error;
   const model::Point3 at = before.model->surface_vertices.front();
-  const std::string place = std::to_string(at[0] * 1e3) + "," + std::to_string(at[1] * 1e3) + "," + std::to_string(at[2] * 1e3);
+  const std::string place =
+      std::to_string(at[0] * 1e3) + "," + std::to_string(at[1] * 1e3) + "," + std::to_string(at[2] * 1e3);
   const CommandRun run = run_organsim(
-      "bake " + quick_phantom_bake(refined) + " --no-beam-tables --refine-at " + place + " --refine-size 3 --json", dir_);
+      "bake " + quick_phantom_bake(refined) + " --no-beam-tables --refine-at " + place + " --refine-size 3 --json",
+      dir_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const model::ModelReadResult after = model::read_organ_model_file(refined.string());
   ASSERT_TRUE(after) << after.error;
@@ -166,13 +168,15 @@ TEST_F(Cli, NoPatientTagReachesTheModelTheReportOrTheLog) {
   }
   ASSERT_GE(identifying.size(), 4u + 4u) << "the study, series, frame and instance UIDs";
   const auto expect_none = [&](const std::string& text, const std::string& where) {
-    for (const std::string& needle : identifying) EXPECT_EQ(text.find(needle), std::string::npos) << needle << " in " << where;
+    for (const std::string& needle : identifying)
+      EXPECT_EQ(text.find(needle), std::string::npos) << needle << " in " << where;
   };
 
   const fs::path model = dir_ / "liver.organ";
-  const std::string bake = "bake " + (dir_ / "dicom").string() +
-                           " --seed -65,5,0 --surface-vertices 800 --tet-size 12 --stations 8 --section-samples 32 -o " +
-                           model.string() + " --intermediates " + (dir_ / "inspect").string();
+  const std::string bake =
+      "bake " + (dir_ / "dicom").string() +
+      " --seed -65,5,0 --surface-vertices 800 --tet-size 12 --stations 8 --section-samples 32 -o " + model.string() +
+      " --intermediates " + (dir_ / "inspect").string();
   for (const std::string& extra : {std::string(), std::string(" --json")}) {
     const CommandRun run = run_organsim(bake + extra, dir_);
     ASSERT_EQ(run.exit_code, 0) << run.err;
@@ -183,14 +187,15 @@ TEST_F(Cli, NoPatientTagReachesTheModelTheReportOrTheLog) {
   // Nor any file of a training report of a session on that model.
   const fs::path session = dir_ / "tools.session";
   std::ofstream(session) << "# organsim session 1\n0,1,-65,5,200\n0.2,1,-65,5,190\n";
-  const CommandRun replay =
-      run_organsim("replay " + model.string() + " " + session.string() + " --fast --report " + (dir_ / "report").string(), dir_);
+  const CommandRun replay = run_organsim(
+      "replay " + model.string() + " " + session.string() + " --fast --report " + (dir_ / "report").string(), dir_);
   ASSERT_EQ(replay.exit_code, 0) << replay.err;
   for (const auto& entry : fs::directory_iterator(dir_ / "report")) expect_none(read_bytes(entry.path()), entry.path());
   // Longer needles in the intermediates: their base64 data holds any short
   // word by chance ("DOE" about once in 250 kB); '^' and '-' are not base64.
   // (the UIDs hold '.', which is not base64 either).
-  for (const auto& entry : fs::directory_iterator(dir_ / "inspect")) expect_none(read_bytes(entry.path()), entry.path());
+  for (const auto& entry : fs::directory_iterator(dir_ / "inspect"))
+    expect_none(read_bytes(entry.path()), entry.path());
 }
 
 // The disk fills while the model is written (a file-size limit stands in):
@@ -212,8 +217,8 @@ TEST_F(Cli, BakeOnAFullDiskFailsWithOneLineAndLeavesNothing) {
 TEST_F(Cli, BakeKilledAtAnyStageLeavesNothingAtTheOutputPath) {
   const fs::path model = dir_ / "model.organ", log = dir_ / "bake.log";
   const std::string bake = std::string(ORGANSIM_EXECUTABLE) + " bake " + (kSamples / "phantom_ct.nii.gz").string() +
-                           " --seed -65,5,0 --fixed-point -29.76,16.10,-70.96 --verbose -o " + model.string() +
-                           " 2>" + log.string();
+                           " --seed -65,5,0 --fixed-point -29.76,16.10,-70.96 --verbose -o " + model.string() + " 2>" +
+                           log.string();
   std::vector<std::string> interrupted;
   for (const double delay : {0.3, 0.9, 1.6, 2.4, 3.0}) {
     const std::string command =
@@ -244,7 +249,8 @@ TEST_F(Cli, BakeBadInputsFailWithOneLineAndLeaveNoModel) {
   const fs::path model = dir_ / "out" / "liver.organ";
   fs::create_directories(model.parent_path());
   const std::string ct = (kSamples / "phantom_ct.nii.gz").string();
-  const std::string quick = " --surface-vertices 800 --tet-size 12 --stations 8 --section-samples 32 -o " + model.string();
+  const std::string quick =
+      " --surface-vertices 800 --tet-size 12 --stations 8 --section-samples 32 -o " + model.string();
   const pipeline::Phantom phantom = pipeline::make_phantom(pipeline::PhantomOptions{});
   pipeline::DicomSeriesInfo first, second;
   first.uid_seed = 1, second.uid_seed = 2;
@@ -279,9 +285,8 @@ TEST_F(Cli, BakeBadInputsFailWithOneLineAndLeaveNoModel) {
   for (const auto& [arguments, fragment] : cases) {
     const CommandRun run = run_organsim("bake " + arguments + quick, dir_);
     EXPECT_EQ(run.exit_code, 1) << arguments;
-    const std::string last_line = run.err.substr(run.err.rfind("organsim bake: error: ") == std::string::npos
-                                                     ? 0
-                                                     : run.err.rfind("organsim bake: error: "));
+    const std::string last_line = run.err.substr(
+        run.err.rfind("organsim bake: error: ") == std::string::npos ? 0 : run.err.rfind("organsim bake: error: "));
     EXPECT_NE(last_line.find(fragment), std::string::npos) << arguments << "\n" << run.err;
     EXPECT_EQ(std::count(last_line.begin(), last_line.end(), '\n'), 1) << run.err;
     EXPECT_FALSE(fs::exists(model)) << arguments;

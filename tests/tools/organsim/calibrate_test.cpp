@@ -41,8 +41,8 @@ TEST_F(Cli, CalibrationLowersTheHeldOutErrorAndIsDeterministic) {
   const fs::path first = dir_ / "first.organ", second = dir_ / "second.organ";
   // Held (--friction inf), so that the springs' static shape does not depend
   // on their stiffness scale: a slip during the settling would follow it.
-  const CommandRun run = run_organsim(
-      "calibrate " + model + " -o " + first.string() + kCalibration + " --friction inf --json", dir_);
+  const CommandRun run =
+      run_organsim("calibrate " + model + " -o " + first.string() + kCalibration + " --friction inf --json", dir_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const nlohmann::json j = nlohmann::json::parse(run.out);
   EXPECT_EQ(j["reference"], "psh");
@@ -55,8 +55,8 @@ TEST_F(Cli, CalibrationLowersTheHeldOutErrorAndIsDeterministic) {
   // scale). The springs' displacement is not fitted: a network scaled as a
   // whole has the same static shape, so it stays where it was, to how far the
   // softer network has settled in its hold (1 %).
-  for (const auto& [model_name, measure] : {std::pair{"beam", "mean_difference"}, std::pair{"beam", "force_factor"},
-                                            std::pair{"springs", "force_factor"}})
+  for (const auto& [model_name, measure] :
+       {std::pair{"beam", "mean_difference"}, std::pair{"beam", "force_factor"}, std::pair{"springs", "force_factor"}})
     EXPECT_LE(after[model_name][measure].get<double>(), before[model_name][measure].get<double>())
         << model_name << " " << measure;
   EXPECT_NEAR(after["springs"]["mean_difference"].get<double>(), before["springs"]["mean_difference"].get<double>(),
@@ -82,7 +82,8 @@ TEST_F(Cli, CalibrationLowersTheHeldOutErrorAndIsDeterministic) {
   EXPECT_EQ(calibrated.surface_vertices, model::read_organ_model_file(model).model->surface_vertices);
 
   // Seeded: the same input and options give the same bytes.
-  const CommandRun again = run_organsim("calibrate " + model + " -o " + second.string() + kCalibration + " --friction inf --quiet", dir_);
+  const CommandRun again =
+      run_organsim("calibrate " + model + " -o " + second.string() + kCalibration + " --friction inf --quiet", dir_);
   ASSERT_EQ(again.exit_code, 0) << again.err;
   EXPECT_EQ(file_bytes(first), file_bytes(second));
   EXPECT_NE(again.out.find("| beam    |"), std::string::npos) << again.out;
@@ -172,9 +173,8 @@ TEST_F(Cli, EvaluateMeasuresTheFastModelsOnPressesNoFitSaw) {
     // twice that), not at some other vertex.
     EXPECT_LT(p["reference_cell_at_site_mm"].get<double>(), 2.0 * 4.0) << p.dump();
   }
-  const CommandRun table = run_organsim("calibrate " + model +
-                                            " --evaluate --sites 1 --depths 2 --fixed-radius 31 --reference-cells 0",
-                                        dir_);
+  const CommandRun table = run_organsim(
+      "calibrate " + model + " --evaluate --sites 1 --depths 2 --fixed-radius 31 --reference-cells 0", dir_);
   ASSERT_EQ(table.exit_code, 0) << table.err;
   EXPECT_NE(table.out.find("| beam    |   2 mm | straight  |"), std::string::npos) << table.out;
   EXPECT_NE(table.out.find("spread        2 mm: "), std::string::npos) << table.out;
@@ -190,13 +190,15 @@ TEST_F(Cli, EvaluateMeasuresTheFastModelsOnPressesNoFitSaw) {
 // directions within 9.8°; unmatched 161 and 59.
 TEST_F(Cli, MatchedFastModelsGiveThePhantomsReferenceForceOnHeldOutPresses) {
   const fs::path model = dir_ / "phantom.organ";
-  const CommandRun bake = run_organsim("bake " + (fs::path(ORGANSIM_DATA_SAMPLES) / "phantom_ct.nii.gz").string() +
-                                           " --seed -65,5,0 --fixed-point -29.76,16.10,-70.96 --quiet -o " +
-                                           model.string(),
-                                       dir_);
+  const CommandRun bake =
+      run_organsim("bake " + (fs::path(ORGANSIM_DATA_SAMPLES) / "phantom_ct.nii.gz").string() +
+                       " --seed -65,5,0 --fixed-point -29.76,16.10,-70.96 --quiet -o " + model.string(),
+                   dir_);
   ASSERT_EQ(bake.exit_code, 0) << bake.err;
-  const std::string evaluate = "calibrate " + model.string() + " --evaluate --sites 2 --depths 2,5 --reference-cells 0 "
-                               "--json --reference-cache " + (dir_ / "references").string();
+  const std::string evaluate = "calibrate " + model.string() +
+                               " --evaluate --sites 2 --depths 2,5 --reference-cells 0 "
+                               "--json --reference-cache " +
+                               (dir_ / "references").string();
   const CommandRun matched = run_organsim(evaluate, dir_);
   ASSERT_EQ(matched.exit_code, 0) << matched.err;
   const nlohmann::json j = nlohmann::json::parse(matched.out);
@@ -241,12 +243,12 @@ TEST_F(Cli, EvaluationAndDepthCurveAreTheSameWhateverTheJobs) {
   EXPECT_EQ(nlohmann::json::parse(one.out)["presses"].size(), 6u);
   EXPECT_EQ(two.out, one.out);
 
-  const std::string curve =
-      kCalibration + std::string(" --curve-sites 3 --depths 2 --reference-cells 0 --seed 4");
+  const std::string curve = kCalibration + std::string(" --curve-sites 3 --depths 2 --reference-cells 0 --seed 4");
   for (const char* jobs : {"1", "2"}) {
-    const CommandRun fitted = run_organsim("calibrate " + model + " -o " + (dir_ / (std::string("fitted_") + jobs + ".organ")).string() +
-                                               curve + " --jobs " + jobs + " --json",
-                                           dir_);
+    const CommandRun fitted =
+        run_organsim("calibrate " + model + " -o " + (dir_ / (std::string("fitted_") + jobs + ".organ")).string() +
+                         curve + " --jobs " + jobs + " --json",
+                     dir_);
     ASSERT_EQ(fitted.exit_code, 0) << fitted.err;
     EXPECT_EQ(nlohmann::json::parse(fitted.out)["depth_curve_presses"]["pressed"], 6) << fitted.out;
   }
@@ -349,10 +351,10 @@ TEST_F(Cli, CalibrateFitsTheSiteLawsDepthCurve) {
     EXPECT_DOUBLE_EQ(written.depth_curve[i][0] * 1e3, j["depth_curve"][i]["depth_mm"].get<double>());
     EXPECT_DOUBLE_EQ(written.depth_curve[i][1], j["depth_curve"][i]["factor"].get<double>());
   }
-  const CommandRun evaluated =
-      run_organsim("calibrate " + fitted + " --evaluate --sites 1 --seed 1001 --depths 2,3 --fixed-radius 31 "
-                   "--reference-cells 0 --friction inf --json",
-                   dir_);
+  const CommandRun evaluated = run_organsim("calibrate " + fitted +
+                                                " --evaluate --sites 1 --seed 1001 --depths 2,3 --fixed-radius 31 "
+                                                "--reference-cells 0 --friction inf --json",
+                                            dir_);
   ASSERT_EQ(evaluated.exit_code, 0) << evaluated.err;
   const nlohmann::json e = nlohmann::json::parse(evaluated.out);
   for (std::size_t i = 0; i < 2; ++i) {
@@ -386,7 +388,8 @@ TEST_F(Cli, EverySitePickedTakesItsStraightAndItsTiltedPress) {
   constexpr cli::PressTilt kTilted[] = {cli::PressTilt::tangent_a, cli::PressTilt::tangent_b};
   std::size_t straight_only = 0;  // vertices the rule has to leave out
   for (std::uint32_t v = 0; v < organ.vertex_count(); ++v)
-    straight_only += taken(v, cli::PressTilt::straight, 5.0) && !(taken(v, kTilted[0], 5.0) && taken(v, kTilted[1], 5.0));
+    straight_only +=
+        taken(v, cli::PressTilt::straight, 5.0) && !(taken(v, kTilted[0], 5.0) && taken(v, kTilted[1], 5.0));
   EXPECT_GT(straight_only, 0u);
   const std::vector<std::uint32_t> sites = cli::press_sites(organ, 24, 1, press);
   ASSERT_EQ(sites.size(), 24u);
@@ -403,14 +406,14 @@ TEST_F(Cli, CalibrateBadInputFailsWithOneLine) {
   model::write_organ_model_file(testing::make_cylinder_model({}), model);
   const std::string out = " -o " + (dir_ / "out.organ").string();
   const std::vector<std::pair<std::string, int>> cases = {
-      {model + out + " --presses 2", 2},                  // too few to hold any out
-      {model + out + " --reference beam", 2},             // not a FEM reference
-      {model, 2},                                         // no output
-      {(dir_ / "missing.organ").string() + out, 1},       // no model
-      {model + out + " --presses 6 --depth 3", 1},        // the default 10 mm clamp holds one node: no press solves
-      {model + out + " --evaluate", 2},                   // nothing to write
-      {model + " --evaluate --depths 0", 2},              // no depth
-      {model + " --evaluate --sites 0", 2},               // no site
+      {model + out + " --presses 2", 2},             // too few to hold any out
+      {model + out + " --reference beam", 2},        // not a FEM reference
+      {model, 2},                                    // no output
+      {(dir_ / "missing.organ").string() + out, 1},  // no model
+      {model + out + " --presses 6 --depth 3", 1},   // the default 10 mm clamp holds one node: no press solves
+      {model + out + " --evaluate", 2},              // nothing to write
+      {model + " --evaluate --depths 0", 2},         // no depth
+      {model + " --evaluate --sites 0", 2},          // no site
   };
   for (const auto& [arguments, code] : cases) {
     const CommandRun run = run_organsim("calibrate " + arguments + " --quiet", dir_);

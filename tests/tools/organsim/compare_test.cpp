@@ -59,7 +59,7 @@ TEST_F(Cli, CompareMeasuresEveryModelAgainstTheReference) {
               std::max({axis_max[0].get<double>(), axis_max[1].get<double>(), axis_max[2].get<double>()}))
         << name;
     EXPECT_GE(m["paper_max_difference"].get<double>(), m["paper_mean_difference"].get<double>()) << name;
-    ASSERT_EQ(m["forces_n"].size(), 1u) << name;  // one per tool
+    ASSERT_EQ(m["forces_n"].size(), 1u) << name;                // one per tool
     EXPECT_GT(m["forces_n"][0][2].get<double>(), 0.0) << name;  // pressed along −z: pushed back along +z
     EXPECT_GT(m["frame_time_ms"].get<double>(), 0.0) << name;
     EXPECT_GT(m["force_tick_us"].get<double>(), 0.0) << name;
@@ -104,7 +104,8 @@ TEST_F(Cli, CompareMeasuresEveryModelAgainstTheReference) {
     ASSERT_NE(difference, nullptr) << name;
     double largest_difference = 0.0;
     for (vtkIdType p = 0; p < grid->GetNumberOfPoints(); ++p)
-      for (int k = 0; k < 3; ++k) largest_difference = std::max(largest_difference, std::abs(difference->GetComponent(p, k)));
+      for (int k = 0; k < 3; ++k)
+        largest_difference = std::max(largest_difference, std::abs(difference->GetComponent(p, k)));
     if (name == "psh")
       EXPECT_EQ(largest_difference, 0.0);
     else
@@ -176,8 +177,8 @@ TEST_F(Cli, CompareBadInputFailsWithOneLine) {
   const std::string model = (dir_ / "cylinder.organ").string();
   model::write_organ_model_file(testing::make_cylinder_model({}), model);
   const std::vector<std::pair<std::string, int>> cases = {
-      {" --tool 150,0,30/0,0,-5 --models beam,fem", 2},     // unknown model name
-      {" --models beam,linear", 2},                         // no tool
+      {" --tool 150,0,30/0,0,-5 --models beam,fem", 2},        // unknown model name
+      {" --models beam,linear", 2},                            // no tool
       {" --tool 500,500,500/0,0,-5 --models beam,linear", 1},  // a tool far outside the organ
       {" --tool 150,0,30/0,0,-5 --models beam,linear", 1},     // the default 10 mm clamp holds one node here
       {" --tool 150,0,30/0,0,-5 --reference fem", 2},

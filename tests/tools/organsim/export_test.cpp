@@ -62,8 +62,8 @@ TEST_F(Cli, ExportWritesTheSurfaceTetrahedraAndABeamTable) {
   }
 
   const std::filesystem::path tetrahedra = dir_ / "tetrahedra.vtu", beam = dir_ / "beam.csv";
-  const CommandRun run = run_organsim(
-      "export " + path + " --tetrahedra " + tetrahedra.string() + " --beam 7 " + beam.string(), dir_);
+  const CommandRun run =
+      run_organsim("export " + path + " --tetrahedra " + tetrahedra.string() + " --beam 7 " + beam.string(), dir_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   vtkNew<vtkXMLUnstructuredGridReader> reader;
   reader->SetFileName(tetrahedra.string().c_str());

@@ -27,7 +27,8 @@ json bar_document(const std::string& model) {
   for (const auto& p : mesh.nodes) doc["nodes"].push_back({p.x(), p.y(), p.z()});
   doc["tetrahedra"] = mesh.tetrahedra;
   if (model == "mooney-rivlin")
-    doc["material"] = {{"model", model}, {"c1", 8.39e3}, {"c2", 8.39e3}, {"bulk_modulus", 1.667e6}, {"stabilization", 10}};
+    doc["material"] = {
+        {"model", model}, {"c1", 8.39e3}, {"c2", 8.39e3}, {"bulk_modulus", 1.667e6}, {"stabilization", 10}};
   else
     doc["material"] = {{"model", model}, {"young_modulus", 5e4}, {"poisson_ratio", 0.4}};
   doc["density"] = 1000;
@@ -71,7 +72,8 @@ TEST_F(Cli, FemSolvesAProblemFileForEveryMaterial) {
     EXPECT_NEAR(out["reactions"][1].get<double>(), -1e-3, 1e-7);
     // The same numbers as the library's own solve, to the last digit.
     fem::StaticProblem problem;
-    for (const auto& p : doc["nodes"]) problem.mesh.nodes.emplace_back(p[0].get<double>(), p[1].get<double>(), p[2].get<double>());
+    for (const auto& p : doc["nodes"])
+      problem.mesh.nodes.emplace_back(p[0].get<double>(), p[1].get<double>(), p[2].get<double>());
     problem.mesh.tetrahedra = doc["tetrahedra"].get<std::vector<fem::Tetrahedron>>();
     fem::parse_material_model(model, problem.material.model);
     if (model == "mooney-rivlin") {
@@ -104,7 +106,7 @@ TEST_F(Cli, FemSolvesAProblemFileForEveryMaterial) {
       for (std::size_t c = 0; c < 3; ++c) {
         largest = std::max(largest, std::abs(out["displacements"][n][c].get<double>()));
         difference = std::max(difference, std::abs(other["displacements"][n][c].get<double>() -
-                                                    out["displacements"][n][c].get<double>()));
+                                                   out["displacements"][n][c].get<double>()));
       }
     EXPECT_LT(difference, 1e-9 * largest) << model << " with " << other["linear_solver"];
   }
@@ -133,7 +135,8 @@ TEST_F(Cli, FemReportsItsLinearSolvesAndCanFactorizeEveryTangent) {
 
 TEST_F(Cli, FemTextReportAndParaViewOutput) {
   write(dir_ / "bar.json", bar_document("mooney-rivlin").dump());
-  const CommandRun run = run_organsim("fem " + (dir_ / "bar.json").string() + " --out " + (dir_ / "r.vtu").string(), dir_);
+  const CommandRun run =
+      run_organsim("fem " + (dir_ / "bar.json").string() + " --out " + (dir_ / "r.vtu").string(), dir_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   for (const char* line :
        {"problem ", "solve ", "converged", "displacement ", "pressure ", "reactions ", "linear solves ", "time "})

@@ -50,7 +50,8 @@ TEST_F(Cli, InfoJsonIsOneParsableObjectWithTheDocumentedKeys) {
   const CommandRun sites = run_organsim("info " + model + " --json", dir_);
   ASSERT_EQ(sites.exit_code, 0) << sites.err;
   const nlohmann::json s = nlohmann::json::parse(sites.out)["site_compliance"];
-  EXPECT_NEAR(s["hertz_radius_m_at_2_5_mm_tip"]["median"].get<double>(), 0.0025 / std::sqrt(1 + 0.0025 / spec.radius), 1e-15);
+  EXPECT_NEAR(s["hertz_radius_m_at_2_5_mm_tip"]["median"].get<double>(), 0.0025 / std::sqrt(1 + 0.0025 / spec.radius),
+              1e-15);
   EXPECT_GT(s["normal_stiffness_n_per_m_at_2_5_mm_tip"]["median"].get<double>(), 0.0);
   EXPECT_NE(run_organsim("info " + model, dir_).out.find("a 2.5 mm tip's Hertz radius 2.40 (p10)"), std::string::npos);
 }
@@ -70,12 +71,14 @@ TEST_F(Cli, InfoOnGarbageOrDamagedFilesFailsWithOneLineAndLeavesNothing) {
   const fs::path model = dir_ / "damaged.organ";
   auto bytes = model::serialize_organ_model(testing::make_cylinder_model({}));
   bytes[bytes.size() / 2] ^= 0x20;
-  std::ofstream(model, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
-                                               static_cast<std::streamsize>(bytes.size()));
+  std::ofstream(model, std::ios::binary)
+      .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
   const fs::path truncated = dir_ / "truncated.organ";
   std::ofstream(truncated, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), 100);
-  for (const auto& [path, problem] : {std::pair{garbage, "wrong magic bytes"}, {model, "checksum mismatch"},
-                                      {truncated, "truncated"}, {dir_ / "missing.organ", "cannot open"}}) {
+  for (const auto& [path, problem] : {std::pair{garbage, "wrong magic bytes"},
+                                      {model, "checksum mismatch"},
+                                      {truncated, "truncated"},
+                                      {dir_ / "missing.organ", "cannot open"}}) {
     const std::size_t files_before = files_in_dir();
     const CommandRun run = run_organsim("info " + path.string(), dir_);
     EXPECT_EQ(run.exit_code, 1) << run.err;

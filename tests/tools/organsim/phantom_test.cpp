@@ -17,7 +17,8 @@ TEST_F(Cli, PhantomIsByteIdenticalForTheSameSeedInEveryFormat) {
     const std::string a = (dir_ / (std::string("a") + extension)).string();
     const std::string b = (dir_ / (std::string("b") + extension)).string();
     const std::string options = " --size 48,40,24 --spacing 8,8,8 --seed 7";
-    const CommandRun first = run_organsim("phantom -o " + a + " --mask " + (dir_ / "ma.nii.gz").string() + options, dir_);
+    const CommandRun first =
+        run_organsim("phantom -o " + a + " --mask " + (dir_ / "ma.nii.gz").string() + options, dir_);
     ASSERT_EQ(first.exit_code, 0) << first.err;
     ASSERT_EQ(run_organsim("phantom -o " + b + options, dir_).exit_code, 0);
     std::ifstream fa(a, std::ios::binary), fb(b, std::ios::binary);
@@ -30,14 +31,14 @@ TEST_F(Cli, PhantomIsByteIdenticalForTheSameSeedInEveryFormat) {
 
 TEST_F(Cli, PhantomWritesADicomSeriesWithOneFilePerSlice) {
   const CommandRun run = run_organsim("phantom -o " + (dir_ / "ct.nii.gz").string() + " --dicom " +
-                                   (dir_ / "dicom").string() + " --size 32,32,20 --spacing 12,12,10",
-                               dir_);
+                                          (dir_ / "dicom").string() + " --size 32,32,20 --spacing 12,12,10",
+                                      dir_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_TRUE(run.err.empty()) << run.err;
   EXPECT_EQ(std::distance(fs::directory_iterator(dir_ / "dicom"), {}), 20);
-  const CommandRun again = run_organsim("phantom -o " + (dir_ / "ct2.nii.gz").string() + " --dicom " +
-                                     (dir_ / "dicom").string() + " --size 32,32,20",
-                                 dir_);
+  const CommandRun again = run_organsim(
+      "phantom -o " + (dir_ / "ct2.nii.gz").string() + " --dicom " + (dir_ / "dicom").string() + " --size 32,32,20",
+      dir_);
   EXPECT_EQ(again.exit_code, 1);
   EXPECT_NE(again.err.find("not an empty directory"), std::string::npos) << again.err;
 }

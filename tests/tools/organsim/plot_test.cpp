@@ -44,10 +44,9 @@ TEST_F(Cli, PlotDrawsEachColumnAsALineInAPngOfTheAskedSize) {
       out << fmt::format("{},{},{},x,{}\n", i * 0.01, std::sin(i * 0.05), 0.5 * std::cos(i * 0.05),
                          i <= 50 ? fmt::format("{}", -0.02 * i) : std::string());
   }
-  const CommandRun run =
-      run_plot(fmt::format("{} --x t_s --y sine,cosine,early -o {} --title Waves --size 640,400", csv.string(),
-                           png.string()),
-               dir_);
+  const CommandRun run = run_plot(
+      fmt::format("{} --x t_s --y sine,cosine,early -o {} --title Waves --size 640,400", csv.string(), png.string()),
+      dir_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_TRUE(run.err.empty()) << run.err;
   EXPECT_NE(run.out.find("3 series of up to 201 points"), std::string::npos) << run.out;
@@ -80,8 +79,8 @@ TEST_F(Cli, PlotOnLogLogAxesFitsEachSeriesExponent) {
       out << fmt::format("{},{},{},{}\n", n, 3e-9 * std::pow(n, 1.5), 2e-7 * std::pow(n, 0.02), k == 5 ? 0.0 : 1.0);
     }
   }
-  const CommandRun run =
-      run_plot(fmt::format("{} --x vertices --y load_s,tick_s --log-x --log-y -o {}", csv.string(), png.string()), dir_);
+  const CommandRun run = run_plot(
+      fmt::format("{} --x vertices --y load_s,tick_s --log-x --log-y -o {}", csv.string(), png.string()), dir_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("load_s: exponent 1.50"), std::string::npos) << run.out;
   EXPECT_NE(run.out.find("tick_s: exponent 0.02"), std::string::npos) << run.out;
@@ -91,7 +90,8 @@ TEST_F(Cli, PlotOnLogLogAxesFitsEachSeriesExponent) {
   EXPECT_GT(pixels_near(image, 255, 127, 14), 300);
 
   const fs::path bad = dir_ / "bad.png";
-  const CommandRun zero = run_plot(fmt::format("{} --x vertices --y zero --log-y -o {}", csv.string(), bad.string()), dir_);
+  const CommandRun zero =
+      run_plot(fmt::format("{} --x vertices --y zero --log-y -o {}", csv.string(), bad.string()), dir_);
   EXPECT_EQ(zero.exit_code, 1);
   EXPECT_NE(zero.err.find("not positive at point 6"), std::string::npos) << zero.err;
   EXPECT_FALSE(fs::exists(bad));
@@ -129,7 +129,8 @@ TEST_F(Cli, PlotBadCsvFilesAreOneErrorLineAndLeaveNoPicture) {
   const long inputs = static_cast<long>(files_in_dir());
   for (const auto& [csv, message] : cases) {
     // No X server: these fail before anything is drawn.
-    const CommandRun run = run_organsim(fmt::format("plot {} --x t --y b -o {}", csv, (dir_ / "out.png").string()), dir_);
+    const CommandRun run =
+        run_organsim(fmt::format("plot {} --x t --y b -o {}", csv, (dir_ / "out.png").string()), dir_);
     EXPECT_EQ(run.exit_code, 1) << csv << "\n" << run.err;
     EXPECT_TRUE(run.out.empty()) << run.out;
     EXPECT_EQ(run.err.rfind("organsim plot: error: ", 0), 0u) << run.err;
@@ -139,7 +140,8 @@ TEST_F(Cli, PlotBadCsvFilesAreOneErrorLineAndLeaveNoPicture) {
   EXPECT_EQ(static_cast<long>(files_in_dir()), inputs) << "a failed plot left a file";
   // Not a PNG name: an input error; a missing option: a usage error.
   const std::string good = write("good.csv", "t,b\n0,1\n1,2\n");
-  const CommandRun text = run_organsim(fmt::format("plot {} --x t --y b -o {}", good, (dir_ / "out.txt").string()), dir_);
+  const CommandRun text =
+      run_organsim(fmt::format("plot {} --x t --y b -o {}", good, (dir_ / "out.txt").string()), dir_);
   EXPECT_EQ(text.exit_code, 1) << text.err;
   EXPECT_NE(text.err.find("name it .png"), std::string::npos) << text.err;
   const CommandRun no_y = run_organsim(fmt::format("plot {} --x t -o {}", good, (dir_ / "out.png").string()), dir_);

@@ -64,9 +64,9 @@ void write_cylinder_ct(const fs::path& ct_path, const fs::path& label_path) {
 CommandRun bake_cylinder(const fs::path& dir, const std::string& model) {
   const fs::path ct = dir / "cylinder_ct.nii.gz", label = dir / "cylinder_label.nii.gz";
   write_cylinder_ct(ct, label);
-  return run_organsim("bake " + ct.string() + " --label " + label.string() +
-                          " --fixed-point 0,0,0 --surface-vertices 4000 -o " + model,
-                      dir);
+  return run_organsim(
+      "bake " + ct.string() + " --label " + label.string() + " --fixed-point 0,0,0 --surface-vertices 4000 -o " + model,
+      dir);
 }
 
 TEST_F(Cli, PokeABakedCylinderGivesTheCantileverForces) {
@@ -82,7 +82,8 @@ TEST_F(Cli, PokeABakedCylinderGivesTheCantileverForces) {
 
   const double e = 5000.0, radius = 0.025, delta = 0.005;
   const double area = M_PI * radius * radius, inertia = M_PI * std::pow(radius, 4) / 4.0;
-  const CommandRun transverse = run_organsim("poke " + model + " --tool 151,0,0/0,5,0 --json --unmatched --friction inf --tip-radius 0", dir_);
+  const CommandRun transverse =
+      run_organsim("poke " + model + " --tool 151,0,0/0,5,0 --json --unmatched --friction inf --tip-radius 0", dir_);
   ASSERT_EQ(transverse.exit_code, 0) << transverse.err;
   const nlohmann::json t = nlohmann::json::parse(transverse.out);
   const double length = t["tools"][0]["beam_length_mm"].get<double>() * 1e-3;
@@ -93,7 +94,8 @@ TEST_F(Cli, PokeABakedCylinderGivesTheCantileverForces) {
   EXPECT_LE(t["organ"]["max_displacement_mm"].get<double>(), 5.0 + 1e-9);
   EXPECT_GT(t["organ"]["max_displacement_mm"].get<double>(), 3.0);
 
-  const CommandRun axial = run_organsim("poke " + model + " --tool 151,0,0/-5,0,0 --json --unmatched --tip-radius 0", dir_);
+  const CommandRun axial =
+      run_organsim("poke " + model + " --tool 151,0,0/-5,0,0 --json --unmatched --tip-radius 0", dir_);
   ASSERT_EQ(axial.exit_code, 0) << axial.err;
   const nlohmann::json a = nlohmann::json::parse(axial.out);
   const double expected_axial = e * area * delta / length;
@@ -128,18 +130,22 @@ TEST_F(Cli, BakedCylinderBeamAndCorotationalFemForcesAgreeWithinBeamTheory) {
   };
   for (const std::string theory : {"euler-bernoulli", "timoshenko"}) {
     // A point load at the free end, as beam theory has it (--tip-radius 0).
-    const CommandRun run = run_organsim("compare " + model + " --tool 151,0,0/0,5,0 --models beam,corotational "
-                                            "--reference corotational --fixed-radius 26 --tip-radius 0 --friction inf --json "
-                                            "--theory " + theory,
-                                        dir_);
+    const CommandRun run =
+        run_organsim("compare " + model +
+                         " --tool 151,0,0/0,5,0 --models beam,corotational "
+                         "--reference corotational --fixed-radius 26 --tip-radius 0 --friction inf --json "
+                         "--theory " +
+                         theory,
+                     dir_);
     ASSERT_EQ(run.exit_code, 0) << run.err;
     const nlohmann::json j = nlohmann::json::parse(run.out);
     const double beam = -j["models"]["beam"]["forces_n"][0][1].get<double>();
     const double fem = -j["models"]["corotational"]["forces_n"][0][1].get<double>();
     const double low = stiffness(theory, length) / stiffness(theory, length - ball);
     const double high = stiffness(theory, length) / stiffness(theory, length - std::sqrt(ball * ball - a * a));
-    std::printf("baked cylinder, %s beam vs co-rotational FEM tip force: %.5f / %.5f N = %.3f (expected %.3f to %.3f)\n",
-                theory.c_str(), beam, fem, beam / fem, low, high);
+    std::printf(
+        "baked cylinder, %s beam vs co-rotational FEM tip force: %.5f / %.5f N = %.3f (expected %.3f to %.3f)\n",
+        theory.c_str(), beam, fem, beam / fem, low, high);
     EXPECT_GT(beam / fem, low) << theory;
     EXPECT_LT(beam / fem, high) << theory;
   }
@@ -149,8 +155,8 @@ TEST_F(Cli, PokeJsonHasTheDocumentedKeysAndWritesTheDeformedSurface) {
   const std::string model = (dir_ / "cylinder.organ").string();
   model::write_organ_model_file(testing::make_cylinder_model({}), model);
   const std::string out = (dir_ / "deformed.vtp").string();
-  const CommandRun run =
-      run_organsim("poke " + model + " --tool 150,0,0/0,5,0 --tool 80,31,0/0,-3,0 --merge sum --json --out " + out, dir_);
+  const CommandRun run = run_organsim(
+      "poke " + model + " --tool 150,0,0/0,5,0 --tool 80,31,0/0,-3,0 --merge sum --json --out " + out, dir_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const nlohmann::json j = nlohmann::json::parse(run.out);
   EXPECT_EQ(j["merge"], "sum");
@@ -163,7 +169,8 @@ TEST_F(Cli, PokeJsonHasTheDocumentedKeysAndWritesTheDeformedSurface) {
   for (const char* key : {"vertices", "max_displacement_mm", "max_displacement_vertex", "rest_volume_ml",
                           "deformed_volume_ml", "volume_change_percent"})
     EXPECT_TRUE(j["organ"].contains(key)) << key;
-  for (const char* key : {"beam_per_tool", "force_per_tool", "deformation"}) EXPECT_TRUE(j["seconds"].contains(key)) << key;
+  for (const char* key : {"beam_per_tool", "force_per_tool", "deformation"})
+    EXPECT_TRUE(j["seconds"].contains(key)) << key;
   EXPECT_TRUE(j["tools"][0]["held_points"].is_null()) << "the beam holds no boundary points";
   EXPECT_TRUE(j["contact_points_left_out"].is_null());
   EXPECT_TRUE(fs::exists(out));
@@ -187,8 +194,8 @@ TEST_F(Cli, PokeWithTheSpringModelPushesBackHarderTheDeeperItPresses) {
   model::write_organ_model_file(testing::make_cylinder_model({}), model);
   std::array<double, 2> pushed{};
   for (int depth = 1; depth <= 2; ++depth) {
-    const CommandRun run = run_organsim(
-        "poke " + model + fmt::format(" --tool 80,30,0/0,{},0 --model springs --json", -2 * depth), dir_);
+    const CommandRun run =
+        run_organsim("poke " + model + fmt::format(" --tool 80,30,0/0,{},0 --model springs --json", -2 * depth), dir_);
     ASSERT_EQ(run.exit_code, 0) << run.err;
     const nlohmann::json j = nlohmann::json::parse(run.out);
     EXPECT_EQ(j["deformation_model"], "springs");
@@ -257,8 +264,8 @@ TEST_F(Cli, APressOutsideTheFrictionConeSlipsOntoItAndAGraspHolds) {
     EXPECT_EQ(held_slip, (std::vector<double>{0.0, 0.0, 0.0})) << name;
     EXPECT_GT(std::hypot(held_force[0], held_force[2]), 0.2 * std::max(held_force[1], 0.0))
         << name << ": the held press leaves the cone";
-    std::printf("%s: held (%.4f, %.4f) N -> slipped by %.2f mm: (%.4f, %.4f) N\n", name, held_force[0],
-                held_force[1], slip[0], force[0], force[1]);
+    std::printf("%s: held (%.4f, %.4f) N -> slipped by %.2f mm: (%.4f, %.4f) N\n", name, held_force[0], held_force[1],
+                slip[0], force[0], force[1]);
   }
 }
 
@@ -279,9 +286,9 @@ TEST_F(Cli, APressWhoseShaftWouldPierceTheOrganElsewhereIsRefusedAndCalibrateNev
     return std::abs(y) <= 20.0 && (slab || tower || roof);
   });
   const std::string model = (dir_ / "step.organ").string();
-  const CommandRun bake = run_organsim("bake " + ct.string() + " --label " + label.string() +
-                                           " --fixed-point 0,0,0 --surface-vertices 3000 -o " + model,
-                                       dir_);
+  const CommandRun bake = run_organsim(
+      "bake " + ct.string() + " --label " + label.string() + " --fixed-point 0,0,0 --surface-vertices 3000 -o " + model,
+      dir_);
   ASSERT_EQ(bake.exit_code, 0) << bake.err;
   for (const char* name : {"springs", "linear"}) {
     const CommandRun toward = run_organsim("poke " + model + " --tool 30,0,20/-3.5,0,-3.5 --model " + name, dir_);

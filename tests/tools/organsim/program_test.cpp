@@ -36,21 +36,36 @@ struct Subcommand {
 };
 
 const std::vector<Subcommand> kSubcommands = {
-    {"bake", {"{dir}/ct.nii.gz", "-o {dir}/liver.organ"}, "--surface-vertices", "--stations many",
-     "{dir}/missing.nii.gz --seed 0,0,0 -o {dir}/liver.organ", "missing.nii.gz"},
+    {"bake",
+     {"{dir}/ct.nii.gz", "-o {dir}/liver.organ"},
+     "--surface-vertices",
+     "--stations many",
+     "{dir}/missing.nii.gz --seed 0,0,0 -o {dir}/liver.organ",
+     "missing.nii.gz"},
     {"phantom", {"-o {dir}/ct.nii.gz"}, "--mask", "--size 16,16", "-o {dir}/ct.png --size 16,16,16", "ct.png"},
     {"fem", {"{dir}/problem.json"}, "--out", "--out {dir}/result.txt", "{dir}/missing.json", "missing.json"},
     {"info", {"{dir}/model.organ"}, "--beam", "--beam -1", "{dir}/missing.organ", "missing.organ"},
-    {"plot", {"{dir}/trace.csv", "--x step", "--y dz", "-o {dir}/plot.png"}, "--title", "--size 16,16",
-     "{dir}/missing.csv --x step --y dz -o {dir}/plot.png", "missing.csv"},
-    {"poke", {"{dir}/model.organ", "--tool 150,0,0/0,5,0"}, "--merge", "--merge average",
-     "{dir}/missing.organ --tool 150,0,0/0,5,0", "missing.organ"},
-    {"replay", {"{dir}/model.organ", "{dir}/press.session"}, "--forces", "--max-force -1",
-     "{dir}/missing.organ {dir}/press.session --fast", "missing.organ"},
+    {"plot",
+     {"{dir}/trace.csv", "--x step", "--y dz", "-o {dir}/plot.png"},
+     "--title",
+     "--size 16,16",
+     "{dir}/missing.csv --x step --y dz -o {dir}/plot.png",
+     "missing.csv"},
+    {"poke",
+     {"{dir}/model.organ", "--tool 150,0,0/0,5,0"},
+     "--merge",
+     "--merge average",
+     "{dir}/missing.organ --tool 150,0,0/0,5,0",
+     "missing.organ"},
+    {"replay",
+     {"{dir}/model.organ", "{dir}/press.session"},
+     "--forces",
+     "--max-force -1",
+     "{dir}/missing.organ {dir}/press.session --fast",
+     "missing.organ"},
     {"springs", {}, "--integrator", "--dt 0", "{dir}/missing.organ", "missing.organ"},
     {"touch", {"{dir}/model.organ"}, "--hd-library", "--seconds 0", "{dir}/missing.organ", "missing.organ"},
-    {"view", {"{dir}/model.organ"}, "--screenshot", "--frames -1", "{dir}/missing.organ --offscreen",
-     "missing.organ"},
+    {"view", {"{dir}/model.organ"}, "--screenshot", "--frames -1", "{dir}/missing.organ --offscreen", "missing.organ"},
 };
 
 std::string prefix_of(const std::string& command) { return command.empty() ? "organsim" : "organsim " + command; }
@@ -172,8 +187,9 @@ TEST_F(CliConventions, WithoutAKnownSubcommandTheProgramGivesAUsageError) {
 }
 
 TEST_F(CliConventions, AnUnknownOptionIsAUsageErrorThatNamesIt) {
-  expect_usage_error_on_every_command(
-      [](const Subcommand&) { return UsageCase{"--no-such-option", "--no-such-option"}; });
+  expect_usage_error_on_every_command([](const Subcommand&) {
+    return UsageCase{"--no-such-option", "--no-such-option"};
+  });
 }
 
 TEST_F(CliConventions, AMissingRequiredArgumentIsAUsageError) {
@@ -193,8 +209,9 @@ TEST_F(CliConventions, ABadOptionValueIsAUsageErrorThatNamesTheOption) {
 }
 
 TEST_F(CliConventions, QuietAndVerboseExcludeEachOther) {
-  expect_usage_error_on_every_command(
-      [](const Subcommand&) { return UsageCase{"--quiet --verbose", "--quiet excludes --verbose"}; });
+  expect_usage_error_on_every_command([](const Subcommand&) {
+    return UsageCase{"--quiet --verbose", "--quiet excludes --verbose"};
+  });
 }
 
 TEST_F(CliConventions, AnInputErrorIsExitOneWithOneLineAndLeavesNothing) {
@@ -204,9 +221,8 @@ TEST_F(CliConventions, AnInputErrorIsExitOneWithOneLineAndLeavesNothing) {
       EXPECT_EQ(run.exit_code, 1) << command.name << ": " << run.err;
       EXPECT_TRUE(run.out.empty()) << command.name << ": " << run.out;
       // Without --quiet, bake's progress comes first: the error is its last line.
-      const std::string error = quiet.empty() && !run.err.empty()
-                                    ? run.err.substr(run.err.rfind('\n', run.err.size() - 2) + 1)
-                                    : run.err;
+      const std::string error =
+          quiet.empty() && !run.err.empty() ? run.err.substr(run.err.rfind('\n', run.err.size() - 2) + 1) : run.err;
       EXPECT_TRUE(one_error_line(error, command.name)) << command.name << " " << quiet;
       EXPECT_EQ(run.err.find(": error: "), run.err.rfind(": error: ")) << "more than one error:\n" << run.err;
       EXPECT_NE(error.find(command.input_named), std::string::npos) << error;

@@ -38,9 +38,10 @@ TEST_F(Cli, ReplayForcesEqualPokeForcesOnTheBakedPhantom) {
   // CT → bake → a two-tool session through the real engine (deterministic
   // stepping) → the held forces equal `organsim poke` for the same presses.
   const std::string model = (dir_ / "phantom.organ").string();
-  const CommandRun bake = run_organsim("bake " + std::string(ORGANSIM_DATA_SAMPLES) +
-                                           "/phantom_ct.nii.gz --seed -65,5,0 --fixed-point -29.76,16.10,-70.96 -o " + model,
-                                       dir_);
+  const CommandRun bake =
+      run_organsim("bake " + std::string(ORGANSIM_DATA_SAMPLES) +
+                       "/phantom_ct.nii.gz --seed -65,5,0 --fixed-point -29.76,16.10,-70.96 -o " + model,
+                   dir_);
   ASSERT_EQ(bake.exit_code, 0) << bake.err;
   std::array<std::vector<double>, 2> point, normal;
   for (int k = 0; k < 2; ++k) {
@@ -163,10 +164,9 @@ TEST_F(Cli, ReplayWithTheSpringModelIsBitIdenticalAndPushesBack) {
   std::array<std::string, 2> csv;
   for (int run = 0; run < 2; ++run) {
     const fs::path forces = dir_ / fmt::format("springs_{}.csv", run);
-    const CommandRun replay =
-        run_organsim("replay " + model + " " + session.string() + " --model springs --fast --json --forces " +
-                         forces.string(),
-                     dir_);
+    const CommandRun replay = run_organsim(
+        "replay " + model + " " + session.string() + " --model springs --fast --json --forces " + forces.string(),
+        dir_);
     ASSERT_EQ(replay.exit_code, 0) << replay.err;
     const nlohmann::json j = nlohmann::json::parse(replay.out);
     EXPECT_EQ(j["deformation_model"], "springs");
@@ -264,10 +264,10 @@ TEST_F(Cli, AModelWithoutBeamTablesRunsEveryOtherModelAndBeamRefusesItInOneLine)
     std::array<std::string, 2> csv;
     for (int file = 0; file < 2; ++file) {
       const fs::path forces = dir_ / fmt::format("{}_{}.csv", name, file);
-      const CommandRun replay = run_organsim("replay " + (file == 0 ? model : bare) + " " + session.string() +
-                                                 " --model " + name + " --fixed-radius 31 --fast --json --forces " +
-                                                 forces.string(),
-                                             dir_);
+      const CommandRun replay =
+          run_organsim("replay " + (file == 0 ? model : bare) + " " + session.string() + " --model " + name +
+                           " --fixed-radius 31 --fast --json --forces " + forces.string(),
+                       dir_);
       ASSERT_EQ(replay.exit_code, 0) << name << ": " << replay.err;
       const nlohmann::json j = nlohmann::json::parse(replay.out);
       EXPECT_GT(j["tools"][0]["peak_force_n"].get<double>(), 0.001) << name;
@@ -282,7 +282,8 @@ TEST_F(Cli, AModelWithoutBeamTablesRunsEveryOtherModelAndBeamRefusesItInOneLine)
 
 TEST_F(Cli, ReplayThroughBothModelsReportsThemSideBySide) {
   const auto [model, session] = write_cylinder_and_two_tool_press(dir_);
-  const CommandRun both = run_organsim("replay " + model + " " + session.string() + " --model beam,springs --fast", dir_);
+  const CommandRun both =
+      run_organsim("replay " + model + " " + session.string() + " --model beam,springs --fast", dir_);
   ASSERT_EQ(both.exit_code, 0) << both.err;
   for (const char* row : {"tool 1 ", "tool 2 ", "force loop ", "deformation "}) {
     const std::size_t at = both.out.find(row);
@@ -317,7 +318,6 @@ TEST_F(Cli, ReplayBadInputsFailWithOneLine) {
   }
 }
 
-
 // Hostile or mistyped sessions: a time stamp of 99999999 s or a tool at 1e308
 // mm is refused with the line named, before anything is sized from it.
 TEST_F(Cli, ReplayRefusesSessionsLongerThanADayOrFarFromTheOrgan) {
@@ -331,9 +331,10 @@ TEST_F(Cli, ReplayRefusesSessionsLongerThanADayOrFarFromTheOrgan) {
   const std::string long_session = session("long.session", "0,1,160,0,0\n99999999,1,150,0,0\n");
   const std::string far = session("far.session", "0,1,160,0,0\n1,1,1e308,0,0\n");
   const std::string day_and_more = session("day.session", "0,1,160,0,0\n90000,1,150,0,0\n");
-  for (const auto& [path, message] : {std::pair{long_session, "long.session:3: 1e+08 s is later than a session may last"},
-                                      std::pair{far, "far.session:3: tool 1 is 1e+305 m from the organ"},
-                                      std::pair{day_and_more, "day.session:3: 90000 s is later"}}) {
+  for (const auto& [path, message] :
+       {std::pair{long_session, "long.session:3: 1e+08 s is later than a session may last"},
+        std::pair{far, "far.session:3: tool 1 is 1e+305 m from the organ"},
+        std::pair{day_and_more, "day.session:3: 90000 s is later"}}) {
     const CommandRun run = run_organsim("replay " + model + " " + path + " --fast", dir_);
     EXPECT_EQ(run.exit_code, 1) << path;
     EXPECT_NE(run.err.find(message), std::string::npos) << run.err;
@@ -363,7 +364,8 @@ TEST_F(Cli, ALiverLetGoComesBackToRestWithoutFlyingApart) {
   {  // The sample session with its last samples (both tools away) at 4.5 s instead of 3.0 s.
     std::ifstream in(kSamples / "liver_two_tools.session");
     std::ofstream out(dir_ / "long.session");
-    for (std::string line; std::getline(in, line);) out << (line.rfind("3.000,", 0) == 0 ? "4.500," + line.substr(6) : line) << '\n';
+    for (std::string line; std::getline(in, line);)
+      out << (line.rfind("3.000,", 0) == 0 ? "4.500," + line.substr(6) : line) << '\n';
   }
   auto positions = [](const fs::path& vtp) {
     vtkNew<vtkXMLPolyDataReader> reader;
@@ -376,10 +378,10 @@ TEST_F(Cli, ALiverLetGoComesBackToRestWithoutFlyingApart) {
   };
   for (const char* name : {"corotational", "stvk"}) {
     const fs::path frames = dir_ / name;
-    const CommandRun replay = run_organsim(
-        fmt::format("replay {} {} --model {} --fast --json --frames {}", (dir_ / "liver.organ").string(),
-                    (dir_ / "long.session").string(), name, frames.string()),
-        dir_);
+    const CommandRun replay =
+        run_organsim(fmt::format("replay {} {} --model {} --fast --json --frames {}", (dir_ / "liver.organ").string(),
+                                 (dir_ / "long.session").string(), name, frames.string()),
+                     dir_);
     ASSERT_EQ(replay.exit_code, 0) << name << ": " << replay.err;
     const int count = nlohmann::json::parse(replay.out)["deformation_loop"]["frames"].get<int>();
     ASSERT_EQ(count, 271) << name;
@@ -407,11 +409,10 @@ TEST_F(Cli, ALiverLetGoComesBackToRestWithoutFlyingApart) {
 // models alike: checked by hand, PSH's replay alone takes 25 s).
 TEST_F(Cli, AFineLiverFollowsBothPressesInEveryFrame) {
   const fs::path samples = kSamples / "real_ct_totalseg";
-  const CommandRun bake = run_organsim("bake " + (samples / "example_ct.nii.gz").string() + " --label " +
-                                           (samples / "liver_mask_ct.nii.gz").string() +
-                                           " --tet-size 4.4 --no-site-compliance --no-beam-tables --quiet -o " +
-                                           (dir_ / "fine.organ").string(),
-                                       dir_);
+  const CommandRun bake = run_organsim(
+      "bake " + (samples / "example_ct.nii.gz").string() + " --label " + (samples / "liver_mask_ct.nii.gz").string() +
+          " --tet-size 4.4 --no-site-compliance --no-beam-tables --quiet -o " + (dir_ / "fine.organ").string(),
+      dir_);
   ASSERT_EQ(bake.exit_code, 0) << bake.err;
   const CommandRun replay =
       run_organsim(fmt::format("replay {} {} --model corotational --fast --json", (dir_ / "fine.organ").string(),
@@ -434,8 +435,8 @@ TEST_F(Cli, ReplayMemoryStaysFlatOverALongSession) {
   const fs::path forces = dir_ / "forces.csv", report = dir_ / "report";
   // The training report's raw data streams to disk as the forces do.
   const CommandRun run = run_organsim("replay " + model + " " + session.string() +
-                                          " --fast --json --repeat-for 300 --progress 0.05 --forces " + forces.string() +
-                                          " --report " + report.string(),
+                                          " --fast --json --repeat-for 300 --progress 0.05 --forces " +
+                                          forces.string() + " --report " + report.string(),
                                       dir_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   std::vector<double> resident;
@@ -464,8 +465,8 @@ TEST_F(Cli, ReplayOnAFullDiskFailsWithOneLineAndLeavesNoForcesFile) {
   const auto [model, session] = write_cylinder_and_two_tool_press(dir_);
   const fs::path forces = dir_ / "forces.csv";
   const CommandRun run = run_organsim_with_prefix(
-      "ulimit -f 64; ", "replay " + model + " " + session.string() + " --fast --repeat-for 20 --forces " + forces.string(),
-      dir_);
+      "ulimit -f 64; ",
+      "replay " + model + " " + session.string() + " --fast --repeat-for 20 --forces " + forces.string(), dir_);
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("cannot write '" + forces.string() + "'"), std::string::npos) << run.err;
   EXPECT_NE(run.err.find("File too large"), std::string::npos) << run.err;

@@ -98,7 +98,7 @@ TEST_F(Cli, ReportMetricsAreTheHandWorkedOnesOfAKnownPress) {
   EXPECT_NEAR(again["events"][0]["start_s"].get<double>(), 0.15, 1.0 / 60.0 + 2e-3);
   EXPECT_NEAR(again["events"][0]["duration_s"].get<double>(), 1.1, 1.0 / 60.0 + 2e-3);
   EXPECT_NEAR(again["events"][0]["where_mm"][0].get<double>(), 146.0, 0.05);  // at the deepest point
-  EXPECT_DOUBLE_EQ(again["peak_force_n"].get<double>(), peak);  // the limit changes no force
+  EXPECT_DOUBLE_EQ(again["peak_force_n"].get<double>(), peak);                // the limit changes no force
 }
 
 // The limit is judged on the force the model computed, before the device's
@@ -143,10 +143,10 @@ TEST_F(Cli, ReportJudgesTheLimitOnTheModelsForceBeforeTheDevicesClamp) {
 TEST_F(Cli, ReplayOfSeveralModelsWritesAReportPerModelThatReportRebuildsAll) {
   const KnownPress press = write_known_press(dir_);
   const fs::path report = dir_ / "report";
-  const CommandRun replay = run_organsim(
-      "replay " + press.model + " " + press.session + " --fast --tip-radius 0 --fixed-radius 31 --model beam,springs,psh --report " +
-          report.string(),
-      dir_);
+  const CommandRun replay =
+      run_organsim("replay " + press.model + " " + press.session +
+                       " --fast --tip-radius 0 --fixed-radius 31 --model beam,springs,psh --report " + report.string(),
+                   dir_);
   ASSERT_EQ(replay.exit_code, 0) << replay.err;
   EXPECT_FALSE(fs::exists(report / "index.html"));
   for (const char* model : {"beam", "springs", "psh"}) {
@@ -206,16 +206,16 @@ TEST_F(Cli, ReportSaysWhenTheLoopsFailedAndComparesWithAReferenceRun) {
   const KnownPress press = write_known_press(dir_);
   const fs::path trainee = dir_ / "trainee", expert = dir_ / "expert";
   // The trainee's run in real time: the machine's floor is probed after it, for as long.
-  ASSERT_EQ(run_organsim("replay " + press.model + " " + press.session + " --report " + trainee.string(), dir_).exit_code,
-            0);
+  ASSERT_EQ(
+      run_organsim("replay " + press.model + " " + press.session + " --report " + trainee.string(), dir_).exit_code, 0);
   const nlohmann::json floor = read_json(trainee / "metrics.json")["loop_health"]["machine_floor"];
   EXPECT_DOUBLE_EQ(floor["probe_s"].get<double>(), 1.4);
   EXPECT_GE(floor["stalls_over_2ms"].get<int>(), 0);
-  ASSERT_EQ(run_organsim("replay " + press.model + " " + press.session + " --fast --model springs --report " +
-                             expert.string(),
-                         dir_)
-                .exit_code,
-            0);
+  ASSERT_EQ(
+      run_organsim(
+          "replay " + press.model + " " + press.session + " --fast --model springs --report " + expert.string(), dir_)
+          .exit_code,
+      0);
   std::string html = read_text(trainee / "index.html");
   EXPECT_NE(html.find("in a 1.4 s probe after the session"), std::string::npos);
   // A run stepped in session time (--fast) has no deadlines: its page says
@@ -234,8 +234,7 @@ TEST_F(Cli, ReportSaysWhenTheLoopsFailedAndComparesWithAReferenceRun) {
   run["loop_health"]["frames_dropped"] = 7;
   run["loop_health"]["pose_faults"] = 2;
   std::ofstream(trainee / "run.json") << run.dump(2);
-  const CommandRun rebuilt =
-      run_organsim("report " + trainee.string() + " --reference-run " + expert.string(), dir_);
+  const CommandRun rebuilt = run_organsim("report " + trainee.string() + " --reference-run " + expert.string(), dir_);
   ASSERT_EQ(rebuilt.exit_code, 0) << rebuilt.err;
   html = read_text(trainee / "index.html");
   EXPECT_NE(html.find("<td class=\"warn\">7 — the organ's picture lagged the tools</td>"), std::string::npos);
@@ -248,12 +247,14 @@ TEST_F(Cli, ReportSaysWhenTheLoopsFailedAndComparesWithAReferenceRun) {
   // --fast reference's unmeasured ones.
   EXPECT_NE(html.find("<tr><td>duration</td><td>1.40 s</td><td>1.40 s</td><td>+0.00 s</td></tr>"), std::string::npos);
   EXPECT_NE(html.find("<tr><td>deformation frames dropped</td><td>7</td><td>–</td><td>–</td></tr>"), std::string::npos);
-  EXPECT_NE(html.find("<tr><td>device faults (lost poses)</td><td>2</td><td>0</td><td>+2</td></tr>"), std::string::npos);
+  EXPECT_NE(html.find("<tr><td>device faults (lost poses)</td><td>2</td><td>0</td><td>+2</td></tr>"),
+            std::string::npos);
 
   // A directory without a recorded run is a one-line error.
   const CommandRun missing = run_organsim("report " + (dir_ / "nothing").string(), dir_);
   EXPECT_EQ(missing.exit_code, 1);
-  EXPECT_NE(missing.err.find("run.json: missing; was the run recorded with --report?"), std::string::npos) << missing.err;
+  EXPECT_NE(missing.err.find("run.json: missing; was the run recorded with --report?"), std::string::npos)
+      << missing.err;
 }
 
 }  // namespace

@@ -35,11 +35,11 @@ TEST_F(Cli, SegmentTheRealCtFromOneSeedAndCompareWithItsLabel) {
 
 TEST_F(Cli, SegmentJsonWithSeveralAndBackgroundSeeds) {
   const fs::path mask = dir_ / "mask.nii.gz";
-  const CommandRun run = run_organsim(
-      "segment " + real_ct("example_ct.nii.gz").string() +
-          " --seed-voxel 86,47,108 --seed-voxel 93,61,87 --background-seed-voxel 65,51,106 -o " + mask.string() +
-          " --reference " + real_ct("liver_mask_ct.nii.gz").string() + " --json",
-      dir_);
+  const CommandRun run =
+      run_organsim("segment " + real_ct("example_ct.nii.gz").string() +
+                       " --seed-voxel 86,47,108 --seed-voxel 93,61,87 --background-seed-voxel 65,51,106 -o " +
+                       mask.string() + " --reference " + real_ct("liver_mask_ct.nii.gz").string() + " --json",
+                   dir_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const nlohmann::json j = nlohmann::json::parse(run.out);
   EXPECT_EQ(j["mask"], mask.string());
@@ -51,8 +51,8 @@ TEST_F(Cli, SegmentJsonWithSeveralAndBackgroundSeeds) {
   EXPECT_LT(s["hu_window"][0].get<double>(), s["organ_median_hu"].get<double>());
   EXPECT_GT(s["hu_window"][1].get<double>(), s["organ_median_hu"].get<double>());
   EXPECT_TRUE(s["warnings"].empty());
-  for (const char* step : {"working grid", "smoothing", "window", "background seeds", "leak control",
-                           "holes and closing", "CT grid"})
+  for (const char* step :
+       {"working grid", "smoothing", "window", "background seeds", "leak control", "holes and closing", "CT grid"})
     EXPECT_TRUE(s["seconds"].contains(step)) << step;
 }
 
@@ -64,11 +64,10 @@ TEST_F(Cli, SegmentErrorsSayWhatIsWrong) {
     int exit_code;
     std::string fragment;
   };
-  for (const Case& c : {Case{"--seed-voxel 2,2,60", 1, "lies in air"},
-                        Case{"--seed-voxel 2,2,600", 1, "outside the volume"},
-                        Case{"--seed 1,2", 2, "X,Y,Z"},
-                        Case{"--seed-voxel 1.5,2,3", 2, "whole voxel indices"},
-                        Case{"", 2, "at least one point inside the organ"}}) {
+  for (const Case& c :
+       {Case{"--seed-voxel 2,2,60", 1, "lies in air"}, Case{"--seed-voxel 2,2,600", 1, "outside the volume"},
+        Case{"--seed 1,2", 2, "X,Y,Z"}, Case{"--seed-voxel 1.5,2,3", 2, "whole voxel indices"},
+        Case{"", 2, "at least one point inside the organ"}}) {
     const CommandRun run = run_organsim("segment " + ct + " " + c.arguments + " -o " + mask.string(), dir_);
     EXPECT_EQ(run.exit_code, c.exit_code) << c.arguments << "\n" << run.err;
     EXPECT_NE(run.err.find(c.fragment), std::string::npos) << c.arguments << "\n" << run.err;

@@ -163,8 +163,8 @@ TEST_F(Cli, ServePressedOverOpenIgtLinkSendsTheDeformedOrganAndPokesForce) {
   const auto a = at["action_point_mm"].get<std::vector<double>>(), n = at["normal"].get<std::vector<double>>();
   const Eigen::Vector3d action(a[0], a[1], a[2]), normal(n[0], n[1], n[2]);
   const CommandRun poke =
-      run_organsim(fmt::format("poke {} --tool {:.9f},{:.9f},{:.9f}/{:.9f},{:.9f},{:.9f} --json --friction 1e6", model, action[0],
-                               action[1], action[2], -5 * normal[0], -5 * normal[1], -5 * normal[2]),
+      run_organsim(fmt::format("poke {} --tool {:.9f},{:.9f},{:.9f}/{:.9f},{:.9f},{:.9f} --json --friction 1e6", model,
+                               action[0], action[1], action[2], -5 * normal[0], -5 * normal[1], -5 * normal[2]),
                    dir_);
   ASSERT_EQ(poke.exit_code, 0) << poke.err;
   const auto f = nlohmann::json::parse(poke.out)["tools"][0]["force_n"].get<std::vector<double>>();
@@ -174,9 +174,10 @@ TEST_F(Cli, ServePressedOverOpenIgtLinkSendsTheDeformedOrganAndPokesForce) {
   // With a friction no press overcomes the organ never slips: the force does
   // not depend on the way the press went (docs/realtime.md#contact-rule).
   const fs::path report = dir_ / "report";
-  ServeProcess serve(model + " --igtl-port 0 --tools 2 --max-force 100 --max-stiffness 1e6 --json --friction 1e6 --report " +
-                         report.string(),
-                     dir_);
+  ServeProcess serve(
+      model + " --igtl-port 0 --tools 2 --max-force 100 --max-stiffness 1e6 --json --friction 1e6 --report " +
+          report.string(),
+      dir_);
   const int port = serve.port();
   ASSERT_GT(port, 0);
   IgtlClient client(port);
@@ -350,10 +351,9 @@ TEST_F(Cli, ServeLogsBadMessagesOnceDropsThemAndServesAClientThatComesBack) {
 
   const CommandRun done = serve.stop();
   ASSERT_EQ(done.exit_code, 0) << done.err;
-  for (const char* logged :
-       {"holds NaN or infinite values", "more than 10 m from the organ", "failed its CRC check",
-        "wrong size for a TRANSFORM", "of a type serve does not read", "not named after a tool served",
-        "cannot start a message"})
+  for (const char* logged : {"holds NaN or infinite values", "more than 10 m from the organ", "failed its CRC check",
+                             "wrong size for a TRANSFORM", "of a type serve does not read",
+                             "not named after a tool served", "cannot start a message"})
     EXPECT_EQ(count(done.err, logged), 1) << logged << " in:\n" << done.err;
   EXPECT_EQ(count(done.err, " connected\n"), 2) << done.err;
   EXPECT_EQ(count(done.err, "disconnected (the stream was out of step)"), 1) << done.err;

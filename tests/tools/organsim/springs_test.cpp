@@ -74,7 +74,8 @@ TEST_F(Cli, SpringsStableSettingsMoveTheForceVertexAlongTheForce) {
   // The paper's grid and load with the implicit integrator at the paper's dt,
   // and with midpoint at a tenth of it (below its stability limit).
   for (const std::string& arguments :
-       {std::string("--grid 15x15 --integrator implicit --steps 30"), std::string("--grid 15x15 --dt 0.001 --steps 100"),
+       {std::string("--grid 15x15 --integrator implicit --steps 30"),
+        std::string("--grid 15x15 --dt 0.001 --steps 100"),
         std::string("--grid 9x9 --integrator rk4 --dt 0.002 --steps 50 --force 1,0,-2")}) {
     const nlohmann::json j = springs_json(arguments, dir_);
     ASSERT_TRUE(j.contains("stable")) << arguments;
@@ -85,13 +86,15 @@ TEST_F(Cli, SpringsStableSettingsMoveTheForceVertexAlongTheForce) {
     EXPECT_EQ(at, side / 2 + side * (side / 2)) << "the centre vertex";
     const bool sideways = arguments.find("--force 1,0,-2") != std::string::npos;
     const double force[3] = {sideways ? 1.0 : 0.0, 0.0, sideways ? -2.0 : -5.0};
-    const double along = (moved[0] * force[0] + moved[1] * force[1] + moved[2] * force[2]) /
-                         std::hypot(force[0], force[1], force[2]);
+    const double along =
+        (moved[0] * force[0] + moved[1] * force[1] + moved[2] * force[2]) / std::hypot(force[0], force[1], force[2]);
     EXPECT_GT(along, 0.005) << arguments << ": moved less than 5 mm along the force";
     EXPECT_LT(moved[2], -0.005) << arguments;
     EXPECT_NEAR(moved[1], 0.0, 1e-9) << arguments << ": no force along y";
-    if (sideways) EXPECT_GT(moved[0], 0.0) << arguments;
-    else EXPECT_NEAR(moved[0], 0.0, 1e-9) << arguments;
+    if (sideways)
+      EXPECT_GT(moved[0], 0.0) << arguments;
+    else
+      EXPECT_NEAR(moved[0], 0.0, 1e-9) << arguments;
     // The reported displacement is the force vertex's position less its rest position.
     const nlohmann::json& p = j["positions"][at];
     EXPECT_DOUBLE_EQ(p[2].get<double>(), moved[2]);
@@ -215,10 +218,10 @@ TEST_F(Cli, SpringsBadInputIsOneErrorLine) {
       {"--grid 15x15 --force nan,0,0", 2},
       {"--grid 15x15 --force 0,0,inf", 2},
       {"--grid 15x15 --at 225", 1},
-      {"--grid 15x15 --at 0", 1},                      // a border vertex: fixed
-      {"--grid 15x15 --volume-springs", 2},            // a grid has no tetrahedra
-      {"", 2},                                         // neither a model nor a grid
-      {(dir_ / "missing.organ").string(), 1},          // a model that is not there
+      {"--grid 15x15 --at 0", 1},              // a border vertex: fixed
+      {"--grid 15x15 --volume-springs", 2},    // a grid has no tetrahedra
+      {"", 2},                                 // neither a model nor a grid
+      {(dir_ / "missing.organ").string(), 1},  // a model that is not there
   };
   for (const auto& [arguments, exit_code] : cases) {
     const CommandRun run = run_organsim("springs " + arguments, dir_);

@@ -37,10 +37,10 @@ TEST_F(Cli, TouchRunsOpenHapticsDevicesFromALibraryLoadedAtRunTime) {
 TEST_F(Cli, TouchReportsADeviceThatFailsMidSession) {
   const std::string model = (dir_ / "cylinder.organ").string();
   model::write_organ_model_file(testing::make_cylinder_model({}), model);
-  const CommandRun run = run_organsim_with_prefix(
-      "FAKEHD_FAIL=1:0.2:0.5:770 ",
-      "touch " + model + " --hd-library " + std::string(FAKE_HD_LIBRARY) + " --device a --device b --seconds 0.8 --json",
-      dir_);
+  const CommandRun run = run_organsim_with_prefix("FAKEHD_FAIL=1:0.2:0.5:770 ",
+                                                  "touch " + model + " --hd-library " + std::string(FAKE_HD_LIBRARY) +
+                                                      " --device a --device b --seconds 0.8 --json",
+                                                  dir_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.err.find("device 2 reported HD error 0x0302 at 0."), std::string::npos) << run.err;
   EXPECT_NE(run.err.find("its force fades to zero and the other devices go on"), std::string::npos) << run.err;
@@ -59,11 +59,11 @@ TEST_F(Cli, TouchWritesATrainingReportThatShowsAFailedDevice) {
   const std::string model = (dir_ / "cylinder.organ").string();
   model::write_organ_model_file(testing::make_cylinder_model({}), model);
   const fs::path report = dir_ / "report";
-  const CommandRun run = run_organsim_with_prefix(
-      "FAKEHD_FAIL=1:0.2:0.5:770 ",
-      "touch " + model + " --hd-library " + std::string(FAKE_HD_LIBRARY) + " --device a --device b --seconds 0.8 " +
-          "--json --report " + report.string(),
-      dir_);
+  const CommandRun run =
+      run_organsim_with_prefix("FAKEHD_FAIL=1:0.2:0.5:770 ",
+                               "touch " + model + " --hd-library " + std::string(FAKE_HD_LIBRARY) +
+                                   " --device a --device b --seconds 0.8 " + "--json --report " + report.string(),
+                               dir_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_EQ(nlohmann::json::parse(run.out)["report"], (report / "index.html").string());
   std::ifstream in(report / "metrics.json");

@@ -42,12 +42,13 @@ TEST_F(Cli, ViewScreenshotShowsTheOrganMovedWhereTheToolsPushed) {
   model::write_organ_model_file(testing::make_cylinder_model({}), model);
   const std::string session = write_press_session(dir_).string();
   const fs::path rest = dir_ / "rest.png", pushed = dir_ / "pushed.png";
-  const CommandRun first = run_viewer("view " + model + " --session " + session +
-                                          " --offscreen --hide-tools --frames 1 --screenshot " + rest.string(),
-                                      dir_);
+  const CommandRun first = run_viewer(
+      "view " + model + " --session " + session + " --offscreen --hide-tools --frames 1 --screenshot " + rest.string(),
+      dir_);
   ASSERT_EQ(first.exit_code, 0) << first.err;
   const CommandRun last = run_viewer(
-      "view " + model + " --session " + session + " --offscreen --hide-tools --json --screenshot " + pushed.string(), dir_);
+      "view " + model + " --session " + session + " --offscreen --hide-tools --json --screenshot " + pushed.string(),
+      dir_);
   ASSERT_EQ(last.exit_code, 0) << last.err;
   const nlohmann::json j = nlohmann::json::parse(last.out);
   EXPECT_EQ(j["frames"], 61);
@@ -80,8 +81,8 @@ TEST_F(Cli, ViewScreenshotShowsTheOrganMovedWhereTheToolsPushed) {
   ASSERT_GT(changed, 300) << "the organ did not move on screen";
   for (int k = 0; k < 2; ++k) {
     EXPECT_GT(near_tool[k], 1000) << "around tool " << k + 1 << " the picture changed little";
-    EXPECT_GT(near_tool[k], 3 * near_clamp) << near_tool[k] << " changed pixels near tool " << k + 1 << ", "
-                                             << near_clamp << " near the clamp";
+    EXPECT_GT(near_tool[k], 3 * near_clamp)
+        << near_tool[k] << " changed pixels near tool " << k + 1 << ", " << near_clamp << " near the clamp";
   }
 }
 
@@ -98,8 +99,8 @@ TEST_F(Cli, ViewRecordingOnAFullDiskFailsWithOneLineAndLeavesNoVideo) {
   // stderr) when several virtual displays come and go at once.
   const fs::path exit_code = dir_.string() + ".exit";
   CommandRun run = run_organsim_with_prefix(
-      "xvfb-run -a -s '-screen 0 1280x1024x24' sh -c 'ulimit -f 200; \"$0\" \"$@\"; echo $? > " +
-          exit_code.string() + "' ",
+      "xvfb-run -a -s '-screen 0 1280x1024x24' sh -c 'ulimit -f 200; \"$0\" \"$@\"; echo $? > " + exit_code.string() +
+          "' ",
       "view " + model + " --session " + session + " --offscreen --record " + video.string(), dir_);
   std::ifstream(exit_code) >> run.exit_code;
   fs::remove(exit_code);
@@ -120,10 +121,10 @@ TEST_F(Cli, ViewRecordsEveryFrameAndStartsWithoutABrokenBackground) {
   model::write_organ_model_file(testing::make_cylinder_model({}), model);
   const std::string session = write_press_session(dir_).string();
   const fs::path video = dir_ / "session.avi", shot = dir_ / "shot.png";
-  const CommandRun run = run_viewer("view " + model + " --session " + session + " --offscreen --frames 30 --record " +
-                                        video.string() + " --background " + (dir_ / "missing.png").string() +
-                                        " --screenshot " + shot.string(),
-                                    dir_);
+  const CommandRun run =
+      run_viewer("view " + model + " --session " + session + " --offscreen --frames 30 --record " + video.string() +
+                     " --background " + (dir_ / "missing.png").string() + " --screenshot " + shot.string(),
+                 dir_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.err.find("warning"), std::string::npos) << run.err;
   EXPECT_NE(run.err.find("missing.png does not exist"), std::string::npos) << run.err;
@@ -132,9 +133,9 @@ TEST_F(Cli, ViewRecordsEveryFrameAndStartsWithoutABrokenBackground) {
   // An unreadable background (not an image, not a video) is the same: a warning.
   const fs::path garbage = dir_ / "garbage.png";
   std::ofstream(garbage) << "not an image";
-  const CommandRun unreadable = run_viewer("view " + model + " --session " + session + " --offscreen --frames 2 " +
-                                               "--background " + garbage.string(),
-                                           dir_);
+  const CommandRun unreadable = run_viewer(
+      "view " + model + " --session " + session + " --offscreen --frames 2 " + "--background " + garbage.string(),
+      dir_);
   ASSERT_EQ(unreadable.exit_code, 0) << unreadable.err;
   EXPECT_NE(unreadable.err.find("neither an image nor a video"), std::string::npos) << unreadable.err;
   cv::VideoCapture capture(video.string());
@@ -148,9 +149,10 @@ TEST_F(Cli, ViewRecordsEveryFrameAndStartsWithoutABrokenBackground) {
   const fs::path backdrop = dir_ / "backdrop.png";
   cv::imwrite(backdrop.string(), cv::Mat(120, 160, CV_8UC3, cv::Scalar(0, 200, 0)));
   const fs::path green = dir_ / "green.png";
-  const CommandRun with = run_viewer("view " + model + " --session " + session + " --offscreen --frames 1 --background " +
-                                         backdrop.string() + " --screenshot " + green.string(),
-                                     dir_);
+  const CommandRun with =
+      run_viewer("view " + model + " --session " + session + " --offscreen --frames 1 --background " +
+                     backdrop.string() + " --screenshot " + green.string(),
+                 dir_);
   ASSERT_EQ(with.exit_code, 0) << with.err;
   const cv::Mat picture = cv::imread(green.string());
   const cv::Vec3b corner = picture.at<cv::Vec3b>(5, 5);
@@ -170,7 +172,8 @@ TEST_F(Cli, ViewRunsMouseToolsAndPhantomDevicesInRealTime) {
       "view " + model + " --phantom --hd-library " + std::string(FAKE_HD_LIBRARY) + " --frames 20 --json", dir_);
   ASSERT_EQ(phantom.exit_code, 0) << phantom.err;
   EXPECT_EQ(nlohmann::json::parse(phantom.out)["frames"], 20);
-  const CommandRun missing = run_viewer("view " + model + " --phantom --hd-library /nonexistent/libHD.so --frames 2", dir_);
+  const CommandRun missing =
+      run_viewer("view " + model + " --phantom --hd-library /nonexistent/libHD.so --frames 2", dir_);
   EXPECT_EQ(missing.exit_code, 1);
   EXPECT_NE(missing.err.find("cannot load the OpenHaptics HD library"), std::string::npos) << missing.err;
 }
@@ -189,7 +192,8 @@ TEST_F(Cli, ViewWritesATrainingReportInEveryMode) {
                {"phantom", "--phantom --hd-library " + std::string(FAKE_HD_LIBRARY) + " --frames 20", 1}};
   for (const auto& mode : modes) {
     const fs::path report = dir_ / ("report_" + mode.name);
-    const CommandRun run = run_viewer("view " + model + " " + mode.arguments + " --json --report " + report.string(), dir_);
+    const CommandRun run =
+        run_viewer("view " + model + " " + mode.arguments + " --json --report " + report.string(), dir_);
     ASSERT_EQ(run.exit_code, 0) << mode.name << ": " << run.err;
     EXPECT_EQ(nlohmann::json::parse(run.out)["report"], report.string() + "/index.html") << mode.name;
     ASSERT_TRUE(fs::exists(report / "index.html")) << mode.name;

@@ -45,7 +45,8 @@ void write_deck(const fem::StaticProblem& problem, const std::filesystem::path& 
     out << p.node + 1 << ", " << p.component + 1 << ", " << p.component + 1 << ", " << p.value << "\n";
   if (!problem.loads.empty()) {
     out << "*CLOAD\n";
-    for (const fem::NodalLoad& l : problem.loads) out << l.node + 1 << ", " << l.component + 1 << ", " << l.value << "\n";
+    for (const fem::NodalLoad& l : problem.loads)
+      out << l.node + 1 << ", " << l.component + 1 << ", " << l.value << "\n";
   }
   if (problem.density > 0 && problem.gravity.norm() > 0) {
     const Eigen::Vector3d direction = problem.gravity.normalized();
@@ -80,7 +81,8 @@ Eigen::VectorXd solve(const fem::StaticProblem& problem, const std::string& job_
     if (in >> node >> x >> y >> z && node >= 1 && node <= static_cast<long>(problem.mesh.nodes.size()))
       u.segment<3>(3 * (node - 1)) = Eigen::Vector3d(x, y, z);
   }
-  if (!u.allFinite()) throw std::runtime_error("ccx wrote no displacements for some nodes; see " + (dir / "ccx.log").string());
+  if (!u.allFinite())
+    throw std::runtime_error("ccx wrote no displacements for some nodes; see " + (dir / "ccx.log").string());
   fs::remove_all(dir);
   return u;
 }

@@ -73,8 +73,8 @@ class ProgressPrinter {
   std::map<std::string, std::chrono::steady_clock::time_point> started_;
 };
 
-nlohmann::ordered_json report_json(const pipeline::BakeReport& r, const model::OrganModel& model, const std::string& output,
-                                   std::uintmax_t bytes) {
+nlohmann::ordered_json report_json(const pipeline::BakeReport& r, const model::OrganModel& model,
+                                   const std::string& output, std::uintmax_t bytes) {
   nlohmann::ordered_json j;
   j["model"] = output;
   j["model_bytes"] = bytes;
@@ -105,7 +105,8 @@ nlohmann::ordered_json report_json(const pipeline::BakeReport& r, const model::O
                      {"warnings", r.tetrahedra_warnings}};
   j["beams"] = {{"stations", r.stations}, {"sections", r.beam_sections}};
   if (model.sites.empty())
-    j["site_compliance"] = {{"computed", false}, {"reason", r.sites_skipped.empty() ? "--no-site-compliance" : r.sites_skipped}};
+    j["site_compliance"] = {{"computed", false},
+                            {"reason", r.sites_skipped.empty() ? "--no-site-compliance" : r.sites_skipped}};
   else
     j["site_compliance"] = {{"computed", true},
                             {"boundary_nodes", r.sites.boundary_nodes},
@@ -142,9 +143,10 @@ void print_report(const pipeline::BakeReport& r, const model::OrganModel& model,
   fmt::print(")\n");
   fmt::print("surface         {} vertices, {} triangles, area {:.1f} cm²\n", r.surface_vertices, r.surface_triangles,
              r.surface_area_cm2);
-  fmt::print("tetrahedra      {} on {} vertices; dihedral angles {:.1f}°..{:.1f}°, radius-edge ratio max {:.2f} mean {:.2f}\n",
-             q.tetrahedra, r.volume_vertices, q.min_dihedral_deg, q.max_dihedral_deg, q.max_radius_edge_ratio,
-             q.mean_radius_edge_ratio);
+  fmt::print(
+      "tetrahedra      {} on {} vertices; dihedral angles {:.1f}°..{:.1f}°, radius-edge ratio max {:.2f} mean {:.2f}\n",
+      q.tetrahedra, r.volume_vertices, q.min_dihedral_deg, q.max_dihedral_deg, q.max_radius_edge_ratio,
+      q.mean_radius_edge_ratio);
   fmt::print("volumes         mask {:.1f} mL, surface {:.1f} mL ({:+.2f} %), tetrahedra {:.1f} mL ({:+.2f} %)\n",
              r.mask_volume_ml, r.surface_volume_ml, percent_from(r.surface_volume_ml, r.mask_volume_ml),
              r.tetrahedra_volume_ml, percent_from(r.tetrahedra_volume_ml, r.mask_volume_ml));
@@ -153,11 +155,11 @@ void print_report(const pipeline::BakeReport& r, const model::OrganModel& model,
   else
     fmt::print("beam tables     none (--no-beam-tables): every model but --model beam runs on it\n");
   if (r.sites.unknowns > 0)
-    fmt::print("site compliance {} boundary nodes solved, patch {:.1f} mm, curvature fit {:.1f} mm; {} unknowns, factor "
-               "{:.1f} M entries; factorization {:.2f} s, solves {:.2f} s\n",
-               r.sites.boundary_nodes, r.sites.patch_radius * 1e3, r.sites.curvature_radius * 1e3, r.sites.unknowns,
-               r.sites.factor_entries * 1e-6,
-               r.sites.factorization_seconds, r.sites.solve_seconds);
+    fmt::print(
+        "site compliance {} boundary nodes solved, patch {:.1f} mm, curvature fit {:.1f} mm; {} unknowns, factor "
+        "{:.1f} M entries; factorization {:.2f} s, solves {:.2f} s\n",
+        r.sites.boundary_nodes, r.sites.patch_radius * 1e3, r.sites.curvature_radius * 1e3, r.sites.unknowns,
+        r.sites.factor_entries * 1e-6, r.sites.factorization_seconds, r.sites.solve_seconds);
   else if (!r.sites_skipped.empty())
     fmt::print("site compliance none: {}; the fast models give their own forces\n", r.sites_skipped);
   else
@@ -179,10 +181,10 @@ pipeline::BakeResult bake_model(BakeCommandOptions& o, const pipeline::BakeProgr
   if (!o.fixed_point_mm.empty())
     b.fixed_point_mm = std::array<double, 3>{o.fixed_point_mm[0], o.fixed_point_mm[1], o.fixed_point_mm[2]};
   if (!o.fixed_point_voxel.empty()) b.fixed_point_voxel = to_voxel(o.fixed_point_voxel, "--fixed-point-voxel");
-  for (const std::string& at : o.refine_at)
-  {
+  for (const std::string& at : o.refine_at) {
     const std::array<double, 3> mm = parse_xyz(at, "--refine-at " + at);
-    b.tetrahedra.refinements.push_back({{mm[0] * 1e-3, mm[1] * 1e-3, mm[2] * 1e-3}, o.refine_radius_mm, o.refine_size_mm});
+    b.tetrahedra.refinements.push_back(
+        {{mm[0] * 1e-3, mm[1] * 1e-3, mm[2] * 1e-3}, o.refine_radius_mm, o.refine_size_mm});
   }
   if (o.closing_radius_mm >= 0.0) b.label_closing_radius_mm = b.seeded.closing_radius_mm = o.closing_radius_mm;
   b.beam_tables = !o.no_beam_tables;
@@ -197,7 +199,8 @@ pipeline::BakeResult bake_model(BakeCommandOptions& o, const pipeline::BakeProgr
 int run_bake(BakeCommandOptions& o) {
   ProgressPrinter printer(verbosity() == Verbosity::verbose);
   pipeline::BakeProgress progress;
-  if (verbosity() != Verbosity::quiet) progress = [&](const std::string& stage, double fraction) { printer(stage, fraction); };
+  if (verbosity() != Verbosity::quiet)
+    progress = [&](const std::string& stage, double fraction) { printer(stage, fraction); };
   const pipeline::BakeResult result = bake_model(o, progress);
   for (const std::string& warning : result.report.segmentation_warnings) warn("bake", warning);
   for (const std::string& warning : result.report.tetrahedra_warnings) warn("bake", warning);
@@ -223,8 +226,11 @@ void add_bake_options(CLI::App& app, const std::shared_ptr<BakeCommandOptions>& 
   app.add_option("--fixed-point", o->fixed_point_mm,
                  "Beam clamp X,Y,Z (LPS, mm; e.g. the portal vein entry), in or on the organ; default: the deepest "
                  "interior point")
-      ->delimiter(',')->expected(3);
-  app.add_option("--fixed-point-voxel", o->fixed_point_voxel, "Beam clamp as a voxel I,J,K")->delimiter(',')->expected(3);
+      ->delimiter(',')
+      ->expected(3);
+  app.add_option("--fixed-point-voxel", o->fixed_point_voxel, "Beam clamp as a voxel I,J,K")
+      ->delimiter(',')
+      ->expected(3);
   app.add_option("--surface-vertices", b.surface.target_vertices, "Simulation surface size (vertices)")
       ->capture_default_str();
   app.add_option("--tet-size", b.tetrahedra.tet_size_mm, "Tetrahedron size, mm")->capture_default_str();
@@ -232,16 +238,20 @@ void add_bake_options(CLI::App& app, const std::shared_ptr<BakeCommandOptions>& 
                  "Finer tetrahedra around X,Y,Z (LPS, mm), e.g. where a tool presses; repeat for more places "
                  "(docs/fem.md#a-tool-of-finite-size)");
   app.add_option("--refine-radius", o->refine_radius_mm, "Around each --refine-at: the radius of the fine cells, mm")
-      ->check(kNonNegative)->capture_default_str();
+      ->check(kNonNegative)
+      ->capture_default_str();
   app.add_option("--refine-size", o->refine_size_mm,
                  "Around each --refine-at: the fine cells' size, mm (growing 0.3 mm per mm beyond the radius)")
-      ->check(CLI::PositiveNumber)->capture_default_str();
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_option("--clamp-cells", b.clamp_cells_mm,
                  "The tetrahedra's size over the FEM models' clamp (within 10 mm of the fixed point), mm (0: the "
                  "--tet-size there too; docs/fem.md#the-clamp)")
-      ->check(kNonNegative)->capture_default_str();
+      ->check(kNonNegative)
+      ->capture_default_str();
   app.add_option("--facet-distance", b.tetrahedra.facet_distance_mm,
-                 "Largest distance of a boundary facet from the surface, mm")->capture_default_str();
+                 "Largest distance of a boundary facet from the surface, mm")
+      ->capture_default_str();
   app.add_option("--stations", b.beams.stations, "Beam stations (sections per beam)")->capture_default_str();
   app.add_flag("--no-beam-tables", o->no_beam_tables,
                "Bake no beam tables: faster; the model runs every deformation model but the multi-beam one");
@@ -253,8 +263,10 @@ void add_bake_options(CLI::App& app, const std::shared_ptr<BakeCommandOptions>& 
                  "median boundary edge; docs/matching.md)")
       ->check(kNonNegative)
       ->capture_default_str();
-  app.add_option("--section-samples", b.beams.samples_per_side, "Section sampling grid per side")->capture_default_str();
-  app.add_option("--threads", b.beams.threads, "Threads for the beam tables and the site compliances (0: all cores)")->capture_default_str();
+  app.add_option("--section-samples", b.beams.samples_per_side, "Section sampling grid per side")
+      ->capture_default_str();
+  app.add_option("--threads", b.beams.threads, "Threads for the beam tables and the site compliances (0: all cores)")
+      ->capture_default_str();
   app.add_option("--young-modulus", b.material.young_modulus, "E, Pa")->capture_default_str();
   app.add_option("--poisson-ratio", b.material.poisson_ratio, "nu")->capture_default_str();
   app.add_option("--density", b.material.density, "rho, kg/m³")->capture_default_str();

@@ -83,8 +83,7 @@ double beam_difference(const Probe& p, const organ::Organ& organ, double rate, d
   return sum / (diagonal * static_cast<double>(std::max<std::size_t>(rest.size(), 1)));
 }
 
-double mean_beam_difference(const std::vector<Probe>& probes, const organ::Organ& organ, double rate,
-                            double diagonal) {
+double mean_beam_difference(const std::vector<Probe>& probes, const organ::Organ& organ, double rate, double diagonal) {
   double sum = 0.0;
   for (const Probe& p : probes) sum += beam_difference(p, organ, rate, diagonal);
   return sum / static_cast<double>(probes.size());
@@ -150,14 +149,15 @@ struct HeldOutError {
   double spring_difference = 0.0, spring_force = 0.0, spring_factor = 0.0;
 };
 
-HeldOutError measure_held_out(const organ::Organ& organ, const std::vector<Probe>& probes,
-                              const PressOptions& o, const Eigen::Vector3d& extent) {
+HeldOutError measure_held_out(const organ::Organ& organ, const std::vector<Probe>& probes, const PressOptions& o,
+                              const Eigen::Vector3d& extent) {
   HeldOutError e;
   double reference_size = 0.0, beam_log = 0.0, spring_log = 0.0;
   // A network softened by s rings 1/sqrt(s) times longer: it is held that much
   // longer (at most 5 times), so that each is measured settled.
   PressOptions settled = o;
-  settled.settle_seconds *= std::min(5.0, 1.0 / std::sqrt(std::min(1.0, organ.model().material.spring_stiffness_scale)));
+  settled.settle_seconds *=
+      std::min(5.0, 1.0 / std::sqrt(std::min(1.0, organ.model().material.spring_stiffness_scale)));
   for (const Probe& p : probes) {
     const PressResult beam = press("beam", organ, {p.tool}, o);
     const PressResult springs = press("springs", organ, {p.tool}, settled);
@@ -171,8 +171,8 @@ HeldOutError measure_held_out(const organ::Organ& organ, const std::vector<Probe
     reference_size += reference.squaredNorm();
   }
   const double n = static_cast<double>(probes.size());
-  return {e.beam_difference / n,          std::sqrt(e.beam_force / reference_size),   std::exp(std::sqrt(beam_log / n)),
-          e.spring_difference / n,        std::sqrt(e.spring_force / reference_size), std::exp(std::sqrt(spring_log / n))};
+  return {e.beam_difference / n,   std::sqrt(e.beam_force / reference_size),   std::exp(std::sqrt(beam_log / n)),
+          e.spring_difference / n, std::sqrt(e.spring_force / reference_size), std::exp(std::sqrt(spring_log / n))};
 }
 
 model::OrganModel with_material(model::OrganModel model, const model::Material& material) {
@@ -265,10 +265,9 @@ void record_calibration(model::OrganModel& calibrated, const CalibrateOptions& o
   parameters["calibration_held_out_beam"] =
       fmt::format("displacement {:.3g} -> {:.3g} % of the bounding box, force off by x {:.3g} -> {:.3g}",
                   100 * before.beam_difference, 100 * after.beam_difference, before.beam_factor, after.beam_factor);
-  parameters["calibration_held_out_springs"] =
-      fmt::format("displacement {:.3g} -> {:.3g} % of the bounding box, force off by x {:.3g} -> {:.3g}",
-                  100 * before.spring_difference, 100 * after.spring_difference, before.spring_factor,
-                  after.spring_factor);
+  parameters["calibration_held_out_springs"] = fmt::format(
+      "displacement {:.3g} -> {:.3g} % of the bounding box, force off by x {:.3g} -> {:.3g}",
+      100 * before.spring_difference, 100 * after.spring_difference, before.spring_factor, after.spring_factor);
 }
 
 struct CalibrationOutcome {
@@ -288,9 +287,12 @@ void print_json(const CalibrateOptions& o, const CalibrationOutcome& c) {
   };
   auto errors = [](const HeldOutError& e) {
     return nlohmann::json{
-        {"beam", {{"mean_difference", e.beam_difference}, {"force_factor", e.beam_factor}, {"force_error", e.beam_force}}},
+        {"beam",
+         {{"mean_difference", e.beam_difference}, {"force_factor", e.beam_factor}, {"force_error", e.beam_force}}},
         {"springs",
-         {{"mean_difference", e.spring_difference}, {"force_factor", e.spring_factor}, {"force_error", e.spring_force}}}};
+         {{"mean_difference", e.spring_difference},
+          {"force_factor", e.spring_factor},
+          {"force_error", e.spring_force}}}};
   };
   nlohmann::json j = {{"reference", o.reference},
                       {"model", o.model_path},
@@ -304,42 +306,45 @@ void print_json(const CalibrateOptions& o, const CalibrationOutcome& c) {
                       {"held_out_after", errors(c.error_after)}};
   nlohmann::json curve = nlohmann::json::array();
   for (std::size_t i = 0; i < c.curve.curve.size(); ++i)
-    curve.push_back({{"depth_mm", c.curve.curve[i][0] * 1e3},
-                     {"factor", c.curve.curve[i][1]},
-                     {"scatter", c.curve.scatter[i]}});
+    curve.push_back(
+        {{"depth_mm", c.curve.curve[i][0] * 1e3}, {"factor", c.curve.curve[i][1]}, {"scatter", c.curve.scatter[i]}});
   j["depth_curve"] = curve;
-  j["depth_curve_presses"] = {{"pressed", c.curve.presses}, {"solved", c.curve.solved},
-                              {"reference_cells_mm", c.curve.refine_size_mm}};
+  j["depth_curve_presses"] = {
+      {"pressed", c.curve.presses}, {"solved", c.curve.solved}, {"reference_cells_mm", c.curve.refine_size_mm}};
   std::cout << j.dump() << '\n';
 }
 
 void print_table(const CalibrateOptions& o, const CalibrationOutcome& c) {
-  std::cout << fmt::format("{:<14}{} against {}: {} presses of {:g} mm, inward or tilted 45 degrees (seed {}), {} fitted, "
-                           "{} held out\n",
-                           "calibrate", o.model_path, o.reference, c.fitted + c.held_out, o.depth_mm, o.seed, c.fitted,
-                           c.held_out);
-  std::cout << fmt::format("{:<14}beam: attenuation beta {:g} -> {:g} 1/m (alpha {:g}; only beta ln alpha enters), "
-                           "stiffness E x {:g} -> {:g}; springs: stiffness E x {:g} -> {:g}\n",
-                           "fitted", c.before.attenuation_beta, c.after.attenuation_beta, c.after.attenuation_alpha,
-                           c.before.beam_stiffness_scale, c.after.beam_stiffness_scale, c.before.spring_stiffness_scale,
-                           c.after.spring_stiffness_scale);
+  std::cout << fmt::format(
+      "{:<14}{} against {}: {} presses of {:g} mm, inward or tilted 45 degrees (seed {}), {} fitted, "
+      "{} held out\n",
+      "calibrate", o.model_path, o.reference, c.fitted + c.held_out, o.depth_mm, o.seed, c.fitted, c.held_out);
+  std::cout << fmt::format(
+      "{:<14}beam: attenuation beta {:g} -> {:g} 1/m (alpha {:g}; only beta ln alpha enters), "
+      "stiffness E x {:g} -> {:g}; springs: stiffness E x {:g} -> {:g}\n",
+      "fitted", c.before.attenuation_beta, c.after.attenuation_beta, c.after.attenuation_alpha,
+      c.before.beam_stiffness_scale, c.after.beam_stiffness_scale, c.before.spring_stiffness_scale,
+      c.after.spring_stiffness_scale);
   for (const std::string& k : c.kept)
     std::cout << fmt::format("{:<14}{}: the fitted value would raise the held-out error; the model's value is kept\n",
                              "kept", k);
   if (!c.curve.curve.empty()) {
     std::string points;
     for (std::size_t i = 0; i < c.curve.curve.size(); ++i)
-      points += fmt::format("{}{:g} mm x {:.3g} (scatter x {:.3g})", points.empty() ? "" : ", ", c.curve.curve[i][0] * 1e3,
-                            c.curve.curve[i][1], c.curve.scatter[i]);
-    std::cout << fmt::format("{:<14}the reference's force over the site law's linear one: {}; {} of {} presses solved "
-                             "on {:g} mm cells\n",
-                             "depth curve", points, c.curve.solved, c.curve.presses, c.curve.refine_size_mm);
+      points += fmt::format("{}{:g} mm x {:.3g} (scatter x {:.3g})", points.empty() ? "" : ", ",
+                            c.curve.curve[i][0] * 1e3, c.curve.curve[i][1], c.curve.scatter[i]);
+    std::cout << fmt::format(
+        "{:<14}the reference's force over the site law's linear one: {}; {} of {} presses solved "
+        "on {:g} mm cells\n",
+        "depth curve", points, c.curve.solved, c.curve.presses, c.curve.refine_size_mm);
   }
-  std::cout << fmt::format("\nheld-out presses against {}: mean nodal displacement difference (% of the bounding box "
-                           "diagonal); force factor exp(sqrt(mean ln^2(|F| / |F_ref|))), the factor the forces are "
-                           "typically off by (fitted); force error sqrt(sum |F - F_ref|^2 / sum |F_ref|^2)\n\n",
-                           o.reference);
-  std::cout << "| model   | displacement before | after  | force factor before | after  | force error before | after  |\n";
+  std::cout << fmt::format(
+      "\nheld-out presses against {}: mean nodal displacement difference (% of the bounding box "
+      "diagonal); force factor exp(sqrt(mean ln^2(|F| / |F_ref|))), the factor the forces are "
+      "typically off by (fitted); force error sqrt(sum |F - F_ref|^2 / sum |F_ref|^2)\n\n",
+      o.reference);
+  std::cout
+      << "| model   | displacement before | after  | force factor before | after  | force error before | after  |\n";
   auto row = [](const char* name, double d0, double d1, double k0, double k1, double f0, double f1) {
     std::cout << fmt::format("| {:<7} | {:>18.3f}% | {:>5.3f}% | {:>18.2f}x | {:>5.2f}x | {:>17.1f}% | {:>5.1f}% |\n",
                              name, 100 * d0, 100 * d1, k0, k1, 100 * f0, 100 * f1);
@@ -362,14 +367,16 @@ int run_calibrate(CalibrateOptions o) {
     e.press.command = "calibrate";
     return run_evaluation(e);
   }
-  if (o.output_path.empty()) throw CLI::ValidationError("--output", "give the calibrated model file to write (or --evaluate)");
-  if (o.presses < 4 || o.presses > 256) throw CLI::ValidationError("--presses", "must be 4 to 256 (half fit, half held out)");
+  if (o.output_path.empty())
+    throw CLI::ValidationError("--output", "give the calibrated model file to write (or --evaluate)");
+  if (o.presses < 4 || o.presses > 256)
+    throw CLI::ValidationError("--presses", "must be 4 to 256 (half fit, half held out)");
   o.press.command = "calibrate";
   const model::OrganModel original = load_simulation_model("calibrate", o.model_path, {o.reference, "beam", "springs"});
   CalibrationOutcome c;
   c.before = original.material;
   const organ::Organ organ(original);  // its own material: the errors before
-  model::Material unit = c.before;  // κ = 0 and unit scales: what the fit scales
+  model::Material unit = c.before;     // κ = 0 and unit scales: what the fit scales
   unit.attenuation_beta = 0.0;
   unit.beam_stiffness_scale = unit.spring_stiffness_scale = 1.0;
   const organ::Organ unit_organ(with_material(original, unit));
@@ -399,9 +406,9 @@ int run_calibrate(CalibrateOptions o) {
     c.curve = fit_depth_curve(original, curve);
     calibrated.sites.depth_curve = c.curve.curve;
     calibrated.sites.curve_tip_radius = o.press.tuning.tip_radius_mm * 1e-3;
-    calibrated.provenance.parameters["calibration_depth_curve"] =
-        fmt::format("{} on {:g} mm cells, {} sites, {} of {} presses solved, tip {:g} mm", o.reference,
-                    c.curve.refine_size_mm, o.curve_sites, c.curve.solved, c.curve.presses, o.press.tuning.tip_radius_mm);
+    calibrated.provenance.parameters["calibration_depth_curve"] = fmt::format(
+        "{} on {:g} mm cells, {} sites, {} of {} presses solved, tip {:g} mm", o.reference, c.curve.refine_size_mm,
+        o.curve_sites, c.curve.solved, c.curve.presses, o.press.tuning.tip_radius_mm);
   }
   note("calibrate", "measuring the held-out presses before and after");
   c.error_before = measure_held_out(organ, held_out, o.press, extent);
@@ -432,7 +439,8 @@ Command add_calibrate_command(CLI::App& app) {
                  "How far each press goes (inward along the normal, or tilted 45 degrees along a tangent), mm")
       ->check(kPositive)
       ->capture_default_str();
-  app.add_option("--seed", o->seed, "Where the press sites start (the same seed, the same sites)")->capture_default_str();
+  app.add_option("--seed", o->seed, "Where the press sites start (the same seed, the same sites)")
+      ->capture_default_str();
   add_beam_options(app, o->press);
   add_model_tuning_options(app, o->press.tuning);
   app.add_option("--settle", o->press.settle_seconds,
@@ -443,8 +451,9 @@ Command add_calibrate_command(CLI::App& app) {
                "Fit nothing: measure the model's multi-beam and mass-spring forces against the reference on presses "
                "spread over the organ (--sites, --depths), the reference re-meshed finely around each press")
       ->excludes("--output");
-  app.add_option("--sites", o->evaluation.sites, "--evaluate: sites spread over the surface, each pressed straight in and "
-                                                  "tilted 45 degrees (1-256)")
+  app.add_option("--sites", o->evaluation.sites,
+                 "--evaluate: sites spread over the surface, each pressed straight in and "
+                 "tilted 45 degrees (1-256)")
       ->check(CLI::Range(1, 256))
       ->capture_default_str();
   app.add_option("--jobs", o->evaluation.jobs,
@@ -462,7 +471,8 @@ Command add_calibrate_command(CLI::App& app) {
                  "each of --depths) fit the site law's depth curve (0: none; docs/matching.md)")
       ->check(CLI::Range(0, 256))
       ->capture_default_str();
-  app.add_option("--depths", o->evaluation.depths_mm, "--evaluate and the depth curve: press depths, mm, comma-separated")
+  app.add_option("--depths", o->evaluation.depths_mm,
+                 "--evaluate and the depth curve: press depths, mm, comma-separated")
       ->delimiter(',')
       ->capture_default_str();
   app.add_option("--reference-cells", o->evaluation.refine_size_mm,
@@ -474,7 +484,8 @@ Command add_calibrate_command(CLI::App& app) {
                  "--evaluate: also press straight in on cells of this size, mm, and print how much the reference "
                  "changed (its convergence)")
       ->check(kNonNegative);
-  app.add_flag("--json", o->json, "Print the fitted values and the held-out errors (or the evaluation) as one JSON object");
+  app.add_flag("--json", o->json,
+               "Print the fitted values and the held-out errors (or the evaluation) as one JSON object");
   return [o] { return run_calibrate(*o); };
 }
 

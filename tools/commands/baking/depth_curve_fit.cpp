@@ -45,8 +45,9 @@ DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOp
       for (const double depth : o.depths_mm) {
         const ToolSpec tool = site_press(organ, sites[k], normals[sites[k]], tilt, depth, o.press);
         ++presses;
-        note("calibrate", fmt::format("depth curve: site {} of {}, {:g} mm: {} with {} ({} tetrahedra)", k + 1,
-                                      sites.size(), depth, tool.text, o.reference, reference.model().tetrahedra.size()));
+        note("calibrate",
+             fmt::format("depth curve: site {} of {}, {:g} mm: {} with {} ({} tetrahedra)", k + 1, sites.size(), depth,
+                         tool.text, o.reference, reference.model().tetrahedra.size()));
         Eigen::Vector3d force;
         try {
           force = press(o.reference, reference, {tool}, o.press).tools[0].force;
@@ -73,9 +74,10 @@ DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOp
     }
   }
   if (fit.solved == 0)
-    throw std::runtime_error(fmt::format("none of the {} depth-curve presses could be solved by {}: press less deep "
-                                         "(--depths)",
-                                         fit.presses, o.reference));
+    throw std::runtime_error(
+        fmt::format("none of the {} depth-curve presses could be solved by {}: press less deep "
+                    "(--depths)",
+                    fit.presses, o.reference));
   for (const auto& [depth, logs] : log_ratios) {  // std::map: increasing depth
     double mean = 0.0;
     for (double l : logs) mean += l;

@@ -22,7 +22,8 @@ struct DepthCurveOptions {
   int sites = 6;                                  ///< 0: no curve
   std::vector<double> depths_mm{2.0, 5.0, 10.0};  ///< the curve's depths
   std::uint32_t seed = 1;
-  double refine_size_mm = -1.0;  ///< the reference's cells under each press: < 0 half the tip's radius; 0 the model's own
+  double refine_size_mm =
+      -1.0;  ///< the reference's cells under each press: < 0 half the tip's radius; 0 the model's own
   std::string reference = "psh";
   /// Processes the sites are shared among (site_jobs.h; the curve is the
   /// same whatever the number); 0: one per CPU.
@@ -33,7 +34,7 @@ struct DepthCurveOptions {
 struct DepthCurveFit {
   std::vector<std::array<double, 2>> curve;  ///< (depth m, factor): depths where a press solved
   std::size_t presses = 0, solved = 0;
-  double refine_size_mm = 0.0;               ///< as used
+  double refine_size_mm = 0.0;  ///< as used
   /// Per curve depth: how far the presses scatter about the factor,
   /// exp(√mean ln²(ratio / factor)) (1: the linear law's site-to-site shape is the reference's).
   std::vector<double> scatter;

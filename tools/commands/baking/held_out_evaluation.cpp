@@ -44,10 +44,11 @@ struct PressRecord {
   std::string reference_error;
   Eigen::Vector3d reference_force = Eigen::Vector3d::Zero();  ///< N
   std::size_t reference_tetrahedra = 0;
-  double reference_cell_mm = 0.0;  ///< the reference's cells at the site: the longest edge of the tetrahedra at its nearest node
+  double reference_cell_mm =
+      0.0;  ///< the reference's cells at the site: the longest edge of the tetrahedra at its nearest node
   std::optional<Eigen::Vector3d> check_force;  ///< N, the reference on the --check-refinement cells
-  double thickness_mm = 0.0;        ///< the organ's thickness along the straight press at the site
-  double clamp_distance_mm = 0.0;   ///< from the site to the clamp's centre
+  double thickness_mm = 0.0;                   ///< the organ's thickness along the straight press at the site
+  double clamp_distance_mm = 0.0;              ///< from the site to the clamp's centre
   std::map<std::string, FastAnswer> fast;
 };
 
@@ -63,8 +64,8 @@ std::unique_ptr<organ::Organ> reference_organ(const model::OrganModel& model, co
   return std::make_unique<organ::Organ>(refined_at(model, site, size_mm, radius_mm));
 }
 
-FastAnswer answer(const std::string& name, const organ::Organ& organ, const PressRecord& r, const PressResult& reference,
-                  const PressOptions& o, const Eigen::Vector3d& extent) {
+FastAnswer answer(const std::string& name, const organ::Organ& organ, const PressRecord& r,
+                  const PressResult& reference, const PressOptions& o, const Eigen::Vector3d& extent) {
   FastAnswer a;
   try {
     const PressResult fast = press(name, organ, {r.tool}, o);
@@ -211,9 +212,9 @@ void print_json(const EvaluationOptions& o, double refine_size_mm, std::size_t s
       auto at = [&](const PressRecord& r) { return r.depth_mm == depth; };
       by_depth[fmt::format("{:g}", depth)] = {
           {"all", summary_json(summarize(records, model, at))},
-          {"straight", summary_json(summarize(records, model, [&](const PressRecord& r) {
-             return at(r) && r.tilt == PressTilt::straight;
-           }))},
+          {"straight",
+           summary_json(summarize(records, model,
+                                  [&](const PressRecord& r) { return at(r) && r.tilt == PressTilt::straight; }))},
           {"tilted", summary_json(summarize(records, model, [&](const PressRecord& r) {
              return at(r) && r.tilt != PressTilt::straight;
            }))}};
@@ -226,10 +227,10 @@ void print_json(const EvaluationOptions& o, double refine_size_mm, std::size_t s
     const SiteSpread s = site_spread(records, depth);
     if (s.presses.empty()) continue;
     spread[fmt::format("{:g}", depth)] = {{"presses", s.presses.size()},
-                                         {"least_force_n", s.least_n},
-                                         {"most_force_n", s.most_n},
-                                         {"thickness", fit_json(s.thickness)},
-                                         {"clamp_distance", fit_json(s.clamp_distance)}};
+                                          {"least_force_n", s.least_n},
+                                          {"most_force_n", s.most_n},
+                                          {"thickness", fit_json(s.thickness)},
+                                          {"clamp_distance", fit_json(s.clamp_distance)}};
   }
   const nlohmann::json j = {{"model", o.model_path},
                             {"reference", o.reference},
@@ -273,17 +274,18 @@ void print_table(const EvaluationOptions& o, double refine_size_mm, std::size_t 
           const std::string name = tilt_name(r.tilt);
           return r.depth_mm == depth && (std::string(direction) == "all" || name == direction);
         });
-        std::cout << fmt::format("| {:<7} | {:>3g} mm | {:<9} | {:>7} | {:>11.2f}x | {:>8.1f} / {:>5.1f} deg | {:>11.2f}% |\n",
-                                 model, depth, direction, s.presses, s.factor, s.direction_mean_deg,
-                                 s.direction_max_deg, 100 * s.difference_mean);
+        std::cout << fmt::format(
+            "| {:<7} | {:>3g} mm | {:<9} | {:>7} | {:>11.2f}x | {:>8.1f} / {:>5.1f} deg | {:>11.2f}% |\n", model, depth,
+            direction, s.presses, s.factor, s.direction_mean_deg, s.direction_max_deg, 100 * s.difference_mean);
       }
   bool any_check = false;
   for (const PressRecord& r : records)
     if (r.check_force) {
       if (!any_check)
-        std::cout << fmt::format("\nthe reference under refinement, straight presses: |F| on {:g} mm cells, on {:g} "
-                                 "mm cells, change\n",
-                                 refine_size_mm, o.check_size_mm);
+        std::cout << fmt::format(
+            "\nthe reference under refinement, straight presses: |F| on {:g} mm cells, on {:g} "
+            "mm cells, change\n",
+            refine_size_mm, o.check_size_mm);
       any_check = true;
       std::cout << fmt::format("{:<14}site {:>2} {:>4g} mm: {:.4f} N, {:.4f} N, {:+.1f} %\n", "refinement", r.site + 1,
                                r.depth_mm, r.reference_force.norm(), r.check_force->norm(),
@@ -292,9 +294,10 @@ void print_table(const EvaluationOptions& o, double refine_size_mm, std::size_t 
   for (const double depth : o.depths_mm) {
     const SiteSpread s = site_spread(records, depth);
     if (s.presses.empty()) continue;
-    std::cout << fmt::format("\nthe reference from site to site, straight {:g} mm presses: |F|, the organ's thickness "
-                             "along the press, the distance to the clamp's centre\n",
-                             depth);
+    std::cout << fmt::format(
+        "\nthe reference from site to site, straight {:g} mm presses: |F|, the organ's thickness "
+        "along the press, the distance to the clamp's centre\n",
+        depth);
     for (const PressRecord* r : s.presses)
       std::cout << fmt::format("{:<14}site {:>2} {:>4g} mm: {:.4f} N, {:.1f} mm, {:.1f} mm\n", "site", r->site + 1,
                                depth, r->reference_force.norm(), r->thickness_mm, r->clamp_distance_mm);
@@ -366,7 +369,8 @@ void press_reference(const Plan& plan, std::size_t k, std::vector<PressRecord>& 
       try {
         r.check_force = press(o.reference, *check, {r.tool}, o.press).tools[0].force;
       } catch (const std::runtime_error& e) {
-        warn("calibrate", fmt::format("site {} {:g} mm on {:g} mm cells: {}", k + 1, r.depth_mm, o.check_size_mm, e.what()));
+        warn("calibrate",
+             fmt::format("site {} {:g} mm on {:g} mm cells: {}", k + 1, r.depth_mm, o.check_size_mm, e.what()));
       }
     }
   }
@@ -470,11 +474,11 @@ std::vector<PressRecord> press_site(const Plan& plan, std::size_t k) {
     PressResult reference;
     reference.positions = std::move(surfaces[i]);
     for (const char* name : kFastModels)
-      r.fast[name] = answer(name, organ, r, reference, std::string(name) == "springs" ? plan.settled : o.press,
-                            plan.extent);
-    detail("calibrate", fmt::format("|F| {} {:.4f} N, beam {:.4f} N, springs {:.4f} N", o.reference,
-                                    r.reference_force.norm(), r.fast["beam"].force.norm(),
-                                    r.fast["springs"].force.norm()));
+      r.fast[name] =
+          answer(name, organ, r, reference, std::string(name) == "springs" ? plan.settled : o.press, plan.extent);
+    detail("calibrate",
+           fmt::format("|F| {} {:.4f} N, beam {:.4f} N, springs {:.4f} N", o.reference, r.reference_force.norm(),
+                       r.fast["beam"].force.norm(), r.fast["springs"].force.norm()));
   }
   return records;
 }
@@ -525,9 +529,9 @@ PressRecord record_from(const nlohmann::json& j) {
   r.thickness_mm = exact_double(j.at("thickness_mm"));
   r.clamp_distance_mm = exact_double(j.at("clamp_distance_mm"));
   for (const auto& [name, a] : j.at("fast").items())
-    r.fast[name] = {a.at("solved").get<bool>(),        a.at("error").get<std::string>(),
-                    exact_vector(a.at("force")),       exact_double(a.at("log_ratio")),
-                    exact_double(a.at("direction")),   exact_double(a.at("difference"))};
+    r.fast[name] = {a.at("solved").get<bool>(),      a.at("error").get<std::string>(),
+                    exact_vector(a.at("force")),     exact_double(a.at("log_ratio")),
+                    exact_double(a.at("direction")), exact_double(a.at("difference"))};
   return r;
 }
 
@@ -536,7 +540,8 @@ PressRecord record_from(const nlohmann::json& j) {
 int run_evaluation(const EvaluationOptions& o) {
   if (o.depths_mm.empty()) throw CLI::ValidationError("--depths", "give at least one depth");
   for (const double d : o.depths_mm)
-    if (!(d > 0.0 && std::isfinite(d))) throw CLI::ValidationError("--depths", "each depth must be a positive number of mm");
+    if (!(d > 0.0 && std::isfinite(d)))
+      throw CLI::ValidationError("--depths", "each depth must be a positive number of mm");
   if (o.jobs < 0) throw CLI::ValidationError("--jobs", "must be 0 (one per CPU) or more");
   const model::OrganModel model = load_simulation_model("calibrate", o.model_path, {o.reference, "beam", "springs"});
   warn_if_depth_curve_rescaled("calibrate", model, {"beam", "springs"}, o.press.tuning);

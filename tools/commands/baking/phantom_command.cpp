@@ -31,8 +31,8 @@ int run_phantom(PhantomCommandOptions& o) {
     pipeline::write_dicom_series(*phantom.ct, o.dicom_directory, info);
   }
   const auto& p = o.phantom;
-  fmt::print("phantom CT      {} ({}x{}x{} voxels, {}x{}x{} mm, seed {})\n", o.ct_path, p.size[0], p.size[1],
-             p.size[2], p.spacing_mm[0], p.spacing_mm[1], p.spacing_mm[2], p.seed);
+  fmt::print("phantom CT      {} ({}x{}x{} voxels, {}x{}x{} mm, seed {})\n", o.ct_path, p.size[0], p.size[1], p.size[2],
+             p.spacing_mm[0], p.spacing_mm[1], p.spacing_mm[2], p.seed);
   if (!o.mask_path.empty()) fmt::print("liver mask      {}\n", o.mask_path);
   if (!o.dicom_directory.empty()) fmt::print("DICOM series    {}/ ({} slices)\n", o.dicom_directory, p.size[2]);
   fmt::print("liver volume    {:.1f} mL\n", phantom.liver_volume_ml);
@@ -50,7 +50,10 @@ Command add_phantom_command(CLI::App& app) {
   app.add_option("--dicom", o->dicom_directory, "Also write the CT as a DICOM series into this new directory");
   app.add_option("--seed", o->phantom.seed, "Noise seed (same seed, same image)")->capture_default_str();
   app.add_option("--size", o->size, "Voxels NX,NY,NZ")->delimiter(',')->expected(3)->capture_default_str();
-  app.add_option("--spacing", o->spacing, "Voxel size SX,SY,SZ in mm")->delimiter(',')->expected(3)->capture_default_str();
+  app.add_option("--spacing", o->spacing, "Voxel size SX,SY,SZ in mm")
+      ->delimiter(',')
+      ->expected(3)
+      ->capture_default_str();
   app.add_option("--noise", o->phantom.noise_sigma_hu, "Noise standard deviation, HU")->capture_default_str();
   return [o] { return run_phantom(*o); };
 }

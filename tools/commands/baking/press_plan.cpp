@@ -51,7 +51,8 @@ constexpr double kFirstSide[] = {0.0, 0.5 * M_PI};  ///< where tangent_a's and t
 
 }  // namespace
 
-std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std::uint32_t seed, const PressOptions& o) {
+std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std::uint32_t seed,
+                                       const PressOptions& o) {
   const std::vector<model::Point3>& vertices = organ.model().surface_vertices;
   const double clamp_radius = o.tuning.fixed_radius_mm * 1e-3;
   double farthest = 0.0;
@@ -75,9 +76,10 @@ std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std
     reachable_count += reachable[c];
   }
   if (reachable_count < static_cast<std::size_t>(count))
-    throw std::runtime_error(fmt::format("the organ has {} surface vertices away from the clamp that a tool can press "
-                                         "straight in and tilted 45°, fewer than the {} presses asked for",
-                                         reachable_count, count));
+    throw std::runtime_error(
+        fmt::format("the organ has {} surface vertices away from the clamp that a tool can press "
+                    "straight in and tilted 45°, fewer than the {} presses asked for",
+                    reachable_count, count));
   std::mt19937 random(seed);
   std::size_t start = random() % candidates.size();
   while (!reachable[start]) start = (start + 1) % candidates.size();

@@ -22,7 +22,7 @@ std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std
 
 /// How a press at a site goes in.
 enum class PressTilt : int {
-  straight = 0,  ///< along the inward normal
+  straight = 0,   ///< along the inward normal
   tangent_a = 1,  ///< 45° from it, towards the first tangent
   tangent_b = 2,  ///< 45° from it, towards the second
 };

@@ -19,9 +19,8 @@ model::OrganModel refined_at(const model::OrganModel& model, const Eigen::Vector
   const auto clamp_radius = model.provenance.parameters.find("clamp_radius_mm");
   if (clamp_cells != model.provenance.parameters.end() && clamp_radius != model.provenance.parameters.end() &&
       std::stod(clamp_cells->second) > 0.0 && !model.fixed_points.empty())
-    options.refinements.push_back(pipeline::clamp_refinement(model.fixed_points.front(),
-                                                             std::stod(clamp_radius->second) * 1e-3,
-                                                             std::stod(clamp_cells->second)));
+    options.refinements.push_back(pipeline::clamp_refinement(
+        model.fixed_points.front(), std::stod(clamp_radius->second) * 1e-3, std::stod(clamp_cells->second)));
   const geometry::TetrahedralMesh mesh =
       pipeline::make_tetrahedra({model.surface_vertices, model.surface_triangles}, options);
   model::OrganModel refined = model;

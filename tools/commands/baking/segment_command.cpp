@@ -25,15 +25,16 @@ struct SegmentCommandOptions {
 int run_segment(const SegmentCommandOptions& o) {
   const pipeline::SeededSegmentationOptions options = seeded_segmentation_options(o.segmentation);
   if (options.seeds.empty())
-    throw CLI::ValidationError("--seed", "give at least one point inside the organ: --seed X,Y,Z or --seed-voxel I,J,K");
+    throw CLI::ValidationError("--seed",
+                               "give at least one point inside the organ: --seed X,Y,Z or --seed-voxel I,J,K");
   // The bake's measured 7.2–7.5 bytes per voxel bound what segmenting alone holds.
   const pipeline::CtImage::Pointer ct =
       pipeline::read_ct(o.ct_path, o.series_uid, {8.0, 256.0 * 1024 * 1024, "segmenting it"});
   const pipeline::SeededSegmentation segmented = pipeline::segment_from_seeds(*ct, options);
   std::optional<double> dice;
   if (!o.segmentation.reference_path.empty())
-    dice = pipeline::dice_coefficient(
-        *segmented.mask, *pipeline::read_label_mask(o.segmentation.reference_path, o.segmentation.reference_value, *ct));
+    dice = pipeline::dice_coefficient(*segmented.mask, *pipeline::read_label_mask(o.segmentation.reference_path,
+                                                                                  o.segmentation.reference_value, *ct));
   pipeline::write_mask_image(*segmented.mask, o.output_path);
 
   const pipeline::SeededSegmentationReport& r = segmented.report;
@@ -61,8 +62,10 @@ Command add_segment_command(CLI::App& app) {
       ->required();
   app.add_option("--series", o->series_uid, "Series instance UID, when the DICOM directory holds several series");
   add_seeded_segmentation_options(app, o->segmentation);
-  app.add_option("--closing", o->segmentation.method.closing_radius_mm, "Closing radius after leak control, mm (0: none)")
-      ->check(kNonNegative)->capture_default_str();
+  app.add_option("--closing", o->segmentation.method.closing_radius_mm,
+                 "Closing radius after leak control, mm (0: none)")
+      ->check(kNonNegative)
+      ->capture_default_str();
   app.add_flag("--json", o->json, "Print the report as one JSON object on stdout");
   return [o] { return run_segment(*o); };
 }

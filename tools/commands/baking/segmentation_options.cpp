@@ -41,8 +41,8 @@ void add_points(std::vector<pipeline::SeedPoint>& to, const std::vector<std::str
   for (const std::string& p : points) to.push_back(pipeline::SeedPoint::at_mm(*parse_triple(p)));
   for (const std::string& v : voxels) {
     const std::array<double, 3> t = *parse_triple(v);
-    to.push_back(pipeline::SeedPoint::at_voxel(
-        {static_cast<long>(t[0]), static_cast<long>(t[1]), static_cast<long>(t[2])}));
+    to.push_back(
+        pipeline::SeedPoint::at_voxel({static_cast<long>(t[0]), static_cast<long>(t[1]), static_cast<long>(t[2])}));
   }
 }
 
@@ -51,39 +51,53 @@ void add_points(std::vector<pipeline::SeedPoint>& to, const std::vector<std::str
 void add_seeded_segmentation_options(CLI::App& app, SegmentationCommandOptions& o) {
   pipeline::SeededSegmentationOptions& m = o.method;
   app.add_option("--seed", o.seeds, "A point inside the organ X,Y,Z (LPS, mm, as 3D Slicer shows it); repeatable")
-      ->check(kPoint)->take_all();
-  app.add_option("--seed-voxel", o.seed_voxels, "A voxel inside the organ I,J,K; repeatable")->check(kVoxel)->take_all();
+      ->check(kPoint)
+      ->take_all();
+  app.add_option("--seed-voxel", o.seed_voxels, "A voxel inside the organ I,J,K; repeatable")
+      ->check(kVoxel)
+      ->take_all();
   app.add_option("--background-seed", o.background_seeds,
                  "A point X,Y,Z (mm) in a neighbour the organ must not include (heart, stomach, kidney); repeatable")
-      ->check(kPoint)->take_all();
+      ->check(kPoint)
+      ->take_all();
   app.add_option("--background-seed-voxel", o.background_seed_voxels, "A background seed as a voxel I,J,K; repeatable")
-      ->check(kVoxel)->take_all();
+      ->check(kVoxel)
+      ->take_all();
   app.add_option("--hu-window", o.hu_window,
                  "HU window LOW,HIGH of the organ (default: from the seeds' neighbourhoods, see --window-sigmas)")
-      ->delimiter(',')->expected(2);
+      ->delimiter(',')
+      ->expected(2);
   app.add_option("--window-sigmas", o.window_sigmas,
                  fmt::format("HU window from the seeds: median - BELOW to median + ABOVE robust sigmas (default {},{})",
                              m.window_sigmas_below, m.window_sigmas_above))
-      ->delimiter(',')->expected(2)->check(kPositive);
+      ->delimiter(',')
+      ->expected(2)
+      ->check(kPositive);
   app.add_option("--seed-radius", m.seed_radius_mm, "Neighbourhood of each seed for the HU statistics, mm")
-      ->check(kPositive)->capture_default_str();
+      ->check(kPositive)
+      ->capture_default_str();
   app.add_option("--opening", m.opening_radius_mm,
                  "Leak control: opening radius, mm; cuts bridges thinner than twice this into neighbours at the "
                  "same HU (0: none)")
-      ->check(kNonNegative)->capture_default_str();
+      ->check(kNonNegative)
+      ->capture_default_str();
   app.add_option("--reach", m.reach_mm,
                  "Leak control: how far beyond the opened organ its border may lie, mm (restores thin edges)")
-      ->check(kNonNegative)->capture_default_str();
+      ->check(kNonNegative)
+      ->capture_default_str();
   app.add_option("--lesion-radius", m.lesion_radius_mm,
                  "Takes in dents up to this radius, mm, that lesions and vessels at the organ's surface leave, when "
                  "the organ encloses them (0: none)")
-      ->check(kNonNegative)->capture_default_str();
+      ->check(kNonNegative)
+      ->capture_default_str();
   app.add_option("--smoothing-iterations", m.smoothing_iterations,
                  "Edge-preserving smoothing (curvature anisotropic diffusion) iterations (0: none)")
-      ->check(CLI::Range(0, 100))->capture_default_str();
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
   app.add_option("--working-spacing", m.working_spacing_mm,
                  "Segment on blocks of about this size, mm, when the CT is finer (0: full resolution)")
-      ->check(kNonNegative)->capture_default_str();
+      ->check(kNonNegative)
+      ->capture_default_str();
   app.add_option("--reference", o.reference_path,
                  "A label map of the same CT (TotalSegmentator, 3D Slicer): print the Dice of the result against it");
   app.add_option("--reference-value", o.reference_value, "The organ's value in the --reference label map")
@@ -104,9 +118,10 @@ void print_seeded_segmentation_report(const pipeline::SeededSegmentationReport& 
   if (r.window_given)
     fmt::print(" (given)\n");
   else
-    fmt::print(" (seeds' neighbourhoods: median {:.1f}, robust sigma {:.1f}; organ core: median {:.1f}, robust sigma "
-               "{:.1f} HU)\n",
-               r.seed_median_hu, r.seed_sigma_hu, r.organ_median_hu, r.organ_sigma_hu);
+    fmt::print(
+        " (seeds' neighbourhoods: median {:.1f}, robust sigma {:.1f}; organ core: median {:.1f}, robust sigma "
+        "{:.1f} HU)\n",
+        r.seed_median_hu, r.seed_sigma_hu, r.organ_median_hu, r.organ_sigma_hu);
   fmt::print("leak control    window region {:.1f} mL, cut by the opening {:.1f} mL", r.grown_ml, r.cut_by_opening_ml);
   if (r.background_split_ml > 0.0) fmt::print(", {:.1f} mL given to background seeds", r.background_split_ml);
   fmt::print("\n");
@@ -118,7 +133,8 @@ void print_seeded_segmentation_report(const pipeline::SeededSegmentationReport& 
              r.working_spacing_mm[2]);
   std::string steps;
   double total = 0.0;
-  for (const auto& [step, seconds] : r.step_seconds) steps += fmt::format("{} {:.2f}, ", step, seconds), total += seconds;
+  for (const auto& [step, seconds] : r.step_seconds)
+    steps += fmt::format("{} {:.2f}, ", step, seconds), total += seconds;
   fmt::print("time (segment)  {}total {:.2f} s\n", steps, total);
 }
 

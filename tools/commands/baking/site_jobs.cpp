@@ -135,7 +135,8 @@ std::vector<nlohmann::json> run_site_jobs(std::size_t count, std::size_t jobs,
       for (int end : pipe_ends)
         if (end >= 0) ::close(end);
       stop_jobs(started, 0);
-      throw std::runtime_error(fmt::format("cannot start job {} of {}: {}; try --jobs 1", j + 1, jobs, std::strerror(error)));
+      throw std::runtime_error(
+          fmt::format("cannot start job {} of {}: {}; try --jobs 1", j + 1, jobs, std::strerror(error)));
     }
     if (pid == 0) {
       ::close(pipe_ends[0]);

@@ -47,10 +47,11 @@ void add_command(CLI::App& app, CommandTable& table, const char* name, const cha
                  Command (*add_subcommand)(CLI::App&)) {
   CLI::App* sub = app.add_subcommand(name, description);
   sub->set_version_flag("--version", std::string("organsim ") + kProgramVersion);
-  auto* quiet = sub->add_flag_callback("--quiet", [] { g_verbosity = Verbosity::quiet; },
-                                       "No progress or notes on stderr (warnings and errors are still shown)");
-  auto* verbose = sub->add_flag_callback("--verbose", [] { g_verbosity = Verbosity::verbose; },
-                                         "More detail on stderr (what was loaded, each stage)");
+  auto* quiet = sub->add_flag_callback(
+      "--quiet", [] { g_verbosity = Verbosity::quiet; },
+      "No progress or notes on stderr (warnings and errors are still shown)");
+  auto* verbose = sub->add_flag_callback(
+      "--verbose", [] { g_verbosity = Verbosity::verbose; }, "More detail on stderr (what was loaded, each stage)");
   quiet->excludes(verbose);
   table[sub] = add_subcommand(*sub);
 }
@@ -65,18 +66,18 @@ void add_simulation_commands(CLI::App& app, CommandTable& table) {
   add_command(app, table, "fem",
               "Solve a static FEM problem file (linear, corotational, stvk, mooney-rivlin): displacements, pressures",
               add_fem_command);
-  add_command(app, table, "info", "Summarize a model file (counts, size, volume, material, provenance)", add_info_command);
+  add_command(app, table, "info", "Summarize a model file (counts, size, volume, material, provenance)",
+              add_info_command);
   add_command(app, table, "plot", "Plot columns of a CSV file (forces, a springs trace) as a PNG line chart",
               add_plot_command);
   add_command(app, table, "poke",
-      "Press the organ with tools: the force each tool feels and the deformed organ (multi-beam model)",
-      add_poke_command);
+              "Press the organ with tools: the force each tool feels and the deformed organ (multi-beam model)",
+              add_poke_command);
   add_command(app, table, "replay",
-      "Replay a recorded multi-tool session through the real-time engine: forces, contacts, loop timings",
-      add_replay_command);
+              "Replay a recorded multi-tool session through the real-time engine: forces, contacts, loop timings",
+              add_replay_command);
   add_command(app, table, "report",
-              "Rebuild a training report (web page and metrics) from a run recorded with --report",
-              add_report_command);
+              "Rebuild a training report (web page and metrics) from a run recorded with --report", add_report_command);
   add_command(app, table, "serve",
               "Serve the real-time engine over OpenIGTLink (3D Slicer, PLUS): tool poses in, organ and forces out",
               add_serve_command);
@@ -84,10 +85,10 @@ void add_simulation_commands(CLI::App& app, CommandTable& table) {
               "The mass-spring model's experiment: a grid or an organ, an integrator, a force; positions and energy",
               add_springs_command);
   add_command(app, table, "touch", "Feel the organ with PHANToM / Touch devices (OpenHaptics, loaded at run time)",
-      add_touch_command);
+              add_touch_command);
   add_command(app, table, "view",
-      "The trainee's view: the organ deforming under replayed or mouse-driven tools (VTK + OpenCV)",
-      add_view_command);
+              "The trainee's view: the organ deforming under replayed or mouse-driven tools (VTK + OpenCV)",
+              add_view_command);
 }
 
 int run_program(CLI::App& app, const CommandTable& table, int argc, char** argv) {
@@ -140,8 +141,8 @@ CLI::Validator number_check(const char* description, bool (*accept)(double), boo
 
 const CLI::Validator kPositive = number_check("a positive number", [](double v) { return v > 0.0; });
 const CLI::Validator kNonNegative = number_check("a number >= 0", [](double v) { return v >= 0.0; });
-const CLI::Validator kNonNegativeOrInfinity =
-    number_check("a number >= 0 or inf", [](double v) { return v >= 0.0; }, true);
+const CLI::Validator kNonNegativeOrInfinity = number_check(
+    "a number >= 0 or inf", [](double v) { return v >= 0.0; }, true);
 
 std::array<double, 3> parse_xyz(const std::string& text, const std::string& context) {
   std::array<double, 3> v{};
@@ -216,8 +217,8 @@ void warn_if_depth_curve_rescaled(const std::string& command, const model::Organ
                                   const std::vector<std::string>& models, const ModelTuning& tuning,
                                   const devices::Session* session) {
   const model::SiteCompliance& sites = model.sites;
-  const bool matched = std::any_of(models.begin(), models.end(),
-                                   [](const std::string& m) { return m == "beam" || m == "springs"; });
+  const bool matched =
+      std::any_of(models.begin(), models.end(), [](const std::string& m) { return m == "beam" || m == "springs"; });
   if (sites.depth_curve.empty() || !matched || tuning.unmatched) return;
   realtime::EngineOptions options;
   options.tip_radius = tuning.tip_radius_mm * 1e-3;
@@ -242,12 +243,12 @@ void warn_if_depth_curve_rescaled(const std::string& command, const model::Organ
 void warn_if_frames_overrun(const std::string& command, const realtime::Engine& engine) {
   const double frame = engine.model().estimated_frame_seconds(), period = engine.options().deformation_period;
   if (!(frame > period)) return;
-  warn(command, fmt::format("the {} model's frames are estimated at {:.1f} ms on this machine (one assembly and one "
-                            "solve on {} tetrahedra, timed at set-up), longer than the {:.1f} ms deformation period: "
-                            "frames will be dropped and the organ will lag the tools. Bake the model with a coarser "
-                            "--tet-size, or choose a faster --model (docs/fem.md#finer-meshes)",
-                            engine.model().name(), frame * 1e3, engine.organ().model().tetrahedra.size(),
-                            period * 1e3));
+  warn(command,
+       fmt::format("the {} model's frames are estimated at {:.1f} ms on this machine (one assembly and one "
+                   "solve on {} tetrahedra, timed at set-up), longer than the {:.1f} ms deformation period: "
+                   "frames will be dropped and the organ will lag the tools. Bake the model with a coarser "
+                   "--tet-size, or choose a faster --model (docs/fem.md#finer-meshes)",
+                   engine.model().name(), frame * 1e3, engine.organ().model().tetrahedra.size(), period * 1e3));
 }
 
 }  // namespace organsim::cli

@@ -57,8 +57,8 @@ void note(const std::string& command, const std::string& message);
 void detail(const std::string& command, const std::string& message);
 /// Option checks whose messages say what is wrong in plain words (CLI11's own
 /// print the whole double range).
-extern const CLI::Validator kPositive;     ///< a finite number > 0
-extern const CLI::Validator kNonNegative;  ///< a finite number ≥ 0
+extern const CLI::Validator kPositive;               ///< a finite number > 0
+extern const CLI::Validator kNonNegative;            ///< a finite number ≥ 0
 extern const CLI::Validator kNonNegativeOrInfinity;  ///< a number ≥ 0, or inf
 
 /// Parses "X,Y,Z", three numbers (NaN and infinity pass: the caller says

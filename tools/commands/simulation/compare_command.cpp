@@ -123,7 +123,8 @@ std::vector<std::string> write_plots(const CompareOptions& o, const organ::Organ
 int run_compare(CompareOptions o) {
   std::vector<ToolSpec> tools;
   for (const std::string& t : o.tools) tools.push_back(parse_tool(t));
-  if (tools.size() > multibeam::kMaxTools) throw std::runtime_error(fmt::format("at most {} tools", multibeam::kMaxTools));
+  if (tools.size() > multibeam::kMaxTools)
+    throw std::runtime_error(fmt::format("at most {} tools", multibeam::kMaxTools));
   // The reference is pressed (and listed) even when --models leaves it out.
   std::vector<std::string> models;
   for (const std::string& m : o.models)
@@ -133,7 +134,8 @@ int run_compare(CompareOptions o) {
 
   // Without --models: every model the file can run (one baked with
   // --no-beam-tables runs all but the multi-beam model).
-  model::OrganModel loaded = load_simulation_model("compare", o.model_path, o.models_given ? models : std::vector{o.reference});
+  model::OrganModel loaded =
+      load_simulation_model("compare", o.model_path, o.models_given ? models : std::vector{o.reference});
   if (!o.models_given)
     models.erase(std::remove_if(models.begin(), models.end(),
                                 [&](const std::string& m) {
@@ -164,19 +166,22 @@ int run_compare(CompareOptions o) {
   j["models"] = nlohmann::json::object();
   std::cout.setf(std::ios::fixed);
   if (!o.json) {
-    std::cout << fmt::format("{:<14}{} ({} surface vertices, {} tetrahedral nodes; bounding box {:.1f} x {:.1f} x {:.1f} mm)\n",
-                             "organ", o.model_path, organ.vertex_count(), organ.model().volume_vertices.size(),
-                             extent[0] * 1e3, extent[1] * 1e3, extent[2] * 1e3);
+    std::cout << fmt::format(
+        "{:<14}{} ({} surface vertices, {} tetrahedral nodes; bounding box {:.1f} x {:.1f} x {:.1f} mm)\n", "organ",
+        o.model_path, organ.vertex_count(), organ.model().volume_vertices.size(), extent[0] * 1e3, extent[1] * 1e3,
+        extent[2] * 1e3);
     for (std::size_t i = 0; i < tools.size(); ++i)
       std::cout << fmt::format("{:<14}{}\n", fmt::format("tool {}", i + 1), tools[i].text);
-    std::cout << fmt::format("\nagainst {}: nodal displacement differences as % of the bounding box (on: the tetrahedral "
-                             "nodes, or the surface vertices for a model that moves only those). mean, max: |du| over "
-                             "its diagonal; mean x / y / z: |du_k| over its extent along k; paper: Ogata et al.'s "
-                             "Table 5 measure, the three per-axis means' average and the largest single component\n\n",
-                             o.reference);
-    std::string head = fmt::format("| {:<12} | {:<7} | {:>7} | {:>7} | {:>27} | {:>17} | {:>12} |", "model", "on", "mean",
-                                   "max", "mean x / y / z", "paper mean / max", "surface mean");
-    for (std::size_t i = 0; i < tools.size(); ++i) head += fmt::format(" {:>14} |", fmt::format("tool {} |F| (N)", i + 1));
+    std::cout << fmt::format(
+        "\nagainst {}: nodal displacement differences as % of the bounding box (on: the tetrahedral "
+        "nodes, or the surface vertices for a model that moves only those). mean, max: |du| over "
+        "its diagonal; mean x / y / z: |du_k| over its extent along k; paper: Ogata et al.'s "
+        "Table 5 measure, the three per-axis means' average and the largest single component\n\n",
+        o.reference);
+    std::string head = fmt::format("| {:<12} | {:<7} | {:>7} | {:>7} | {:>27} | {:>17} | {:>12} |", "model", "on",
+                                   "mean", "max", "mean x / y / z", "paper mean / max", "surface mean");
+    for (std::size_t i = 0; i < tools.size(); ++i)
+      head += fmt::format(" {:>14} |", fmt::format("tool {} |F| (N)", i + 1));
     head += fmt::format(" {:>7} |", "force x");
     head += fmt::format(" {:>9} | {:>10} | {:>15} |", "volume", "frame (ms)", "force tick (us)");
     std::cout << head << '\n';
@@ -208,11 +213,12 @@ int run_compare(CompareOptions o) {
                               {"static_iteration_ms", r.deform_seconds * 1e3},
                               {"setup", r.summary}};
     if (!o.out_dir.empty())
-      j["models"][models[m]]["files"] =
-          write_model_files(organ, file_triangles, r, reference, (std::filesystem::path(o.out_dir) / models[m]).string());
+      j["models"][models[m]]["files"] = write_model_files(organ, file_triangles, r, reference,
+                                                          (std::filesystem::path(o.out_dir) / models[m]).string());
     if (o.json) continue;
     std::string row = fmt::format(
-        "| {:<12} | {:<7} | {:>6.2f}% | {:>6.2f}% | {:>6.2f}% / {:>6.2f}% / {:>6.2f}% | {:>6.2f}% / {:>6.2f}% | {:>11.2f}% |",
+        "| {:<12} | {:<7} | {:>6.2f}% | {:>6.2f}% | {:>6.2f}% / {:>6.2f}% / {:>6.2f}% | {:>6.2f}% / {:>6.2f}% | "
+        "{:>11.2f}% |",
         models[m], versus[m].on_nodes ? "nodes" : "surface", 100 * d.mean, 100 * d.max, 100 * d.axis_mean[0],
         100 * d.axis_mean[1], 100 * d.axis_mean[2], 100 * d.paper_mean(), 100 * d.paper_max(),
         100 * versus[m].surface.mean);
@@ -235,9 +241,10 @@ int run_compare(CompareOptions o) {
                "tick: the force law the 1 kHz loop evaluates per tool. Setups:\n";
   for (std::size_t m = 0; m < models.size(); ++m) std::cout << fmt::format("{:<14}{}\n", models[m], results[m].summary);
   if (!o.out_dir.empty())
-    std::cout << fmt::format("{:<14}{}/<model>.vtu and <model>_tetrahedra.vtu (deformed surface and tetrahedra, "
-                             "displacement and difference, LPS mm)\n",
-                             "written", o.out_dir);
+    std::cout << fmt::format(
+        "{:<14}{}/<model>.vtu and <model>_tetrahedra.vtu (deformed surface and tetrahedra, "
+        "displacement and difference, LPS mm)\n",
+        "written", o.out_dir);
   for (const std::string& path : plots) std::cout << fmt::format("{:<14}{}\n", "plotted", path);
   return 0;
 }
@@ -256,10 +263,12 @@ Command add_compare_command(CLI::App& app) {
   app.add_option("--reference", o->reference, "The model the others are measured against")
       ->check(CLI::IsMember(deformation_model_names()))
       ->capture_default_str();
-  app.add_option("--out", o->out_dir,
-                 "Write each model's deformed surface and tetrahedra as DIR/<model>.vtu and DIR/<model>_tetrahedra.vtu "
-                 "(ParaView) and the plots DIR/differences.png and DIR/force_depth.png (needs an X display: xvfb-run -a)");
-  app.add_option("--sweep", o->sweep, "With --out: press depths in the force-depth plot (the given presses' fractions k/N)")
+  app.add_option(
+      "--out", o->out_dir,
+      "Write each model's deformed surface and tetrahedra as DIR/<model>.vtu and DIR/<model>_tetrahedra.vtu "
+      "(ParaView) and the plots DIR/differences.png and DIR/force_depth.png (needs an X display: xvfb-run -a)");
+  app.add_option("--sweep", o->sweep,
+                 "With --out: press depths in the force-depth plot (the given presses' fractions k/N)")
       ->check(CLI::Range(1, 50))
       ->capture_default_str();
   app.add_flag("--json", o->json, "Print the comparison as one JSON object on stdout");

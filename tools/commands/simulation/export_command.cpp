@@ -69,8 +69,8 @@ int run_export(const ExportOptions& o) {
       parsed = 0;
     }
     if (parsed != o.beam[0].size() || vertex < 0)
-      throw std::runtime_error(fmt::format("--beam {} {}: the vertex must be a surface vertex number", o.beam[0],
-                                           o.beam[1]));
+      throw std::runtime_error(
+          fmt::format("--beam {} {}: the vertex must be a surface vertex number", o.beam[0], o.beam[1]));
     if (m.beams.empty())
       throw std::runtime_error(o.model_path + ": the model has no beam tables; re-bake it with --stations N");
     if (static_cast<std::size_t>(vertex) >= m.surface_vertices.size())

@@ -64,7 +64,8 @@ void write_result(const fem::StaticProblem& problem, const fem::StaticSolution& 
   mesh.point_data = {displacement};
   mesh.cell_data = {stress, von_mises};
   if (solution.pressures.size())
-    mesh.cell_data.push_back({"pressure", 1, {solution.pressures.data(), solution.pressures.data() + solution.pressures.size()}});
+    mesh.cell_data.push_back(
+        {"pressure", 1, {solution.pressures.data(), solution.pressures.data() + solution.pressures.size()}});
   mesh.units = "m";
   mesh_io::write_field_vtu(mesh, path);
 }
@@ -84,13 +85,16 @@ std::string json_report(const fem::StaticProblem& problem, const fem::StaticSolu
   j << "],\"residuals\":[";
   for (std::size_t i = 0; i < s.residual_history.size(); ++i) {
     j << (i ? "," : "") << "[";
-    for (std::size_t k = 0; k < s.residual_history[i].size(); ++k) j << (k ? "," : "") << number(s.residual_history[i][k]);
+    for (std::size_t k = 0; k < s.residual_history[i].size(); ++k)
+      j << (k ? "," : "") << number(s.residual_history[i][k]);
     j << "]";
   }
   j << "],\"step_cuts\":" << s.step_cuts << ",\"reactions\":" << vector3(s.reaction_fixed + s.reaction_prescribed)
-    << ",\"reactions_fixed\":" << vector3(s.reaction_fixed) << ",\"reactions_prescribed\":" << vector3(s.reaction_prescribed)
+    << ",\"reactions_fixed\":" << vector3(s.reaction_fixed)
+    << ",\"reactions_prescribed\":" << vector3(s.reaction_prescribed)
     << ",\"linear_solver\":" << nlohmann::json(s.linear_solver).dump() << ",\"factorizations\":" << s.factorizations
-    << ",\"krylov_solves\":" << s.krylov_solves << ",\"krylov_iterations\":" << s.krylov_iterations << ",\"time_s\":{\"assembly\":" << number(s.assembly_seconds) << ",\"solve\":" << number(s.solve_seconds)
+    << ",\"krylov_solves\":" << s.krylov_solves << ",\"krylov_iterations\":" << s.krylov_iterations
+    << ",\"time_s\":{\"assembly\":" << number(s.assembly_seconds) << ",\"solve\":" << number(s.solve_seconds)
     << ",\"total\":" << number(total_seconds) << "}}\n";
   return j.str();
 }
@@ -148,8 +152,8 @@ int run_fem(const FemOptions& o) {
     std::cout << fmt::format("{:<14}assembly {:.3f} s, solve {:.3f} s ({}), total {:.3f} s\n", "time",
                              solution.assembly_seconds, solution.solve_seconds, solution.linear_solver, total);
     if (solution.converged && !o.out_path.empty())
-      std::cout << fmt::format("{:<14}{} (deformed mesh in m; displacement, stress, von_mises{})\n", "out",
-                               o.out_path, solution.pressures.size() ? ", pressure" : "");
+      std::cout << fmt::format("{:<14}{} (deformed mesh in m; displacement, stress, von_mises{})\n", "out", o.out_path,
+                               solution.pressures.size() ? ", pressure" : "");
   }
   if (!solution.converged) throw std::runtime_error("'" + o.problem_path + "': " + solution.error);
   return 0;

@@ -61,11 +61,13 @@ fem::Material parse_material(const json& document) {
   if (model == m.end() || !model->is_string()) fail("material.model", "missing or not a string");
   fem::Material material;
   if (!fem::parse_material_model(model->get<std::string>(), material.model))
-    fail("material.model", "unknown model '" + model->get<std::string>() +
-                               "' (linear, corotational, stvk or mooney-rivlin)");
+    fail("material.model",
+         "unknown model '" + model->get<std::string>() + "' (linear, corotational, stvk or mooney-rivlin)");
   const auto required = [&](const char* key) {
     const auto field = m.find(key);
-    if (field == m.end()) fail(std::string("material.") + key, std::string("missing for the ") + fem::material_name(material.model) + " model");
+    if (field == m.end())
+      fail(std::string("material.") + key,
+           std::string("missing for the ") + fem::material_name(material.model) + " model");
     return number(*field, std::string("material.") + key);
   };
   if (material.model == fem::MaterialModel::mooney_rivlin) {
@@ -110,7 +112,8 @@ fem::StaticProblem parse_fem_problem(const std::string& text) {
     problem.gravity = {number(v[0], "gravity"), number(v[1], "gravity"), number(v[2], "gravity")};
   }
   const json& fixed = array_of(document, "fixed", false);
-  for (std::size_t i = 0; i < fixed.size(); ++i) problem.fixed.push_back(index(fixed[i], "fixed[" + std::to_string(i) + "]"));
+  for (std::size_t i = 0; i < fixed.size(); ++i)
+    problem.fixed.push_back(index(fixed[i], "fixed[" + std::to_string(i) + "]"));
   const json& prescribed = array_of(document, "prescribed", false);
   for (std::size_t i = 0; i < prescribed.size(); ++i) {
     const std::string where = "prescribed[" + std::to_string(i) + "]";

@@ -61,7 +61,9 @@ nlohmann::json sites_json(const model::OrganModel& m) {
   if (sites.empty()) return nullptr;
   constexpr double kTipRadius = 0.0025;  // m: the default tool's end
   std::vector<Eigen::Vector3d> normals(m.surface_vertices.size(), Eigen::Vector3d::Zero());
-  auto at = [&](std::uint32_t v) { return Eigen::Vector3d(m.surface_vertices[v][0], m.surface_vertices[v][1], m.surface_vertices[v][2]); };
+  auto at = [&](std::uint32_t v) {
+    return Eigen::Vector3d(m.surface_vertices[v][0], m.surface_vertices[v][1], m.surface_vertices[v][2]);
+  };
   for (const model::Triangle& t : m.surface_triangles) {
     const Eigen::Vector3d n = (at(t[1]) - at(t[0])).cross(at(t[2]) - at(t[0]));
     for (std::uint32_t v : t) normals[v] += n;
@@ -72,11 +74,14 @@ nlohmann::json sites_json(const model::OrganModel& m) {
     Eigen::Matrix3d organ;
     organ << c[0], c[3], c[4], c[3], c[1], c[5], c[4], c[5], c[2];
     const Eigen::Vector3d n = normals[v].normalized();
-    const Eigen::Matrix3d total = organ + organ::punch_compliance(sites.young_modulus, sites.poisson_ratio, kTipRadius, n);
+    const Eigen::Matrix3d total =
+        organ + organ::punch_compliance(sites.young_modulus, sites.poisson_ratio, kTipRadius, n);
     stiffness.push_back(n.dot(total.inverse() * n));
   }
   std::sort(stiffness.begin(), stiffness.end());
-  auto quantile = [&](double q) { return stiffness[static_cast<std::size_t>(q * static_cast<double>(stiffness.size() - 1))]; };
+  auto quantile = [&](double q) {
+    return stiffness[static_cast<std::size_t>(q * static_cast<double>(stiffness.size() - 1))];
+  };
   nlohmann::json curve = nlohmann::json::array();
   for (const auto& [depth, factor] : sites.depth_curve) curve.push_back({{"depth_m", depth}, {"factor", factor}});
   nlohmann::json hertz = nullptr;
@@ -84,14 +89,23 @@ nlohmann::json sites_json(const model::OrganModel& m) {
     std::vector<double> radii;
     for (const auto& [first, second] : sites.curvature) radii.push_back(organ::hertz_radius(kTipRadius, first, second));
     std::sort(radii.begin(), radii.end());
-    auto at_quantile = [&](double q) { return radii[static_cast<std::size_t>(q * static_cast<double>(radii.size() - 1))]; };
-    hertz = {{"min", at_quantile(0.0)}, {"p10", at_quantile(0.1)}, {"median", at_quantile(0.5)},
-             {"p90", at_quantile(0.9)}, {"max", at_quantile(1.0)}};
+    auto at_quantile = [&](double q) {
+      return radii[static_cast<std::size_t>(q * static_cast<double>(radii.size() - 1))];
+    };
+    hertz = {{"min", at_quantile(0.0)},
+             {"p10", at_quantile(0.1)},
+             {"median", at_quantile(0.5)},
+             {"p90", at_quantile(0.9)},
+             {"max", at_quantile(1.0)}};
   }
   return {{"reference_young_modulus_pa", sites.young_modulus},
           {"reference_poisson_ratio", sites.poisson_ratio},
-          {"normal_stiffness_n_per_m_at_2_5_mm_tip", {{"min", quantile(0.0)}, {"p10", quantile(0.1)}, {"median", quantile(0.5)},
-                                                       {"p90", quantile(0.9)}, {"max", quantile(1.0)}}},
+          {"normal_stiffness_n_per_m_at_2_5_mm_tip",
+           {{"min", quantile(0.0)},
+            {"p10", quantile(0.1)},
+            {"median", quantile(0.5)},
+            {"p90", quantile(0.9)},
+            {"max", quantile(1.0)}}},
           {"hertz_radius_m_at_2_5_mm_tip", hertz},
           {"depth_curve", curve},
           {"depth_curve_tip_radius_m", sites.curve_tip_radius}};
@@ -120,9 +134,9 @@ nlohmann::json summary_json(const InfoOptions& o, const model::ModelReadResult& 
   j["bounding_box_m"] = {{"min", as_json(measures.bounds_min)},
                          {"max", as_json(measures.bounds_max)},
                          {"size", as_json(Eigen::Vector3d(measures.bounds_max - measures.bounds_min))}};
-  j["volume_m3"] = {{"tetrahedra", m.tetrahedra.empty() ? nlohmann::json(nullptr)
-                                                         : nlohmann::json(measures.tetrahedra_volume)},
-                    {"surface", measures.surface_enclosed_volume}};
+  j["volume_m3"] = {
+      {"tetrahedra", m.tetrahedra.empty() ? nlohmann::json(nullptr) : nlohmann::json(measures.tetrahedra_volume)},
+      {"surface", measures.surface_enclosed_volume}};
   j["surface_area_m2"] = measures.surface_area;
   const model::Material& mat = m.material;
   j["material"] = {{"young_modulus_pa", mat.young_modulus},
@@ -182,20 +196,23 @@ void print_text(const nlohmann::json& j) {
     fmt::print("calibrated      beams E x {:g}, springs E x {:g}\n", mat["beam_stiffness_scale"].get<double>(),
                mat["spring_stiffness_scale"].get<double>());
   for (const auto& p : j["fixed_points_m"]) fmt::print("fixed point     ({}) mm\n", vec_mm(p));
-  fmt::print("beam tables     {}\n", c["beam_stations"].get<unsigned>() > 0
-                                        ? fmt::format("{} stations per surface vertex", c["beam_stations"].get<unsigned>())
-                                        : std::string("none"));
+  fmt::print("beam tables     {}\n",
+             c["beam_stations"].get<unsigned>() > 0
+                 ? fmt::format("{} stations per surface vertex", c["beam_stations"].get<unsigned>())
+                 : std::string("none"));
   if (const auto& sites = j["site_compliance"]; sites.is_null()) {
     fmt::print("site compliance none: the fast models give their own forces (docs/matching.md)\n");
   } else {
     const auto& k = sites["normal_stiffness_n_per_m_at_2_5_mm_tip"];
-    fmt::print("site compliance the FEM reference's normal stiffness under a 2.5 mm tip {:.3g} (p10) / {:.3g} (median) / "
-               "{:.3g} (p90) N/m; ",
-               k["p10"].get<double>(), k["median"].get<double>(), k["p90"].get<double>());
+    fmt::print(
+        "site compliance the FEM reference's normal stiffness under a 2.5 mm tip {:.3g} (p10) / {:.3g} (median) / "
+        "{:.3g} (p90) N/m; ",
+        k["p10"].get<double>(), k["median"].get<double>(), k["p90"].get<double>());
     if (const auto& h = sites["hertz_radius_m_at_2_5_mm_tip"]; !h.is_null())
-      fmt::print("the surface's curvature makes a 2.5 mm tip's Hertz radius {:.2f} (p10) / {:.2f} (median) / {:.2f} "
-                 "(p90) mm; ",
-                 h["p10"].get<double>() * 1e3, h["median"].get<double>() * 1e3, h["p90"].get<double>() * 1e3);
+      fmt::print(
+          "the surface's curvature makes a 2.5 mm tip's Hertz radius {:.2f} (p10) / {:.2f} (median) / {:.2f} "
+          "(p90) mm; ",
+          h["p10"].get<double>() * 1e3, h["median"].get<double>() * 1e3, h["p90"].get<double>() * 1e3);
     else
       fmt::print("flat at the tip's scale (no curvatures: a format 1.2 file); ");
     if (sites["depth_curve"].empty()) {

@@ -50,16 +50,18 @@ void add_model_tuning_options(CLI::App& app, ModelTuning& tuning) {
                  "never slips, as in a grasp; docs/realtime.md#contact-rule)")
       ->check(kNonNegativeOrInfinity)
       ->capture_default_str();
-  app.add_option("--fixed-radius", tuning.fixed_radius_mm,
-                 "FEM models (and springs with --volume-springs): clamp the tetrahedral nodes within this distance of the "
-                 "fixed point, mm (docs/fem.md)")
+  app.add_option(
+         "--fixed-radius", tuning.fixed_radius_mm,
+         "FEM models (and springs with --volume-springs): clamp the tetrahedral nodes within this distance of the "
+         "fixed point, mm (docs/fem.md)")
       ->check(kPositive)
       ->capture_default_str();
   app.add_flag("--volume-springs", tuning.volume_springs,
                "springs: also a spring on every tetrahedron edge, the surface tied to the tetrahedra, held at the "
                "clamp like the FEM models (--fixed-radius) instead of by body springs (docs/springs.md)");
-  app.add_option("--region", tuning.region,
-                 "springs: integrate all nodes, only a dynamic region around the tools, or a fixed one (--region-rings)")
+  app.add_option(
+         "--region", tuning.region,
+         "springs: integrate all nodes, only a dynamic region around the tools, or a fixed one (--region-rings)")
       ->check(CLI::IsMember({"all", "dynamic", "fixed"}))
       ->capture_default_str();
   app.add_option("--region-rings", tuning.region_rings, "springs, fixed region: its size in springs from each tool")

@@ -14,15 +14,16 @@ namespace organsim::cli {
 
 /// What shapes the deformation models beyond their name.
 struct ModelTuning {
-  double fixed_radius_mm = 10.0;     ///< --fixed-radius: the clamp ball of the FEM models and of the volume springs
-  bool volume_springs = false;       ///< --volume-springs: springs on the tetrahedra's edges too, clamped instead of body springs
+  double fixed_radius_mm = 10.0;  ///< --fixed-radius: the clamp ball of the FEM models and of the volume springs
+  bool volume_springs =
+      false;  ///< --volume-springs: springs on the tetrahedra's edges too, clamped instead of body springs
   std::string region = "all";        ///< --region all|dynamic|fixed: the springs' integrated region
   std::uint32_t region_rings = 3;    ///< --region-rings: a fixed region's size in springs
   double region_threshold_mm = 1.0;  ///< --region-threshold: displacement that grows a dynamic region
-  std::string linear_solver = default_linear_solver();  ///< --linear-solver: the FEM tangents' factorization
-  double tip_radius_mm = 2.5;        ///< --tip-radius: the tools' hemispherical end (0: a point)
+  std::string linear_solver = default_linear_solver();   ///< --linear-solver: the FEM tangents' factorization
+  double tip_radius_mm = 2.5;                            ///< --tip-radius: the tools' hemispherical end (0: a point)
   double friction = realtime::EngineOptions{}.friction;  ///< --friction: Coulomb's μ between tool and organ
-  bool unmatched = false;            ///< --unmatched: the fast models' own forces, not the site law's
+  bool unmatched = false;  ///< --unmatched: the fast models' own forces, not the site law's
   static const char* default_linear_solver();
 };
 /// --linear-solver simplicial|direct: Eigen's simplicial LDLT, or (when

@@ -52,7 +52,8 @@ std::vector<std::string> fields_of(const std::string& line) {
 
 /// The series y_k(x) of the CSV at `path`. An empty field is a missing value:
 /// that row gives no point to that series (to every series, when it is x's).
-std::vector<plot::Series> read_series(const std::string& path, const std::string& x, const std::vector<std::string>& y) {
+std::vector<plot::Series> read_series(const std::string& path, const std::string& x,
+                                      const std::vector<std::string>& y) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open the CSV file " + path + "; check the path");
   std::string line;
@@ -96,8 +97,8 @@ std::vector<plot::Series> read_series(const std::string& path, const std::string
       char* end = nullptr;
       values[c] = std::strtod(text.c_str(), &end);
       if (end != text.c_str() + text.size() || !std::isfinite(values[c]))
-        throw std::runtime_error(fmt::format("{}:{}: column '{}' is not a finite number: '{}'", path, line_number,
-                                             wanted[c], text));
+        throw std::runtime_error(
+            fmt::format("{}:{}: column '{}' is not a finite number: '{}'", path, line_number, wanted[c], text));
     }
     if (!present[0]) continue;
     for (std::size_t k = 0; k < y.size(); ++k)
@@ -109,8 +110,8 @@ std::vector<plot::Series> read_series(const std::string& path, const std::string
   if (rows == 0) throw std::runtime_error(path + " has a header but no data rows");
   for (const plot::Series& s : series)
     if (s.x.empty())
-      throw std::runtime_error(fmt::format("{}: column '{}' has no values (every row leaves it or '{}' empty)", path,
-                                           s.name, x));
+      throw std::runtime_error(
+          fmt::format("{}: column '{}' has no values (every row leaves it or '{}' empty)", path, s.name, x));
   return series;
 }
 
@@ -142,8 +143,8 @@ int run_plot(const PlotOptions& o) {
                                       exponent, s.x.size()));
       s.name += fmt::format(" (exponent {:.2f})", exponent);
     }
-  plot::write_line_plot_png(drawn, o.title.empty() ? o.csv_path : o.title, o.x_label.empty() ? o.x : o.x_label,
-                            y_label, o.out_path, o.size[0], o.size[1], o.log);
+  plot::write_line_plot_png(drawn, o.title.empty() ? o.csv_path : o.title, o.x_label.empty() ? o.x : o.x_label, y_label,
+                            o.out_path, o.size[0], o.size[1], o.log);
   std::cout << fmt::format("{:<8}{} ({} series of up to {} points from {}, {}x{} pixels)\n", "plot", o.out_path,
                            series.size(), points, o.csv_path, o.size[0], o.size[1]);
   for (const std::string& line : exponents) std::cout << line << '\n';

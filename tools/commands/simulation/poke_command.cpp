@@ -48,8 +48,7 @@ void draw_tetrahedra(const organ::Organ& organ, const PressResult& r, const std:
   for (std::size_t n = 0; n < rest.size(); ++n) {
     const model::Point3& at = r.node_positions[n];
     panel.points.push_back({at[0] * 1e3, at[1] * 1e3, at[2] * 1e3});
-    panel.point_values.push_back(
-        1e3 * std::hypot(at[0] - rest[n][0], at[1] - rest[n][1], at[2] - rest[n][2]));
+    panel.point_values.push_back(1e3 * std::hypot(at[0] - rest[n][0], at[1] - rest[n][1], at[2] - rest[n][2]));
   }
   for (const model::Tetrahedron& t : organ.model().tetrahedra)
     panel.tetrahedra.push_back({static_cast<std::int32_t>(t[0]), static_cast<std::int32_t>(t[1]),
@@ -65,7 +64,8 @@ void draw_tetrahedra(const organ::Organ& organ, const PressResult& r, const std:
 int run_poke(const PokeOptions& o) {
   std::vector<ToolSpec> tools;
   for (const std::string& t : o.tools) tools.push_back(parse_tool(t));
-  if (tools.size() > multibeam::kMaxTools) throw std::runtime_error(fmt::format("at most {} tools", multibeam::kMaxTools));
+  if (tools.size() > multibeam::kMaxTools)
+    throw std::runtime_error(fmt::format("at most {} tools", multibeam::kMaxTools));
   if (!o.out_path.empty() && (o.out_path.size() < 4 || o.out_path.substr(o.out_path.size() - 4) != ".vtp"))
     throw std::runtime_error("--out " + o.out_path + ": the deformed surface is written as VTK PolyData; name it .vtp");
   if (!o.compare.empty() && o.compare == o.deformation)
@@ -158,7 +158,7 @@ int run_poke(const PokeOptions& o) {
     const ToolResult& t = r.tools[i];
     std::cout << fmt::format("{:<14}at {} -> action point {} (snapped {:.2f} mm){}\n", fmt::format("tool {}", i + 1),
                              mm(tools[i].point_mm), mm(t.action_point * 1e3), t.snap_distance * 1e3,
-                             beam ? fmt::format(", beam {:.1f} mm", t.beam_length * 1e3)
+                             beam                         ? fmt::format(", beam {:.1f} mm", t.beam_length * 1e3)
                              : o.deformation == "springs" ? std::string(", held node")
                                                           : std::string(", held boundary point"));
     std::cout << fmt::format("{:<14}press {} -> action point moved {} ({:.2f} mm from the tool's target)\n", "",
@@ -167,33 +167,39 @@ int run_poke(const PokeOptions& o) {
     std::cout << fmt::format("{:<14}press {} -> force on the tool ({:.4f}, {:.4f}, {:.4f}) N, |F| {:.4f} N\n", "",
                              mm(tools[i].displacement_mm), t.force[0], t.force[1], t.force[2], t.force.norm());
   }
-  std::cout << fmt::format("{:<14}max vertex displacement {:.2f} mm (vertex {}); volume of the {} {:.1f} -> {:.1f} mL ({:+.2f} %)\n",
-                           "organ", shape.max_displacement * 1e3, organ.file_vertex_index()[shape.max_vertex],
-                           shape.volume_of_tetrahedra ? "tetrahedra" : "surface", shape.rest_volume * 1e6, shape.deformed_volume * 1e6, volume_change * 100.0);
+  std::cout << fmt::format(
+      "{:<14}max vertex displacement {:.2f} mm (vertex {}); volume of the {} {:.1f} -> {:.1f} mL ({:+.2f} %)\n",
+      "organ", shape.max_displacement * 1e3, organ.file_vertex_index()[shape.max_vertex],
+      shape.volume_of_tetrahedra ? "tetrahedra" : "surface", shape.rest_volume * 1e6, shape.deformed_volume * 1e6,
+      volume_change * 100.0);
   if (beam)
-    std::cout << fmt::format("{:<14}beam {:.1f} us per tool, force {:.3f} us per tool, deformation {:.3f} ms "
-                             "(first frame of a contact, normals included)\n",
-                             "time", r.attach_seconds * 1e6, r.force_seconds * 1e6, r.deform_seconds * 1e3);
+    std::cout << fmt::format(
+        "{:<14}beam {:.1f} us per tool, force {:.3f} us per tool, deformation {:.3f} ms "
+        "(first frame of a contact, normals included)\n",
+        "time", r.attach_seconds * 1e6, r.force_seconds * 1e6, r.deform_seconds * 1e3);
   else if (o.deformation == "springs")
-    std::cout << fmt::format("{:<14}attach {:.1f} us per tool, force {:.3f} us per tool, deformation {:.3f} ms per frame "
-                             "(normals included)\n",
-                             "time", r.attach_seconds * 1e6, r.force_seconds * 1e6, r.deform_seconds * 1e3);
+    std::cout << fmt::format(
+        "{:<14}attach {:.1f} us per tool, force {:.3f} us per tool, deformation {:.3f} ms per frame "
+        "(normals included)\n",
+        "time", r.attach_seconds * 1e6, r.force_seconds * 1e6, r.deform_seconds * 1e3);
   else
-    std::cout << fmt::format("{:<14}setup {:.3f} s (assembly and factorization at rest), attach {:.1f} ms per tool, "
-                             "Newton iteration {:.1f} ms (assembly, factorization, solve)\n",
-                             "time", r.setup_seconds, r.attach_seconds * 1e3, r.deform_seconds * 1e3);
+    std::cout << fmt::format(
+        "{:<14}setup {:.3f} s (assembly and factorization at rest), attach {:.1f} ms per tool, "
+        "Newton iteration {:.1f} ms (assembly, factorization, solve)\n",
+        "time", r.setup_seconds, r.attach_seconds * 1e3, r.deform_seconds * 1e3);
   if (other) {
     std::cout << fmt::format("{:<14}{}: {}; max vertex displacement {:.2f} mm\n", "compare", o.compare, other->summary,
                              measure(organ, *other).max_displacement * 1e3);
     for (std::uint32_t i = 0; i < tools.size(); ++i) {
       const Eigen::Vector3d& f = other->tools[i].force;
-      std::cout << fmt::format("{:<14}tool {}: force ({:.4f}, {:.4f}, {:.4f}) N, |F| {:.4f} N; |F_{} - F_{}| {:.4f} N "
-                               "({:.0f} % of |F_{}|)\n",
-                               "", i + 1, f[0], f[1], f[2], f.norm(), o.deformation, o.compare, versus.force[i],
-                               100.0 * versus.force[i] / std::max(f.norm(), 1e-300), o.compare);
+      std::cout << fmt::format(
+          "{:<14}tool {}: force ({:.4f}, {:.4f}, {:.4f}) N, |F| {:.4f} N; |F_{} - F_{}| {:.4f} N "
+          "({:.0f} % of |F_{}|)\n",
+          "", i + 1, f[0], f[1], f[2], f.norm(), o.deformation, o.compare, versus.force[i],
+          100.0 * versus.force[i] / std::max(f.norm(), 1e-300), o.compare);
     }
-    std::cout << fmt::format("{:<14}surfaces {} vs {}: vertex distance RMS {:.2f} mm, max {:.2f} mm\n", "", o.deformation,
-                             o.compare, versus.rms * 1e3, versus.max * 1e3);
+    std::cout << fmt::format("{:<14}surfaces {} vs {}: vertex distance RMS {:.2f} mm, max {:.2f} mm\n", "",
+                             o.deformation, o.compare, versus.rms * 1e3, versus.max * 1e3);
   }
   if (!o.out_path.empty()) std::cout << fmt::format("{:<14}{} (LPS, mm)\n", "deformed", o.out_path);
   return 0;

@@ -197,9 +197,9 @@ struct ModelRun {
   std::vector<std::uint64_t> clamped, watchdog, non_finite;  ///< force-safety ticks per tool
   RunTimings timings;
   std::uint64_t refused = 0, instabilities = 0;
-  double setup_seconds = 0.0;     ///< building the engine: the model's set-up (FEM: ordering, factorization)
-  double resident_mib = 0.0;      ///< this process's resident memory after the set-up (--json)
-  double estimated_frame = 0.0;   ///< s, the model's own estimate from its set-up (0: none)
+  double setup_seconds = 0.0;    ///< building the engine: the model's set-up (FEM: ordering, factorization)
+  double resident_mib = 0.0;     ///< this process's resident memory after the set-up (--json)
+  double estimated_frame = 0.0;  ///< s, the model's own estimate from its set-up (0: none)
 
   const std::vector<std::unique_ptr<ScriptedDevice>>& devices() const { return playback->devices(); }
 };
@@ -224,12 +224,13 @@ void warn_instabilities(const std::string& name, std::uint64_t instabilities) {
     warn("replay", fmt::format("the {} model diverged {} time(s) and was reset to rest; use a smaller time step", name,
                                instabilities));
   else
-    warn("replay", fmt::format("the {} model kept the organ's shape in {} frame(s): its iteration would have inverted "
-                               "a tetrahedron even at a sixteenth of its step (a tool pressed deeper than the material "
-                               "and mesh can follow), or thrown the organ out of balance (a tangent made at a state far "
-                               "from this one, as when the tools let go of a pressed organ; the next tangent moves it "
-                               "again)",
-                               name, instabilities));
+    warn("replay",
+         fmt::format("the {} model kept the organ's shape in {} frame(s): its iteration would have inverted "
+                     "a tetrahedron even at a sixteenth of its step (a tool pressed deeper than the material "
+                     "and mesh can follow), or thrown the organ out of balance (a tangent made at a state far "
+                     "from this one, as when the tools let go of a pressed organ; the next tangent moves it "
+                     "again)",
+                     name, instabilities));
 }
 
 /// Where a model's training report goes: DIR, or DIR/<model> when several models play.
@@ -261,8 +262,8 @@ nlohmann::json run_description(const ReplayOptions& o, const ModelRun& run, doub
   return report::describe_session(facts, run.playback->engine());
 }
 
-ModelRun run_model(const ReplayOptions& o, const std::string& name, const organ::Organ& organ,
-                   const Session& session, FrameWriter& frames, ForceWriter& forces) {
+ModelRun run_model(const ReplayOptions& o, const std::string& name, const organ::Organ& organ, const Session& session,
+                   FrameWriter& frames, ForceWriter& forces) {
   PlaybackOptions playback;
   playback.limits.max_force = o.max_force;
   playback.limits.max_stiffness = o.max_stiffness;
@@ -349,8 +350,8 @@ void print_json(const ReplayOptions& o, const Session& session, const ModelRun& 
                            {"contact_compute", timing_json(timings.contact_computes.percentiles())}};
   j["setup"] = {{"seconds", run.setup_seconds},
                 {"resident_mib", run.resident_mib},
-                {"estimated_frame_ms", run.estimated_frame > 0.0 ? nlohmann::json(run.estimated_frame * 1e3)
-                                                                  : nlohmann::json(nullptr)}};
+                {"estimated_frame_ms",
+                 run.estimated_frame > 0.0 ? nlohmann::json(run.estimated_frame * 1e3) : nlohmann::json(nullptr)}};
   j["refused_contacts"] = run.refused;
   j["deformation_model"] = run.name;
   j["instabilities"] = run.instabilities;
@@ -368,8 +369,7 @@ void print_text(const ReplayOptions& o, const Session& session, const std::vecto
   for (const ModelRun& run : runs) names += (names.empty() ? "" : ", ") + run.name;
   std::cout << fmt::format("{:<16}{} with {} ({} model{}, {} tools, {:.2f} s, {} mode{})\n", "replay", o.session_path,
                            o.model_path, names, single ? "" : "s", session.tools.size(),
-                           o.repeat_for > 0.0 ? o.repeat_for : session.duration,
-                           o.fast ? "fast" : "real-time",
+                           o.repeat_for > 0.0 ? o.repeat_for : session.duration, o.fast ? "fast" : "real-time",
                            runs.front().name == "beam" || !single ? ", " + o.merge + " merge" : std::string());
   auto row = [&](const std::string& label, auto&& cell) {
     std::string line = fmt::format("{:<16}", label);
@@ -383,8 +383,9 @@ void print_text(const ReplayOptions& o, const Session& session, const std::vecto
   for (std::size_t i = 0; i < session.tools.size(); ++i)
     row(fmt::format("tool {}", i + 1), [&](const ModelRun& run) {
       return fmt::format("{} contact(s), peak force {:.3f} N{}", run.telemetry[i].contacts, run.telemetry[i].peak_force,
-                         run.clamped[i] > 0 ? fmt::format(" (clamped to {:.2f} N in {} ticks)", o.max_force, run.clamped[i])
-                                            : std::string());
+                         run.clamped[i] > 0
+                             ? fmt::format(" (clamped to {:.2f} N in {} ticks)", o.max_force, run.clamped[i])
+                             : std::string());
     });
   row("force loop", [&](const ModelRun& run) {
     const Percentiles compute = run.timings.force_computes.percentiles();
@@ -418,10 +419,12 @@ void print_text(const ReplayOptions& o, const Session& session, const std::vecto
   });
   if (!o.forces_path.empty()) std::cout << fmt::format("{:<16}{}\n", "forces", o.forces_path);
   if (!o.frames_dir.empty())
-    std::cout << fmt::format("{:<16}{} frames in {} (frames.pvd for ParaView)\n", "surfaces", frames.count(), o.frames_dir);
+    std::cout << fmt::format("{:<16}{} frames in {} (frames.pvd for ParaView)\n", "surfaces", frames.count(),
+                             o.frames_dir);
   for (const ModelRun& run : runs)
     if (!o.report_dir.empty())
-      std::cout << fmt::format("{:<16}{}/index.html (metrics.json beside it)\n", "report", report_directory(o, run.name));
+      std::cout << fmt::format("{:<16}{}/index.html (metrics.json beside it)\n", "report",
+                               report_directory(o, run.name));
 }
 
 int run_replay(const ReplayOptions& o) {
@@ -461,9 +464,10 @@ Command add_replay_command(CLI::App& app) {
   app.add_option("model", o->model_path, "Model file (.organ)")->required();
   app.add_option("session", o->session_path, "Session file: recorded tool trajectories (docs/session-format.md)")
       ->required();
-  app.add_option("--model", o->models,
-                 "Deformation model: beam (multi-beam), springs (mass-spring), or FEM: linear, corotational, stvk, psh; "
-                 "a list (beam,springs,psh) replays the session through each and reports them side by side")
+  app.add_option(
+         "--model", o->models,
+         "Deformation model: beam (multi-beam), springs (mass-spring), or FEM: linear, corotational, stvk, psh; "
+         "a list (beam,springs,psh) replays the session through each and reports them side by side")
       ->delimiter(',')
       ->check(CLI::IsMember(deformation_model_names()))
       ->capture_default_str();
@@ -471,8 +475,10 @@ Command add_replay_command(CLI::App& app) {
   app.add_option("--merge", o->merge, "How beams combine: influence (eq. 7) or sum (eq. 5)")
       ->check(CLI::IsMember({"influence", "sum"}))
       ->capture_default_str();
-  app.add_option("--forces", o->forces_path, "Write every force sent to the devices (CSV: t_s,tool,fx_n,fy_n,fz_n,in_contact)");
-  app.add_option("--frames", o->frames_dir, "Write the deformed surface of every frame (VTP + frames.pvd) into this directory");
+  app.add_option("--forces", o->forces_path,
+                 "Write every force sent to the devices (CSV: t_s,tool,fx_n,fy_n,fz_n,in_contact)");
+  app.add_option("--frames", o->frames_dir,
+                 "Write the deformed surface of every frame (VTP + frames.pvd) into this directory");
   app.add_option("--report", o->report_dir,
                  "Write a training report into this directory: index.html (one self-contained page), metrics.json and "
                  "the run's raw data, which `organsim report DIR` rebuilds it from; with several models one per "

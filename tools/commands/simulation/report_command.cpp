@@ -80,8 +80,9 @@ Command add_report_command(CLI::App& app) {
   add_report_options(app, o->report);
   CLI::Option* limit = app.get_option("--force-limit");
   limit->default_str("");
-  limit->description("Training report: the force, N, above which a tool's force counts as too much (judged on the "
-                     "model's force, before the device's clamp; default: the limit the run's report was made with)");
+  limit->description(
+      "Training report: the force, N, above which a tool's force counts as too much (judged on the "
+      "model's force, before the device's clamp; default: the limit the run's report was made with)");
   return [o, limit] {
     o->limit_given = limit->count() > 0;
     return run_report(*o);

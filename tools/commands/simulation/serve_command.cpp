@@ -33,7 +33,7 @@ struct ServeOptions {
   bool no_shaft = false;
   bool json = false;
   double force_rate = 60.0;  // Hz
-  std::string report_dir;  // "": no training report
+  std::string report_dir;    // "": no training report
   report::ReportOptions report;
 };
 
@@ -128,11 +128,14 @@ int run_serve(const ServeOptions& o) {
     polling.around_force_ticks = true;
     polling.priority = 75;
   }
-  const realtime::RunTimings timings = realtime::run_realtime(engine, duration, [&](const realtime::RunTimings&) {
-    server.step(std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
-    if (recorder) recorder->take_ticks(engine);
-    return !stop_requested.load(std::memory_order_relaxed);
-  }, polling);
+  const realtime::RunTimings timings = realtime::run_realtime(
+      engine, duration,
+      [&](const realtime::RunTimings&) {
+        server.step(std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
+        if (recorder) recorder->take_ticks(engine);
+        return !stop_requested.load(std::memory_order_relaxed);
+      },
+      polling);
   if (!timings.priority_warning.empty()) warn("serve", timings.priority_warning);
   const realtime::Percentiles period = timings.force_periods.percentiles();
   if (recorder) {
@@ -196,18 +199,20 @@ int run_serve(const ServeOptions& o) {
     if (c.dropped[p] > 0)
       dropped += fmt::format("{}{} {}", dropped.empty() ? "" : ", ", c.dropped[p],
                              igtlink::name(static_cast<igtlink::Problem>(p)));
-  std::cout << fmt::format("{:<14}{:.1f} s on port {}: {} client(s), {} poses in, {} frames out ({} with the surface, "
-                           "{} missed by slow clients), {:.1f} MB sent\n",
-                           "serve", timings.wall_seconds, server.port(), c.clients_accepted, c.poses, c.frames,
-                           c.surfaces, c.frames_missed, static_cast<double>(c.bytes_sent) / 1e6);
+  std::cout << fmt::format(
+      "{:<14}{:.1f} s on port {}: {} client(s), {} poses in, {} frames out ({} with the surface, "
+      "{} missed by slow clients), {:.1f} MB sent\n",
+      "serve", timings.wall_seconds, server.port(), c.clients_accepted, c.poses, c.frames, c.surfaces, c.frames_missed,
+      static_cast<double>(c.bytes_sent) / 1e6);
   std::cout << fmt::format("{:<14}{}\n", "dropped", dropped.empty() ? std::string("none") : dropped);
   for (std::size_t k = 0; k < o.tools; ++k)
     std::cout << fmt::format("{:<14}{} contact(s), peak force {:.3f} N\n", fmt::format("tool {}", k + 1),
                              engine.telemetry(k).contacts, engine.telemetry(k).peak_force);
-  std::cout << fmt::format("{:<14}{} ticks, period p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms; {} deadline misses "
-                           "(> 2 ms)\n",
-                           "force loop", timings.force_computes.count(), period.p50 * 1e3, period.p99 * 1e3,
-                           period.max * 1e3, timings.force_deadline_misses);
+  std::cout << fmt::format(
+      "{:<14}{} ticks, period p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms; {} deadline misses "
+      "(> 2 ms)\n",
+      "force loop", timings.force_computes.count(), period.p50 * 1e3, period.p99 * 1e3, period.max * 1e3,
+      timings.force_deadline_misses);
   const realtime::Percentiles frames = timings.deformation_computes.percentiles();
   std::cout << fmt::format("{:<14}{} frames, compute p50 {:.3f} ms, p99 {:.3f} ms\n", "deformation",
                            timings.deformation_computes.count(), frames.p50 * 1e3, frames.p99 * 1e3);

@@ -30,7 +30,7 @@ using namespace organsim::springs;
 
 struct SpringsOptions {
   std::string model_path;
-  std::string grid;               // "NxM"
+  std::string grid;  // "NxM"
   double spacing_mm = 10.0;
   std::string integrator = "midpoint";
   double dt = 0.01;
@@ -126,11 +126,13 @@ std::uint32_t centre_vertex(const SpringsOptions& o, const SpringNetwork& networ
   }
   // An organ: the free surface node nearest the surface's centroid.
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  for (std::size_t v = 0; v < network.surface_nodes; ++v) centre += network.rest[v] / static_cast<double>(network.surface_nodes);
+  for (std::size_t v = 0; v < network.surface_nodes; ++v)
+    centre += network.rest[v] / static_cast<double>(network.surface_nodes);
   std::uint32_t best = 0;
   double nearest = std::numeric_limits<double>::infinity();
   for (std::uint32_t v = 0; v < network.surface_nodes; ++v)
-    if (!network.fixed[v] && (network.rest[v] - centre).norm() < nearest) nearest = (network.rest[v] - centre).norm(), best = v;
+    if (!network.fixed[v] && (network.rest[v] - centre).norm() < nearest)
+      nearest = (network.rest[v] - centre).norm(), best = v;
   return best;
 }
 
@@ -147,9 +149,10 @@ int run_springs(const SpringsOptions& o) {
   if (o.at >= static_cast<long>(surface))
     throw std::runtime_error(fmt::format("--at {}: the surface has vertices 0 to {}", o.at, surface - 1));
   if (network.fixed[at])
-    throw std::runtime_error(fmt::format("--at {}: the vertex is fixed (--fixed {}), a force there does nothing; "
-                                         "choose a free vertex",
-                                         at, o.fixed));
+    throw std::runtime_error(
+        fmt::format("--at {}: the vertex is fixed (--fixed {}), a force there does nothing; "
+                    "choose a free vertex",
+                    at, o.fixed));
   const std::vector<model::Triangle> triangles = network.triangles;
 
   SimulationOptions s;
@@ -196,8 +199,9 @@ int run_springs(const SpringsOptions& o) {
   }
   if (!o.trace_path.empty()) {
     // Shortest round-trip numbers ({} in fmt): exact and compact.
-    std::string csv = "step,time_s,force_vertex_dx_m,force_vertex_dy_m,force_vertex_dz_m,active_vertices,kinetic_j,"
-                      "spring_j,gravity_j\n";
+    std::string csv =
+        "step,time_s,force_vertex_dx_m,force_vertex_dy_m,force_vertex_dz_m,active_vertices,kinetic_j,"
+        "spring_j,gravity_j\n";
     for (std::size_t i = 0; i < trace.size(); ++i)
       csv += fmt::format("{},{},{},{},{},{},{},{},{}\n", i + 1, static_cast<double>(i + 1) * o.dt, trace[i][0],
                          trace[i][1], trace[i][2], active[i], energy[i].kinetic, energy[i].spring, energy[i].gravity);
@@ -232,7 +236,8 @@ int run_springs(const SpringsOptions& o) {
     return 0;
   }
   std::cout << fmt::format("{:<14}{} ({} vertices, {} springs)\n", "network",
-                           o.grid.empty() ? o.model_path : "grid " + o.grid, surface, simulation.network().springs.size());
+                           o.grid.empty() ? o.model_path : "grid " + o.grid, surface,
+                           simulation.network().springs.size());
   std::cout << fmt::format("{:<14}{}, dt {:g} s, {} of {} steps{}\n", "integration", o.integrator, o.dt, taken, o.steps,
                            simulation.stable() ? "" : " (blew up)");
   std::cout << fmt::format("{:<14}({:g}, {:g}, {:g}) N at vertex {}: moved ({:.4f}, {:.4f}, {:.4f}) mm\n", "force",
@@ -241,7 +246,8 @@ int run_springs(const SpringsOptions& o) {
     std::cout << fmt::format("{:<14}kinetic {:.6g} J, spring {:.6g} J, gravity {:.6g} J (last step)\n", "energy",
                              energy.back().kinetic, energy.back().spring, energy.back().gravity);
   if (!active.empty())
-    std::cout << fmt::format("{:<14}{} active vertices at the last step ({} region)\n", "region", active.back(), o.region);
+    std::cout << fmt::format("{:<14}{} active vertices at the last step ({} region)\n", "region", active.back(),
+                             o.region);
   std::cout << fmt::format("{:<14}{:.2f} us per step\n", "time", per_step_us);
   if (!o.out_path.empty()) std::cout << fmt::format("{:<14}{} (LPS, mm)\n", "final", o.out_path);
   if (!o.trace_path.empty()) std::cout << fmt::format("{:<14}{} ({} steps)\n", "trace", o.trace_path, trace.size());
@@ -300,7 +306,8 @@ Command add_springs_command(CLI::App& app) {
   app.add_option("--threshold", o->threshold, "Dynamic region: displacement (m) that activates the neighbours")
       ->check(kPositive)
       ->capture_default_str();
-  app.add_flag("--json", o->json, "Print one JSON object (positions, steps, time_per_step_us, active_vertices, energy, stable)");
+  app.add_flag("--json", o->json,
+               "Print one JSON object (positions, steps, time_per_step_us, active_vertices, energy, stable)");
   app.add_option("--out", o->out_path, "Write the final surface as VTK PolyData (.vtp)");
   app.add_option("--trace", o->trace_path,
                  "Write one CSV row per step: the force vertex's displacement (m), active vertices, energies (J)");

@@ -45,8 +45,7 @@ double time_force_law(const std::vector<ContactLaw>& laws, const std::vector<Eig
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   const auto start = std::chrono::steady_clock::now();
   for (int repeat = 0; repeat < kRepeats; ++repeat)
-    for (std::size_t i = 0; i < laws.size(); ++i)
-      sum += laws[i].at(displacements[i] * (1.0 + 1e-9 * repeat));
+    for (std::size_t i = 0; i < laws.size(); ++i) sum += laws[i].at(displacements[i] * (1.0 + 1e-9 * repeat));
   const double seconds = seconds_since(start);
   volatile double sink = sum.sum();  // keeps the loop
   (void)sink;
@@ -54,7 +53,7 @@ double time_force_law(const std::vector<ContactLaw>& laws, const std::vector<Eig
 }
 
 constexpr double kSettledSlip = 1e-7;  // m: slips smaller than this are round-off
-constexpr int kMaxSlipSteps = 40;       // per load step; the stiffness's nonlinearity makes them converge linearly
+constexpr int kMaxSlipSteps = 40;      // per load step; the stiffness's nonlinearity makes them converge linearly
 
 /// Coulomb's rule of the engine's force loop (docs/realtime.md#contact-rule)
 /// in a static press: where a tool's force lies outside the friction cone
@@ -91,7 +90,8 @@ int load_steps_for(const std::vector<Eigen::Vector3d>& displacements, const Pres
   const double radius = o.tuning.tip_radius_mm * 1e-3;
   if (radius > 0.0)
     for (const Eigen::Vector3d& d : displacements)
-      steps = std::clamp(static_cast<int>(std::ceil(d.norm() / (kStepPerRadius * radius) - 1e-9)), steps, kMaxFirstSteps);
+      steps =
+          std::clamp(static_cast<int>(std::ceil(d.norm() / (kStepPerRadius * radius) - 1e-9)), steps, kMaxFirstSteps);
   return steps;
 }
 
@@ -124,7 +124,8 @@ PressResult press_beams(const organ::Organ& organ, const std::vector<ToolSpec>& 
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
     displacements[i] = tools[i].displacement_mm * 1e-3;
     const Status status = beams.attach(i, tools[i].point_mm * 1e-3, o.tuning.tip_radius_mm * 1e-3);
-    if (status != Status::ok) throw std::runtime_error(fmt::format("tool {} ({}): {}", i + 1, tools[i].text, describe(status)));
+    if (status != Status::ok)
+      throw std::runtime_error(fmt::format("tool {} ({}): {}", i + 1, tools[i].text, describe(status)));
     if (!displacements[i].allFinite())
       throw std::runtime_error(fmt::format("tool {} ({}): {}", i + 1, tools[i].text, describe(Status::not_finite)));
   }
@@ -191,17 +192,17 @@ PressResult press_beams(const organ::Organ& organ, const std::vector<ToolSpec>& 
     r.tools[i].beam_length = b.length;
     r.tools[i].action_moved = beams.displacement_at(b.action.position);
   }
-  r.summary = fmt::format("{} stations per beam; E {:g} Pa x {:g}, nu {:g}, attenuation {:g} 1/m; {}, {} sections, {} merge",
-                          beams.stations(), organ.model().material.young_modulus,
-                          organ.model().material.beam_stiffness_scale, organ.model().material.poisson_ratio,
-                          beams.attenuation_rate(), o.theory, o.sections, o.merge);
+  r.summary =
+      fmt::format("{} stations per beam; E {:g} Pa x {:g}, nu {:g}, attenuation {:g} 1/m; {}, {} sections, {} merge",
+                  beams.stations(), organ.model().material.young_modulus, organ.model().material.beam_stiffness_scale,
+                  organ.model().material.poisson_ratio, beams.attenuation_rate(), o.theory, o.sections, o.merge);
   return r;
 }
 
 /// A FEM model: the static equilibrium of the press by Newton's method (the
 /// tangent refactored at every iteration), from rest.
 PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& tools, const PressOptions& o,
-                     fem::MaterialModel material) {
+                      fem::MaterialModel material) {
   // Newton's iterations per load step: at most kMaxIterations, or up to
   // kMaxSlowIterations while the out-of-balance force still falls by a factor
   // kSteadyContraction or better per iteration over the last kContractionWindow
@@ -233,9 +234,10 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
     displacements[i] = tools[i].displacement_mm * 1e-3;
     const Eigen::Vector3d at = snap_to_surface(organ, tools[i], i, o);
     if (!fem.attach(i, at, press_tip(organ, at, displacements[i], o)))
-      throw std::runtime_error(fmt::format("tool {} ({}): the nearest boundary face of the tetrahedra is clamped or "
-                                           "touches another tool's",
-                                           i + 1, tools[i].text));
+      throw std::runtime_error(
+          fmt::format("tool {} ({}): the nearest boundary face of the tetrahedra is clamped or "
+                      "touches another tool's",
+                      i + 1, tools[i].text));
   }
   r.attach_seconds = seconds_since(attach_start) / tools.size();
   const auto newton_start = std::chrono::steady_clock::now();
@@ -244,7 +246,7 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
     double force_scale = 0.0;
     int kept_tangent = 0;
     double previous_unbalanced = 0.0, before_previous = 0.0;  // N, after the last two iterations
-    double fresh_contraction = 0.0;  // of the first iteration on the last fresh tangent
+    double fresh_contraction = 0.0;                           // of the first iteration on the last fresh tangent
     bool refreshed = false;
     std::array<double, kContractionWindow> recent{};  // the out-of-balance forces of the last iterations
     for (int iteration = 1;; ++iteration, ++r.frames) {
@@ -264,9 +266,10 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
       if (iteration > 2 && !(contraction <= enough) && material != fem::MaterialModel::linear) {
         refreshed = fem.refresh_tangent();
         if (!refreshed && ++kept_tangent > kKeptTangents)
-          return fmt::format("the {} tangent became singular or indefinite at Newton iteration {}: the press is "
-                             "deeper than the mesh can follow",
-                             fem::material_name(material), iteration);
+          return fmt::format(
+              "the {} tangent became singular or indefinite at Newton iteration {}: the press is "
+              "deeper than the mesh can follow",
+              fem::material_name(material), iteration);
       }
       if (fem.step(target.data()) != fem::FrameStatus::ok)
         return "the press inverts a tetrahedron even in small steps: press less deep";
@@ -357,10 +360,10 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
       material == fem::MaterialModel::mooney_rivlin
           ? fmt::format("c1 = c2 {:g} Pa, kappa {:g} Pa, beta {:g}", law.c1, law.bulk_modulus, law.stabilization)
           : fmt::format("E {:g} Pa, nu {:g}", law.young_modulus, law.poisson_ratio);
-  r.summary = fmt::format("{} tetrahedra, {} nodes ({} clamped within {:g} mm); {}; Newton, {} iteration(s) in {} load step(s), {}",
-                          organ.model().tetrahedra.size(), organ.model().volume_vertices.size(),
-                          fem.clamped_node_count(), o.tuning.fixed_radius_mm, constants, r.frames,
-                          solved_in, fem.linear_solver());
+  r.summary = fmt::format(
+      "{} tetrahedra, {} nodes ({} clamped within {:g} mm); {}; Newton, {} iteration(s) in {} load step(s), {}",
+      organ.model().tetrahedra.size(), organ.model().volume_vertices.size(), fem.clamped_node_count(),
+      o.tuning.fixed_radius_mm, constants, r.frames, solved_in, fem.linear_solver());
   return r;
 }
 
@@ -371,8 +374,7 @@ PressResult press_springs(const organ::Organ& organ, const std::vector<ToolSpec>
   using namespace organsim::realtime;
   ModelOptions options;
   apply_model_tuning(o.tuning, options.fem, options.springs);
-  const std::unique_ptr<DeformationModel> springs =
-      make_deformation_model("springs", organ, options, tools.size());
+  const std::unique_ptr<DeformationModel> springs = make_deformation_model("springs", organ, options, tools.size());
   PressResult r;
   r.tools.resize(tools.size());
   std::vector<ContactLinearization> contacts(tools.size());
@@ -382,8 +384,8 @@ PressResult press_springs(const organ::Organ& organ, const std::vector<ToolSpec>
     displacements[i] = tools[i].displacement_mm * 1e-3;
     const Eigen::Vector3d at = snap_to_surface(organ, tools[i], i, o);
     if (!springs->attach(i, at, press_tip(organ, at, displacements[i], o), contacts[i]))
-      throw std::runtime_error(fmt::format("tool {} ({}): the nearest node is clamped or held by another tool", i + 1,
-                                           tools[i].text));
+      throw std::runtime_error(
+          fmt::format("tool {} ({}): the nearest node is clamped or held by another tool", i + 1, tools[i].text));
   }
   r.attach_seconds = seconds_since(attach_start) / tools.size();
   r.positions.resize(organ.vertex_count());
@@ -415,7 +417,8 @@ PressResult press_springs(const organ::Organ& organ, const std::vector<ToolSpec>
   r.summary = fmt::format("mass-spring{}, settled over {} frames of 1/60 s",
                           o.tuning.volume_springs ? " with volume springs" : "", r.frames);
   if (springs->instabilities() > 0)
-    warn(o.command, fmt::format("the mass-spring model diverged {} time(s) and was reset to rest", springs->instabilities()));
+    warn(o.command,
+         fmt::format("the mass-spring model diverged {} time(s) and was reset to rest", springs->instabilities()));
   std::vector<ContactLaw> laws(tools.size());
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
     laws[i] = {contacts[i].force, contacts[i].stiffness, contacts[i].displacement};
@@ -484,7 +487,7 @@ ToolSpec parse_tool(const std::string& text) {
 }
 
 PressResult press(const std::string& name, const organ::Organ& organ, const std::vector<ToolSpec>& tools,
-                 const PressOptions& o) {
+                  const PressOptions& o) {
   const realtime::RegisteredModel* entry = realtime::find_model(name);
   if (!entry) throw std::logic_error("unknown deformation model " + name);
   for (std::size_t i = 0; i < tools.size(); ++i) {
@@ -493,13 +496,14 @@ PressResult press(const std::string& name, const organ::Organ& organ, const std:
       const geometry::SurfacePoint at = organ.surface_tree().closest_point(tools[i].point_mm * 1e-3);
       const geometry::ToolTip tip = press_tip(organ, at.position, tools[i].displacement_mm * 1e-3, o);
       const double tilt = std::acos(std::clamp(tip.axis.dot(organ.rest_normal_at(at)), -1.0, 1.0));
-          throw std::runtime_error(fmt::format("tool {} ({}): its shaft, {:.0f} degrees from the surface normal, would pass "
-                                           "through the organ {:.1f} mm behind the tip: press closer to the normal or "
-                                           "from another side",
-                                           i + 1, tools[i].text, tilt * 180.0 / M_PI, through * 1e3));
+      throw std::runtime_error(
+          fmt::format("tool {} ({}): its shaft, {:.0f} degrees from the surface normal, would pass "
+                      "through the organ {:.1f} mm behind the tip: press closer to the normal or "
+                      "from another side",
+                      i + 1, tools[i].text, tilt * 180.0 / M_PI, through * 1e3));
     }
   }
-  PressResult r = name == "beam"             ? press_beams(organ, tools, o)
+  PressResult r = name == "beam"        ? press_beams(organ, tools, o)
                   : entry->fem_material ? press_fem(organ, tools, o, *entry->fem_material)
                                         : press_springs(organ, tools, o);
   r.model = name;
@@ -512,8 +516,7 @@ Deformation measure(const organ::Organ& organ, const PressResult& press) {
   Deformation d;
   for (std::size_t v = 0; v < positions.size(); ++v) {
     const model::Point3& rest = model.surface_vertices[v];
-    const double distance =
-        std::hypot(positions[v][0] - rest[0], positions[v][1] - rest[1], positions[v][2] - rest[2]);
+    const double distance = std::hypot(positions[v][0] - rest[0], positions[v][1] - rest[1], positions[v][2] - rest[2]);
     if (distance > d.max_displacement) {
       d.max_displacement = distance;
       d.max_vertex = v;
@@ -529,7 +532,8 @@ Deformation measure(const organ::Organ& organ, const PressResult& press) {
   for (const model::Tetrahedron& t : model.tetrahedra) {
     const auto& rest = model.volume_vertices;
     const auto& moved = press.node_positions;
-    d.rest_volume += geometry::signed_tetrahedron_volume(at(rest[t[0]]), at(rest[t[1]]), at(rest[t[2]]), at(rest[t[3]]));
+    d.rest_volume +=
+        geometry::signed_tetrahedron_volume(at(rest[t[0]]), at(rest[t[1]]), at(rest[t[2]]), at(rest[t[3]]));
     d.deformed_volume +=
         geometry::signed_tetrahedron_volume(at(moved[t[0]]), at(moved[t[1]]), at(moved[t[2]]), at(moved[t[3]]));
   }

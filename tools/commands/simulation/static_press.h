@@ -31,18 +31,17 @@ struct ToolSpec {
   Eigen::Vector3d displacement_mm;
 };
 
-
 /// Parses X,Y,Z/DX,DY,DZ; throws std::runtime_error naming the text.
 ToolSpec parse_tool(const std::string& text);
 
 /// How a press is set up beyond the model's name.
 struct PressOptions {
-  std::string command = "poke";           ///< for warnings
-  std::string merge = "influence";        ///< multi-beam: influence or sum
-  std::string theory = "euler-bernoulli"; ///< multi-beam: euler-bernoulli or timoshenko
-  std::string sections = "eccentric";     ///< multi-beam: eccentric (through the section centroids) or centred
-  double snap_distance_mm = 10.0;         ///< farthest a tool point may be from the surface
-  double settle_seconds = 2.0;            ///< mass-spring: how long the press is held before the force is read
+  std::string command = "poke";            ///< for warnings
+  std::string merge = "influence";         ///< multi-beam: influence or sum
+  std::string theory = "euler-bernoulli";  ///< multi-beam: euler-bernoulli or timoshenko
+  std::string sections = "eccentric";      ///< multi-beam: eccentric (through the section centroids) or centred
+  double snap_distance_mm = 10.0;          ///< farthest a tool point may be from the surface
+  double settle_seconds = 2.0;             ///< mass-spring: how long the press is held before the force is read
   ModelTuning tuning;
 };
 
@@ -64,8 +63,8 @@ struct ToolResult {
 };
 
 struct PressResult {
-  std::string model;            ///< the deformation model's name
-  std::string summary;          ///< one line on how the model was set up and solved
+  std::string model;    ///< the deformation model's name
+  std::string summary;  ///< one line on how the model was set up and solved
   std::vector<ToolResult> tools;
   std::vector<model::Point3> positions, normals;
   /// The tetrahedral nodes' positions (m, the model's node order) when the
@@ -127,7 +126,8 @@ PressResult press(const std::string& model, const organ::Organ& organ, const std
 struct Deformation {
   double max_displacement = 0.0;  ///< m
   std::size_t max_vertex = 0;     ///< runtime numbering
-  double rest_volume = 0.0, deformed_volume = 0.0;  ///< m³: of the tetrahedra when the press moved them, else enclosed by the surface
+  double rest_volume = 0.0,
+         deformed_volume = 0.0;  ///< m³: of the tetrahedra when the press moved them, else enclosed by the surface
   bool volume_of_tetrahedra = false;
 };
 

@@ -126,14 +126,13 @@ int run_touch(const TouchOptions& o) {
                            servo.ticks() / seconds, servo.ticks(), frames);
   if (recorder) std::cout << fmt::format("{:<14}{}/index.html (metrics.json beside it)\n", "report", o.report_dir);
   for (std::size_t i = 0; i < owned.size(); ++i)
-    std::cout << fmt::format("{:<14}{} contact(s), peak force {:.3f} N (device limit {:.2f} N){}\n",
-                             fmt::format("device {}", i + 1), engine.telemetry(i).contacts,
-                             engine.telemetry(i).peak_force, owned[i]->limits().max_force,
-                             owned[i]->error_ticks() == 0
-                                 ? std::string()
-                                 : fmt::format("; HD errors in {} servo ticks (last 0x{:04x}), {} time(s) without a pose",
-                                               owned[i]->error_ticks(), owned[i]->last_error(),
-                                               engine.telemetry(i).pose_faults));
+    std::cout << fmt::format(
+        "{:<14}{} contact(s), peak force {:.3f} N (device limit {:.2f} N){}\n", fmt::format("device {}", i + 1),
+        engine.telemetry(i).contacts, engine.telemetry(i).peak_force, owned[i]->limits().max_force,
+        owned[i]->error_ticks() == 0
+            ? std::string()
+            : fmt::format("; HD errors in {} servo ticks (last 0x{:04x}), {} time(s) without a pose",
+                          owned[i]->error_ticks(), owned[i]->last_error(), engine.telemetry(i).pose_faults));
   return 0;
 }
 

@@ -277,19 +277,20 @@ void print_summary(const ViewRun& run, const std::vector<std::string>& warnings)
     if (run.report) j["report"] = o.report_dir + "/index.html";
     std::cout << j.dump() << '\n';
   } else {
-    std::cout << fmt::format("{:<12}{} frames drawn{}{}\n", "view", run.frames,
-                             o.screenshot_path.empty() ? "" : ", screenshot " + o.screenshot_path,
-                             o.record_path.empty() ? ""
-                                                   : fmt::format(", recording {} ({} frames)", o.record_path,
-                                                                 run.recorder.count()));
+    std::cout << fmt::format(
+        "{:<12}{} frames drawn{}{}\n", "view", run.frames,
+        o.screenshot_path.empty() ? "" : ", screenshot " + o.screenshot_path,
+        o.record_path.empty() ? "" : fmt::format(", recording {} ({} frames)", o.record_path, run.recorder.count()));
   }
 }
 
 int run_view(const ViewOptions& o) {
-  if (o.size.size() != 2 || o.size[0] < 64 || o.size[1] < 64) throw std::runtime_error("--size takes WIDTH,HEIGHT of at least 64,64");
+  if (o.size.size() != 2 || o.size[0] < 64 || o.size[1] < 64)
+    throw std::runtime_error("--size takes WIDTH,HEIGHT of at least 64,64");
   if (!o.screenshot_path.empty() && fs::path(o.screenshot_path).extension() != ".png")
     throw std::runtime_error("--screenshot " + o.screenshot_path + ": screenshots are PNG files; name it .png");
-  if (o.phantom && !o.session_path.empty()) throw std::runtime_error("--phantom and --session are exclusive; choose one");
+  if (o.phantom && !o.session_path.empty())
+    throw std::runtime_error("--phantom and --session are exclusive; choose one");
   model::OrganModel loaded = load_simulation_model("view", o.model_path, {o.deformation});
   const organ::Organ organ(std::move(loaded));
 
@@ -314,11 +315,16 @@ int run_view(const ViewOptions& o) {
                                o.session_path.empty() ? nullptr : &session);
   HapticRig rig;
   if (o.phantom) rig = open_haptic_rig(o.rig, organ.model());
-  const std::size_t tool_count =
-      !o.session_path.empty() ? session.tools.size() : o.phantom ? rig.devices.size() : kMouseTools;
+  const std::size_t tool_count = !o.session_path.empty() ? session.tools.size()
+                                 : o.phantom             ? rig.devices.size()
+                                                         : kMouseTools;
   OrganScene scene(organ, tool_count, std::move(scene_options));
   Recorder recorder(o.record_path, cv::Size(o.size[0], o.size[1]));
-  ViewRun run{scene, recorder, o, 0, nlohmann::json::array(),
+  ViewRun run{scene,
+              recorder,
+              o,
+              0,
+              nlohmann::json::array(),
               o.report_dir.empty() ? nullptr : std::make_unique<report::RunRecorder>(o.report_dir, organ, tool_count)};
   if (!o.session_path.empty())
     view_session(organ, session, run);
@@ -353,8 +359,13 @@ Command add_view_command(CLI::App& app) {
                  "docs/report.md)");
   add_report_options(app, o->report);
   app.add_option("--frames", o->frames, "Stop after this many frames")->check(kNonNegative);
-  app.add_option("--seconds", o->seconds, "With mouse tools: stop after this long")->check(kPositive)->capture_default_str();
-  app.add_option("--size", o->size, "Window size WIDTH,HEIGHT in pixels")->delimiter(',')->expected(2)->capture_default_str();
+  app.add_option("--seconds", o->seconds, "With mouse tools: stop after this long")
+      ->check(kPositive)
+      ->capture_default_str();
+  app.add_option("--size", o->size, "Window size WIDTH,HEIGHT in pixels")
+      ->delimiter(',')
+      ->expected(2)
+      ->capture_default_str();
   app.add_flag("--hide-tools", o->hide_tools, "Draw the organ alone: no instruments, arrows or text");
   app.add_flag("--json", o->json, "Print a summary as one JSON object on stdout");
   app.add_flag("--phantom", o->phantom, "Tools are PHANToM / Touch devices (OpenHaptics, loaded at run time)");

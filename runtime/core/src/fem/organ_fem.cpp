@@ -33,8 +33,8 @@ constexpr int kMaxStepCuts = 4;  // the smallest step tried: 1/16 of the iterati
 // 0.1 mN, under what a haptic device renders, an imbalance counts as 0.1 mN.
 constexpr double kMaxImbalanceGrowth = 2.0;
 constexpr double kNegligibleImbalance = 1e-4;  // N
-using SmallMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxConstraintRows,
-                                  kMaxConstraintRows>;
+using SmallMatrix =
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxConstraintRows, kMaxConstraintRows>;
 using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxConstraintRows, 1>;
 using ToolColumns = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::ColMajor, kMaxConstraintRows, 3>;
 // Alternating projections between a face and the capsule's axis: the pair of
@@ -131,7 +131,8 @@ class OrganFem::Worker {
   bool wait() noexcept {
     // Sleep, not yield: the deformation loop runs with real-time priority,
     // and a yielding real-time thread would keep the worker off its CPU.
-    while (phase_.load(std::memory_order_acquire) == kRequested) std::this_thread::sleep_for(std::chrono::microseconds(100));
+    while (phase_.load(std::memory_order_acquire) == kRequested)
+      std::this_thread::sleep_for(std::chrono::microseconds(100));
     return phase_.load(std::memory_order_acquire) == kReady;
   }
   /// Owner: true when the requested refresh is done and usable (the owner
@@ -158,7 +159,8 @@ class OrganFem::Worker {
         std::this_thread::sleep_for(std::chrono::microseconds(500));
         continue;
       }
-      bool ok = system_.assemble(snapshot_, gradient_, true) < 0 && spare_->factorize(system_.tangent_free(), owner_.pressure_count());
+      bool ok = system_.assemble(snapshot_, gradient_, true) < 0 &&
+                spare_->factorize(system_.tangent_free(), owner_.pressure_count());
       if (ok)
         for (std::size_t slot = 0; slot < slots_.size(); ++slot)
           if (slots_[slot].node >= 0 && slots_[slot].held) owner_.respond(*spare_, slot, slots_[slot]);
@@ -247,7 +249,8 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
   const Eigen::Index free = system_->free_count();
   free_dofs_.resize(static_cast<std::size_t>(free));
   for (std::size_t d = 0; d < dofs; ++d)
-    if (system_->free_index()[d] >= 0) free_dofs_[static_cast<std::size_t>(system_->free_index()[d])] = static_cast<std::int32_t>(d);
+    if (system_->free_index()[d] >= 0)
+      free_dofs_[static_cast<std::size_t>(system_->free_index()[d])] = static_cast<std::int32_t>(d);
   state_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(dofs));
   saved_ = state_;
   gradient_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(dofs));
@@ -257,7 +260,8 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
 
   displacement_dofs_ = 3 * mesh.nodes.size();
   contacts_.resize(tools);
-  node_slots_.resize(options.max_contact_nodes > 0 ? options.max_contact_nodes : std::min(kMaxContactNodes, 24 * tools));
+  node_slots_.resize(options.max_contact_nodes > 0 ? options.max_contact_nodes
+                                                   : std::min(kMaxContactNodes, 24 * tools));
   slot_of_node_.assign(mesh.nodes.size(), -1);
   holds_.resize(kMaxHolds);
   candidates_.resize(kMaxCandidates);
@@ -266,8 +270,9 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
   tangent_ = make_tangent(true);
   const auto start = std::chrono::steady_clock::now();
   if (!tangent_->factorize(system_->tangent_free(), pressure_count()))
-    throw std::invalid_argument("the FEM stiffness at rest is singular: the clamp does not hold the organ (raise "
-                                "--fixed-radius)");
+    throw std::invalid_argument(
+        "the FEM stiffness at rest is singular: the clamp does not hold the organ (raise "
+        "--fixed-radius)");
   factorization_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   boundary_ = geometry::tetrahedral_boundary(model.tetrahedra);
@@ -278,7 +283,8 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
     if (!constrained[3 * face[0]] || !constrained[3 * face[1]] || !constrained[3 * face[2]])
       boundary_faces_.push_back(static_cast<std::int32_t>(f));
     for (int k = 0; k < 3; ++k)
-      longest_boundary_edge_ = std::max(longest_boundary_edge_, (mesh.nodes[face[k]] - mesh.nodes[face[(k + 1) % 3]]).norm());
+      longest_boundary_edge_ =
+          std::max(longest_boundary_edge_, (mesh.nodes[face[k]] - mesh.nodes[face[(k + 1) % 3]]).norm());
   }
   surface_rest_ = model.surface_vertices;
   embedding_ = geometry::embed_surface_in_tetrahedra(model, boundary_);
@@ -333,7 +339,7 @@ std::unique_ptr<OrganFem::Tangent> OrganFem::make_tangent(bool realtime_solve) c
   // in single precision serves them; a linear frame is the exact solution.
   const SolveUse use = !(realtime_solve && realtime_solves_)                ? SolveUse::newton
                        : system_->material().model == MaterialModel::linear ? SolveUse::realtime
-                                                                             : SolveUse::realtime_iteration;
+                                                                            : SolveUse::realtime_iteration;
   return std::make_unique<Tangent>(system_->tangent_free(), node_slots_.size(),
                                    make_factorization(factorization_, kind, use));
 }
@@ -359,7 +365,8 @@ Eigen::Vector3d OrganFem::displacement_at(const std::array<std::int32_t, 3>& nod
   return sum;
 }
 
-Eigen::Vector3d OrganFem::rest_at(const std::array<std::int32_t, 3>& nodes, const Eigen::Vector3d& weights) const noexcept {
+Eigen::Vector3d OrganFem::rest_at(const std::array<std::int32_t, 3>& nodes,
+                                  const Eigen::Vector3d& weights) const noexcept {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   for (std::size_t i = 0; i < 3; ++i)
     sum += weights[static_cast<Eigen::Index>(i)] * point(node_points_[static_cast<std::size_t>(nodes[i])]);
@@ -500,7 +507,8 @@ bool OrganFem::attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, con
   Hold h;
   h.tool = tool;
   h.bilateral = true;  // the first touch is held until the contact ends
-  h.nodes = {static_cast<std::int32_t>(face[0]), static_cast<std::int32_t>(face[1]), static_cast<std::int32_t>(face[2])};
+  h.nodes = {static_cast<std::int32_t>(face[0]), static_cast<std::int32_t>(face[1]),
+             static_cast<std::int32_t>(face[2])};
   h.weights = nearest.barycentric;
   h.outward = -tip.axis;
   // Its response now, so that its stiffness is the linearization at once:
@@ -586,7 +594,8 @@ bool OrganFem::take_points() noexcept {
         // hemisphere instead, along −axis.
         const Eigen::Vector3d from_centre = q - centre;
         const double radial = (from_centre - from_centre.dot(c.tip.axis) * c.tip.axis).norm();
-        const double behind_apex = c.tip.radius - std::sqrt(std::max(c.tip.radius * c.tip.radius - radial * radial, 0.0));
+        const double behind_apex =
+            c.tip.radius - std::sqrt(std::max(c.tip.radius * c.tip.radius - radial * radial, 0.0));
         const double ahead = (q - tip_point).dot(-c.tip.axis) + behind_apex;
         normal = -c.tip.axis;
         at = q - ahead * normal;
@@ -675,7 +684,8 @@ void OrganFem::update_stiffness() noexcept {
     if (!any) continue;
     w.solved = w.ldlt.solve(w.sums);
     for (std::size_t a = 0; a < hold_count_; ++a)
-      if (holds_[a].tool == tool) contacts_[tool].stiffness += w.solved.block<3, 3>(static_cast<Eigen::Index>(3 * a), 0);
+      if (holds_[a].tool == tool)
+        contacts_[tool].stiffness += w.solved.block<3, 3>(static_cast<Eigen::Index>(3 * a), 0);
   }
 }
 
@@ -735,7 +745,8 @@ double OrganFem::iterate(bool& released, bool& unbalanced) noexcept {
   // The holds' forces as they stand, those about to be let go of included:
   // a released point leaves its node out of balance by up to its force.
   double force_scale = std::max(unbalanced_at_start, kNegligibleImbalance);
-  for (std::size_t a = 0; a < hold_count_; ++a) force_scale = std::max(force_scale, holds_[a].force.cwiseAbs().maxCoeff());
+  for (std::size_t a = 0; a < hold_count_; ++a)
+    force_scale = std::max(force_scale, holds_[a].force.cwiseAbs().maxCoeff());
   for (;;) {
     w.gap.resize(w.rows);
     for (std::size_t a = 0; a < hold_count_; ++a) {
@@ -778,7 +789,8 @@ double OrganFem::iterate(bool& released, bool& unbalanced) noexcept {
   // Without a worker (psh, linear, static presses) there is no better
   // tangent to wait for: the step is taken.
   for (std::size_t a = 0; a < hold_count_; ++a)
-    force_scale = std::max(force_scale, w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a)).cwiseAbs().maxCoeff());
+    force_scale =
+        std::max(force_scale, w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a)).cwiseAbs().maxCoeff());
   const double tolerated = kMaxImbalanceGrowth * force_scale;
   // A step that would invert a tetrahedron (a tool pushed deeper than the
   // mesh can follow in one frame) is cut in halves; the organ then goes as far
@@ -792,7 +804,8 @@ double OrganFem::iterate(bool& released, bool& unbalanced) noexcept {
   saved_gradient_ = gradient_;
   for (int cut = 0; cut <= kMaxStepCuts; ++cut, fraction *= 0.5) {
     for (Eigen::Index j = 0; j < free; ++j)
-      state_[free_dofs_[static_cast<std::size_t>(j)]] = saved_[free_dofs_[static_cast<std::size_t>(j)]] + fraction * step_[j];
+      state_[free_dofs_[static_cast<std::size_t>(j)]] =
+          saved_[free_dofs_[static_cast<std::size_t>(j)]] + fraction * step_[j];
     if (system_->first_inverted(state_) >= 0) continue;
     if (system_->assemble(state_, gradient_, false) >= 0 || !gradient_.allFinite()) continue;
     if (!worker_ || out_of_balance(fraction) <= tolerated) return fraction;

@@ -57,9 +57,8 @@ SurfaceBvh::SurfaceBvh(const std::vector<model::Point3>& vertices, const std::ve
   std::iota(order_.begin(), order_.end(), 0u);
   std::vector<Eigen::Vector3d> centroids(triangles.size());
   for (std::size_t t = 0; t < triangles.size(); ++t)
-    centroids[t] = (point(vertices[triangles[t][0]]) + point(vertices[triangles[t][1]]) +
-                    point(vertices[triangles[t][2]])) /
-                   3.0;
+    centroids[t] =
+        (point(vertices[triangles[t][0]]) + point(vertices[triangles[t][1]]) + point(vertices[triangles[t][2]])) / 3.0;
   nodes_.reserve(2 * triangles.size() / kLeafSize + 2);
   if (!triangles.empty()) build(0, static_cast<std::uint32_t>(triangles.size()), centroids);
   refit(vertices_);
@@ -190,7 +189,7 @@ bool SurfaceBvh::first_crossing(const Eigen::Vector3d& from, const Eigen::Vector
       const Eigen::Vector3d ab = b - a, ac = c - a;
       const Eigen::Vector3d p = direction.cross(ac);
       const double determinant = ab.dot(p);
-      if (determinant == 0.0) continue;  // parallel to the plane
+      if (determinant == 0.0) continue;         // parallel to the plane
       const bool entering = determinant > 0.0;  // against the outward normal ab × ac
       if (entering_only && !entering) continue;
       const double inverse = 1.0 / determinant;

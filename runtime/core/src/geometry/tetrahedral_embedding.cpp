@@ -68,10 +68,9 @@ SurfaceEmbedding embed_surface_in_tetrahedra(const model::OrganModel& model, con
     const Eigen::Vector3d p = vec(vertex);
     const model::Tetrahedron& host = model.tetrahedra[boundary.owners[tree.closest_point(p).triangle]];
     embedding.hosts.push_back(host);
-    embedding.weights.push_back(tetrahedron_barycentric(p, vec(model.volume_vertices[host[0]]),
-                                                        vec(model.volume_vertices[host[1]]),
-                                                        vec(model.volume_vertices[host[2]]),
-                                                        vec(model.volume_vertices[host[3]])));
+    embedding.weights.push_back(
+        tetrahedron_barycentric(p, vec(model.volume_vertices[host[0]]), vec(model.volume_vertices[host[1]]),
+                                vec(model.volume_vertices[host[2]]), vec(model.volume_vertices[host[3]])));
   }
   return embedding;
 }

@@ -28,8 +28,8 @@ int bending_dof(int hermite_index, int component, double& sign) {
   const int node = hermite_index / 2;
   sign = 1.0;
   if (hermite_index % 2 == 0) return 6 * node + 1 + component;  // v or w
-  if (component == 0) return 6 * node + 5;                       // slope of v = θz
-  sign = -1.0;                                                    // slope of w = −θy
+  if (component == 0) return 6 * node + 5;                      // slope of v = θz
+  sign = -1.0;                                                  // slope of w = −θy
   return 6 * node + 4;
 }
 
@@ -55,13 +55,13 @@ Matrix12d element_stiffness(const model::BeamSection& section, double h, const B
     const Eigen::Vector2d direction = principal.eigenvectors().col(p);
     double phi = 0.0;  // Timoshenko's shear parameter 12EI / (κGA h²)
     if (options.theory == BeamTheory::timoshenko && section.area > 0.0)
-      phi = 12.0 * e_modulus * inertia /
-            (elasticity.shear_coefficient * elasticity.shear_modulus * section.area * h * h);
+      phi =
+          12.0 * e_modulus * inertia / (elasticity.shear_coefficient * elasticity.shear_modulus * section.area * h * h);
     const double f = e_modulus * inertia / ((1.0 + phi) * h * h * h);
     Eigen::Matrix4d hermite;
     hermite << 12.0, 6.0 * h, -12.0, 6.0 * h,                         //
         6.0 * h, (4.0 + phi) * h * h, -6.0 * h, (2.0 - phi) * h * h,  //
-        -12.0, -6.0 * h, 12.0, -6.0 * h,                               //
+        -12.0, -6.0 * h, 12.0, -6.0 * h,                              //
         6.0 * h, (2.0 - phi) * h * h, -6.0 * h, (4.0 + phi) * h * h;
     hermite *= f;
     for (int a = 0; a < 4; ++a)
@@ -86,10 +86,8 @@ Matrix12d element_stiffness(const model::BeamSection& section, double h, const B
     m << 0.0, ez, -ey,  //
         -ez, 0.0, 0.0,  //
         ey, 0.0, 0.0;
-    for (int node = 0; node < 2; ++node)
-      k.block<12, 3>(0, 6 * node + 3) += k.block<12, 3>(0, 6 * node) * m;
-    for (int node = 0; node < 2; ++node)
-      k.block<3, 12>(6 * node + 3, 0) += m.transpose() * k.block<3, 12>(6 * node, 0);
+    for (int node = 0; node < 2; ++node) k.block<12, 3>(0, 6 * node + 3) += k.block<12, 3>(0, 6 * node) * m;
+    for (int node = 0; node < 2; ++node) k.block<3, 12>(6 * node + 3, 0) += m.transpose() * k.block<3, 12>(6 * node, 0);
   }
   return k;
 }

@@ -9,11 +9,11 @@ namespace organsim::multibeam::kernels {
 // The levels the build compiled kernels.cpp for: x86-64-v4, v3 and the
 // baseline in the portable x86-64 build (ORGANSIM_KERNELS_PER_LEVEL), else one
 // for the target.
-#define ORGANSIM_DECLARE_LEVEL(level)                                               \
-  namespace level {                                                                \
-  void build_weights(const WeightJob& job, std::size_t first, std::size_t last) noexcept; \
-  void distort(const DistortionJob& job, std::size_t first, std::size_t last) noexcept;   \
-  void normals(const NormalsJob& job, std::size_t first, std::size_t last) noexcept;      \
+#define ORGANSIM_DECLARE_LEVEL(level)                                                             \
+  namespace level {                                                                               \
+  void build_weights(const WeightJob& job, std::size_t first, std::size_t last) noexcept;         \
+  void distort(const DistortionJob& job, std::size_t first, std::size_t last) noexcept;           \
+  void normals(const NormalsJob& job, std::size_t first, std::size_t last) noexcept;              \
   void packed_normals(const PackedNormalsJob& job, std::size_t first, std::size_t last) noexcept; \
   }
 #if defined(ORGANSIM_KERNELS_PER_LEVEL)
@@ -38,15 +38,16 @@ RunnableSets runnable() noexcept {
   const bool v4 = __builtin_cpu_supports("x86-64-v4");
   const bool v3 = __builtin_cpu_supports("x86-64-v3");
 #endif
-  if (v4) sets.set[sets.count++] = {"x86-64-v4", x86_64_v4::build_weights, x86_64_v4::distort, x86_64_v4::normals,
+  if (v4)
+    sets.set[sets.count++] = {"x86-64-v4", x86_64_v4::build_weights, x86_64_v4::distort, x86_64_v4::normals,
                               x86_64_v4::packed_normals};
-  if (v3) sets.set[sets.count++] = {"x86-64-v3", x86_64_v3::build_weights, x86_64_v3::distort, x86_64_v3::normals,
+  if (v3)
+    sets.set[sets.count++] = {"x86-64-v3", x86_64_v3::build_weights, x86_64_v3::distort, x86_64_v3::normals,
                               x86_64_v3::packed_normals};
   sets.set[sets.count++] = {"x86-64", x86_64_v1::build_weights, x86_64_v1::distort, x86_64_v1::normals,
-                              x86_64_v1::packed_normals};
+                            x86_64_v1::packed_normals};
 #else
-  sets.set[sets.count++] = {"native", native::build_weights, native::distort, native::normals,
-                              native::packed_normals};
+  sets.set[sets.count++] = {"native", native::build_weights, native::distort, native::normals, native::packed_normals};
 #endif
   return sets;
 }

@@ -31,7 +31,7 @@ struct BeamValues {
 // A chunk over more than two elements (kept out of distort()'s loop, whose
 // registers it would otherwise take): each lane's own element's coefficients.
 __attribute__((noinline, cold)) BeamValues values_per_lane(const float* lowest_record, std::int32_t lowest,
-                                                          std::int32_t last_element, Lanes tau) noexcept {
+                                                           std::int32_t last_element, Lanes tau) noexcept {
   LaneIntegers element = __builtin_convertvector(tau, LaneIntegers);
   element = element > splat_integer(last_element) ? splat_integer(last_element) : element;
   const Lanes xi = tau - __builtin_convertvector(element, Lanes);
@@ -41,8 +41,12 @@ __attribute__((noinline, cold)) BeamValues values_per_lane(const float* lowest_r
       value = element == e ? splat(lowest_record[(e - lowest) * kCoefficients + k]) : value;
     return value;
   };
-  return {((c(9) * xi + c(6)) * xi + c(3)) * xi + c(0), ((c(10) * xi + c(7)) * xi + c(4)) * xi + c(1),
-          ((c(11) * xi + c(8)) * xi + c(5)) * xi + c(2), c(12) + xi * c(15), c(13) + xi * c(16), c(14) + xi * c(17)};
+  return {((c(9) * xi + c(6)) * xi + c(3)) * xi + c(0),
+          ((c(10) * xi + c(7)) * xi + c(4)) * xi + c(1),
+          ((c(11) * xi + c(8)) * xi + c(5)) * xi + c(2),
+          c(12) + xi * c(15),
+          c(13) + xi * c(16),
+          c(14) + xi * c(17)};
 }
 
 }  // namespace
@@ -90,15 +94,17 @@ void build_weights(const WeightJob& job, std::size_t first, std::size_t last) no
       float* factor = beam.weights + begin;
       for (std::size_t v = 0; v < n; ++v) {
         const double dx = x[v] - px, dy = y[v] - py, dz = z[v] - pz;
-        factor[v] = static_cast<float>(exp_nonpositive(-rate * __builtin_sqrt(dx * dx + dy * dy + dz * dz)) * share * w[v]);
+        factor[v] =
+            static_cast<float>(exp_nonpositive(-rate * __builtin_sqrt(dx * dx + dy * dy + dz * dz)) * share * w[v]);
       }
       // Each chunk's elements, from the same single-precision place along the
       // beam that distort() computes; the padding after the last vertex is
       // left out.
       for (std::size_t v = 0; v < n; v += kLanes) {
         const std::size_t vertex = begin + v;
-        const Lanes tau = place_in_elements(beam.axis, static_cast<float>(job.stations), load_lanes(job.offset[0] + vertex),
-                                            load_lanes(job.offset[1] + vertex), load_lanes(job.offset[2] + vertex));
+        const Lanes tau =
+            place_in_elements(beam.axis, static_cast<float>(job.stations), load_lanes(job.offset[0] + vertex),
+                              load_lanes(job.offset[1] + vertex), load_lanes(job.offset[2] + vertex));
         LaneIntegers element = __builtin_convertvector(tau, LaneIntegers);
         element = element > last_element ? last_element : element;
         const std::size_t present = smaller(kLanes, job.vertex_count - vertex);

@@ -18,7 +18,7 @@
 
 namespace organsim::multibeam::kernels {
 
-inline constexpr std::uint32_t kMaxBeams = 16;      ///< = kMaxTools (static_assert in multibeam.cpp)
+inline constexpr std::uint32_t kMaxBeams = 16;  ///< = kMaxTools (static_assert in multibeam.cpp)
 /// Values per beam element in the record the distortion reads (element-major),
 /// each HALF the beam's displacement u (m) or rotation θ (rad), so that the
 /// kernel evaluates u + θ × q + ½ θ × (θ × q) = 2 (u/2 + a × (q + a × q)),
@@ -32,8 +32,8 @@ inline constexpr std::uint32_t kMaxBeams = 16;      ///< = kMaxTools (static_ass
 ///        are zero because u and θ are continuous at the knots.
 inline constexpr std::uint32_t kPolynomialCoefficients = 18;
 inline constexpr std::uint32_t kCoefficients = 30;
-inline constexpr std::size_t kPadding = 8;          ///< = organ::Organ::kPadding: vertex arrays are padded
-inline constexpr std::size_t kChunk = 8;            ///< vertices per chunk (one register of floats)
+inline constexpr std::size_t kPadding = 8;  ///< = organ::Organ::kPadding: vertex arrays are padded
+inline constexpr std::size_t kChunk = 8;    ///< vertices per chunk (one register of floats)
 /// A chunk's elements in 16 bits: its lowest element (the low kElementBits
 /// bits) and how many knots its vertices cross beyond it (the top two: 0, 1,
 /// or 2 for two or more).
@@ -56,9 +56,9 @@ struct BeamAxis {
 /// One active tool's beam as the distortion reads it.
 struct BeamLanes {
   BeamAxis axis;
-  const float* weights;                ///< per vertex (padded): attenuation × influence share
+  const float* weights;                 ///< per vertex (padded): attenuation × influence share
   const std::uint16_t* chunk_elements;  ///< per chunk: its elements, packed (build_weights)
-  const float* coefficients;           ///< stations × kCoefficients, element-major
+  const float* coefficients;            ///< stations × kCoefficients, element-major
 };
 
 struct DistortionJob {
@@ -67,18 +67,18 @@ struct DistortionJob {
   std::uint32_t stations;  ///< beam elements per beam
   std::uint32_t beams;     ///< active tools
   BeamLanes beam[kMaxBeams];
-  double* positions;       ///< out: xyz per vertex (m), interleaved
-  float* packed;           ///< out: x, y, z, 0 per vertex relative to the fixed point (m)
+  double* positions;  ///< out: xyz per vertex (m), interleaved
+  float* packed;      ///< out: x, y, z, 0 per vertex relative to the fixed point (m)
 };
 
 /// What depends on a tool's contact but not on its displacement, per vertex:
 /// rebuilt when contacts change.
 struct WeightBeam {
-  double point[3];   ///< action point (m)
-  double share;      ///< 1 / members of the tool's group (1 without the influence rule)
+  double point[3];  ///< action point (m)
+  double share;     ///< 1 / members of the tool's group (1 without the influence rule)
   std::uint32_t group;
   BeamAxis axis;
-  float* weights;    ///< out: per vertex (padded)
+  float* weights;                 ///< out: per vertex (padded)
   std::uint16_t* chunk_elements;  ///< out: per chunk of kChunk vertices, the elements they lie in, packed
 };
 
@@ -100,8 +100,8 @@ struct NormalsJob {
   const std::uint32_t* row_offsets;  ///< organ::Organ::ring_row_offsets()
   const std::uint32_t* rows;         ///< organ::Organ::ring_rows()
   std::size_t vertex_count;
-  const double* positions;           ///< xyz per vertex (m)
-  double* normals;                   ///< out: unit xyz per vertex
+  const double* positions;  ///< xyz per vertex (m)
+  double* normals;          ///< out: unit xyz per vertex
 };
 
 struct PackedNormalsJob {

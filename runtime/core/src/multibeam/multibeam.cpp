@@ -37,24 +37,31 @@ static_assert(sizeof(model::Point3) == 3 * sizeof(double));  // the kernels see 
 /// The organ's beam tables' stations, or a one-line refusal without them.
 std::uint32_t stations_of(const organ::Organ& organ) {
   if (!organ.has_beam_tables())
-    throw std::invalid_argument("the model has no beam tables (baked with --no-beam-tables): bake it again without "
-                                "that option to run the multi-beam model; every other model runs on it");
+    throw std::invalid_argument(
+        "the model has no beam tables (baked with --no-beam-tables): bake it again without "
+        "that option to run the multi-beam model; every other model runs on it");
   return organ.model().beams.stations_per_beam;
 }
 
 }  // namespace
 
 bool parse_merge_rule(std::string_view name, MergeRule& rule) noexcept {
-  if (name == "influence") rule = MergeRule::influence;
-  else if (name == "sum") rule = MergeRule::sum;
-  else return false;
+  if (name == "influence")
+    rule = MergeRule::influence;
+  else if (name == "sum")
+    rule = MergeRule::sum;
+  else
+    return false;
   return true;
 }
 
 bool parse_beam_theory(std::string_view name, BeamTheory& theory) noexcept {
-  if (name == "euler-bernoulli") theory = BeamTheory::euler_bernoulli;
-  else if (name == "timoshenko") theory = BeamTheory::timoshenko;
-  else return false;
+  if (name == "euler-bernoulli")
+    theory = BeamTheory::euler_bernoulli;
+  else if (name == "timoshenko")
+    theory = BeamTheory::timoshenko;
+  else
+    return false;
   return true;
 }
 
@@ -62,8 +69,9 @@ MultiBeam::MultiBeam(const organ::Organ& organ, const MultiBeamOptions& options)
     : organ_(organ),
       options_(options),
       stations_(stations_of(organ)),
-      elasticity_(BeamElasticity::from(organ.model().material.young_modulus * organ.model().material.beam_stiffness_scale,
-                                       organ.model().material.poisson_ratio)),
+      elasticity_(
+          BeamElasticity::from(organ.model().material.young_modulus * organ.model().material.beam_stiffness_scale,
+                               organ.model().material.poisson_ratio)),
       attenuation_rate_(organ.model().material.attenuation_beta * std::log(organ.model().material.attenuation_alpha)) {
   if (options_.max_tools == 0 || options_.max_tools > kMaxTools)
     throw std::invalid_argument("max_tools must be between 1 and 16");
@@ -113,7 +121,7 @@ Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point, doubl
   model::BeamFrame frame;
   if (!(length >= options_.min_beam_length) ||
       !model::make_beam_frame({fixed[0], fixed[1], fixed[2]},
-                       {action.position[0], action.position[1], action.position[2]}, frame))
+                              {action.position[0], action.position[1], action.position[2]}, frame))
     return Status::at_fixed_point;
   const Eigen::Vector3d x = vec(frame.x), y = vec(frame.y), z = vec(frame.z);
 
@@ -186,12 +194,12 @@ void MultiBeam::detach(std::uint32_t tool) noexcept {
 }
 
 ORGANSIM_FORCE_CLONES Status MultiBeam::force(std::uint32_t tool, const Eigen::Vector3d& tip_displacement,
-                        Eigen::Vector3d& force_on_tool) const noexcept {
+                                              Eigen::Vector3d& force_on_tool) const noexcept {
   const Status status = tool >= options_.max_tools ? Status::too_many_tools
-                        : !tools_[tool].attached    ? Status::no_contact
+                        : !tools_[tool].attached   ? Status::no_contact
                         // x·0 is 0 for finite x and NaN otherwise: one test for the three components
                         : (tip_displacement * 0.0).sum() != 0.0 ? Status::not_finite
-                                                                 : Status::ok;
+                                                                : Status::ok;
   if (status != Status::ok) {
     force_on_tool.setZero();
     return status;
@@ -276,7 +284,7 @@ Status MultiBeam::prepare(const Eigen::Vector3d* tip_displacements) noexcept {
   // Stale until a distort() has rebuilt it: a prepare() that no distort()
   // followed must not clear the flag.
   vertex_weights_stale_ = (vertex_weights_stale_ && !distorted_.load(std::memory_order_relaxed)) ||
-                       prepared_generation_ != contact_generation_;
+                          prepared_generation_ != contact_generation_;
   distorted_.store(false, std::memory_order_relaxed);
   prepared_generation_ = contact_generation_;
   return Status::ok;

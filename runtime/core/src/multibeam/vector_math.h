@@ -70,8 +70,8 @@ inline DoubleLanes gather(const double* values, const std::uint32_t* offset) noe
   lanes = (lanes >> 4) * 3;  // offsets < 2³², so the shift's sign bit is 0
   // The masked form with every lane on: the plain one merges into an
   // "undefined" register that GCC 12 warns about.
-  return __builtin_bit_cast(DoubleLanes, _mm512_mask_i32gather_pd(_mm512_setzero_pd(), 0xff,
-                                                                  __builtin_bit_cast(__m256i, lanes), values, 8));
+  return __builtin_bit_cast(
+      DoubleLanes, _mm512_mask_i32gather_pd(_mm512_setzero_pd(), 0xff, __builtin_bit_cast(__m256i, lanes), values, 8));
 #else
   DoubleLanes lanes;
   for (std::size_t l = 0; l < kDoubleLanes; ++l) lanes[l] = values[3 * static_cast<std::size_t>(offset[l] >> 4)];
@@ -100,8 +100,10 @@ inline Lanes clamp_lanes(Lanes v, float low, float high) noexcept {
   const __m256 above = _mm256_max_ps(__builtin_bit_cast(__m256, v), _mm256_set1_ps(low));
   return __builtin_bit_cast(Lanes, _mm256_min_ps(above, _mm256_set1_ps(high)));
 #elif defined(__SSE2__)
-  const __m128 low_half = _mm_min_ps(_mm_max_ps(__builtin_shufflevector(v, v, 0, 1, 2, 3), _mm_set1_ps(low)), _mm_set1_ps(high));
-  const __m128 high_half = _mm_min_ps(_mm_max_ps(__builtin_shufflevector(v, v, 4, 5, 6, 7), _mm_set1_ps(low)), _mm_set1_ps(high));
+  const __m128 low_half =
+      _mm_min_ps(_mm_max_ps(__builtin_shufflevector(v, v, 0, 1, 2, 3), _mm_set1_ps(low)), _mm_set1_ps(high));
+  const __m128 high_half =
+      _mm_min_ps(_mm_max_ps(__builtin_shufflevector(v, v, 4, 5, 6, 7), _mm_set1_ps(low)), _mm_set1_ps(high));
   return __builtin_shufflevector(low_half, high_half, 0, 1, 2, 3, 4, 5, 6, 7);
 #else
   Lanes clamped;
@@ -126,7 +128,8 @@ inline Lanes positive_part(Lanes v) noexcept {
 
 inline DoubleLanes square_root(DoubleLanes v) noexcept {
 #if defined(__AVX512F__)
-  return __builtin_bit_cast(DoubleLanes, _mm512_maskz_sqrt_pd(0xff, __builtin_bit_cast(__m512d, v)));  // maskz: see gather()
+  return __builtin_bit_cast(DoubleLanes,
+                            _mm512_maskz_sqrt_pd(0xff, __builtin_bit_cast(__m512d, v)));  // maskz: see gather()
 #elif defined(__AVX2__)
   return __builtin_bit_cast(DoubleLanes, _mm256_sqrt_pd(__builtin_bit_cast(__m256d, v)));
 #elif defined(__SSE2__)
@@ -145,7 +148,7 @@ constexpr std::size_t kPackedVertices = 2;
 constexpr std::size_t kPackedVertices = 1;
 #endif
 using PackedLanes = float __attribute__((vector_size(kPackedVertices * 4 * sizeof(float))));
-using Quad = float __attribute__((vector_size(4 * sizeof(float))));           ///< one packed vertex
+using Quad = float __attribute__((vector_size(4 * sizeof(float))));  ///< one packed vertex
 static_assert(kLanes % kPackedVertices == 0);
 
 /// The packed points at byte offsets offset[0 .. kPackedVertices) of `packed`.

@@ -186,8 +186,8 @@ Eigen::Vector3d Organ::rest_normal_at(const geometry::SurfacePoint& at) const no
   return normal.norm() > 0.0 ? Eigen::Vector3d(normal.normalized()) : geometry::triangle_normal(model_, at.triangle);
 }
 
-void compute_vertex_normals(const Organ& organ, const model::Point3* positions, model::Point3* normals, std::size_t first,
-                            std::size_t last) noexcept {
+void compute_vertex_normals(const Organ& organ, const model::Point3* positions, model::Point3* normals,
+                            std::size_t first, std::size_t last) noexcept {
   if (first >= last) return;
   multibeam::kernels::NormalsJob job;
   job.row_offsets = organ.ring_row_offsets().data();

@@ -129,7 +129,8 @@ SiteLaw::Secant SiteLaw::secant(double normal_depth, bool with_derivative) const
   const double surface_slope = indentation < buried_indentation_ ? -along_surface / (2.0 * indentation) : 0.0;
   const double indentation_per_depth =
       1.0 / (1.0 + organ_normal_compliance_ * tip_force_slope(indentation));  // dδ/dd_n
-  s.derivative = -indentation_per_depth * s.stiffness * about_normal(normal_slope, surface_slope, normal_) * s.stiffness;
+  s.derivative =
+      -indentation_per_depth * s.stiffness * about_normal(normal_slope, surface_slope, normal_) * s.stiffness;
   return s;
 }
 

@@ -20,7 +20,8 @@ long long now_ns() {
 
 CpuStalls measure_cpu_stalls(double seconds, double spin) {
   if (!(spin > 0.0 && spin <= 0.9e-3))
-    throw std::invalid_argument("the spin per millisecond must be more than 0 and at most 0.9 ms (the real-time throttle)");
+    throw std::invalid_argument(
+        "the spin per millisecond must be more than 0 and at most 0.9 ms (the real-time throttle)");
   int policy = 0;
   sched_param previous{};
   pthread_getschedparam(pthread_self(), &policy, &previous);

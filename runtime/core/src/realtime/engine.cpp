@@ -53,10 +53,10 @@ Engine::Engine(const organ::Organ& organ, const std::vector<devices::HapticDevic
     : organ_(organ),
       devices_(devices),
       options_(options),
-      model_(make_deformation_model(options.model, organ,
-                                    {with_tools(options.beams, std::max<std::size_t>(devices.size(), 1)),
-                                     options.springs, options.fem},
-                                    std::max<std::size_t>(devices.size(), 1))),
+      model_(make_deformation_model(
+          options.model, organ,
+          {with_tools(options.beams, std::max<std::size_t>(devices.size(), 1)), options.springs, options.fem},
+          std::max<std::size_t>(devices.size(), 1))),
       deformed_tree_(organ.model().surface_vertices, organ.model().surface_triangles),
       moved_mark_(organ.vertex_count(), 0),
       moved_list_(organ.vertex_count()),
@@ -134,7 +134,8 @@ void Engine::force_tick(double now) noexcept {
       }
       // A shaft contact needs the shaft: without it the contact point is unknown.
       if (valid && (contact.shaft_offset == 0.0 || pose.shaft.squaredNorm() > 0.0)) {
-        const Eigen::Vector3d displacement = pose.tip + contact.shaft_offset * pose.shaft - contact.action_point - slip_[i];
+        const Eigen::Vector3d displacement =
+            pose.tip + contact.shaft_offset * pose.shaft - contact.action_point - slip_[i];
         force.noalias() = contact.force - contact.stiffness * (displacement - contact.reference);
         // Back outside: the contact ends now. One that began above the rest
         // surface (the organ moved onto a resting tool) also ends once the
@@ -200,8 +201,7 @@ void Engine::force_tick(double now) noexcept {
     t.in_contact = touching;
     t.last_force = safe;
     t.peak_force = std::max(t.peak_force, safe.norm());
-    if (tick_records_[i].capacity() > 0)
-      tick_records_[i].push({now, safe, force, out.tips[i], depth, touching, valid});
+    if (tick_records_[i].capacity() > 0) tick_records_[i].push({now, safe, force, out.tips[i], depth, touching, valid});
   }
   tool_frames_.publish();
 }
@@ -244,7 +244,8 @@ void Engine::deformation_step(double now) noexcept {
       if (!crossed && previous_valid_[i] && tree_positions_ != nullptr) {
         const geometry::SurfacePoint nearest = deformed_tree_.closest_point(tools.tips[i]);
         const model::Triangle& t = triangles[nearest.triangle];
-        const Eigen::Vector3d a = vec(tree_positions_[t[0]]), b = vec(tree_positions_[t[1]]), c = vec(tree_positions_[t[2]]);
+        const Eigen::Vector3d a = vec(tree_positions_[t[0]]), b = vec(tree_positions_[t[1]]),
+                              c = vec(tree_positions_[t[2]]);
         if (nearest.distance < kCaughtDepth && (tools.tips[i] - nearest.position).dot((b - a).cross(c - a)) < 0.0) {
           crossed = true;
           hit.triangle = nearest.triangle;
@@ -297,11 +298,12 @@ void Engine::deformation_step(double now) noexcept {
   }
   const double dt = previous_step_ < 0.0 ? options_.deformation_period : now - previous_step_;
   previous_step_ = now;
-  touched_ = std::any_of(contacts_.tools.begin(), contacts_.tools.begin() + static_cast<std::ptrdiff_t>(devices_.size()),
-                         [](const ToolContact& c) { return c.active; });
+  touched_ =
+      std::any_of(contacts_.tools.begin(), contacts_.tools.begin() + static_cast<std::ptrdiff_t>(devices_.size()),
+                  [](const ToolContact& c) { return c.active; });
   SurfaceFrame& frame = surfaces_.write_slot();
-  const bool moved = model_->step(dt, displacement_.data(), frame.positions.data(), frame.normals.data(),
-                                  linearizations_.data());
+  const bool moved =
+      model_->step(dt, displacement_.data(), frame.positions.data(), frame.normals.data(), linearizations_.data());
   for (std::size_t i = 0; i < devices_.size(); ++i)
     if (contacts_.tools[i].active) publish_linearization(i);
   contacts_.time = now;

@@ -80,7 +80,6 @@ void periodic(double period, std::size_t count, const timespec& start, DurationH
   }
 }
 
-
 }  // namespace
 
 Percentiles percentiles(std::vector<double> samples) {
@@ -144,8 +143,9 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
     sched_param parameter{};
     parameter.sched_priority = 80;
     priority_error.store(pthread_setschedparam(pthread_self(), SCHED_FIFO, &parameter));
-    periodic(o.force_period, force_ticks, start, timings.force_periods, timings.force_computes, stop, nullptr,
-             [&](double time) { engine.force_tick(time); }, [](double) {});
+    periodic(
+        o.force_period, force_ticks, start, timings.force_periods, timings.force_computes, stop, nullptr,
+        [&](double time) { engine.force_tick(time); }, [](double) {});
     force_done.store(true);
   });
   std::thread deformation([&] {
@@ -157,12 +157,12 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
     sched_param parameter{};
     parameter.sched_priority = 70;
     deformation_priority_error.store(pthread_setschedparam(pthread_self(), SCHED_FIFO, &parameter));
-    periodic(o.deformation_period, frames, start, timings.deformation_periods, timings.deformation_computes, stop,
-             &timings.deformation_frames_dropped,
-             [&](double time) { engine.deformation_step(time); },
-             [&](double compute) {
-               if (engine.touched_in_last_step()) timings.contact_computes.record(compute);
-             });
+    periodic(
+        o.deformation_period, frames, start, timings.deformation_periods, timings.deformation_computes, stop,
+        &timings.deformation_frames_dropped, [&](double time) { engine.deformation_step(time); },
+        [&](double compute) {
+          if (engine.touched_in_last_step()) timings.contact_computes.record(compute);
+        });
     deformation_done.store(true);
   });
   int poll_policy = SCHED_OTHER, poll_priority_error = 0;
@@ -179,9 +179,9 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
   std::size_t tick_poll = 0;
   auto next_tick_poll = [&] {
     const long long tick = std::llround(o.force_period * 1e9);
-    const long long after_start = tick_poll % 2 == 0
-                                      ? static_cast<long long>(tick_poll / 2) * tick + std::llround(kPollAfterTick * 1e9)
-                                      : static_cast<long long>((tick_poll + 1) / 2) * tick - std::llround(kPollBeforeTick * 1e9);
+    const long long after_start =
+        tick_poll % 2 == 0 ? static_cast<long long>(tick_poll / 2) * tick + std::llround(kPollAfterTick * 1e9)
+                           : static_cast<long long>((tick_poll + 1) / 2) * tick - std::llround(kPollBeforeTick * 1e9);
     timespec at = start;
     advance(at, 1e-9 * static_cast<double>(after_start));
     return at;
@@ -222,7 +222,8 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
   }
   force.join();
   deformation.join();
-  if (polling.priority > 0 && poll_priority_error == 0) pthread_setschedparam(pthread_self(), poll_policy, &poll_parameter);
+  if (polling.priority > 0 && poll_priority_error == 0)
+    pthread_setschedparam(pthread_self(), poll_policy, &poll_parameter);
   if (locked) munlockall();
   if (failure) std::rethrow_exception(failure);
   if (poll) poll(timings);
@@ -230,10 +231,10 @@ RunTimings run_realtime(Engine& engine, double duration, const std::function<boo
   const int error = priority_error.load() != 0 ? priority_error.load() : deformation_priority_error.load();
   timings.realtime_priority = error == 0 && poll_priority_error == 0;
   if (error != 0 || poll_priority_error != 0)
-    timings.priority_warning = std::string(error != 0 ? "the loops run" : "the polling thread runs") +
-                               " without real-time priority (SCHED_FIFO: " +
-                               std::strerror(error != 0 ? error : poll_priority_error) +
-                               "); run as root or grant CAP_SYS_NICE for steadier timing";
+    timings.priority_warning =
+        std::string(error != 0 ? "the loops run" : "the polling thread runs") +
+        " without real-time priority (SCHED_FIFO: " + std::strerror(error != 0 ? error : poll_priority_error) +
+        "); run as root or grant CAP_SYS_NICE for steadier timing";
   timings.force_deadline_misses = timings.force_periods.above_threshold();
   return timings;
 }

@@ -42,7 +42,8 @@ ORGANSIM_SPRING_CLONES void spring_forces(std::size_t count, double* __restrict_
     const double closing = dx[j] * dvx[j] + dy[j] * dvy[j] + dz[j] * dvz[j];
     const double l2 = squared > 0.0 ? squared : 1.0;
     const double inverse_length = 1.0 / __builtin_sqrt(l2);
-    const double m = (stiffness[j] * (l2 * inverse_length - rest[j]) + damping[j] * closing * inverse_length) * inverse_length;
+    const double m =
+        (stiffness[j] * (l2 * inverse_length - rest[j]) + damping[j] * closing * inverse_length) * inverse_length;
     const double magnitude = squared > 0.0 ? m : 0.0;
     dx[j] *= magnitude, dy[j] *= magnitude, dz[j] *= magnitude;
   }
@@ -269,8 +270,10 @@ void MassSpring::activate(std::uint32_t node) noexcept {
 void MassSpring::rebuild_seeds() noexcept {
   forced_count_ = held_count_ = 0;
   for (std::uint32_t i = 0; i < node_count(); ++i) {
-    if (held_[i]) held_nodes_[held_count_++] = i;
-    else if (!network_.fixed[i] && !external_[i].isZero(0.0)) forced_nodes_[forced_count_++] = i;
+    if (held_[i])
+      held_nodes_[held_count_++] = i;
+    else if (!network_.fixed[i] && !external_[i].isZero(0.0))
+      forced_nodes_[forced_count_++] = i;
   }
   seeds_dirty_ = false;
   region_dirty_ = true;
@@ -345,7 +348,8 @@ void MassSpring::mark_fixed_region() noexcept {
   std::size_t next = 0;
   for (std::uint32_t ring = 0; ring < options_.region_rings; ++ring)
     for (const std::size_t ring_end = end; next < ring_end; ++next)
-      for (std::uint32_t e = incidence_offset_[region_queue_[next]]; e < incidence_offset_[region_queue_[next] + 1]; ++e)
+      for (std::uint32_t e = incidence_offset_[region_queue_[next]]; e < incidence_offset_[region_queue_[next] + 1];
+           ++e)
         visit(incidence_other_[e]);
   lists_dirty_ = true;
 }
@@ -566,7 +570,7 @@ double MassSpring::move_held_nodes() noexcept {
 // members as far as the compiler knows (reloaded per node).
 
 MassSpring::StepArrays MassSpring::step_arrays() noexcept {
-  return {x_.data(),     v_.data(),     stage_x_.data(),           stage_v_.data(),  sum_x_.data(),
+  return {x_.data(),     v_.data(),     stage_x_.data(),          stage_v_.data(),   sum_x_.data(),
           sum_v_.data(), accel_.data(), integrated_nodes_.data(), integrated_count_, options_.dt};
 }
 

@@ -209,7 +209,8 @@ SurfaceEdges surface_edges(const model::OrganModel& model) {
   double length_sum = 0.0;
   for (std::size_t s = 0; s < edges.sides.size(); ++s)
     if (edges.first_side_of_edge(s)) {
-      length_sum += (vec(model.surface_vertices[edges.sides[s].a]) - vec(model.surface_vertices[edges.sides[s].b])).norm();
+      length_sum +=
+          (vec(model.surface_vertices[edges.sides[s].a]) - vec(model.surface_vertices[edges.sides[s].b])).norm();
       ++edges.edge_count;
     }
   edges.mean_length = length_sum / static_cast<double>(edges.edge_count);
@@ -322,9 +323,9 @@ SpringNetwork make_organ_network(const model::OrganModel& model, const OrganNetw
   check_organ_network_inputs(model, o);
   const std::size_t vertex_count = model.surface_vertices.size();
   const SurfaceEdges edges = surface_edges(model);
-  const double k = o.stiffness > 0.0 ? o.stiffness
-                                     : model.material.young_modulus * model.material.spring_stiffness_scale *
-                                           edges.mean_length;
+  const double k = o.stiffness > 0.0
+                       ? o.stiffness
+                       : model.material.young_modulus * model.material.spring_stiffness_scale * edges.mean_length;
   require(std::isfinite(k) && k > 0.0, "the structural spring constant is zero: set stiffness or the model's E");
   const double depth = o.anchor_depth > 0.0 ? o.anchor_depth : edges.mean_length;
 
@@ -344,8 +345,7 @@ SpringNetwork make_organ_network(const model::OrganModel& model, const OrganNetw
   const bool body = o.body_factor > 0.0;
   reserve_springs(net.springs, edges.edge_count + edges.interior + (body ? vertex_count : 0));
   for (std::size_t s = 0; s < edges.sides.size(); ++s)
-    if (edges.first_side_of_edge(s))
-      add_spring(net, edges.sides[s].a, edges.sides[s].b, k, d, SpringKind::structural);
+    if (edges.first_side_of_edge(s)) add_spring(net, edges.sides[s].a, edges.sides[s].b, k, d, SpringKind::structural);
   const double kb = o.bending_factor * k;
   edges.for_each_edge([&](std::size_t s, std::size_t e) {
     if (e - s == 2 && edges.sides[s].opposite != edges.sides[s + 1].opposite)

@@ -62,15 +62,16 @@ StiffestMode stiffest_mode(const SpringNetwork& network, double point_damping) {
   double lightest = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < network.rest.size(); ++i)
     if (!network.fixed[i]) lightest = std::min(lightest, network.mass[i]);
-  mode.damping_rate =
-      std::max(0.0, largest_mass_normalized_eigenvalue(network, [&](std::size_t k) { return network.springs.damping[k]; })) +
-      (std::isfinite(lightest) ? point_damping / lightest : 0.0);
+  mode.damping_rate = std::max(0.0, largest_mass_normalized_eigenvalue(
+                                        network, [&](std::size_t k) { return network.springs.damping[k]; })) +
+                      (std::isfinite(lightest) ? point_damping / lightest : 0.0);
   return mode;
 }
 
 double largest_stable_step(Integrator integrator, const StiffestMode& mode) {
   const double w2 = mode.omega * mode.omega, g = mode.damping_rate;
-  if (integrator == Integrator::implicit_euler || !(w2 > 0.0 || g > 0.0)) return std::numeric_limits<double>::infinity();
+  if (integrator == Integrator::implicit_euler || !(w2 > 0.0 || g > 0.0))
+    return std::numeric_limits<double>::infinity();
   // The mode's eigenvalues μ = (−γ ± √(γ² − 4ω²)) / 2.
   const std::complex<double> root = std::sqrt(std::complex<double>(g * g - 4.0 * w2, 0.0));
   const std::complex<double> mu[2] = {0.5 * (-g + root), 0.5 * (-g - root)};

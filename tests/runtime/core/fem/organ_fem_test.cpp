@@ -47,8 +47,8 @@ std::int32_t top_far_node(const model::OrganModel& m) {
 
 /// The same press as a static problem: the clamp as fixed nodes, the contact
 /// node's three components prescribed.
-StaticSolution static_press(const model::OrganModel& m, MaterialModel law, const OrganFemOptions& o,
-                            std::int32_t node, const Eigen::Vector3d& displacement) {
+StaticSolution static_press(const model::OrganModel& m, MaterialModel law, const OrganFemOptions& o, std::int32_t node,
+                            const Eigen::Vector3d& displacement) {
   StaticProblem p;
   for (const model::Point3& x : m.volume_vertices) p.mesh.nodes.push_back(point(x));
   for (const model::Tetrahedron& t : m.tetrahedra)
@@ -58,7 +58,8 @@ StaticSolution static_press(const model::OrganModel& m, MaterialModel law, const
                    ? Material::mooney_rivlin_from_young(m.material.young_modulus, o.psh_poisson_ratio, o.stabilization)
                    : Material::from_young(law, m.material.young_modulus, m.material.poisson_ratio);
   for (std::size_t n = 0; n < p.mesh.nodes.size(); ++n)
-    if ((p.mesh.nodes[n] - point(m.fixed_points[0])).norm() <= o.fixed_radius) p.fixed.push_back(static_cast<std::int32_t>(n));
+    if ((p.mesh.nodes[n] - point(m.fixed_points[0])).norm() <= o.fixed_radius)
+      p.fixed.push_back(static_cast<std::int32_t>(n));
   for (int k = 0; k < 3; ++k) p.prescribed.push_back({node, k, displacement[k]});
   p.load_steps = 4;
   p.tolerance = 1e-10;
@@ -142,7 +143,8 @@ class NonlinearOrganFem : public ::testing::TestWithParam<MaterialModel> {
     ASSERT_TRUE(reference.converged) << reference.error;
     const double scale = reference.displacements.cwiseAbs().maxCoeff();
     EXPECT_LT((fem.displacements() - reference.displacements).cwiseAbs().maxCoeff(), 1e-7 * scale);
-    EXPECT_LT((fem.contact_force(0) + reference.reaction_prescribed).norm(), 1e-6 * reference.reaction_prescribed.norm());
+    EXPECT_LT((fem.contact_force(0) + reference.reaction_prescribed).norm(),
+              1e-6 * reference.reaction_prescribed.norm());
     if (GetParam() == MaterialModel::mooney_rivlin) {
       ASSERT_EQ(fem.pressures().size(), reference.pressures.size());
       EXPECT_LT((fem.pressures() - reference.pressures).cwiseAbs().maxCoeff(),
@@ -239,7 +241,8 @@ INSTANTIATE_TEST_SUITE_P(Materials, NonlinearOrganFem,
                          ::testing::Values(MaterialModel::corotational, MaterialModel::stvk,
                                            MaterialModel::mooney_rivlin),
                          [](const auto& material) {
-                           return std::string(material.param == MaterialModel::mooney_rivlin ? "psh" : material_name(material.param));
+                           return std::string(
+                               material.param == MaterialModel::mooney_rivlin ? "psh" : material_name(material.param));
                          });
 
 TEST(OrganFem, TwoToolsShareTheLoadAndDetachLetsTheOrganGoBack) {
@@ -305,7 +308,8 @@ TEST(OrganFem, AStepThatWouldInvertATetrahedronIsCutOrUndone) {
 
 TEST(OrganFem, RejectsModelsItCannotSolve) {
   model::OrganModel m = cylinder();
-  EXPECT_THROW(OrganFem(m, MaterialModel::linear, OrganFemOptions{}, 1), std::invalid_argument);  // 10 mm: the cap centre only
+  EXPECT_THROW(OrganFem(m, MaterialModel::linear, OrganFemOptions{}, 1),
+               std::invalid_argument);  // 10 mm: the cap centre only
   OrganFemOptions bad = cap_clamp();
   bad.psh_poisson_ratio = 0.5;
   EXPECT_THROW(OrganFem(m, MaterialModel::mooney_rivlin, bad, 1), std::invalid_argument);

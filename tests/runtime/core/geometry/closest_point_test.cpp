@@ -12,7 +12,8 @@ Eigen::Vector3d vec(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 
 TEST(ClosestPoint, BarycentricWeightsCoverFaceEdgesAndVertices) {
   const Eigen::Vector3d a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
-  EXPECT_TRUE(geometry::closest_point_barycentric({0.25, 0.25, 3.0}, a, b, c).isApprox(Eigen::Vector3d(0.5, 0.25, 0.25)));
+  EXPECT_TRUE(
+      geometry::closest_point_barycentric({0.25, 0.25, 3.0}, a, b, c).isApprox(Eigen::Vector3d(0.5, 0.25, 0.25)));
   EXPECT_TRUE(geometry::closest_point_barycentric({-1.0, -1.0, 0.0}, a, b, c).isApprox(Eigen::Vector3d(1, 0, 0)));
   EXPECT_TRUE(geometry::closest_point_barycentric({2.0, -0.5, 0.0}, a, b, c).isApprox(Eigen::Vector3d(0, 1, 0)));
   EXPECT_TRUE(geometry::closest_point_barycentric({0.5, -1.0, 0.0}, a, b, c).isApprox(Eigen::Vector3d(0.5, 0.5, 0)));
@@ -94,13 +95,15 @@ TEST(SurfaceBvh, ASegmentThroughASharedEdgeOrVertexIsNeverMissed) {
   const model::OrganModel model = testing::make_cylinder_model(spec);
   const geometry::SurfaceBvh tree(model.surface_vertices, model.surface_triangles);
   std::mt19937 random(5);
-  std::uniform_real_distribution<double> outside(1e-4, 0.015), inside(1e-4, 0.009), axial(0.001, 0.149), tilt(-0.5, 0.5);
+  std::uniform_real_distribution<double> outside(1e-4, 0.015), inside(1e-4, 0.009), axial(0.001, 0.149),
+      tilt(-0.5, 0.5);
   int missed_edge = 0, missed_vertex = 0;
   for (int trial = 0; trial < 20000; ++trial) {
     geometry::SegmentHit hit;
     // Straight in along −y through the row's edges at z = 0.
     const double x = axial(random);
-    if (!tree.first_crossing({x, spec.radius + outside(random), 0.0}, {x, spec.radius - inside(random), 0.0}, true, hit))
+    if (!tree.first_crossing({x, spec.radius + outside(random), 0.0}, {x, spec.radius - inside(random), 0.0}, true,
+                             hit))
       ++missed_edge;
     // Obliquely through a vertex of the row.
     const Eigen::Vector3d vertex(spec.length * std::round(x / spec.length * spec.rings) / spec.rings, spec.radius, 0.0);

@@ -73,8 +73,8 @@ TEST(ClampedBeam, TimoshenkoAddsTheShearCompliance) {
   ASSERT_EQ(c.build(length, options), Status::ok);
   const BeamElasticity el = BeamElasticity::from(kE, kNu);
   const model::BeamSection& s = c.sections[0];
-  const double compliance = std::pow(length, 3) / (3.0 * kE * s.i_zz) +
-                            length / (el.shear_coefficient * el.shear_modulus * s.area);
+  const double compliance =
+      std::pow(length, 3) / (3.0 * kE * s.i_zz) + length / (el.shear_coefficient * el.shear_modulus * s.area);
   EXPECT_NEAR(c.beam.tip_stiffness()(1, 1), 1.0 / compliance, 1e-9 / compliance);
   // Softer than Euler–Bernoulli by the shear term (here about 11 %).
   const double bending_only = 3.0 * kE * s.i_zz / std::pow(length, 3);
@@ -162,7 +162,7 @@ TEST(ClampedBeam, NodeResponseIsTheCantileverDeflectionCurve) {
     const NodeResponse& r = c.beam.node_response(node);
     EXPECT_NEAR(r(1, 1), (3.0 * s * s - s * s * s) / 2.0, 1e-9) << node;
     EXPECT_NEAR(r(5, 1), (6.0 * s - 3.0 * s * s) / (2.0 * length), 1e-9 / length) << node;  // θz = v'
-    EXPECT_NEAR(r(0, 0), s, 1e-9) << node;  // axial: linear
+    EXPECT_NEAR(r(0, 0), s, 1e-9) << node;                                                  // axial: linear
   }
 }
 

@@ -49,9 +49,8 @@ double one_norm(const std::vector<double>& w) {
 // (centimetres from them, like vertices of an organ around its tools).
 const std::vector<Eigen::Vector3d>& probes() {
   static const std::vector<Eigen::Vector3d> p = {
-      {0.01, 0.03, 0.0},   {-0.2, 0.1, 0.3},    {0.02, 0.01, 0.005}, {0.0, 0.01, -0.01},
-      {0.05, 0.05, 0.05},  {-0.03, -0.02, 0.0}, {0.025, 0.0, 0.0},   {0.1, -0.1, 0.02},
-      {0.015, 0.02, 0.03}, {1.0, 2.0, -3.0},
+      {0.01, 0.03, 0.0},   {-0.2, 0.1, 0.3},  {0.02, 0.01, 0.005}, {0.0, 0.01, -0.01},  {0.05, 0.05, 0.05},
+      {-0.03, -0.02, 0.0}, {0.025, 0.0, 0.0}, {0.1, -0.1, 0.02},   {0.015, 0.02, 0.03}, {1.0, 2.0, -3.0},
   };
   return p;
 }
@@ -63,7 +62,8 @@ TEST(InfluenceWeights, StorageIsInlineSoTheFunctionNeverAllocates) {
   // calls set_points on every prepare).
   static_assert(InfluenceFunction::Matrix::MaxRowsAtCompileTime == kMaxTools);
   static_assert(InfluenceFunction::Matrix::MaxColsAtCompileTime == kMaxTools);
-  static_assert(sizeof(InfluenceFunction) >= kMaxTools * kMaxTools * sizeof(double) + kMaxTools * sizeof(Eigen::Vector3d));
+  static_assert(sizeof(InfluenceFunction) >=
+                kMaxTools * kMaxTools * sizeof(double) + kMaxTools * sizeof(Eigen::Vector3d));
   InfluenceFunction f;
   const Eigen::Vector3d points[2] = {{0.0, 0.0, 0.0}, {0.01, 0.0, 0.0}};
   double w[2];
@@ -141,8 +141,7 @@ TEST(InfluenceWeights, EquilateralTriangleSharesItsCentroidEqually) {
   // L = s (J − I) for side s, whose inverse is (J/2 − I)/s; at the centroid
   // l = (s/√3)·1, so L⁻¹ l = 1/(2√3)·1 > 0 and f = [1/3, 1/3, 1/3].
   const double s = 0.03;
-  const Eigen::Vector3d points[3] = {
-      {0.0, 0.0, 0.0}, {s, 0.0, 0.0}, {0.5 * s, 0.5 * std::sqrt(3.0) * s, 0.0}};
+  const Eigen::Vector3d points[3] = {{0.0, 0.0, 0.0}, {s, 0.0, 0.0}, {0.5 * s, 0.5 * std::sqrt(3.0) * s, 0.0}};
   InfluenceFunction f;
   ASSERT_TRUE(f.set_points(points, 3));
   for (int i = 0; i < 3; ++i)
@@ -269,7 +268,8 @@ TEST(InfluenceWeights, InvariantUnderRigidMotionAndScale) {
   // f depends only on distance ratios: rotating, translating and scaling the
   // action points and the probe together leaves it unchanged.
   const std::vector<Eigen::Vector3d> points = {{0.0, 0.0, 0.0}, {0.04, 0.0, 0.0}, {0.01, 0.03, 0.0}};
-  const Eigen::Matrix3d rotation = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1.0, 2.0, -1.0).normalized()).toRotationMatrix();
+  const Eigen::Matrix3d rotation =
+      Eigen::AngleAxisd(0.7, Eigen::Vector3d(1.0, 2.0, -1.0).normalized()).toRotationMatrix();
   const Eigen::Vector3d shift(0.1, -0.2, 0.05);
   const double scale = 3.5;
   auto move = [&](const Eigen::Vector3d& x) -> Eigen::Vector3d { return scale * (rotation * x) + shift; };

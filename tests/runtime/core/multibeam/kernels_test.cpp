@@ -52,7 +52,8 @@ TEST(MultiBeamKernels, EveryLevelComputesTheSameWeightsDistortionAndNormals) {
   for (auto& beam : coefficients) {
     for (std::uint32_t e = 0; e < stations; ++e) {
       float* c = beam.data() + e * kernels::kCoefficients;
-      for (std::uint32_t k = 0; k < kernels::kPolynomialCoefficients; ++k) c[k] = static_cast<float>(1e-3 * unit(random));
+      for (std::uint32_t k = 0; k < kernels::kPolynomialCoefficients; ++k)
+        c[k] = static_cast<float>(1e-3 * unit(random));
       if (e == 0) continue;
       const float* previous = c - kernels::kCoefficients;
       for (int k = 0; k < 3; ++k) {
@@ -92,16 +93,22 @@ TEST(MultiBeamKernels, EveryLevelComputesTheSameWeightsDistortionAndNormals) {
     weight_job.offset[2] = beams.offset_z();
     weight_job.stations = stations;
     weight_job.vertex_count = n;
-    std::vector<std::vector<std::uint16_t>> chunk_elements(kBeams, std::vector<std::uint16_t>(padded / kernels::kChunk));
+    std::vector<std::vector<std::uint16_t>> chunk_elements(kBeams,
+                                                           std::vector<std::uint16_t>(padded / kernels::kChunk));
     kernels::BeamAxis axes[kBeams];
     for (std::uint32_t b = 0; b < kBeams; ++b) {
-      const Eigen::Vector3f axis = Eigen::Vector3f(static_cast<float>(-group_points[b][0]), 0.3f,
-                                                   static_cast<float>(group_points[b][2])).normalized();
+      const Eigen::Vector3f axis =
+          Eigen::Vector3f(static_cast<float>(-group_points[b][0]), 0.3f, static_cast<float>(group_points[b][2]))
+              .normalized();
       constexpr float kLength = 0.09f;  // m
       axes[b] = {{axis[0] * stations / kLength, axis[1] * stations / kLength, axis[2] * stations / kLength},
                  {axis[0] * kLength / stations, axis[1] * kLength / stations, axis[2] * kLength / stations}};
-      weight_job.beam[b] = {{group_points[b][0], group_points[b][1], group_points[b][2]}, 1.0, b, axes[b],
-                            weights[b].data(), chunk_elements[b].data()};
+      weight_job.beam[b] = {{group_points[b][0], group_points[b][1], group_points[b][2]},
+                            1.0,
+                            b,
+                            axes[b],
+                            weights[b].data(),
+                            chunk_elements[b].data()};
     }
     const std::size_t third = n / 3 / kernels::kChunk * kernels::kChunk;  // two ranges, as two threads would
     set.build_weights(weight_job, 0, third);
@@ -132,15 +139,14 @@ TEST(MultiBeamKernels, EveryLevelComputesTheSameWeightsDistortionAndNormals) {
     set.normals(normals_job, 0, n);
     // The packed points distort() wrote: its positions relative to the fixed point, in single precision.
     for (std::size_t v = 0; v < n; ++v)
-      for (int k = 0; k < 3; ++k)
-        ASSERT_NEAR(packed[4 * v + k], positions[v][k] - sphere.fixed_point()[k], 1e-8) << v;
+      for (int k = 0; k < 3; ++k) ASSERT_NEAR(packed[4 * v + k], positions[v][k] - sphere.fixed_point()[k], 1e-8) << v;
     // Packed normals of the rest shape (the same points for every level), in two ranges.
     std::vector<float> rest_packed(4 * padded, 0.0f);
     for (std::size_t v = 0; v < n; ++v)
       for (int k = 0; k < 3; ++k) rest_packed[4 * v + k] = static_cast<float>(sphere.model().surface_vertices[v][k]);
     std::vector<model::Point3> from_packed(n);
-    kernels::PackedNormalsJob packed_job{sphere.ring_row_offsets().data(), sphere.ring_rows().data(), rest_packed.data(),
-                                         from_packed[0].data()};
+    kernels::PackedNormalsJob packed_job{sphere.ring_row_offsets().data(), sphere.ring_rows().data(),
+                                         rest_packed.data(), from_packed[0].data()};
     set.packed_normals(packed_job, 0, n / 3);
     set.packed_normals(packed_job, n / 3, n);
     for (std::size_t v = 0; v < n; ++v) {
@@ -167,7 +173,9 @@ TEST(MultiBeamKernels, EveryLevelComputesTheSameWeightsDistortionAndNormals) {
         const double xi = tau - element;
         const std::uint32_t entry = chunk_elements[b][v / kernels::kChunk];
         ASSERT_GE(element, entry % kernels::kMaxStations) << v;
-        ASSERT_LE(element - entry % kernels::kMaxStations, entry >> kernels::kElementBits == 2 ? stations : entry >> kernels::kElementBits) << v;
+        ASSERT_LE(element - entry % kernels::kMaxStations,
+                  entry >> kernels::kElementBits == 2 ? stations : entry >> kernels::kElementBits)
+            << v;
         const float* c = coefficients[b].data() + element * kernels::kCoefficients;
         Eigen::Vector3d u, theta;
         for (int k = 0; k < 3; ++k) {  // the records hold halves
@@ -178,7 +186,8 @@ TEST(MultiBeamKernels, EveryLevelComputesTheSameWeightsDistortionAndNormals) {
         const Eigen::Vector3d rotated = theta.cross(q);
         expected += weights[b][v] * (u + rotated + 0.5 * theta.cross(rotated));
       }
-      const Eigen::Vector3d moved = Eigen::Vector3d(positions[v].data()) - Eigen::Vector3d(sphere.model().surface_vertices[v].data());
+      const Eigen::Vector3d moved =
+          Eigen::Vector3d(positions[v].data()) - Eigen::Vector3d(sphere.model().surface_vertices[v].data());
       worst = std::max(worst, (moved - expected).norm());
     }
     EXPECT_LT(worst, 1e-8);  // m: float rounding of millimetre displacements (4·10⁻⁹ measured)
@@ -186,13 +195,15 @@ TEST(MultiBeamKernels, EveryLevelComputesTheSameWeightsDistortionAndNormals) {
     // The kernels did work: weights in (0, 1] at the action points' side, vertices moved.
     double moved = 0.0;
     for (std::size_t v = 0; v < n; ++v)
-      moved = std::max(moved, (Eigen::Vector3d(positions[v].data()) - Eigen::Vector3d(sphere.model().surface_vertices[v].data())).norm());
+      moved = std::max(
+          moved,
+          (Eigen::Vector3d(positions[v].data()) - Eigen::Vector3d(sphere.model().surface_vertices[v].data())).norm());
     EXPECT_GT(moved, 1e-4);
     for (std::size_t v = 0; v < n; ++v) ASSERT_NEAR(Eigen::Vector3d(normals[v].data()).norm(), 1.0, 1e-12) << v;
   }
   for (std::size_t s = 1; s < sets.count; ++s) {
     SCOPED_TRACE(std::string(sets.set[s].level) + " against " + sets.set[0].level);
-    EXPECT_LT(largest_difference(weights_of[s], weights_of[0]), 1e-6);     // single-precision weights in [−1, 1]
+    EXPECT_LT(largest_difference(weights_of[s], weights_of[0]), 1e-6);      // single-precision weights in [−1, 1]
     EXPECT_LT(largest_difference(positions_of[s], positions_of[0]), 1e-8);  // m: float rounding of mm displacements
     EXPECT_LT(largest_difference(normals_of[s], normals_of[0]), 1e-14);
     EXPECT_LT(largest_difference(packed_normals_of[s], packed_normals_of[0]), 1e-5);  // float, FMA or not

@@ -47,8 +47,9 @@ model::OrganModel cylinder_with_sites() {
 /// it is buried (δ = R), then a flat punch of radius R, 2 R E* per metre more.
 double hertz_then_punch(double indentation) {
   const double e_star = kYoung / (1 - kPoisson * kPoisson);
-  return indentation <= kRadius ? 4.0 / 3.0 * e_star * std::sqrt(kRadius) * std::pow(indentation, 1.5)
-                                : 4.0 / 3.0 * e_star * kRadius * kRadius + 2 * kRadius * e_star * (indentation - kRadius);
+  return indentation <= kRadius
+             ? 4.0 / 3.0 * e_star * std::sqrt(kRadius) * std::pow(indentation, 1.5)
+             : 4.0 / 3.0 * e_star * kRadius * kRadius + 2 * kRadius * e_star * (indentation - kRadius);
 }
 
 /// The tangent is the symmetric part of −∂F/∂d: central differences agree.
@@ -56,7 +57,8 @@ void expect_tangent_is_the_derivative(const SiteLaw& law, const Eigen::Vector3d&
   const double h = 1e-8;
   Eigen::Matrix3d numeric;
   for (int k = 0; k < 3; ++k)
-    numeric.col(k) = -(law.force(d + h * Eigen::Vector3d::Unit(k)) - law.force(d - h * Eigen::Vector3d::Unit(k))) / (2 * h);
+    numeric.col(k) =
+        -(law.force(d + h * Eigen::Vector3d::Unit(k)) - law.force(d - h * Eigen::Vector3d::Unit(k))) / (2 * h);
   EXPECT_LT((law.tangent(d) - 0.5 * (numeric + numeric.transpose())).norm(), 1e-5 * numeric.norm()) << d.transpose();
 }
 
@@ -82,8 +84,9 @@ TEST(SiteLaw, TheLawIsTheOrgansComplianceInSeriesWithTheTipFollowingTheVertices)
   // d_n = δ + c_n F_tip(δ) (found here by bisection), and the force is the
   // organ's compliance in series with the tip's secant one at δ.
   const Eigen::Vector3d d(0.001, -0.002, -0.004);
-  const double normal_depth = -normal.dot(d), organ_normal = normal.dot(compliance * normal) -
-                                                             normal.dot(punch_compliance(kYoung, kPoisson, kRadius, normal) * normal);
+  const double normal_depth = -normal.dot(d),
+               organ_normal = normal.dot(compliance * normal) -
+                              normal.dot(punch_compliance(kYoung, kPoisson, kRadius, normal) * normal);
   double low = 0.0, high = normal_depth;
   for (int i = 0; i < 200; ++i) {
     const double mid = 0.5 * (low + high);
@@ -154,7 +157,8 @@ TEST(SiteLaw, OnARigidlyHeldSurfaceTheLawIsHertzThenTheBuriedPunch) {
     EXPECT_LT((force - force.dot(normal) * normal).norm(), 1e-9 * force.norm());
     expect_tangent_is_the_derivative(law, -depth * normal);
     // Along the surface the contact radius stops growing at δ = R: a kink, no tangent to compare there.
-    if (depth != kRadius) expect_tangent_is_the_derivative(law, -depth * normal + 0.5 * depth * normal.unitOrthogonal());
+    if (depth != kRadius)
+      expect_tangent_is_the_derivative(law, -depth * normal + 0.5 * depth * normal.unitOrthogonal());
   }
   // The join at δ = R: the same force and the same slope, 2 R E*, from both sides.
   const double e_star = kYoung / (1 - kPoisson * kPoisson), h = 1e-9;
@@ -218,7 +222,8 @@ TEST(SiteLaw, OnACurvedSurfaceTheTipTouchesAsTwoCurvedBodies) {
   const Organ old(std::move(without));
   SiteLaw unchanged;
   ASSERT_TRUE(unchanged.set(old, at, kRadius));
-  for (const Eigen::Vector3d& d : {Eigen::Vector3d(-0.001 * normal), Eigen::Vector3d(-0.004 * normal + Eigen::Vector3d(0.001, 0.002, 0))}) {
+  for (const Eigen::Vector3d& d :
+       {Eigen::Vector3d(-0.001 * normal), Eigen::Vector3d(-0.004 * normal + Eigen::Vector3d(0.001, 0.002, 0))}) {
     EXPECT_EQ(unchanged.force(d), plane.force(d));
     EXPECT_EQ(unchanged.tangent(d), plane.tangent(d));
   }
@@ -244,8 +249,8 @@ TEST(SiteLaw, OnACurvedSurfaceTheTipTouchesAsTwoCurvedBodies) {
   SiteLaw concave;
   ASSERT_TRUE(concave.set(cupped, at, kRadius));
   const double shallow = 0.0005;
-  EXPECT_NEAR(concave.force(-shallow * normal).dot(normal), 4.0 / 3.0 * e_star * std::sqrt(2 * kRadius) * std::pow(shallow, 1.5),
-              1e-9 * e_star * kRadius * shallow);
+  EXPECT_NEAR(concave.force(-shallow * normal).dot(normal),
+              4.0 / 3.0 * e_star * std::sqrt(2 * kRadius) * std::pow(shallow, 1.5), 1e-9 * e_star * kRadius * shallow);
 }
 
 // The multi-beam and mass-spring models give a tool of finite size the site

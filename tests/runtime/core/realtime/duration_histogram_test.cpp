@@ -30,8 +30,8 @@ TEST(DurationHistogram, PercentilesAgreeWithTheExactOnesToTheBinWidth) {
   EXPECT_EQ(binned.max, exact.max);  // kept exactly
   EXPECT_EQ(histogram.min(), *std::min_element(samples.begin(), samples.end()));
   EXPECT_EQ(histogram.count(), samples.size());
-  EXPECT_EQ(histogram.above_threshold(),
-            static_cast<std::uint64_t>(std::count_if(samples.begin(), samples.end(), [](double s) { return s > 2e-3; })));
+  EXPECT_EQ(histogram.above_threshold(), static_cast<std::uint64_t>(std::count_if(samples.begin(), samples.end(),
+                                                                                  [](double s) { return s > 2e-3; })));
   const auto within = static_cast<double>(
       std::count_if(samples.begin(), samples.end(), [](double s) { return s >= 0.9e-3 && s <= 1.1e-3; }));
   // Each end of the range is resolved to a bin (1.1 % of 1 ms, 1/18 of the range).

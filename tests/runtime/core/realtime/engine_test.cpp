@@ -112,8 +112,11 @@ TEST_F(CylinderEngine, PressAndReleaseAtTheFarCap) {
   // Approach the far cap along −x, press 5 mm, hold, retreat.
   SafetyLimits limits;
   limits.max_force = 10.0;
-  ScriptedDevice device(path({{0.0, {0.16, 0.0, 0.0}}, {0.3, {0.145, 0.0, 0.0}}, {0.8, {0.145, 0.0, 0.0}},
-                              {1.0, {0.16, 0.0, 0.0}}, {1.2, {0.16, 0.0, 0.0}}}),
+  ScriptedDevice device(path({{0.0, {0.16, 0.0, 0.0}},
+                              {0.3, {0.145, 0.0, 0.0}},
+                              {0.8, {0.145, 0.0, 0.0}},
+                              {1.0, {0.16, 0.0, 0.0}},
+                              {1.2, {0.16, 0.0, 0.0}}}),
                         limits, 2000);
   Engine engine(organ, {&device}, {});
   run_fast(engine, 1.2);
@@ -188,9 +191,9 @@ TEST_F(CylinderEngine, AFastToolCannotPassThroughTheOrgan) {
   // finds where it entered, and the force pushes it back out (clamped).
   SafetyLimits limits;
   limits.max_force = 0.3;
-  ScriptedDevice device(path({{0.0, {0.1, 0.05, 0.0}}, {0.1, {0.1, 0.05, 0.0}}, {0.101, {0.1, -0.05, 0.0}},
-                              {0.5, {0.1, -0.05, 0.0}}}),
-                        limits, 1000);
+  ScriptedDevice device(
+      path({{0.0, {0.1, 0.05, 0.0}}, {0.1, {0.1, 0.05, 0.0}}, {0.101, {0.1, -0.05, 0.0}}, {0.5, {0.1, -0.05, 0.0}}}),
+      limits, 1000);
   Engine engine(organ, {&device}, {});
   run_fast(engine, 0.5);
   EXPECT_EQ(engine.telemetry(0).contacts, 1u);
@@ -209,8 +212,12 @@ TEST_F(CylinderEngine, AFastToolCannotPassThroughTheOrgan) {
 // force ≤ μ × normal force), and nothing is felt once the tip is out.
 /// The press-slide-leave run of the test below with one model on `organ`.
 void enter_slide_and_leave(const organ::Organ& organ, const RegisteredModel& model, const std::string& label) {
-  ScriptedDevice device(CylinderEngine::path({{0.0, {0.08, 0.045, 0.0}}, {0.3, {0.08, 0.027, 0.0}}, {0.5, {0.08, 0.027, 0.0}},
-                                              {1.1, {0.11, 0.027, 0.0}}, {1.4, {0.11, 0.045, 0.0}}, {1.6, {0.11, 0.045, 0.0}}}),
+  ScriptedDevice device(CylinderEngine::path({{0.0, {0.08, 0.045, 0.0}},
+                                              {0.3, {0.08, 0.027, 0.0}},
+                                              {0.5, {0.08, 0.027, 0.0}},
+                                              {1.1, {0.11, 0.027, 0.0}},
+                                              {1.4, {0.11, 0.045, 0.0}},
+                                              {1.6, {0.11, 0.045, 0.0}}}),
                         {}, 2000);
   EngineOptions options;
   options.model = model.name;
@@ -262,7 +269,8 @@ TEST_F(CylinderEngine, AFiniteTipEntersSlidesAndLeavesWithoutAForceJump) {
   model::OrganModel with_sites = testing::make_cylinder_model(spec);  // the fast models give the site law's force
   testing::add_uniform_site_compliance(with_sites, 0.01);
   const organ::Organ matched(std::move(with_sites));
-  for (const char* name : {"beam", "springs"}) enter_slide_and_leave(matched, *find_model(name), std::string(name) + "_matched");
+  for (const char* name : {"beam", "springs"})
+    enter_slide_and_leave(matched, *find_model(name), std::string(name) + "_matched");
 }
 
 // A tool pressed 3 mm into the cylinder's side steps 0.2 mm deeper between two
@@ -296,8 +304,9 @@ TEST_F(CylinderEngine, AStepThatArrivesWithAFreshFrameIsFeltAtOnce) {
   for (const char* model : {"beam", "springs", "linear"}) {
     // Frames come at multiples of 1/60 s: 0.5 s is the 30th; 0.508 s lies between two.
     const double between_frames = rise_at(model, 0.508), with_a_frame = rise_at(model, 0.5);
-    ::testing::Test::RecordProperty(std::string(model) + "_rise_mN", std::to_string(1e3 * with_a_frame) + " with a frame, " +
-                                                              std::to_string(1e3 * between_frames) + " between");
+    ::testing::Test::RecordProperty(
+        std::string(model) + "_rise_mN",
+        std::to_string(1e3 * with_a_frame) + " with a frame, " + std::to_string(1e3 * between_frames) + " between");
     EXPECT_GT(between_frames, 1e-3) << model << ": the step is felt (N)";
     EXPECT_LT(between_frames, 0.9 * device_onset_limit) << model << ": below the onset limit's 40 mN a tick";
     EXPECT_NEAR(with_a_frame, between_frames, 0.1 * between_frames) << model;

@@ -59,7 +59,7 @@ TEST(ForceSafetyFilter, ClampsToMaxForceKeepingTheDirectionAndCountsEachClamp) {
     const Eigen::Vector3d out = safety.filter(f, 1.0, 1.0, 1e-3);
     EXPECT_NEAR(out.norm(), 2.0, 1e-14) << f.transpose();
     EXPECT_LT(sine_between(out, f), 1e-14) << f.transpose();  // same line…
-    EXPECT_GT(out.dot(f), 0.0);                              // …and the same sense
+    EXPECT_GT(out.dot(f), 0.0);                               // …and the same sense
     EXPECT_EQ(safety.clamp_count(), ++expected_clamps);
   }
   // (3, 4, 0) is 5 N: scaled by exactly 2/5.
@@ -70,8 +70,8 @@ TEST(ForceSafetyFilter, ClampsToMaxForceKeepingTheDirectionAndCountsEachClamp) {
   ++expected_clamps;
 
   // Forces within the limit, including exactly at it, pass unchanged and unclamped.
-  for (const Eigen::Vector3d& f : {Eigen::Vector3d(0.0, 0.0, 2.0), Eigen::Vector3d(0.5, -1.0, 0.25),
-                                   Eigen::Vector3d(-1e-9, 0.0, 0.0)}) {
+  for (const Eigen::Vector3d& f :
+       {Eigen::Vector3d(0.0, 0.0, 2.0), Eigen::Vector3d(0.5, -1.0, 0.25), Eigen::Vector3d(-1e-9, 0.0, 0.0)}) {
     EXPECT_EQ(safety.filter(f, 1.0, 1.0, 1e-3), f);
     EXPECT_EQ(safety.clamp_count(), expected_clamps);
   }
@@ -101,8 +101,8 @@ TEST(ForceSafetyFilter, NonFiniteInputGivesZeroForceAndIsCounted) {
 
 TEST(ForceSafetyFilter, AfterANonFiniteForceTheForceReturnsWithARampNotAKick) {
   SafetyLimits limits;
-  limits.onset_rate = 64.0;                // N/s
-  const double dt = 1.0 / 1024.0;          // s: 1/16 N per tick
+  limits.onset_rate = 64.0;        // N/s
+  const double dt = 1.0 / 1024.0;  // s: 1/16 N per tick
   ForceSafety safety(limits);
   const Eigen::Vector3d f(0.0, 1.0, 0.0);
   double now = 0.0;
@@ -131,9 +131,9 @@ TEST(ForceSafetyFilter, WatchdogRampsDownLinearlyAfterTheStallTimeout) {
     bool stalled;
   };
   const Step steps[] = {
-      {0.0, 1.0, false},     {0.125, 1.0, false},   // at the timeout: not yet stalled (strictly longer)
-      {0.1875, 0.75, true},  {0.25, 0.5, true},     {0.3125, 0.25, true},
-      {0.375, 0.0, true},    {0.5, 0.0, true},      {100.0, 0.0, true},  // gone, and stays gone
+      {0.0, 1.0, false},    {0.125, 1.0, false},  // at the timeout: not yet stalled (strictly longer)
+      {0.1875, 0.75, true}, {0.25, 0.5, true},   {0.3125, 0.25, true},
+      {0.375, 0.0, true},   {0.5, 0.0, true},    {100.0, 0.0, true},  // gone, and stays gone
   };
   std::uint64_t stalled = 0;
   for (const Step& s : steps) {
@@ -260,7 +260,7 @@ TEST(ForceSafetyFilter, OutputIsAlwaysFiniteWithinMaxForceAndRateLimited) {
     const double dt = unit(random) < 0.05 ? -1e-3 : 1e-3 * (0.5 + unit(random));
     now += std::abs(dt);
     if (now >= stall_end) {
-      last_frame = now - 0.02 * unit(random);  // a recent frame, with jitter
+      last_frame = now - 0.02 * unit(random);                          // a recent frame, with jitter
       if (unit(random) < 0.002) stall_end = now + 0.3 * unit(random);  // the simulation stops for a while
     }
     Eigen::Vector3d f(component(random), component(random), component(random));
@@ -312,7 +312,7 @@ TEST(ForceSafety, OnsetIsRateLimitedSoContactNeverKicks) {
     EXPECT_LE(magnitude - previous, 40.0 * 1e-3 + 1e-12) << tick;
     previous = magnitude;
   }
-  EXPECT_NEAR(previous, 2.0, 1e-12);  // reached after 50 ms
+  EXPECT_NEAR(previous, 2.0, 1e-12);                                                  // reached after 50 ms
   EXPECT_EQ(safety.filter(Eigen::Vector3d::Zero(), 0.101, 0.101, 1e-3).norm(), 0.0);  // release is immediate
 }
 

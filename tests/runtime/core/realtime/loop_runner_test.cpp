@@ -163,8 +163,8 @@ TEST(RunFast, TicksTheForceLoopEveryPeriodAndTheFrameCallbackOncePerDeformationP
 TEST(RunFast, TickCountIsDurationOverPeriodPlusOne) {
   // ⌊duration / period⌋ + 1 ticks, tolerant of the rounding of the quotient
   // (0.3 / 0.001 is 299.99999999999994 in binary).
-  for (const auto& [duration, ticks] : std::vector<std::pair<double, std::size_t>>{
-           {0.0, 1}, {0.0005, 1}, {0.001, 2}, {0.0105, 11}, {0.3, 301}}) {
+  for (const auto& [duration, ticks] :
+       std::vector<std::pair<double, std::size_t>>{{0.0, 1}, {0.0005, 1}, {0.001, 2}, {0.0105, 11}, {0.3, 301}}) {
     ScriptedDevice device(beside(), {}, 1000);
     Engine engine(cylinder(), {&device}, {});
     const RunTimings t = run_fast(engine, duration);
@@ -197,7 +197,8 @@ TEST(RunFast, EachFrameIsSteppedAtTheFirstTickThatReachesItsBoundaryBeforeThatTi
   EXPECT_EQ(t.deformation_computes.count(), expected_ms.size());
   for (std::size_t j = 0; j < expected_ms.size(); ++j) {
     EXPECT_EQ(frame_times[j], expected_ms[j] * 1e-3) << j;
-    EXPECT_EQ(ticks_before[j], static_cast<std::size_t>(expected_ms[j])) << j;  // the tick at that time is still to come
+    EXPECT_EQ(ticks_before[j], static_cast<std::size_t>(expected_ms[j]))
+        << j;  // the tick at that time is still to come
     EXPECT_EQ(frame_numbers[j], j + 1) << j;
   }
   EXPECT_EQ(t.force_computes.count(), 21u);
@@ -276,7 +277,7 @@ TEST(RunRealtime, AShortRunRecordsEveryTickAndPollsUntilAfterTheLoopsStop) {
   EXPECT_EQ(device.record_count(), 201u);
   for (std::size_t k = 1; k < device.record_count(); ++k)
     EXPECT_GT(device.record(k).time, device.record(k - 1).time) << k;  // session time moves forward
-  EXPECT_EQ(ticks_seen, 201u);  // the last poll saw every tick
+  EXPECT_EQ(ticks_seen, 201u);                                         // the last poll saw every tick
   // The summary is consistent with the samples it summarizes.
   const Percentiles period = t.force_periods.percentiles();
   EXPECT_GT(period.p50, 0.0);
@@ -312,10 +313,13 @@ TEST(RunRealtime, PollsAtTheAskedPriorityAndRestoresTheThreadsScheduling) {
   PollOptions polling;
   polling.period = 5e-4;
   polling.priority = 75;
-  const RunTimings t = run_realtime(engine, 0.05, [&](const RunTimings&) {
-    pthread_getschedparam(pthread_self(), &policy, &during);
-    return true;
-  }, polling);
+  const RunTimings t = run_realtime(
+      engine, 0.05,
+      [&](const RunTimings&) {
+        pthread_getschedparam(pthread_self(), &policy, &during);
+        return true;
+      },
+      polling);
   pthread_getschedparam(pthread_self(), &after_policy, &after);
   EXPECT_EQ(after_policy, before_policy);
   EXPECT_EQ(after.sched_priority, before.sched_priority);
@@ -326,10 +330,13 @@ TEST(RunRealtime, PollsAtTheAskedPriorityAndRestoresTheThreadsScheduling) {
   int seen_policy = -1;
   sched_param seen{};
   Engine fresh(cylinder(), {&device}, {});  // a run's session time starts at 0
-  const RunTimings again = run_realtime(fresh, 0.05, [&](const RunTimings& so_far) {
-    if (so_far.force_computes.count() < 51) pthread_getschedparam(pthread_self(), &seen_policy, &seen);
-    return true;
-  }, polling);
+  const RunTimings again = run_realtime(
+      fresh, 0.05,
+      [&](const RunTimings& so_far) {
+        if (so_far.force_computes.count() < 51) pthread_getschedparam(pthread_self(), &seen_policy, &seen);
+        return true;
+      },
+      polling);
   EXPECT_EQ(seen_policy, SCHED_FIFO);
   EXPECT_EQ(seen.sched_priority, 75);
   EXPECT_TRUE(again.realtime_priority);
@@ -345,10 +352,13 @@ TEST(RunRealtime, PollsAroundTheForceTicksAtMostTwicePerTick) {
   polling.period = 1e-5;
   polling.around_force_ticks = true;
   int polls = 0;
-  const RunTimings t = run_realtime(engine, 0.05, [&](const RunTimings&) {
-    ++polls;
-    return true;
-  }, polling);
+  const RunTimings t = run_realtime(
+      engine, 0.05,
+      [&](const RunTimings&) {
+        ++polls;
+        return true;
+      },
+      polling);
   ASSERT_EQ(t.force_computes.count(), 51u);
   // Ticks 0..50: after tick 0, then before and after each of ticks 1..50,
   // the first poll before the loops start and the last one after they stop
@@ -384,7 +394,8 @@ TEST(RunRealtime, APollReturningFalseStopsTheLoopsEarly) {
   EXPECT_EQ(device.record_count(), t.force_computes.count());
   // Each tick after the first has its period.
   EXPECT_EQ(t.force_periods.count(), t.force_computes.count() == 0 ? 0u : t.force_computes.count() - 1);
-  EXPECT_EQ(t.deformation_periods.count(), t.deformation_computes.count() == 0 ? 0u : t.deformation_computes.count() - 1);
+  EXPECT_EQ(t.deformation_periods.count(),
+            t.deformation_computes.count() == 0 ? 0u : t.deformation_computes.count() - 1);
   EXPECT_GE(polls, 2);  // the stopping call, and the one after the loops ended
 }
 
@@ -477,7 +488,8 @@ TEST(RunRealtime, UnderABusyCoreFemFramesAreDroppedAndCountedAndTheForceStaysCon
   // step is 1.0–1.4 times the reference's.
   EXPECT_LE(step, 3.0 * reference_step) << "a jump in the force under load";
   ::testing::Test::RecordProperty("frames_dropped", static_cast<int>(t.deformation_frames_dropped));
-  ::testing::Test::RecordProperty("largest_step_over_reference_percent", static_cast<int>(100.0 * step / reference_step));
+  ::testing::Test::RecordProperty("largest_step_over_reference_percent",
+                                  static_cast<int>(100.0 * step / reference_step));
 }
 
 }  // namespace

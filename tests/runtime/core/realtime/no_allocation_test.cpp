@@ -105,7 +105,7 @@ TEST(RealTime, EngineLoopsAllocateNothingWithEveryModel) {
     if (variant == Variant::dynamic_region) options.springs.simulation.region = springs::Region::dynamic;
     options.springs.network.volume_springs = variant == Variant::volume;
     options.fem.fixed_radius = 0.031;  // the cylinder's clamped cap
-    options.fem.refresh_frames = 3;  // tangents adopted during the test
+    options.fem.refresh_frames = 3;    // tangents adopted during the test
     if (variant == Variant::recorded) options.tick_records = 256;
     realtime::Engine engine(variant == Variant::matched ? matched_organ : organ, {&a, &b}, options);
     const long before = allocations;

@@ -21,7 +21,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr Integrator kAllIntegrators[] = {Integrator::explicit_euler, Integrator::midpoint, Integrator::rk4,
-                                         Integrator::symplectic_euler, Integrator::implicit_euler};
+                                          Integrator::symplectic_euler, Integrator::implicit_euler};
 
 // A mass m on a spring (k, rest length L) to a fixed node at the origin,
 // starting at rest stretched by A along x: x(t) = L + A cos(ωt), ω = √(k/m).
@@ -280,8 +280,8 @@ double largest_residual(const MassSpring& sim, std::uint32_t loaded, const Eigen
 TEST(Grid, DampedGridSettlesWhereTheNetForceOnEveryFreeNodeVanishes) {
   const std::uint32_t size = 9;
   const Eigen::Vector3d load(0.05, 0.0, -0.5);
-  for (auto [integrator, dt, steps] : {std::tuple{Integrator::implicit_euler, 0.02, 300},
-                                       std::tuple{Integrator::rk4, 0.004, 1600}}) {
+  for (auto [integrator, dt, steps] :
+       {std::tuple{Integrator::implicit_euler, 0.02, 300}, std::tuple{Integrator::rk4, 0.004, 1600}}) {
     SimulationOptions o;
     o.integrator = integrator;
     o.dt = dt;
@@ -319,7 +319,8 @@ TEST(DynamicRegion, ApproachesTheFullRegionAsTheThresholdGoesToZero) {
   // Symplectic Euler moves information one ring of springs per step, as the
   // region grows: the region's result becomes the full one exactly. The
   // multi-stage midpoint reaches two rings per step, so a small difference stays.
-  for (auto [integrator, smallest] : {std::pair{Integrator::symplectic_euler, 1e-6}, std::pair{Integrator::midpoint, 1e-4}}) {
+  for (auto [integrator, smallest] :
+       {std::pair{Integrator::symplectic_euler, 1e-6}, std::pair{Integrator::midpoint, 1e-4}}) {
     const std::vector<Eigen::Vector3d> full = run(integrator, Region::all, 0.0, nullptr);
     const double deflection = std::abs(full[centre_node(size)].z());
     ASSERT_GT(deflection, 0.04);
@@ -464,7 +465,7 @@ TEST(BlowUp, ThePapersSettingsDivergeWithExplicitEulerAndTheLastGoodStateIsKept)
   ASSERT_EQ(status, StepStatus::blew_up);
   EXPECT_FALSE(sim.stable());
   EXPECT_EQ(sim.steps(), static_cast<std::uint64_t>(taken - 1));
-  EXPECT_LE(sim.steps(), 5u);  // λ·dt ≈ 3.3 > 2: the fastest mode grows ×2.3 per step
+  EXPECT_LE(sim.steps(), 5u);                 // λ·dt ≈ 3.3 > 2: the fastest mode grows ×2.3 per step
   EXPECT_GT(sim.position(centre).z(), -0.2);  // caught while the centre is still within its equilibrium depth (0.3 m)
   const std::vector<Eigen::Vector3d> kept = positions(sim);
   for (std::uint32_t i = 0; i < sim.node_count(); ++i) {
@@ -583,7 +584,7 @@ TEST(HeldNode, DragsItsNeighboursAndTheDynamicRegionFollows) {
     }
     const int id = static_cast<int>(integrator);
     EXPECT_GT(result[0][centre + 1].z(), 0.05 * lift) << id;  // the neighbours follow
-    EXPECT_LT(reaction[0].z(), -0.04) << id;                    // the grid pulls the tool down: body spring 4 N/m × 1 cm and more
+    EXPECT_LT(reaction[0].z(), -0.04) << id;  // the grid pulls the tool down: body spring 4 N/m × 1 cm and more
     EXPECT_LT(max_difference(result[0], result[1]), 1e-4 * lift) << id;
     EXPECT_LT((reaction[0] - reaction[1]).norm(), 1e-4 * reaction[0].norm()) << id;
   }

@@ -225,8 +225,9 @@ TEST_F(Cylinder, AnchorsLieInsideAlongTheInwardNormal) {
 TEST_F(Cylinder, MassesSumToDensityTimesVolumeSharedEquallyOrByArea) {
   const SpringNetwork equal = make_organ_network(model, {});
   for (std::size_t v = 0; v < model.surface_vertices.size(); ++v)
-    EXPECT_NEAR(equal.mass[v], model.material.density * geometry::measure_model(model).tetrahedra_volume /
-                                   static_cast<double>(model.surface_vertices.size()),
+    EXPECT_NEAR(equal.mass[v],
+                model.material.density * geometry::measure_model(model).tetrahedra_volume /
+                    static_cast<double>(model.surface_vertices.size()),
                 1e-15)
         << v;
   OrganNetworkOptions by_area;
@@ -353,7 +354,8 @@ TEST_F(Cylinder, VolumeSpringsJoinEveryTetrahedronEdgeAndTieEachVertexToItsTetra
     EXPECT_TRUE(corners.count(vertex)) << vertex;  // the cylinder's tetrahedra use the surface vertices
   }
   // Masses: ρV shared equally by the surface and tetrahedral nodes; the clamp holds tetrahedral nodes too.
-  const double share = model.material.density * geometry::measure_model(model).tetrahedra_volume / static_cast<double>(ns + nv);
+  const double share =
+      model.material.density * geometry::measure_model(model).tetrahedra_volume / static_cast<double>(ns + nv);
   for (std::size_t v = 0; v < net.rest.size(); ++v) {
     if (v < ns || v >= base) {
       EXPECT_NEAR(net.mass[v], share, 1e-15) << v;

@@ -32,10 +32,10 @@ struct BakeOptions {
   // Segmentation: a label map, or seeds (organsim/pipeline/seeded_segmentation.h).
   std::string label_path;
   int label_value = 1;
-  double label_closing_radius_mm = 0.0;             ///< closing applied to a label map, mm
-  SeededSegmentationOptions seeded;                 ///< used when there is no label map
-  std::size_t minimum_voxels = 1000;                ///< smaller masks are an error
-  std::string reference_label_path;                 ///< when set: the report gives the Dice against this label map
+  double label_closing_radius_mm = 0.0;  ///< closing applied to a label map, mm
+  SeededSegmentationOptions seeded;      ///< used when there is no label map
+  std::size_t minimum_voxels = 1000;     ///< smaller masks are an error
+  std::string reference_label_path;      ///< when set: the report gives the Dice against this label map
   int reference_label_value = 1;
 
   // The beams' clamp; default: the deepest interior point of the mask.
@@ -63,7 +63,7 @@ struct BakeOptions {
   SiteComplianceOptions sites;
   model::Material material = model::liver_default_material();
 
-  std::string program_version;     ///< written into the model's provenance
+  std::string program_version;    ///< written into the model's provenance
   std::string output_path;        ///< when set: the model file is written there (atomically)
   std::string intermediates_dir;  ///< when set: mask.nii.gz, surface.vtp, surface.stl, tetrahedra.vtu, published
                                   ///< only when the whole bake (and the model file) succeeded
@@ -73,23 +73,23 @@ struct BakeOptions {
 struct BakeReport {
   std::array<std::size_t, 3> image_size{};
   std::array<double, 3> image_spacing_mm{};
-  std::string segmentation;  ///< "label map (value N)" or "seeds (N, M background)"
+  std::string segmentation;                        ///< "label map (value N)" or "seeds (N, M background)"
   std::optional<SeededSegmentationReport> seeded;  ///< what the seeded segmentation did
   std::vector<std::string> segmentation_warnings;  ///< the mask does not look like a whole liver
   std::optional<double> reference_dice;            ///< against BakeOptions::reference_label_path
   std::size_t mask_voxels = 0;
   double mask_volume_ml = 0.0;
   std::array<double, 3> fixed_point_mm{};
-  std::string fixed_point_source;  ///< "given point", "given voxel" or "deepest interior point"
+  std::string fixed_point_source;       ///< "given point", "given voxel" or "deepest interior point"
   double fixed_point_depth_mm = 0.0;    ///< deepest interior point: its distance to the mask boundary
   double fixed_point_outside_mm = 0.0;  ///< given point or voxel: distance to the nearest organ voxel (0 inside)
   std::size_t surface_vertices = 0, surface_triangles = 0;
   double surface_area_cm2 = 0.0, surface_volume_ml = 0.0;
   std::size_t volume_vertices = 0;
   TetrahedralQuality tetrahedra;
-  std::vector<std::string> tetrahedra_warnings;    ///< quality goals missed (tetrahedra_quality_warnings)
+  std::vector<std::string> tetrahedra_warnings;  ///< quality goals missed (tetrahedra_quality_warnings)
   double tetrahedra_volume_ml = 0.0;
-  std::uint32_t stations = 0;      ///< 0: baked without beam tables
+  std::uint32_t stations = 0;  ///< 0: baked without beam tables
   std::size_t beam_sections = 0;
   SiteComplianceReport sites;  ///< when the model has site compliances (sites.unknowns > 0)
   std::string sites_skipped;   ///< why the site compliances were not computed (the FEM clamp cannot hold the organ)

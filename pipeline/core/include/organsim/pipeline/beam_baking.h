@@ -53,21 +53,21 @@ class MaskSampler {
   // Per mixed block, its 5³ voxels as bits (x fastest), so that a sample near
   // the organ's boundary reads a few cached words instead of the mask, whose
   // scattered bytes a section plane would fetch from memory one line each.
-  std::vector<std::uint32_t> mixed_of_block_;          // block → index into mixed_bits_
+  std::vector<std::uint32_t> mixed_of_block_;  // block → index into mixed_bits_
   std::vector<std::array<std::uint64_t, 2>> mixed_bits_;
   model::Point3 centre_{};
   double radius_ = 0.0;
 };
 
 /// The organ section through `axis_point` (m) perpendicular to frame.x.
-model::BeamSection organ_section(const MaskSampler& sampler, const model::Point3& axis_point, const model::BeamFrame& frame,
-                          unsigned samples_per_side);
+model::BeamSection organ_section(const MaskSampler& sampler, const model::Point3& axis_point,
+                                 const model::BeamFrame& frame, unsigned samples_per_side);
 
 /// Beam tables for every surface vertex (m), multithreaded; deterministic
 /// regardless of the thread count. `progress`, when given, is called on the
 /// calling thread with the fraction of beams done.
 model::BeamTables bake_beam_tables(const MaskImage& mask, const std::vector<model::Point3>& surface_vertices,
-                            const model::Point3& fixed_point, const BeamBakingOptions& options,
-                            const std::function<void(double)>& progress = {});
+                                   const model::Point3& fixed_point, const BeamBakingOptions& options,
+                                   const std::function<void(double)>& progress = {});
 
 }  // namespace organsim::pipeline

@@ -8,7 +8,7 @@
 
 namespace organsim::pipeline {
 
-using CtImage = itk::Image<std::int16_t, 3>;   ///< Hounsfield units
+using CtImage = itk::Image<std::int16_t, 3>;    ///< Hounsfield units
 using MaskImage = itk::Image<std::uint8_t, 3>;  ///< 1 inside the organ, 0 outside
 
 }  // namespace organsim::pipeline

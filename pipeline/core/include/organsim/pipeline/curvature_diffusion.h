@@ -21,9 +21,9 @@ using FloatImage = itk::Image<float, 3>;
 
 struct CurvatureDiffusionOptions {
   unsigned iterations = 5;
-  double time_step = 0.0625;   ///< ITK's TimeStep (the stability limit in 3D is spacing / 16)
-  double conductance = 1.0;    ///< ITK's ConductanceParameter
-  unsigned threads = 0;        ///< 0: as many as ITK's filters use; the result does not depend on it
+  double time_step = 0.0625;  ///< ITK's TimeStep (the stability limit in 3D is spacing / 16)
+  double conductance = 1.0;   ///< ITK's ConductanceParameter
+  unsigned threads = 0;       ///< 0: as many as ITK's filters use; the result does not depend on it
 };
 
 /// `image` smoothed: the image ITK's CurvatureAnisotropicDiffusionImageFilter

@@ -18,17 +18,17 @@
 namespace organsim::pipeline {
 
 struct PhantomOptions {
-  std::array<unsigned, 3> size{128, 104, 64};      ///< voxels (columns, rows, slices)
+  std::array<unsigned, 3> size{128, 104, 64};       ///< voxels (columns, rows, slices)
   std::array<double, 3> spacing_mm{3.0, 3.0, 3.0};  ///< voxel size, mm
   std::uint64_t seed = 1;                           ///< noise seed; same seed, same image
   double noise_sigma_hu = 10.0;                     ///< Gaussian noise standard deviation, HU
 };
 
 struct Phantom {
-  CtImage::Pointer ct;                    ///< Hounsfield units
-  MaskImage::Pointer liver_mask;          ///< ground truth: 1 where the voxel centre is in the liver
-  std::array<double, 3> fixed_point_mm;   ///< portal vein axis ∩ liver surface, LPS, mm
-  double liver_volume_ml = 0.0;           ///< analytic-ish: voxel count × voxel volume, mL
+  CtImage::Pointer ct;                   ///< Hounsfield units
+  MaskImage::Pointer liver_mask;         ///< ground truth: 1 where the voxel centre is in the liver
+  std::array<double, 3> fixed_point_mm;  ///< portal vein axis ∩ liver surface, LPS, mm
+  double liver_volume_ml = 0.0;          ///< analytic-ish: voxel count × voxel volume, mL
 };
 
 /// Builds the phantom. Throws std::invalid_argument when the size or spacing is

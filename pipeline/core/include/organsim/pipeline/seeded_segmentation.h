@@ -55,10 +55,10 @@ struct SeededSegmentationOptions {
   std::vector<SeedPoint> seeds;
   std::vector<SeedPoint> background_seeds;  ///< in neighbours the organ must not include (heart, stomach, …)
 
-  double working_spacing_mm = 2.5;   ///< voxels finer than this are averaged in blocks; 0: full resolution
-  int smoothing_iterations = 5;      ///< curvature anisotropic diffusion; 0: none
+  double working_spacing_mm = 2.5;     ///< voxels finer than this are averaged in blocks; 0: full resolution
+  int smoothing_iterations = 5;        ///< curvature anisotropic diffusion; 0: none
   double smoothing_conductance = 3.0;  ///< diffusion stops at edges steeper than about this (× mean gradient)
-  double seed_radius_mm = 10.0;      ///< neighbourhood of each seed that gives the HU statistics
+  double seed_radius_mm = 10.0;        ///< neighbourhood of each seed that gives the HU statistics
   /// HU window = [median − below × σ, median + above × σ], σ the robust σ. Wider
   /// below: the liver's own lower tail (partial volume at its border with fat,
   /// less-enhanced regions in a contrast phase, hypodense lesions); above lie
@@ -69,11 +69,11 @@ struct SeededSegmentationOptions {
   /// (a seed in a less enhanced part still finds the rest); the final window
   /// comes from the organ's certain part that the first one finds.
   double discovery_sigmas_above = 6.0;
-  double minimum_sigma_hu = 10.0;    ///< floor of the robust σ (a very uniform neighbourhood)
+  double minimum_sigma_hu = 10.0;                      ///< floor of the robust σ (a very uniform neighbourhood)
   std::optional<std::pair<double, double>> hu_window;  ///< given LOW,HIGH replaces the statistics
-  double opening_radius_mm = 10.0;   ///< leak control: cuts bridges thinner than twice this, mm; 0: none
-  double reach_mm = 3.0;             ///< leak control: how far beyond the opened organ its border may lie, mm
-  double closing_radius_mm = 0.0;    ///< closes notches and vessel entries, mm; 0: none
+  double opening_radius_mm = 10.0;  ///< leak control: cuts bridges thinner than twice this, mm; 0: none
+  double reach_mm = 3.0;            ///< leak control: how far beyond the opened organ its border may lie, mm
+  double closing_radius_mm = 0.0;   ///< closes notches and vessel entries, mm; 0: none
   /// Lesions and vessels at the organ's surface leave dents the HU window
   /// cannot see and hole filling cannot close. A dent up to this radius (the
   /// largest lesion's) is taken into the organ when it is soft tissue or a
@@ -81,9 +81,9 @@ struct SeededSegmentationOptions {
   /// at least `lesion_enclosure` of its border touches the organ. 0: off.
   double lesion_radius_mm = 20.0;
   double lesion_enclosure = 0.6;
-  double lesion_low_hu = -40.0;      ///< below: fat and air, never a lesion's inside
-  double vessel_high_hu = 300.0;     ///< above: bone and contrast in the bowel
-  std::size_t minimum_voxels = 1000; ///< smaller results are an error
+  double lesion_low_hu = -40.0;       ///< below: fat and air, never a lesion's inside
+  double vessel_high_hu = 300.0;      ///< above: bone and contrast in the bowel
+  std::size_t minimum_voxels = 1000;  ///< smaller results are an error
 };
 
 /// What the segmentation did, for the user to judge it (and a warning when the
@@ -91,10 +91,10 @@ struct SeededSegmentationOptions {
 struct SeededSegmentationReport {
   std::size_t voxels = 0;
   double volume_ml = 0.0;
-  double seed_median_hu = 0.0, seed_sigma_hu = 0.0;  ///< statistics of the seeds' neighbourhoods (smoothed)
-  double organ_median_hu = 0.0, organ_sigma_hu = 0.0; ///< of the organ's certain part the first window found
-  double hu_low = 0.0, hu_high = 0.0;                 ///< the window used
-  bool window_given = false;                          ///< the user's window rather than the statistics
+  double seed_median_hu = 0.0, seed_sigma_hu = 0.0;    ///< statistics of the seeds' neighbourhoods (smoothed)
+  double organ_median_hu = 0.0, organ_sigma_hu = 0.0;  ///< of the organ's certain part the first window found
+  double hu_low = 0.0, hu_high = 0.0;                  ///< the window used
+  bool window_given = false;                           ///< the user's window rather than the statistics
   std::array<double, 3> working_spacing_mm{};
   double background_split_ml = 0.0;  ///< given to the background seeds' regions
   double grown_ml = 0.0;             ///< the window's region connected to the seeds, before leak control

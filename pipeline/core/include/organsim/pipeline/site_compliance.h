@@ -32,24 +32,24 @@
 namespace organsim::pipeline {
 
 struct SiteComplianceOptions {
-  double fixed_radius = 0.010;      ///< m: the FEM models' clamp (fem::OrganFemOptions)
-  double poisson_ratio = 0.49;      ///< the PSH reference's ν (fem::OrganFemOptions::psh_poisson_ratio)
-  double stabilization = 100.0;     ///< the PSH reference's β
-  double patch_radius = 0.0;        ///< m; 0: twice the median boundary edge
+  double fixed_radius = 0.010;   ///< m: the FEM models' clamp (fem::OrganFemOptions)
+  double poisson_ratio = 0.49;   ///< the PSH reference's ν (fem::OrganFemOptions::psh_poisson_ratio)
+  double stabilization = 100.0;  ///< the PSH reference's β
+  double patch_radius = 0.0;     ///< m; 0: twice the median boundary edge
   /// m: the surface's curvature at a site is fitted to the surface vertices
   /// within this distance. 0: twice the default tip's radius (5 mm, the
   /// reach of a buried 2.5 mm tip's contact), or twice the median surface
   /// edge where that is longer, so that the fit holds two rings of vertices.
   double curvature_radius = 0.0;
-  unsigned threads = 0;             ///< 0: one per hardware thread
+  unsigned threads = 0;  ///< 0: one per hardware thread
 };
 
 struct SiteComplianceReport {
-  double patch_radius = 0.0;        ///< m, as used
-  double curvature_radius = 0.0;    ///< m, as used
-  std::size_t boundary_nodes = 0;   ///< solved (free boundary nodes within a patch)
-  std::size_t unknowns = 0;         ///< of the factorized matrix (displacements and pressures)
-  std::size_t factor_entries = 0;   ///< below the diagonal of its LDLᵀ factor
+  double patch_radius = 0.0;       ///< m, as used
+  double curvature_radius = 0.0;   ///< m, as used
+  std::size_t boundary_nodes = 0;  ///< solved (free boundary nodes within a patch)
+  std::size_t unknowns = 0;        ///< of the factorized matrix (displacements and pressures)
+  std::size_t factor_entries = 0;  ///< below the diagonal of its LDLᵀ factor
   double factorization_seconds = 0.0, solve_seconds = 0.0;
 };
 
@@ -67,6 +67,6 @@ std::vector<std::array<double, 2>> site_curvatures(const model::OrganModel& mode
 /// options.curvature_radius). Throws std::invalid_argument with one line when the model has no
 /// tetrahedra, the clamp does not hold it, or the options are out of range.
 model::SiteCompliance compute_site_compliance(const model::OrganModel& model, const SiteComplianceOptions& options,
-                                             SiteComplianceReport* report = nullptr);
+                                              SiteComplianceReport* report = nullptr);
 
 }  // namespace organsim::pipeline

@@ -15,7 +15,7 @@ struct SurfaceOptions {
   std::size_t target_vertices = 3000;  ///< decimate to about this many vertices
   int smoothing_iterations = 20;       ///< windowed sinc, of the contour
   double smoothing_passband = 0.05;    ///< windowed sinc pass band (smaller: smoother)
-  long block_factor = 0;               ///< contour the means of blocks of n³ voxels (1–4); 0: chosen from target_vertices
+  long block_factor = 0;  ///< contour the means of blocks of n³ voxels (1–4); 0: chosen from target_vertices
 };
 
 /// The surface encloses the mask's volume (voxel count × voxel volume, of the

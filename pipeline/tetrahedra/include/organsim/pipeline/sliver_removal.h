@@ -23,10 +23,10 @@ struct SliverRemovalReport {
   double min_dihedral_after_deg = 0.0;
   std::size_t slivers_before = 0;  ///< tetrahedra below the bound
   std::size_t slivers_after = 0;
-  std::size_t peeled = 0;          ///< boundary slivers removed (two or three faces on the boundary)
-  std::size_t moves = 0;           ///< vertex moves made
-  std::size_t flips = 0;           ///< edge removals, face swaps and vertex insertions made
-  std::size_t insertions = 0;      ///< of those, new interior vertices inserted
+  std::size_t peeled = 0;      ///< boundary slivers removed (two or three faces on the boundary)
+  std::size_t moves = 0;       ///< vertex moves made
+  std::size_t flips = 0;       ///< edge removals, face swaps and vertex insertions made
+  std::size_t insertions = 0;  ///< of those, new interior vertices inserted
 };
 
 /// Removes every sliver with two faces on the boundary whose removal keeps the
@@ -49,7 +49,8 @@ SliverRemovalReport remove_slivers(geometry::TetrahedralMesh& mesh, const Sliver
 /// A tetrahedron's shape quality in degrees: its smallest dihedral angle, or
 /// 45° / ρ when that is lower (ρ its radius–edge ratio, so that ρ = 3 reads as
 /// 15°); −1 when it is inverted or flat. What sliver removal raises.
-double shape_quality_deg(const model::Point3& a, const model::Point3& b, const model::Point3& c, const model::Point3& d);
+double shape_quality_deg(const model::Point3& a, const model::Point3& b, const model::Point3& c,
+                         const model::Point3& d);
 
 /// The smallest dihedral angle of one tetrahedron, degrees (0 when degenerate).
 double min_dihedral_deg(const model::Point3& a, const model::Point3& b, const model::Point3& c, const model::Point3& d);

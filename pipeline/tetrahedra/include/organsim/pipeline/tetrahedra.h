@@ -33,19 +33,19 @@ constexpr double kRefinementGrading = 0.3;
 LocalRefinement clamp_refinement(const model::Point3& fixed_point, double clamp_radius_m, double size_mm);
 
 struct TetrahedraOptions {
-  double tet_size_mm = 8.0;              ///< target edge length scale: cell size and facet size, mm
+  double tet_size_mm = 8.0;                  ///< target edge length scale: cell size and facet size, mm
   std::vector<LocalRefinement> refinements;  ///< finer cells around these points
-  double facet_distance_mm = 0.4;        ///< largest distance of a boundary facet from the surface, mm
-  double facet_angle_deg = 25.0;         ///< smallest boundary-facet angle (Mesh_3's facet_angle)
-  double radius_edge_ratio = 3.0;        ///< largest circumradius / shortest edge of a tetrahedron
-  bool optimize = true;                  ///< sliver removal (flips, peeling, vertex moves) after refinement
+  double facet_distance_mm = 0.4;            ///< largest distance of a boundary facet from the surface, mm
+  double facet_angle_deg = 25.0;             ///< smallest boundary-facet angle (Mesh_3's facet_angle)
+  double radius_edge_ratio = 3.0;            ///< largest circumradius / shortest edge of a tetrahedron
+  bool optimize = true;                      ///< sliver removal (flips, peeling, vertex moves) after refinement
 };
 
 struct TetrahedralQuality {
   std::size_t tetrahedra = 0;
   double min_dihedral_deg = 0.0;
   double max_dihedral_deg = 0.0;
-  double max_radius_edge_ratio = 0.0;    ///< circumradius / shortest edge; 0.612 for a regular tetrahedron
+  double max_radius_edge_ratio = 0.0;  ///< circumradius / shortest edge; 0.612 for a regular tetrahedron
   double mean_radius_edge_ratio = 0.0;
   double min_volume_m3 = 0.0;
   double total_volume_m3 = 0.0;

@@ -14,7 +14,7 @@
 namespace organsim::pipeline {
 
 struct VolumeMatch {
-  double offset_m = 0.0;          ///< the common outward offset applied (< 0: inward)
+  double offset_m = 0.0;  ///< the common outward offset applied (< 0: inward)
   double volume_before_m3 = 0.0;
   double volume_after_m3 = 0.0;
 };

@@ -127,7 +127,8 @@ enum class FrameStatus : std::uint8_t {
   ok,
   not_finite,  ///< a tool displacement is not finite: nothing changed
   kept_shape,  ///< no step was taken: even 1/16 of the relaxed iteration would invert a tetrahedron, or the step
-               ///< would throw the organ out of balance (a tangent made far from this state); the state is the previous one
+               ///< would throw the organ out of balance (a tangent made far from this state); the state is the previous
+               ///< one
 };
 
 class OrganFem {
@@ -232,8 +233,8 @@ class OrganFem {
   /// Or, for a first touch, the response A⁻¹ Σ wᵢ eᵢ of its hold's point as a
   /// whole (`point`): one solve where its three nodes' would take three.
   struct NodeSlot {
-    std::int32_t node = -1;        ///< the node; for a point, its first weighted node (-1: free)
-    bool point = false;            ///< the load is the point's, not the node's
+    std::int32_t node = -1;  ///< the node; for a point, its first weighted node (-1: free)
+    bool point = false;      ///< the load is the point's, not the node's
     std::array<std::int32_t, 3> point_nodes{};
     Eigen::Vector3d point_weights = Eigen::Vector3d::Zero();
     std::uint64_t generation = 0;  ///< keys its responses in a tangent
@@ -268,7 +269,8 @@ class OrganFem {
   class Worker;
 
   /// Σ_i w_i u_{node i}: the displacement of a boundary point now (m).
-  Eigen::Vector3d displacement_at(const std::array<std::int32_t, 3>& nodes, const Eigen::Vector3d& weights) const noexcept;
+  Eigen::Vector3d displacement_at(const std::array<std::int32_t, 3>& nodes,
+                                  const Eigen::Vector3d& weights) const noexcept;
   /// Σ_i w_i x_{node i}: where that boundary point is at rest (m).
   Eigen::Vector3d rest_at(const std::array<std::int32_t, 3>& nodes, const Eigen::Vector3d& weights) const noexcept;
   /// An empty tangent with the options' factorization, analyzed.
@@ -350,16 +352,16 @@ class OrganFem {
   geometry::SurfaceEmbedding embedding_;  ///< each surface vertex in a tetrahedron
   // State and scratch (sized at construction).
   Eigen::VectorXd state_, saved_, gradient_, saved_gradient_, rhs_, step_;
-  std::vector<Contact> contacts_;  ///< per tool
+  std::vector<Contact> contacts_;             ///< per tool
   std::vector<NodeSlot> node_slots_;          ///< max_contact_nodes
   std::vector<std::int32_t> slot_of_node_;    ///< per node: its NodeSlot, or -1
   std::vector<std::int32_t> boundary_faces_;  ///< the boundary faces with a free node
   double longest_boundary_edge_ = 0.0;        ///< m, at rest
   std::vector<Hold> holds_;                   ///< capacity kMaxHolds
   std::size_t hold_count_ = 0;
-  std::vector<Hold> candidates_;              ///< scratch for take_points
-  std::vector<std::int16_t> node_tool_;       ///< per node: the tool whose holds weigh it, or -1
-  std::vector<std::uint16_t> node_holds_;     ///< per node: how many holds weigh it
+  std::vector<Hold> candidates_;           ///< scratch for take_points
+  std::vector<std::int16_t> node_tool_;    ///< per node: the tool whose holds weigh it, or -1
+  std::vector<std::uint16_t> node_holds_;  ///< per node: how many holds weigh it
   std::uint64_t generations_ = 0;
   bool contact_settled_ = true;
   std::uint64_t hold_overflows_ = 0;
@@ -369,7 +371,7 @@ class OrganFem {
   std::unique_ptr<Tangent> newton_spare_;  ///< refresh_tangent(): the tangent it replaced, analyzed, for its next call
   bool using_rest_ = false;
   std::unique_ptr<Capacitance> capacitance_;
-  std::unique_ptr<Worker> worker_;    ///< null when the tangent is never refreshed
+  std::unique_ptr<Worker> worker_;  ///< null when the tangent is never refreshed
   std::uint32_t refresh_frames_ = 0;
   std::uint64_t frame_ = 0, refresh_due_ = 0;
   bool solved_this_frame_ = false;  // a contact's response was solved since the last step

@@ -15,8 +15,8 @@ struct SurfaceMesh {
 };
 
 struct TetrahedralMesh {
-  std::vector<model::Point3> vertices;          ///< (N × 3) m, patient frame
-  std::vector<model::Tetrahedron> tetrahedra;   ///< (M × 4) positively oriented
+  std::vector<model::Point3> vertices;         ///< (N × 3) m, patient frame
+  std::vector<model::Tetrahedron> tetrahedra;  ///< (M × 4) positively oriented
 };
 
 }  // namespace organsim::geometry

@@ -13,7 +13,7 @@ namespace organsim::geometry {
 struct ModelMeasures {
   Eigen::Vector3d bounds_min = Eigen::Vector3d::Zero();  ///< of the surface vertices, m
   Eigen::Vector3d bounds_max = Eigen::Vector3d::Zero();  ///< m
-  double surface_area = 0.0;            ///< m²
+  double surface_area = 0.0;                             ///< m²
   double surface_enclosed_volume = 0.0;  ///< signed, by the divergence theorem; > 0 for outward triangles, m³
   double tetrahedra_volume = 0.0;        ///< sum of signed tetrahedron volumes, m³ (0 without tetrahedra)
   double min_tetrahedron_volume = 0.0;   ///< smallest signed tetrahedron volume, m³ (< 0 means inverted)

@@ -35,7 +35,7 @@ Eigen::Vector4d tetrahedron_barycentric(const Eigen::Vector3d& p, const Eigen::V
 /// boundary (both meshes approximate the same organ), so its weights are those
 /// of a point in or just outside its host.
 struct SurfaceEmbedding {
-  std::vector<model::Tetrahedron> hosts;                                         ///< per surface vertex
+  std::vector<model::Tetrahedron> hosts;                                            ///< per surface vertex
   std::vector<Eigen::Vector4d, Eigen::aligned_allocator<Eigen::Vector4d>> weights;  ///< per surface vertex
 };
 

@@ -18,10 +18,10 @@
 namespace organsim::geometry {
 
 struct ToolTip {
-  double radius = 0.0;                               ///< m; 0: a point tool
-  Eigen::Vector3d axis = Eigen::Vector3d::Zero();    ///< unit, from the tip towards the handle
-  double shaft_length = 0.30;                        ///< m of shaft behind the hemisphere that can touch
-  Eigen::Vector3d seat = Eigen::Vector3d::Zero();    ///< m: the foremost point at first touch, from the touched point
+  double radius = 0.0;                             ///< m; 0: a point tool
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();  ///< unit, from the tip towards the handle
+  double shaft_length = 0.30;                      ///< m of shaft behind the hemisphere that can touch
+  Eigen::Vector3d seat = Eigen::Vector3d::Zero();  ///< m: the foremost point at first touch, from the touched point
 
   /// Seats the tip at a touched surface point of outward unit normal
   /// `normal`: the hemisphere rests tangent to the surface there (its centre
@@ -39,7 +39,8 @@ struct ToolTip {
   /// its distance outside the capsule's surface (m, negative inside) and the
   /// surface's outward unit normal nearest it (radially away from the axis;
   /// along −axis for a point on the axis below the hemisphere's centre).
-  double signed_distance(const Eigen::Vector3d& tip, const Eigen::Vector3d& point, Eigen::Vector3d& normal) const noexcept {
+  double signed_distance(const Eigen::Vector3d& tip, const Eigen::Vector3d& point,
+                         Eigen::Vector3d& normal) const noexcept {
     const Eigen::Vector3d centre = tip + radius * axis;
     const double along = std::clamp((point - centre).dot(axis), 0.0, shaft_length);
     const Eigen::Vector3d radial = point - (centre + along * axis);

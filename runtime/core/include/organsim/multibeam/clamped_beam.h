@@ -96,7 +96,8 @@ class ClampedBeam {
 
 /// The 12×12 stiffness of one element of length h (local frame, DOFs
 /// [u v w θx θy θz] of its first then its second node). Exposed for tests.
-Eigen::Matrix<double, 12, 12> element_stiffness(const model::BeamSection& section, double h, const BeamElasticity& elasticity,
+Eigen::Matrix<double, 12, 12> element_stiffness(const model::BeamSection& section, double h,
+                                                const BeamElasticity& elasticity,
                                                 const BeamBuildOptions& options) noexcept;
 
 }  // namespace organsim::multibeam

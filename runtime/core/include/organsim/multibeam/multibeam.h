@@ -51,8 +51,8 @@
 namespace organsim::multibeam {
 
 struct MultiBeamOptions {
-  std::uint32_t max_tools = 4;     ///< 1..kMaxTools
-  BeamBuildOptions beam;           ///< Euler–Bernoulli, eccentric sections
+  std::uint32_t max_tools = 4;  ///< 1..kMaxTools
+  BeamBuildOptions beam;        ///< Euler–Bernoulli, eccentric sections
   MergeRule merge = MergeRule::influence;
   double snap_distance = 0.010;    ///< m: farthest a tool point may be from the surface
   double merge_distance = 0.001;   ///< m: action points closer than this share one influence weight
@@ -66,9 +66,9 @@ struct MultiBeamOptions {
 /// One tool's beam, fixed from attach() to detach().
 struct ToolBeam {
   bool attached = false;
-  geometry::SurfacePoint action;                                    ///< action point on the rest surface
-  double length = 0.0;                                    ///< beam length, m
-  Eigen::Matrix3d frame = Eigen::Matrix3d::Identity();    ///< columns: beam x, y, z (world)
+  geometry::SurfacePoint action;                        ///< action point on the rest surface
+  double length = 0.0;                                  ///< beam length, m
+  Eigen::Matrix3d frame = Eigen::Matrix3d::Identity();  ///< columns: beam x, y, z (world)
   /// K (world, N/m): the beam's condensed tip stiffness, or the site law's
   /// at small depth when `matched`.
   Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();
@@ -116,7 +116,8 @@ class MultiBeam {
   /// Force on the tool (N, world) when its action point is displaced by
   /// `tip_displacement` (m, world): −K d, or the site law's −g(|d|) K d when
   /// matched. Zero force unless the status is ok.
-  Status force(std::uint32_t tool, const Eigen::Vector3d& tip_displacement, Eigen::Vector3d& force_on_tool) const noexcept;
+  Status force(std::uint32_t tool, const Eigen::Vector3d& tip_displacement,
+               Eigen::Vector3d& force_on_tool) const noexcept;
 
   /// Deformed vertex positions (m) and unit normals for the tip displacements of
   /// the attached tools (`tip_displacements[tool]`, m, world; entries of detached
@@ -191,7 +192,7 @@ class MultiBeam {
   double attenuation_rate_;
   std::vector<float> offset_[3];
   std::vector<ToolBeam> tools_;
-  std::vector<ClampedBeam> solvers_;   // per tool
+  std::vector<ClampedBeam> solvers_;          // per tool
   std::vector<model::BeamSection> sections_;  // scratch for attach(): stations entries
 
   // Filled by prepare(): the active tools in slot order and their merge data.
@@ -202,7 +203,7 @@ class MultiBeam {
   double group_share_[kMaxTools] = {};          // 1 / members of the tool's group
   InfluenceFunction influence_;
   std::vector<float> coefficient_data_;
-  std::uint64_t contact_generation_ = 0;   // bumped by every attach and detach
+  std::uint64_t contact_generation_ = 0;  // bumped by every attach and detach
   std::uint64_t prepared_generation_ = ~std::uint64_t{0};
   bool vertex_weights_stale_ = true;
   std::atomic<bool> distorted_{false};  // a distort() ran since the last prepare() (any thread)
@@ -210,7 +211,8 @@ class MultiBeam {
   std::vector<float> vertex_weights_;
   std::size_t chunk_stride_ = 0;
   std::vector<std::uint16_t> chunk_elements_;
-  std::vector<float> packed_positions_;  // x, y, z, 0 per vertex, relative to the fixed point (m): distort()'s, for normals()
+  std::vector<float>
+      packed_positions_;  // x, y, z, 0 per vertex, relative to the fixed point (m): distort()'s, for normals()
 };
 
 }  // namespace organsim::multibeam

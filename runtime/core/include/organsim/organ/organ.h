@@ -100,8 +100,8 @@ class Organ {
 /// closed ring n_0..n_k−1 is Σ n_j × n_j+1 (the centre cancels), so each
 /// neighbour is read once. Eight vertices at a time (Organ::ring_rows).
 /// Allocates nothing; ranges may run on different threads.
-void compute_vertex_normals(const Organ& organ, const model::Point3* positions, model::Point3* normals, std::size_t first,
-                            std::size_t last) noexcept;
+void compute_vertex_normals(const Organ& organ, const model::Point3* positions, model::Point3* normals,
+                            std::size_t first, std::size_t last) noexcept;
 
 /// The instruction set the per-vertex kernels (distortion, normals) run with:
 /// "x86-64-v4" (AVX-512), "x86-64-v3" (AVX2, FMA) or "x86-64" in the portable

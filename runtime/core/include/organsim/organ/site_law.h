@@ -95,11 +95,11 @@ class SiteLaw {
     Eigen::Matrix3d derivative;  ///< dK/dd_n = ∂K/∂δ · dδ/dd_n, N/m²
   };
   Secant secant(double normal_depth, bool with_derivative) const noexcept;
-  double tip_force_slope(double indentation) const noexcept;  // dF_tip/dδ, N/m
-  double depth_slope(double depth) const noexcept;  // g'(|d|), 1/m
+  double tip_force_slope(double indentation) const noexcept;    // dF_tip/dδ, N/m
+  double depth_slope(double depth) const noexcept;              // g'(|d|), 1/m
   Eigen::Matrix3d organ_compliance_ = Eigen::Matrix3d::Zero();  // m/N
-  Eigen::Vector3d normal_ = Eigen::Vector3d::UnitZ();            // outward, unit
-  double organ_normal_compliance_ = 0.0;                         // nᵀ C_organ n, m/N
+  Eigen::Vector3d normal_ = Eigen::Vector3d::UnitZ();           // outward, unit
+  double organ_normal_compliance_ = 0.0;                        // nᵀ C_organ n, m/N
   double radius_ = 0.0, contact_modulus_ = 0.0, shear_ = 0.0, poisson_ = 0.0;
   double hertz_radius_ = 0.0;        // R_e, m
   double buried_indentation_ = 0.0;  // δ_b = R²/R_e, m

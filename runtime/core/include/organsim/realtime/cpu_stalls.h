@@ -13,12 +13,12 @@
 namespace organsim::realtime {
 
 struct CpuStalls {
-  double seconds = 0.0;                       ///< spinning windows measured for
-  bool realtime_priority = false;             ///< false: the gaps include other programs
+  double seconds = 0.0;            ///< spinning windows measured for
+  bool realtime_priority = false;  ///< false: the gaps include other programs
   long long gaps_over_100us = 0, gaps_over_1ms = 0, gaps_over_2ms = 0;
-  double largest_gap = 0.0;                   ///< s
+  double largest_gap = 0.0;                                             ///< s
   long long late_over_300us = 0, late_over_1ms = 0, late_over_2ms = 0;  ///< wake-ups after the sleeps
-  double latest_wake = 0.0;                   ///< s
+  double latest_wake = 0.0;                                             ///< s
 };
 
 /// Measures for `seconds` with windows spinning `spin` s of every millisecond

@@ -1,7 +1,7 @@
 // The real-time engine: a force loop (≥ 1 kHz) and a deformation loop (≥ 60 Hz)
-// around one deformation model (multi-beam, mass-spring or FEM; deformation_model.h) (Ushiki et al., multi-beam paper, §3;
-// docs/multibeam.md#references), with haptic devices, contact
-// detection and force safety. docs/realtime.md states the rules.
+// around one deformation model (multi-beam, mass-spring or FEM; deformation_model.h) (Ushiki et al., multi-beam paper,
+// §3; docs/multibeam.md#references), with haptic devices, contact detection and force safety. docs/realtime.md states
+// the rules.
 //
 // Threads: force_tick() belongs to the force loop (a 1 kHz thread, or a device's
 // servo callback), deformation_step() to the deformation loop; each may run on
@@ -58,11 +58,11 @@ using lockfree::TripleBuffer;
 using multibeam::kMaxTools;
 
 struct EngineOptions {
-  std::string model = "beam";         ///< which deformation model runs: a name in model_registry.h
-  multibeam::MultiBeamOptions beams;  ///< merge rule, beam theory, distances (max_tools is set from the devices)
-  SpringModelOptions springs;         ///< the mass-spring model's network and integration
-  fem::OrganFemOptions fem;           ///< the FEM models' clamp and psh material
-  double force_period = 1e-3;         ///< s
+  std::string model = "beam";              ///< which deformation model runs: a name in model_registry.h
+  multibeam::MultiBeamOptions beams;       ///< merge rule, beam theory, distances (max_tools is set from the devices)
+  SpringModelOptions springs;              ///< the mass-spring model's network and integration
+  fem::OrganFemOptions fem;                ///< the FEM models' clamp and psh material
+  double force_period = 1e-3;              ///< s
   double deformation_period = 1.0 / 60.0;  ///< s
   double shaft_length = 0.30;              ///< m, tip to handle (laparoscopic instruments: 30–36 cm)
   /// m: the radius of every tool's hemispherical end (a 5 mm laparoscopic
@@ -86,7 +86,7 @@ struct EngineOptions {
 /// A tool's contact as the deformation loop publishes it.
 struct ToolContact {
   bool active = false;
-  std::uint32_t generation = 0;                           ///< counts this tool's contacts
+  std::uint32_t generation = 0;                            ///< counts this tool's contacts
   Eigen::Vector3d action_point = Eigen::Vector3d::Zero();  ///< rest surface, m
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();        ///< outward, rest surface
   Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();     ///< K, N/m, device-limited
@@ -110,8 +110,8 @@ struct ToolFrame {
   std::array<Eigen::Vector3d, kMaxTools> tips{};
   std::array<Eigen::Vector3d, kMaxTools> shafts{};  ///< unit, tip to handle; zero when unknown
   std::array<bool, kMaxTools> tip_valid{};
-  std::array<std::uint32_t, kMaxTools> released{};  ///< generation of the last contact the force loop ended
-  std::array<Eigen::Vector3d, kMaxTools> slips{};   ///< m: how far each contact has slipped (friction)
+  std::array<std::uint32_t, kMaxTools> released{};         ///< generation of the last contact the force loop ended
+  std::array<Eigen::Vector3d, kMaxTools> slips{};          ///< m: how far each contact has slipped (friction)
   std::array<std::uint32_t, kMaxTools> slip_generation{};  ///< the contact each slip belongs to
   double time = -1.0;
 };
@@ -126,13 +126,13 @@ struct SurfaceFrame {
 
 /// What the force loop saw of one tool (read after the loops have stopped).
 struct ToolTelemetry {
-  std::uint32_t contacts = 0;   ///< contacts begun
+  std::uint32_t contacts = 0;  ///< contacts begun
   /// Times the device stopped giving a valid pose (an error, a disconnected
   /// device): its force then fades from the last one sent to zero over the
   /// device's ramp_down_time, and comes back through the onset ramp when
   /// the pose does. The other tools go on.
   std::uint32_t pose_faults = 0;
-  double peak_force = 0.0;      ///< N, after safety
+  double peak_force = 0.0;  ///< N, after safety
   bool in_contact = false;
   Eigen::Vector3d last_force = Eigen::Vector3d::Zero();
 };
@@ -198,10 +198,10 @@ class Engine final : public devices::ForceLoop {
   std::array<std::uint32_t, kMaxTools> released_{};
   std::array<ToolTelemetry, kMaxTools> telemetry_{};
   std::array<std::uint32_t, kMaxTools> seen_generation_{};
-  std::array<double, kMaxTools> fault_start_{};      // s, when the pose went invalid; < 0 while valid
-  std::array<Eigen::Vector3d, kMaxTools> fault_force_{};  // N, the force sent just before
+  std::array<double, kMaxTools> fault_start_{};              // s, when the pose went invalid; < 0 while valid
+  std::array<Eigen::Vector3d, kMaxTools> fault_force_{};     // N, the force sent just before
   std::array<Eigen::Vector3d, kMaxTools> last_valid_tip_{};  // m, the tip where the pose was last valid
-  std::array<Eigen::Vector3d, kMaxTools> slip_{};         // m, of the current contact
+  std::array<Eigen::Vector3d, kMaxTools> slip_{};            // m, of the current contact
   // Blending a fresh linearization in: the one it replaces, the force that
   // one gave at the switch less the fresh one's, when, and for which frame and contact.
   struct HeldLinearization {
@@ -225,7 +225,7 @@ class Engine final : public devices::ForceLoop {
   bool touched_ = false;  // a contact was active in the last deformation step
   geometry::SurfaceBvh deformed_tree_;
   const model::Point3* tree_positions_ = nullptr;  // the last published surface
-  bool tree_stale_ = false;                 // the tree does not describe it yet
+  bool tree_stale_ = false;                        // the tree does not describe it yet
   // The surface vertices moved since the tree's last refit (per vertex mark
   // and list), unless all may have moved.
   std::vector<std::uint8_t> moved_mark_;

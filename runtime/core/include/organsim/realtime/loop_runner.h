@@ -30,10 +30,11 @@ struct RunTimings {
   /// solve) would otherwise make the median of a model that drops its
   /// contact frames.
   DurationHistogram contact_computes;
-  std::uint64_t force_deadline_misses = 0;          ///< force periods longer than kForceDeadline
-  std::uint64_t deformation_frames_dropped = 0;     ///< frames whose time passed while the one before ran (real time)
-  bool realtime_priority = false;            ///< both loops got SCHED_FIFO (force 80, deformation 70), and the polling thread its PollOptions::priority
-  std::string priority_warning;              ///< why not, when it did not
+  std::uint64_t force_deadline_misses = 0;       ///< force periods longer than kForceDeadline
+  std::uint64_t deformation_frames_dropped = 0;  ///< frames whose time passed while the one before ran (real time)
+  bool realtime_priority = false;  ///< both loops got SCHED_FIFO (force 80, deformation 70), and the polling thread its
+                                   ///< PollOptions::priority
+  std::string priority_warning;    ///< why not, when it did not
   double wall_seconds = 0.0;
 };
 

@@ -43,9 +43,9 @@ struct SimulationOptions {
   /// dependence on x is left out), solved by conjugate gradients preconditioned
   /// with the inverse 3×3 diagonal blocks.
   Integrator integrator = Integrator::midpoint;
-  double dt = 0.01;                                        ///< s
-  Eigen::Vector3d gravity = Eigen::Vector3d(0, 0, -9.8);   ///< m/s²
-  double point_damping = 0.0;                              ///< c of −c ẋ_i, N·s/m
+  double dt = 0.01;                                       ///< s
+  Eigen::Vector3d gravity = Eigen::Vector3d(0, 0, -9.8);  ///< m/s²
+  double point_damping = 0.0;                             ///< c of −c ẋ_i, N·s/m
   /// Region::all integrates every free node (neither fixed nor held).
   /// Region::dynamic integrates only the free nodes marked active:
   /// - at the start of every step, each free node with a non-zero external
@@ -211,7 +211,7 @@ class MassSpring {
   SimulationOptions options_;
   // State: one 3-vector per node, all nodes (fixed and held ones included).
   Points x_, v_;
-  Points saved_x_, saved_v_;  // the state before the current step (last good state), movable nodes
+  Points saved_x_, saved_v_;                  // the state before the current step (last good state), movable nodes
   std::vector<std::uint32_t> movable_nodes_;  // the nodes that are not fixed
   // Per node inputs.
   Points external_, target_;

@@ -21,10 +21,10 @@ enum class SpringKind : std::uint8_t { structural, shear, bending, body, volume 
 
 /// Springs as parallel arrays (one entry per spring).
 struct Springs {
-  std::vector<std::uint32_t> a, b;     ///< node indices, a < b
-  std::vector<double> rest_length;     ///< l⁰, m
-  std::vector<double> stiffness;       ///< k, N/m
-  std::vector<double> damping;         ///< d, N·s/m (along the spring)
+  std::vector<std::uint32_t> a, b;  ///< node indices, a < b
+  std::vector<double> rest_length;  ///< l⁰, m
+  std::vector<double> stiffness;    ///< k, N/m
+  std::vector<double> damping;      ///< d, N·s/m (along the spring)
   std::vector<SpringKind> kind;
   std::size_t size() const noexcept { return a.size(); }
 };
@@ -35,8 +35,8 @@ struct Springs {
 /// volume springs.
 struct SpringNetwork {
   std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>> rest;  ///< (N) rest positions, m
-  std::vector<double> mass;            ///< (N) kg (anchors: any positive value; they do not move)
-  std::vector<std::uint8_t> fixed;     ///< (N) 1: the node never moves (anchors, clamped nodes)
+  std::vector<double> mass;         ///< (N) kg (anchors: any positive value; they do not move)
+  std::vector<std::uint8_t> fixed;  ///< (N) 1: the node never moves (anchors, clamped nodes)
   std::size_t surface_nodes = 0;
   std::vector<model::Triangle> triangles;  ///< surface triangles (for output and collision), may be empty
   Springs springs;
@@ -68,8 +68,8 @@ SpringNetwork make_grid_network(const GridOptions& options);
 
 /// A baked organ's surface as a network.
 struct OrganNetworkOptions {
-  double stiffness = 0.0;        ///< structural spring constant, N/m; 0: from E as k = E·ℓ̄ (ℓ̄ the mean edge length)
-  double bending_factor = 0.6;   ///< bending springs: this × the structural constant (the paper's 1.2 / 2)
+  double stiffness = 0.0;  ///< structural spring constant, N/m; 0: from E as k = E·ℓ̄ (ℓ̄ the mean edge length)
+  double bending_factor = 0.6;  ///< bending springs: this × the structural constant (the paper's 1.2 / 2)
   /// Structural spring damping d, N·s/m; 0: `critical_fraction` × the critical
   /// damping 2·√(k·m̄) of one structural spring on the mean surface node mass m̄.
   /// Bending and body springs get d scaled like their constants (the paper's
@@ -78,8 +78,9 @@ struct OrganNetworkOptions {
   /// beyond any explicit integrator's reach.
   double damping = 0.0;
   double critical_fraction = 0.1;
-  double body_factor = 2.0;      ///< body springs: this × the structural constant and damping; 0 leaves them (and the anchors) out
-  double anchor_depth = 0.0;     ///< m; 0: the mean edge length
+  double body_factor =
+      2.0;  ///< body springs: this × the structural constant and damping; 0 leaves them (and the anchors) out
+  double anchor_depth = 0.0;  ///< m; 0: the mean edge length
   /// Volumetric springs (the model's tetrahedra): the tetrahedral nodes are
   /// simulated too, every tetrahedron edge is a spring (volume_factor × k and
   /// d), and since the baked tetrahedra do not share the surface's vertices,
@@ -96,7 +97,7 @@ struct OrganNetworkOptions {
   /// lightest node sets the explicit integrators' largest stable step.
   double uniform_mass = 0.0;
   bool area_weighted_mass = false;
-  double clamp_radius = 0.0;     ///< m; surface nodes within this of the first fixed point are fixed (0: none)
+  double clamp_radius = 0.0;  ///< m; surface nodes within this of the first fixed point are fixed (0: none)
 };
 
 /// Nodes: the model's surface vertices in order, then (body_factor > 0) one

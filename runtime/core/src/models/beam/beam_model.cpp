@@ -68,8 +68,11 @@ class BeamModel final : public DeformationModel {
 }  // namespace
 
 extern const RegisteredModel beam_model{
-    "beam", "multi-beam (Ushiki et al.): a clamped beam per tool, the organ moved by their space distortion",
-    /*needs_beam_tables=*/true, /*needs_tetrahedra=*/false, std::nullopt,
+    "beam",
+    "multi-beam (Ushiki et al.): a clamped beam per tool, the organ moved by their space distortion",
+    /*needs_beam_tables=*/true,
+    /*needs_tetrahedra=*/false,
+    std::nullopt,
     [](const organ::Organ& organ, const ModelOptions& options, std::size_t) -> std::unique_ptr<DeformationModel> {
       return std::make_unique<BeamModel>(organ, options.beams);
     }};

@@ -77,23 +77,36 @@ std::unique_ptr<DeformationModel> make_fem(const char* name, fem::MaterialModel 
 }  // namespace
 
 extern const RegisteredModel linear_model{
-    "linear", "linear FEM on the tetrahedra (small strains)", false, true, fem::MaterialModel::linear,
+    "linear",
+    "linear FEM on the tetrahedra (small strains)",
+    false,
+    true,
+    fem::MaterialModel::linear,
     [](const organ::Organ& organ, const ModelOptions& options, std::size_t tools) {
       return make_fem("linear", fem::MaterialModel::linear, organ, options, tools);
     }};
 extern const RegisteredModel corotational_model{
-    "corotational", "co-rotational linear FEM (large rotations, small strains)", false, true,
+    "corotational",
+    "co-rotational linear FEM (large rotations, small strains)",
+    false,
+    true,
     fem::MaterialModel::corotational,
     [](const organ::Organ& organ, const ModelOptions& options, std::size_t tools) {
       return make_fem("corotational", fem::MaterialModel::corotational, organ, options, tools);
     }};
-extern const RegisteredModel stvk_model{
-    "stvk", "St. Venant-Kirchhoff FEM (large strains)", false, true, fem::MaterialModel::stvk,
-    [](const organ::Organ& organ, const ModelOptions& options, std::size_t tools) {
-      return make_fem("stvk", fem::MaterialModel::stvk, organ, options, tools);
-    }};
+extern const RegisteredModel stvk_model{"stvk",
+                                        "St. Venant-Kirchhoff FEM (large strains)",
+                                        false,
+                                        true,
+                                        fem::MaterialModel::stvk,
+                                        [](const organ::Organ& organ, const ModelOptions& options, std::size_t tools) {
+                                          return make_fem("stvk", fem::MaterialModel::stvk, organ, options, tools);
+                                        }};
 extern const RegisteredModel psh_model{
-    "psh", "pressure-stabilized hyperelastic FEM (Ogata et al.: Mooney-Rivlin, nearly incompressible)", false, true,
+    "psh",
+    "pressure-stabilized hyperelastic FEM (Ogata et al.: Mooney-Rivlin, nearly incompressible)",
+    false,
+    true,
     fem::MaterialModel::mooney_rivlin,
     [](const organ::Organ& organ, const ModelOptions& options, std::size_t tools) {
       return make_fem("psh", fem::MaterialModel::mooney_rivlin, organ, options, tools);

@@ -37,7 +37,8 @@ class SpringModel final : public DeformationModel {
 
   bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, const geometry::ToolTip& tip,
               ContactLinearization& contact) noexcept override {
-    if (tool >= tools_.size() || !rest_point.allFinite() || !std::isfinite(tip.radius) || tip.radius < 0.0) return false;
+    if (tool >= tools_.size() || !rest_point.allFinite() || !std::isfinite(tip.radius) || tip.radius < 0.0)
+      return false;
     if (!tip.is_point() && !(std::abs(tip.axis.norm() - 1.0) < 1e-6)) return false;
     const geometry::SurfacePoint at = organ_.surface_tree().closest_point(rest_point);
     const model::Triangle& triangle = organ_.model().surface_triangles[at.triangle];
@@ -77,10 +78,9 @@ class SpringModel final : public DeformationModel {
     }
     update_holds();
     for (const Hold& h : holds_)
-      if (h.used)
-        simulation_.hold(h.node, simulation_.network().rest[h.node] + tools_[h.tool].displacement + h.offset);
-    const double steps = std::clamp(std::round(dt / simulation_.options().dt), 1.0,
-                                    static_cast<double>(options_.max_steps_per_frame));
+      if (h.used) simulation_.hold(h.node, simulation_.network().rest[h.node] + tools_[h.tool].displacement + h.offset);
+    const double steps =
+        std::clamp(std::round(dt / simulation_.options().dt), 1.0, static_cast<double>(options_.max_steps_per_frame));
     begin_moved();
     for (int s = 0; s < static_cast<int>(steps); ++s) {
       if (simulation_.step() == springs::StepStatus::blew_up) {
@@ -138,7 +138,7 @@ class SpringModel final : public DeformationModel {
   struct Tool {
     bool attached = false;
     geometry::ToolTip tip;
-    Eigen::Vector3d origin = Eigen::Vector3d::Zero();        ///< m: the first node's rest position (the action point)
+    Eigen::Vector3d origin = Eigen::Vector3d::Zero();  ///< m: the first node's rest position (the action point)
     bool matched = false;  ///< the contact's force is the site law's (SpringModelOptions::match_sites)
     organ::SiteLaw law;
     Eigen::Vector3d displacement = Eigen::Vector3d::Zero();  ///< m: the tip's, from origin
@@ -194,18 +194,18 @@ class SpringModel final : public DeformationModel {
     }
   }
 
-
   /// The simulation at options.simulation.dt, or at a smaller step where the
   /// network's stiffest mode needs one (kStableFraction of the integrator's limit).
   static springs::MassSpring make_simulation(const model::OrganModel& model, const SpringModelOptions& options) {
     springs::SpringNetwork network = springs::make_organ_network(model, options.network);
     springs::SimulationOptions simulation = options.simulation;
-    const double limit = springs::largest_stable_step(simulation.integrator,
-                                                      springs::stiffest_mode(network, simulation.point_damping));
+    const double limit =
+        springs::largest_stable_step(simulation.integrator, springs::stiffest_mode(network, simulation.point_damping));
     simulation.dt = std::min(simulation.dt, kStableFraction * limit);
     if (!(simulation.dt > 0.0))
-      throw std::invalid_argument("the springs' integrator is unstable at any step on this network: use symplectic "
-                                  "or implicit Euler, or add damping");
+      throw std::invalid_argument(
+          "the springs' integrator is unstable at any step on this network: use symplectic "
+          "or implicit Euler, or add damping");
     return springs::MassSpring(std::move(network), simulation);
   }
 
@@ -254,8 +254,8 @@ class SpringModel final : public DeformationModel {
     // 1 − l⁰/l is negative); rendered as is, such a direction would push the
     // hand further in. The device gets the positive part.
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(0.5 * (stiffness + stiffness.transpose()));
-    contact.stiffness = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() *
-                        eigen.eigenvectors().transpose();
+    contact.stiffness =
+        eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() * eigen.eigenvectors().transpose();
   }
 
   const organ::Organ& organ_;
@@ -274,8 +274,11 @@ class SpringModel final : public DeformationModel {
 }  // namespace
 
 extern const RegisteredModel springs_model{
-    "springs", "mass-spring (He et al.): the surface (and optionally the tetrahedra) as a damped spring network",
-    /*needs_beam_tables=*/false, /*needs_tetrahedra=*/false, std::nullopt,
+    "springs",
+    "mass-spring (He et al.): the surface (and optionally the tetrahedra) as a damped spring network",
+    /*needs_beam_tables=*/false,
+    /*needs_tetrahedra=*/false,
+    std::nullopt,
     [](const organ::Organ& organ, const ModelOptions& options, std::size_t tools) -> std::unique_ptr<DeformationModel> {
       return std::make_unique<SpringModel>(organ, options.springs, tools);
     }};

@@ -16,7 +16,7 @@ namespace organsim::devices {
 
 /// A force the device received.
 struct ForceRecord {
-  double time = 0.0;                               ///< s
+  double time = 0.0;                                ///< s
   Eigen::Vector3d force = Eigen::Vector3d::Zero();  ///< N
   bool in_contact = false;
 };

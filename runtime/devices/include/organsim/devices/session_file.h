@@ -34,9 +34,9 @@ struct Session {
 /// the organ, is almost always a mistake (a time in milliseconds, coordinates
 /// in micrometres or another frame) and would run for days or never touch it.
 struct SessionLimits {
-  double max_duration = 86400.0;   ///< s; infinity allows any length (replay --long-session)
-  Eigen::AlignedBox3d organ_box;   ///< m; empty: tools are not checked against the organ
-  double max_distance = 10.0;      ///< m, the farthest a tool tip may be from organ_box
+  double max_duration = 86400.0;  ///< s; infinity allows any length (replay --long-session)
+  Eigen::AlignedBox3d organ_box;  ///< m; empty: tools are not checked against the organ
+  double max_distance = 10.0;     ///< m, the farthest a tool tip may be from organ_box
 };
 
 /// Reads a session file. Throws std::runtime_error naming the file, the line and

@@ -101,7 +101,7 @@ class ElasticitySystem {
   Material material_;
   std::vector<std::int32_t> free_of_;
   Eigen::Index free_count_ = 0, constrained_count_ = 0;
-  std::vector<double> volume_;                       ///< reference volumes, m³
+  std::vector<double> volume_;                          ///< reference volumes, m³
   std::vector<Eigen::Matrix<double, 4, 3>> gradients_;  ///< ∇N_a of each tetrahedron's 4 nodes (rows), 1/m
   std::vector<JumpFace> jump_faces_;
   double mean_diameter_ = 0;

@@ -39,8 +39,8 @@ enum class MatrixKind : std::uint8_t {
 struct SupernodalFactor {
   const SupernodalView<double>* double_values = nullptr;  ///< L in double precision, or
   const SupernodalView<float>* single_values = nullptr;   ///< L in single precision
-  const int* order = nullptr;                              ///< row i of A is row order[i] of P A Pᵀ
-  const double* pivots = nullptr;                          ///< D (null: L Lᵀ, D = I)
+  const int* order = nullptr;                             ///< row i of A is row order[i] of P A Pᵀ
+  const double* pivots = nullptr;                         ///< D (null: L Lᵀ, D = I)
   Eigen::Index rows = 0;
 };
 
@@ -110,7 +110,8 @@ using Ordering = void (*)(const SparseMatrix& matrix, Eigen::VectorXi& permutati
 /// its factor (supernodal_solve.h) kept in double precision, or in single
 /// precision when `single_precision` (solves to about 1e-7 relative; exact()
 /// still true: no refinement is needed for SolveUse::realtime_iteration).
-std::unique_ptr<Factorization> make_simplicial_factorization(bool single_precision = false, Ordering ordering = nullptr);
+std::unique_ptr<Factorization> make_simplicial_factorization(bool single_precision = false,
+                                                             Ordering ordering = nullptr);
 
 /// `factory`'s factorization for `kind`, or the simplicial one when the
 /// factory is null or has none that fits (in single precision for

@@ -39,8 +39,8 @@ struct RigidTip {
   };
   Shape shape = Shape::sphere;
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();  ///< m
-  Eigen::Vector3d axis = -Eigen::Vector3d::UnitZ();   ///< unit, the pressing direction (into the body)
-  double radius = 2.5e-3;                             ///< m
+  Eigen::Vector3d axis = -Eigen::Vector3d::UnitZ();  ///< unit, the pressing direction (into the body)
+  double radius = 2.5e-3;                            ///< m
 
   /// How far point y lies outside the tip (m; negative inside) and the tip's
   /// outward unit normal there; a flat punch's face only counts within its
@@ -71,11 +71,11 @@ struct ContactProblem {
 
 struct ContactSolution {
   bool converged = false;
-  std::string error;                       ///< one line when not converged
-  Eigen::VectorXd displacements;           ///< 3 per node, m
+  std::string error;                                ///< one line when not converged
+  Eigen::VectorXd displacements;                    ///< 3 per node, m
   Eigen::Vector3d force = Eigen::Vector3d::Zero();  ///< N, on the tool: −Σ λᵢ nᵢ
-  std::vector<std::int32_t> active;        ///< nodes in contact at the end
-  int iterations = 0;                      ///< active-set passes
+  std::vector<std::int32_t> active;                 ///< nodes in contact at the end
+  int iterations = 0;                               ///< active-set passes
 };
 
 /// Throws std::invalid_argument for a material other than linear, an index

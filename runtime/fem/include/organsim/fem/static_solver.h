@@ -37,26 +37,26 @@ namespace organsim::fem {
 
 struct PrescribedDisplacement {
   std::int32_t node = 0;
-  int component = 0;   ///< 0: x, 1: y, 2: z
-  double value = 0;    ///< m, reached at the last load step
+  int component = 0;  ///< 0: x, 1: y, 2: z
+  double value = 0;   ///< m, reached at the last load step
 };
 
 struct NodalLoad {
   std::int32_t node = 0;
   int component = 0;
-  double value = 0;    ///< N, reached at the last load step
+  double value = 0;  ///< N, reached at the last load step
 };
 
 struct StaticProblem {
   TetMesh mesh;
   Material material;
-  double density = 0;                                   ///< kg/m³
-  Eigen::Vector3d gravity = Eigen::Vector3d::Zero();    ///< m/s² (dead load ρg, scaled with the load steps)
-  std::vector<std::int32_t> fixed;                      ///< nodes held in all three components
+  double density = 0;                                 ///< kg/m³
+  Eigen::Vector3d gravity = Eigen::Vector3d::Zero();  ///< m/s² (dead load ρg, scaled with the load steps)
+  std::vector<std::int32_t> fixed;                    ///< nodes held in all three components
   std::vector<PrescribedDisplacement> prescribed;
   std::vector<NodalLoad> loads;
   int load_steps = 1;
-  double tolerance = 1e-8;                              ///< on ‖F − Q‖ / ‖F − Q‖_first
+  double tolerance = 1e-8;  ///< on ‖F − Q‖ / ‖F − Q‖_first
   /// Pa: where Newton's iteration starts every tetrahedron's pressure
   /// (mooney-rivlin; Ogata et al. start at 300 Pa, "λ = initial pressure").
   double initial_pressure = 0;
@@ -69,8 +69,8 @@ struct StaticProblem {
 void validate(const StaticProblem& problem);
 
 struct SolverOptions {
-  int max_iterations = 25;   ///< Newton iterations per load increment
-  int max_step_cuts = 10;    ///< halvings of one load step before giving up
+  int max_iterations = 25;  ///< Newton iterations per load increment
+  int max_step_cuts = 10;   ///< halvings of one load step before giving up
   /// The tangent's factorization (null: Eigen's simplicial LDLᵀ).
   FactorizationFactory factorization = nullptr;
   /// When a tangent is factorized afresh and when GMRES reuses the last factorization.
@@ -79,10 +79,10 @@ struct SolverOptions {
 
 struct StaticSolution {
   bool converged = false;
-  std::string error;                          ///< one line when not converged
-  Eigen::VectorXd displacements;              ///< 3 per node, m
-  Eigen::VectorXd pressures;                  ///< per tetrahedron, Pa (mooney-rivlin; else empty)
-  std::vector<int> newton_iterations;         ///< per load step (its increments' iterations summed)
+  std::string error;                   ///< one line when not converged
+  Eigen::VectorXd displacements;       ///< 3 per node, m
+  Eigen::VectorXd pressures;           ///< per tetrahedron, Pa (mooney-rivlin; else empty)
+  std::vector<int> newton_iterations;  ///< per load step (its increments' iterations summed)
   /// Per Newton iteration of every increment: ‖F − Q‖ / ‖F − Q‖_first after it.
   std::vector<std::vector<double>> residual_history;
   /// The forces the supports exert on the body (N, 3 per node; 0 on free
@@ -95,8 +95,8 @@ struct StaticSolution {
   /// kept one; GMRES iterations run (one solve with the factor each).
   int factorizations = 0, krylov_solves = 0, krylov_iterations = 0;
   double assembly_seconds = 0, solve_seconds = 0;
-  double analysis_seconds = 0;                ///< the pattern's ordering and analysis, part of solve_seconds
-  std::string linear_solver;                  ///< the factorization's name
+  double analysis_seconds = 0;  ///< the pattern's ordering and analysis, part of solve_seconds
+  std::string linear_solver;    ///< the factorization's name
 };
 
 /// The press the FEM experiments and benchmarks apply to an organ's

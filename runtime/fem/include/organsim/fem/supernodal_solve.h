@@ -89,8 +89,8 @@ ORGANSIM_SUPERNODAL_INLINE void column_pointers(Eigen::Ref<Eigen::MatrixX3d>& y_
 /// workspace `t` and subtracted where they belong (rows of the supernode's
 /// ancestors in the elimination tree).
 template <int K, typename Scalar>
-ORGANSIM_SUPERNODAL_INLINE void supernodal_forward_node(const SupernodalView<Scalar>& l, std::size_t s, double* const* y,
-                                                        double* const* t) noexcept {
+ORGANSIM_SUPERNODAL_INLINE void supernodal_forward_node(const SupernodalView<Scalar>& l, std::size_t s,
+                                                        double* const* y, double* const* t) noexcept {
   const Eigen::Index n = l.columns(s), height = l.height(s), below = height - n, first = l.first[s];
   const Scalar* values = l.values + l.value_start[s];
   for (Eigen::Index j = 0; j < n; ++j) {
@@ -133,8 +133,9 @@ ORGANSIM_SUPERNODAL_INLINE void supernodal_forward_node(const SupernodalView<Sca
 /// Y = L⁻¹ Y for the first K columns of `y` (L's row order), in place;
 /// `below` holds at least most_rows_below() rows and K columns.
 template <int K, typename Scalar>
-ORGANSIM_SUPERNODAL_INLINE void supernodal_forward(const SupernodalView<Scalar>& l, Eigen::Ref<Eigen::MatrixX3d> y_columns,
-                        Eigen::Ref<Eigen::MatrixX3d> below_columns) noexcept {
+ORGANSIM_SUPERNODAL_INLINE void supernodal_forward(const SupernodalView<Scalar>& l,
+                                                   Eigen::Ref<Eigen::MatrixX3d> y_columns,
+                                                   Eigen::Ref<Eigen::MatrixX3d> below_columns) noexcept {
   double* y[K];
   double* t[K];
   detail::column_pointers<K>(y_columns, below_columns, y, t);
@@ -143,8 +144,9 @@ ORGANSIM_SUPERNODAL_INLINE void supernodal_forward(const SupernodalView<Scalar>&
 
 /// Y = L⁻ᵀ Y for the first K columns of `y`, in place (workspace as above).
 template <int K, typename Scalar>
-ORGANSIM_SUPERNODAL_INLINE void supernodal_backward(const SupernodalView<Scalar>& l, Eigen::Ref<Eigen::MatrixX3d> y_columns,
-                         Eigen::Ref<Eigen::MatrixX3d> below_columns) noexcept {
+ORGANSIM_SUPERNODAL_INLINE void supernodal_backward(const SupernodalView<Scalar>& l,
+                                                    Eigen::Ref<Eigen::MatrixX3d> y_columns,
+                                                    Eigen::Ref<Eigen::MatrixX3d> below_columns) noexcept {
   double* y[K];
   double* t[K];
   detail::column_pointers<K>(y_columns, below_columns, y, t);
@@ -197,8 +199,8 @@ ORGANSIM_SUPERNODAL_INLINE void supernodal_backward(const SupernodalView<Scalar>
 /// portable build's SSE2 code, 14.1 ms with AVX2).
 void supernodal_solve(const SupernodalView<double>& l, const double* pivots, Eigen::Ref<Eigen::MatrixX3d> y,
                       int columns, Eigen::Ref<Eigen::MatrixX3d> below) noexcept;
-void supernodal_solve(const SupernodalView<float>& l, const double* pivots, Eigen::Ref<Eigen::MatrixX3d> y,
-                      int columns, Eigen::Ref<Eigen::MatrixX3d> below) noexcept;
+void supernodal_solve(const SupernodalView<float>& l, const double* pivots, Eigen::Ref<Eigen::MatrixX3d> y, int columns,
+                      Eigen::Ref<Eigen::MatrixX3d> below) noexcept;
 
 /// The solve's two halves for the first column of `y`, in place: y = L⁻¹ y,
 /// and y = L⁻ᵀ D⁻¹ y (`pivots` D, or null for L Lᵀ). A solve in parts

@@ -16,8 +16,8 @@ using Points = std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vect
 using Tetrahedron = std::array<std::int32_t, 4>;
 
 struct TetMesh {
-  Points nodes;                          ///< m
-  std::vector<Tetrahedron> tetrahedra;   ///< 0-based node indices, positive volume
+  Points nodes;                         ///< m
+  std::vector<Tetrahedron> tetrahedra;  ///< 0-based node indices, positive volume
 };
 
 /// Signed volume of tetrahedron `t` (m³; positive when (b − a, c − a, d − a) is right-handed).

@@ -21,7 +21,8 @@ class TripleBuffer {
   T& write_slot() noexcept { return slots_[back_]; }
   /// Makes the filled slot the latest value and takes the spare slot to write next.
   void publish() noexcept {
-    const std::uint8_t previous = middle_.exchange(static_cast<std::uint8_t>(back_ | kFresh), std::memory_order_acq_rel);
+    const std::uint8_t previous =
+        middle_.exchange(static_cast<std::uint8_t>(back_ | kFresh), std::memory_order_acq_rel);
     back_ = previous & kIndex;
   }
 

@@ -17,7 +17,6 @@ struct BeamFrame {
 /// axis (X, Y or Z, the first one on ties) least aligned with x, made
 /// perpendicular to x and normalized; z = x × y. Returns false (and leaves
 /// `frame` untouched) when |to − from| is zero or not finite.
-bool make_beam_frame(const std::array<double, 3>& from, const std::array<double, 3>& to,
-                     BeamFrame& frame) noexcept;
+bool make_beam_frame(const std::array<double, 3>& from, const std::array<double, 3>& to, BeamFrame& frame) noexcept;
 
 }  // namespace organsim::model

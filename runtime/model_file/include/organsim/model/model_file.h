@@ -52,8 +52,7 @@ struct ModelReadResult {
 ModelReadResult read_organ_model_file(const std::string& path);
 
 /// Parses a model held in memory; `source_name` is used in error messages.
-ModelReadResult parse_organ_model(const std::uint8_t* data, std::size_t size,
-                                  const std::string& source_name);
+ModelReadResult parse_organ_model(const std::uint8_t* data, std::size_t size, const std::string& source_name);
 
 /// Encodes a model in the current format version. Throws std::invalid_argument
 /// (with the validation message) when the model is not valid.

@@ -16,18 +16,18 @@
 
 namespace organsim::model {
 
-using Point3 = std::array<double, 3>;           ///< x, y, z in metres
-using TexCoord = std::array<double, 2>;         ///< u, v in [0, 1]
-using Triangle = std::array<std::uint32_t, 3>;  ///< counter-clockwise seen from outside
+using Point3 = std::array<double, 3>;              ///< x, y, z in metres
+using TexCoord = std::array<double, 2>;            ///< u, v in [0, 1]
+using Triangle = std::array<std::uint32_t, 3>;     ///< counter-clockwise seen from outside
 using Tetrahedron = std::array<std::uint32_t, 4>;  ///< positive orientation: (b-a)·((c-a)×(d-a)) > 0
 
 /// Material parameters. Defaults and their sources are documented in docs/model-format.md.
 struct Material {
-  double young_modulus = 0.0;       ///< E, Pa
-  double poisson_ratio = 0.0;       ///< ν, dimensionless, in (-1, 0.5)
-  double density = 0.0;             ///< ρ, kg/m³
-  double attenuation_alpha = 0.0;   ///< α of s' = s / α^(β d), dimensionless, > 0
-  double attenuation_beta = 0.0;    ///< β of s' = s / α^(β d), 1/m, >= 0
+  double young_modulus = 0.0;      ///< E, Pa
+  double poisson_ratio = 0.0;      ///< ν, dimensionless, in (-1, 0.5)
+  double density = 0.0;            ///< ρ, kg/m³
+  double attenuation_alpha = 0.0;  ///< α of s' = s / α^(β d), dimensionless, > 0
+  double attenuation_beta = 0.0;   ///< β of s' = s / α^(β d), 1/m, >= 0
   /// The fast models' stiffness relative to E (> 0; 1 unless `organsim
   /// calibrate` fitted them to a FEM reference): the multi-beam model's beams
   /// use E × beam_stiffness_scale, the mass-spring model's springs
@@ -90,15 +90,33 @@ class SectionTable {
   BeamSection& operator[](std::size_t i) { return owned()[i]; }
   BeamSection* begin() { return owned().data(); }
   BeamSection* end() { return owned().data() + size_; }
-  void resize(std::size_t count) { owned().resize(count); sync(); }
-  void reserve(std::size_t count) { owned().reserve(count); sync(); }
-  void assign(std::size_t count, const BeamSection& value) { owned().assign(count, value); sync(); }
-  void push_back(const BeamSection& value) { owned().push_back(value); sync(); }
-  void pop_back() { owned().pop_back(); sync(); }
+  void resize(std::size_t count) {
+    owned().resize(count);
+    sync();
+  }
+  void reserve(std::size_t count) {
+    owned().reserve(count);
+    sync();
+  }
+  void assign(std::size_t count, const BeamSection& value) {
+    owned().assign(count, value);
+    sync();
+  }
+  void push_back(const BeamSection& value) {
+    owned().push_back(value);
+    sync();
+  }
+  void pop_back() {
+    owned().pop_back();
+    sync();
+  }
   /// The owned storage (a view is copied into it first), for bulk writes; call
   /// sync() after changing its size.
   std::vector<BeamSection>& owned();
-  void sync() noexcept { data_ = owned_.data(); size_ = owned_.size(); }
+  void sync() noexcept {
+    data_ = owned_.data();
+    size_ = owned_.size();
+  }
 
   bool operator==(const SectionTable& other) const;
 
@@ -163,9 +181,9 @@ struct SiteCompliance {
 /// Where the model came from. Never holds patient-identifying information: the
 /// input image is identified only by the SHA-256 of its voxel values.
 struct ModelProvenance {
-  std::string coordinate_frame = "LPS";  ///< "LPS" or "RAS"
-  std::string program_version;           ///< organsim version that wrote the model
-  std::string input_sha256;              ///< 64 lowercase hex digits, or empty for synthetic models
+  std::string coordinate_frame = "LPS";           ///< "LPS" or "RAS"
+  std::string program_version;                    ///< organsim version that wrote the model
+  std::string input_sha256;                       ///< 64 lowercase hex digits, or empty for synthetic models
   std::map<std::string, std::string> parameters;  ///< every parameter the model was made with
 
   bool operator==(const ModelProvenance& other) const;
@@ -174,12 +192,12 @@ struct ModelProvenance {
 /// A complete organ model.
 struct OrganModel {
   ModelProvenance provenance;
-  std::vector<Point3> surface_vertices;    ///< (Ns × 3) rest positions of the simulation surface, m
+  std::vector<Point3> surface_vertices;     ///< (Ns × 3) rest positions of the simulation surface, m
   std::vector<Triangle> surface_triangles;  ///< (Mt × 3) indices into surface_vertices, closed and outward
   std::vector<TexCoord> surface_texcoords;  ///< (Ns × 2) or empty
-  std::vector<Point3> volume_vertices;     ///< (Nv × 3) tetrahedral mesh nodes, m (may be empty)
+  std::vector<Point3> volume_vertices;      ///< (Nv × 3) tetrahedral mesh nodes, m (may be empty)
   std::vector<Tetrahedron> tetrahedra;      ///< (Nt × 4) indices into volume_vertices
-  std::vector<Point3> fixed_points;        ///< (Nf × 3), Nf >= 1; beams are clamped at fixed_points[0]
+  std::vector<Point3> fixed_points;         ///< (Nf × 3), Nf >= 1; beams are clamped at fixed_points[0]
   Material material;
   BeamTables beams;
   SiteCompliance sites;  ///< per-site contact law of the FEM reference (format 1.2; curvatures 1.3), or empty

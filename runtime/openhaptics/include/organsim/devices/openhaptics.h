@@ -44,7 +44,7 @@ class HdLibrary {
 struct DevicePlacement {
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();  ///< m
-  double scale = 1.0;                                 ///< model metres per device metre
+  double scale = 1.0;                                ///< model metres per device metre
 };
 
 /// One HD device as a HapticDevice. read_pose/write_force must be called inside
