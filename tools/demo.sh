@@ -47,6 +47,11 @@ echo "   co-rotational FEM and pressure-stabilized FEM models"
 "$build/tools/organsim" replay "$out/liver.organ" "$repo/data_samples/liver_two_tools.session" \
   --model beam,springs,corotational,psh
 echo
+echo "== organsim replay: two hands on the liver: a grasper lifts the edge of a lobe 20 mm and holds it while a probe"
+echo "   presses beside it, then both let go (multi-beam, mass-spring and co-rotational FEM models)"
+"$build/tools/organsim" replay "$out/liver.organ" "$repo/data_samples/liver_retract_and_probe.session" \
+  --model beam,springs,corotational
+echo
 echo "== organsim compare: the same presses with every model, each against the PSH FEM (Ogata et al.'s Table 5 measure)"
 "$build/tools/organsim" compare "$out/liver.organ" --tool -7.1,-252.0,356.2/0.28,-4.46,2.24 --tool -99.4,-217.0,387.9/3.29,1.61,1.62
 echo

@@ -232,6 +232,7 @@ struct ClientResult {
 class Inbox final : public organsim::igtlink::MessageReader::Handler {
  public:
   Inbox(ClientResult& result, std::string force_name) : result_(result), force_name_(std::move(force_name)) {}
+  void jaws(const organsim::igtlink::JawsMessage&) override { ++result_.messages; }  // the server sends none
   void transform(const organsim::igtlink::TransformMessage& message) override {
     ++result_.messages;
     if (force_name_ != message.info.device.data()) return;

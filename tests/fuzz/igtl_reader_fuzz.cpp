@@ -29,6 +29,10 @@ struct Recorder final : MessageReader::Handler {
     for (float v : m.matrix) event += "," + std::to_string(v);
     events.push_back(event);
   }
+  void jaws(const JawsMessage& m) override {
+    if (m.info.device.back() != '\0' || m.info.type.back() != '\0') std::abort();
+    events.push_back("J:" + std::string(m.info.device.data()) + (m.closed ? ":closed" : ":open"));
+  }
   void dropped(Problem problem, const MessageInfo& info) override {
     if (static_cast<std::size_t>(problem) >= kProblemKinds) std::abort();
     events.push_back("D:" + std::string(name(problem)) + ":" + std::string(info.type.data()));

@@ -97,6 +97,27 @@ def test_every_model_through_the_engines_interface(phantom, kind):
         organsim.Simulation(model, "fluid")
 
 
+@pytest.mark.parametrize("kind", ["beam", "springs", "linear"])
+def test_a_grasp_lifts_the_organ_and_it_pulls_back(phantom, kind):
+    model = organsim.load(phantom[0])
+    simulation = organsim.Simulation(model, kind, tools=1, fixed_radius=0.03)
+    top_index = np.argmax(model.surface_vertices[:, 2])
+    simulation.attach(0, model.surface_vertices[top_index])
+    frames = 60 if kind == "springs" else 1
+    for _ in range(frames):
+        simulation.step(1 / 60, [[0.0, 0.0, -0.003]])  # pressed 3 mm in
+    simulation.grasp(0)                                 # the jaws close on it
+    lift = [[0.0, 0.0, 0.004]]                          # and lift it 4 mm above its rest
+    for _ in range(frames):
+        positions, _ = simulation.step(1 / 60, lift)
+    assert simulation.force(0, lift[0])[2] < 0          # the organ pulls the tool back down
+    assert positions[top_index, 2] - model.surface_vertices[top_index, 2] > 0.002
+    simulation.grasp(0, False)
+    simulation.detach(0)
+    with pytest.raises(organsim.Error, match="touches nothing to grasp"):
+        simulation.grasp(0)
+
+
 def press_session(model, tmp_path):
     """A session file: one tool 3 mm into the top of the organ and out again."""
     top = model.surface_vertices[np.argmax(model.surface_vertices[:, 2])] * 1e3  # mm

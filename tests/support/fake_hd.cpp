@@ -35,6 +35,7 @@ struct Device {
   std::atomic<unsigned> error{0};  // set by fakehd_fail: every hdGetError reports it, as for a lost device
   std::vector<ForceSample> forces;
   std::atomic<double> latest_force{0.0};  // |F| of the last force set, N: readable while the scheduler runs
+  std::atomic<double> press_from{-1.0}, press_to{-1.0};  // s: the stylus's first button is down between them
 };
 
 constexpr int kDevices = 4;
@@ -117,6 +118,13 @@ void hdGetDoublev(HDenum what, double* values) {
   }
 }
 
+void hdGetIntegerv(HDenum what, int* values) {
+  const Device& d = devices[current];
+  if (error_of(current) != 0 || what != kCurrentButtons) return;
+  const double t = seconds_since_start();
+  values[0] = t >= d.press_from.load() && t < d.press_to.load() ? kDeviceButton1 : 0;
+}
+
 void hdSetDoublev(HDenum what, const double* values) {
   Device& d = devices[current];
   if (what != kCurrentForce) return;
@@ -161,6 +169,11 @@ void fakehd_set_path(HHD device, const double* from_mm, const double* to_mm, dou
     devices[device].to[k] = to_mm[k];
   }
   devices[device].seconds = seconds;
+}
+// The stylus's first button is held down from `from_s` to `to_s` after the scheduler started.
+void fakehd_press_button(HHD device, double from_s, double to_s) {
+  devices[device].press_from.store(from_s);
+  devices[device].press_to.store(to_s);
 }
 // The device fails (code ≠ 0: its pose freezes and every call reports the
 // error, as a disconnected device does) or recovers (code 0).

@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include <Eigen/Geometry>
+#include <igtlStringMessage.h>
 #include <igtlTransformMessage.h>
 #include <igtl_header.h>
 #include <igtl_transform.h>
@@ -27,6 +28,15 @@ Bytes transform_message(const std::string& device, const std::array<double, 3>& 
   igtl::TransformMessage::Pointer message = igtl::TransformMessage::New();
   message->SetDeviceName(device.c_str());
   message->SetMatrix(matrix);
+  message->Pack();
+  const auto* begin = static_cast<const std::uint8_t*>(message->GetPackPointer());
+  return Bytes(begin, begin + message->GetPackSize());
+}
+
+Bytes string_message(const std::string& device, const std::string& text) {
+  igtl::StringMessage::Pointer message = igtl::StringMessage::New();
+  message->SetDeviceName(device.c_str());
+  message->SetString(text.c_str());
   message->Pack();
   const auto* begin = static_cast<const std::uint8_t*>(message->GetPackPointer());
   return Bytes(begin, begin + message->GetPackSize());

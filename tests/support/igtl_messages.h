@@ -18,6 +18,9 @@ using Bytes = std::vector<std::uint8_t>;
 Bytes transform_message(const std::string& device, const std::array<double, 3>& tip,
                         const std::array<double, 3>& shaft = {0.0, 0.0, 1.0});
 
+/// A STRING message packed by libOpenIGTLink (protocol version 1 header, US-ASCII).
+Bytes string_message(const std::string& device, const std::string& text);
+
 /// The 48 bytes of a TRANSFORM body: 12 float32, big-endian, column by column.
 Bytes transform_body(const std::array<float, 12>& matrix);
 

@@ -59,9 +59,22 @@ class IgtlServer::PoseHandler final : public MessageReader::Handler {
     if (!server_.reach_.contains(pose.tip)) return dropped(Problem::too_far, message.info);
     const Eigen::Vector3d shaft(flip * m[6], flip * m[7], m[8]);
     if (server_.options_.shaft_from_rotation && shaft.norm() > 1e-6) pose.shaft = shaft.normalized();
+    pose.jaws_closed = server_.jaws_closed_[tool - 1];
     server_.tools_[tool - 1]->place(pose);
+    server_.last_pose_[tool - 1] = pose;
     server_.last_poser_[tool - 1] = &client_;
     ++server_.counters_.poses;
+  }
+  // A grasper's jaws: from now on, with the tool's last pose if it has one.
+  void jaws(const JawsMessage& message) override {
+    const std::size_t tool = tool_index(message.info.device.data());
+    if (tool == 0 || tool > server_.tools_.size()) return dropped(Problem::unknown_device, message.info);
+    server_.jaws_closed_[tool - 1] = message.closed;
+    if (server_.last_poser_[tool - 1] != nullptr) {
+      server_.last_pose_[tool - 1].jaws_closed = message.closed;
+      server_.tools_[tool - 1]->place(server_.last_pose_[tool - 1]);
+    }
+    ++server_.counters_.jaw_changes;
   }
   void dropped(Problem problem, const MessageInfo& info) override { server_.dropped(problem, info, client_); }
 
@@ -91,7 +104,9 @@ IgtlServer::IgtlServer(const ServerOptions& options, const organ::Organ& organ,
       warn_(std::move(warn)),
       note_(std::move(note)),
       messages_(std::make_unique<Messages>()),
-      last_poser_(tools_.size(), nullptr) {
+      last_poser_(tools_.size(), nullptr),
+      last_pose_(tools_.size()),
+      jaws_closed_(tools_.size(), false) {
   for (const model::Point3& p : organ_.model().surface_vertices) reach_.extend(Eigen::Vector3d(p[0], p[1], p[2]));
   reach_.min().array() -= 10.0;
   reach_.max().array() += 10.0;
@@ -312,6 +327,7 @@ void IgtlServer::close(std::size_t index, const std::string& why) {
     if (last_poser_[k] == client) {
       tools_[k]->remove();
       last_poser_[k] = nullptr;
+      jaws_closed_[k] = false;  // the hand that held the jaws is gone
       lost += fmt::format("{}{}", lost.empty() ? "" : ", ", k + 1);
     }
   note_(fmt::format(

@@ -67,6 +67,7 @@ struct ServerCounters {
   std::uint64_t clients_accepted = 0;
   std::uint64_t clients_refused = 0;  ///< beyond max_clients
   std::uint64_t poses = 0;            ///< TRANSFORM messages that moved a tool
+  std::uint64_t jaw_changes = 0;      ///< STRING messages that opened or closed a tool's jaws
   std::uint64_t frames = 0;           ///< frames sent (forces, and the surface when it changed)
   std::uint64_t surfaces = 0;         ///< POLYDATA messages sent
   std::uint64_t frames_missed = 0;    ///< frames a slow client was still busy with the previous one for
@@ -145,8 +146,10 @@ class IgtlServer {
   std::uint64_t forces_packed_at_tick_ = 0;  // the first tool's tick count when forces were last packed
   std::vector<model::Point3> positions_;     // m, file order: the surface last packed
   bool surface_changed_ = true;
-  std::unique_ptr<Messages> messages_;     // libOpenIGTLink's messages, packed in place each frame
-  std::vector<const Client*> last_poser_;  // per tool: the client whose pose it holds, or null
+  std::unique_ptr<Messages> messages_;        // libOpenIGTLink's messages, packed in place each frame
+  std::vector<const Client*> last_poser_;     // per tool: the client whose pose it holds, or null
+  std::vector<devices::ToolPose> last_pose_;  // per tool: the pose it holds
+  std::vector<bool> jaws_closed_;             // per tool: the jaws as the last STRING message left them
   std::array<bool, kProblemKinds> logged_{};
   ServerCounters counters_;
 };

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <string>
 
 #include <igtl_header.h>
 #include <igtl_transform.h>
@@ -42,13 +43,14 @@ std::uint32_t big_endian(const std::uint8_t* p, std::size_t bytes) {
 
 const char* describe(Problem problem) noexcept {
   switch (problem) {
-    case Problem::unknown_type: return "is of a type serve does not read (it reads TRANSFORM)";
+    case Problem::unknown_type: return "is of a type serve does not read (it reads TRANSFORM and STRING)";
     case Problem::unknown_device: return "is not named after a tool served (tool1, tool2, …; see --tools)";
     case Problem::wrong_size: return "has a body of the wrong size for a TRANSFORM (12 float32 values)";
     case Problem::bad_crc: return "failed its CRC check (damaged in transit)";
     case Problem::non_finite: return "holds NaN or infinite values";
     case Problem::too_far: return "puts the tool more than 10 m from the organ (positions are mm in the model's frame)";
     case Problem::out_of_step: return "has a header that cannot start a message (the stream is out of step)";
+    case Problem::bad_jaws: return "is a STRING whose text is not 'closed' or 'open' (a tool's jaws)";
   }
   return "is malformed";
 }
@@ -62,6 +64,7 @@ const char* name(Problem problem) noexcept {
     case Problem::non_finite: return "non_finite";
     case Problem::too_far: return "too_far";
     case Problem::out_of_step: return "out_of_step";
+    case Problem::bad_jaws: return "bad_jaws";
   }
   return "unknown";
 }
@@ -77,7 +80,7 @@ bool MessageReader::feed(const std::uint8_t* data, std::size_t size, Handler& ha
       if (header_filled_ < kHeaderSize) break;
       header_filled_ = 0;
       if (!start_body(handler)) return false;
-      if (body_left_ == 0 && keep_body_) finish_transform(handler);
+      if (body_left_ == 0 && keep_body_) finish_body(handler);
       in_body_ = body_left_ > 0;
       continue;
     }
@@ -93,7 +96,7 @@ bool MessageReader::feed(const std::uint8_t* data, std::size_t size, Handler& ha
     body_left_ -= take;
     if (body_left_ == 0) {
       in_body_ = false;
-      if (keep_body_) finish_transform(handler);
+      if (keep_body_) finish_body(handler);
     }
   }
   return !out_of_step_;
@@ -123,7 +126,7 @@ bool MessageReader::start_body(Handler& handler) {
   body_left_ = header.body_size;
   body_filled_ = 0;
   keep_body_ = false;
-  if (std::strcmp(info_.type.data(), "TRANSFORM") != 0)
+  if (std::strcmp(info_.type.data(), "TRANSFORM") != 0 && std::strcmp(info_.type.data(), "STRING") != 0)
     handler.dropped(Problem::unknown_type, info_);
   else if (header.body_size > kMaxTransformBody)
     handler.dropped(Problem::wrong_size, info_);
@@ -132,7 +135,7 @@ bool MessageReader::start_body(Handler& handler) {
   return true;
 }
 
-void MessageReader::finish_transform(Handler& handler) {
+void MessageReader::finish_body(Handler& handler) {
   keep_body_ = false;
   if (crc64(body_.data(), body_filled_, 0) != crc_) return handler.dropped(Problem::bad_crc, info_);
   // Version 2: extended header (its own size first), content, metadata header, metadata.
@@ -144,6 +147,17 @@ void MessageReader::finish_transform(Handler& handler) {
     if (extended < 12 || extended + metadata > body_filled_) return handler.dropped(Problem::wrong_size, info_);
     content_begin = extended;
     content_size = body_filled_ - extended - metadata;
+  }
+  if (std::strcmp(info_.type.data(), "STRING") == 0) {
+    // Encoding (2 bytes), length (2 bytes), the text; a jaw state is ASCII.
+    if (content_size < 4 || content_size != 4 + std::size_t{big_endian(body_.data() + content_begin + 2, 2)})
+      return handler.dropped(Problem::wrong_size, info_);
+    const std::string text(reinterpret_cast<const char*>(body_.data() + content_begin + 4), content_size - 4);
+    if (text != "closed" && text != "open") return handler.dropped(Problem::bad_jaws, info_);
+    JawsMessage message;
+    message.info = info_;
+    message.closed = text == "closed";
+    return handler.jaws(message);
   }
   if (content_size != kTransformContent) return handler.dropped(Problem::wrong_size, info_);
   TransformMessage message;

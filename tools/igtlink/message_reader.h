@@ -1,9 +1,10 @@
 // Reading OpenIGTLink messages from a TCP byte stream: frames the stream into
 // messages, checks each one (header, CRC, body size, finite values) and hands
-// on the TRANSFORM messages that pass. Headers of protocol version 1 and 2 are
+// on the TRANSFORM messages (tool poses) and STRING messages (a grasper's jaws,
+// "closed" or "open") that pass. Headers of protocol version 1 and 2 are
 // read (version 2 carries an extended header and metadata around the content).
 //
-// Whatever a client sends, memory stays bounded: a TRANSFORM body is read into
+// Whatever a client sends, memory stays bounded: a TRANSFORM or STRING body is read into
 // a fixed buffer and every other body is skipped as it streams past, whatever
 // size its header announces. A header that cannot start a message (an unknown
 // version, an unprintable type name) means the stream is out of step, which
@@ -26,8 +27,9 @@ enum class Problem : std::uint8_t {
   non_finite,      ///< NaN or infinity in the matrix
   too_far,         ///< a tip farther than 10 m from the organ (wrong units or frame)
   out_of_step,     ///< a header that cannot start a message: the connection is closed
+  bad_jaws,        ///< a STRING whose text is not "closed" or "open"
 };
-inline constexpr std::size_t kProblemKinds = 7;
+inline constexpr std::size_t kProblemKinds = 8;
 
 /// What is wrong, in words, for a log line ("failed its CRC check").
 const char* describe(Problem problem) noexcept;
@@ -49,12 +51,20 @@ struct TransformMessage {
   std::array<float, 12> matrix{};
 };
 
+/// A STRING message that passed every check: a tool's jaws close ("closed")
+/// or open ("open"; docs/slicer.md).
+struct JawsMessage {
+  MessageInfo info;
+  bool closed = false;
+};
+
 class MessageReader {
  public:
   class Handler {
    public:
     virtual ~Handler() = default;
     virtual void transform(const TransformMessage& message) = 0;
+    virtual void jaws(const JawsMessage& message) = 0;
     virtual void dropped(Problem problem, const MessageInfo& info) = 0;
   };
 
@@ -71,7 +81,7 @@ class MessageReader {
   static constexpr std::size_t kMaxTransformBody = 4096;  // 48 bytes of content, room for version-2 metadata
 
   bool start_body(Handler& handler);
-  void finish_transform(Handler& handler);
+  void finish_body(Handler& handler);
 
   std::array<std::uint8_t, kHeaderSize> header_bytes_{};
   std::size_t header_filled_ = 0;

@@ -211,6 +211,12 @@ class Simulation {
     model_->detach(tool);
     attached_[tool] = false;
   }
+  /// A grasper's jaws close on (true) or open from (false) what the attached tool holds.
+  void grasp(std::uint32_t tool, bool closed) {
+    check_tool(tool);
+    if (!attached_[tool]) throw std::runtime_error("tool " + std::to_string(tool) + " touches nothing to grasp");
+    model_->set_grasp(tool, closed);
+  }
   py::tuple step(double dt, const py::array_t<double, py::array::c_style | py::array::forcecast>& displacements) {
     if (!(dt > 0.0)) throw std::invalid_argument("dt must be positive, s");
     const std::vector<Eigen::Vector3d> d = displacements_of(displacements, contacts_.size());
@@ -510,6 +516,9 @@ PYBIND11_MODULE(_organsim, m) {
            "Contact begins where the tool's tip touches a rest-surface point (m); shaft: unit direction from the tip "
            "to the handle (default: the surface's outward normal there). Returns the contact's linearization")
       .def("detach", &Simulation::detach, py::arg("tool"))
+      .def("grasp", &Simulation::grasp, py::arg("tool"), py::arg("closed") = true,
+           "A grasper's jaws close on (True) or open from (False) what the attached tool holds: held, the contact "
+           "holds both ways and may pull (docs/realtime.md#grasping)")
       .def("step", &Simulation::step, py::arg("dt"), py::arg("displacements"),
            "Advances dt s with (tools, 3) contact displacements (m) -> (positions, normals) (N, 3), file order")
       .def("force", &Simulation::force, py::arg("tool"), py::arg("displacement"),

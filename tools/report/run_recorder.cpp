@@ -74,7 +74,9 @@ RunRecorder::RunRecorder(const std::string& directory, const organ::Organ& organ
     throw std::runtime_error(fmt::format("--report {}: cannot create the directory ({}); give a writable folder",
                                          directory_, error ? error.message() : "it is a file"));
   ticks_ = std::make_unique<io::AtomicStream>((fs::path(directory_) / "ticks.csv").string());
-  ticks_->append("t_s,tool,fx_n,fy_n,fz_n,model_force_n,in_contact,x_mm,y_mm,z_mm,depth_mm,pose_valid\n");
+  ticks_->append(
+      "t_s,tool,fx_n,fy_n,fz_n,model_force_n,in_contact,x_mm,y_mm,z_mm,depth_mm,pose_valid,jaws_closed,grasped,"
+      "grasp_slipped\n");
   frames_ = std::make_unique<io::AtomicStream>((fs::path(directory_) / "frames.csv").string());
   frames_->append("t_s,volume_ml\n");
 }
@@ -84,10 +86,11 @@ void RunRecorder::take_ticks(realtime::Engine& engine) {
   for (std::size_t tool = 0; tool < tools_; ++tool)
     while (engine.take_tick_record(tool, r)) {
       const Eigen::Vector3d tip = r.tip * kMillimetresPerMetre;
-      const int length = std::snprintf(line_, sizeof line_, "%.6f,%zu,%.9g,%.9g,%.9g,%.9g,%d,%.4f,%.4f,%.4f,%.5f,%d\n",
-                                       r.time, tool + 1, r.sent_force[0], r.sent_force[1], r.sent_force[2],
-                                       r.model_force.norm(), r.in_contact ? 1 : 0, tip[0], tip[1], tip[2],
-                                       r.depth * kMillimetresPerMetre, r.pose_valid ? 1 : 0);
+      const int length =
+          std::snprintf(line_, sizeof line_, "%.6f,%zu,%.9g,%.9g,%.9g,%.9g,%d,%.4f,%.4f,%.4f,%.5f,%d,%d,%d,%d\n",
+                        r.time, tool + 1, r.sent_force[0], r.sent_force[1], r.sent_force[2], r.model_force.norm(),
+                        r.in_contact ? 1 : 0, tip[0], tip[1], tip[2], r.depth * kMillimetresPerMetre,
+                        r.pose_valid ? 1 : 0, r.jaws_closed ? 1 : 0, r.grasped ? 1 : 0, r.grasp_slipped ? 1 : 0);
       ticks_->append(line_, static_cast<std::size_t>(length));
       ++tick_count_;
     }

@@ -29,7 +29,9 @@ const double kNaN = std::numeric_limits<double>::quiet_NaN();
 /// A CSV file with a header, read row by row into numbers.
 class CsvRows {
  public:
-  CsvRows(const fs::path& path, std::size_t columns) : path_(path), columns_(columns), in_(path) {
+  /// Rows of `columns` values, or of `more_columns` where a newer writer added some (0: none).
+  CsvRows(const fs::path& path, std::size_t columns, std::size_t more_columns = 0)
+      : path_(path), columns_(columns), more_columns_(more_columns), in_(path) {
     if (!in_) throw std::runtime_error(fmt::format("{}: missing; was the run recorded with --report?", path.string()));
     std::string header;
     std::getline(in_, header);
@@ -50,9 +52,10 @@ class CsvRows {
         if (*p != ',') break;
         ++p;
       }
-      if (row.size() != columns_)
-        throw std::runtime_error(
-            fmt::format("{}: line {}: {} values, expected {}", path_.string(), line_number_ + 1, row.size(), columns_));
+      if (row.size() != columns_ && (more_columns_ == 0 || row.size() != more_columns_))
+        throw std::runtime_error(fmt::format(
+            "{}: line {}: {} values, expected {}", path_.string(), line_number_ + 1, row.size(),
+            more_columns_ == 0 ? std::to_string(columns_) : fmt::format("{} or {}", columns_, more_columns_)));
       return true;
     }
     return false;
@@ -60,7 +63,7 @@ class CsvRows {
 
  private:
   fs::path path_;
-  std::size_t columns_;
+  std::size_t columns_, more_columns_;
   std::ifstream in_;
   std::size_t line_number_ = 0;
 };
@@ -191,16 +194,18 @@ std::string tool_table(const RunMetrics& m, const RunMetrics* reference) {
       double ours, theirs;
       const char* unit;
       bool count = false;
-    } rows[] = {{"peak force sent", t.peak_force_n, r ? r->peak_force_n : 0, "N"},
-                {"mean force in contact", t.mean_force_in_contact_n, r ? r->mean_force_in_contact_n : 0, "N"},
-                {"peak model force (before the clamp)", t.peak_model_force_n, r ? r->peak_model_force_n : 0, "N"},
-                {"time in contact", t.time_in_contact_s, r ? r->time_in_contact_s : 0, "s"},
-                {"time above the limit", t.time_above_limit_s, r ? r->time_above_limit_s : 0, "s"},
-                {"events above the limit", static_cast<double>(t.events.size()),
-                 r ? static_cast<double>(r->events.size()) : 0, "", true},
-                {"deepest indentation", t.peak_depth_mm, r ? r->peak_depth_mm : 0, "mm"},
-                {"path length of the tip", t.path_length_mm, r ? r->path_length_mm : 0, "mm"},
-                {"mean tip speed", t.mean_speed_mm_s, r ? r->mean_speed_mm_s : 0, "mm/s"}};
+    } rows[] = {
+        {"peak force sent", t.peak_force_n, r ? r->peak_force_n : 0, "N"},
+        {"mean force in contact", t.mean_force_in_contact_n, r ? r->mean_force_in_contact_n : 0, "N"},
+        {"peak model force (before the clamp)", t.peak_model_force_n, r ? r->peak_model_force_n : 0, "N"},
+        {"time in contact", t.time_in_contact_s, r ? r->time_in_contact_s : 0, "s"},
+        {"time above the limit", t.time_above_limit_s, r ? r->time_above_limit_s : 0, "s"},
+        {"events above the limit", static_cast<double>(t.events.size()), r ? static_cast<double>(r->events.size()) : 0,
+         "", true},
+        {"grasps", static_cast<double>(t.grasps.size()), r ? static_cast<double>(r->grasps.size()) : 0, "", true},
+        {"deepest indentation", t.peak_depth_mm, r ? r->peak_depth_mm : 0, "mm"},
+        {"path length of the tip", t.path_length_mm, r ? r->path_length_mm : 0, "mm"},
+        {"mean tip speed", t.mean_speed_mm_s, r ? r->mean_speed_mm_s : 0, "mm/s"}};
     for (const auto& row : rows) {
       const int digits = row.count ? 0 : 3;
       html +=
@@ -337,6 +342,20 @@ std::string page(const RunMetrics& m, const RunMetrics* reference, const Picture
       }
       html += "</table>\n";
     }
+    if (!tool.grasps.empty()) {
+      html +=
+          "<table><tr><th>grasp</th><th>start (s)</th><th>held (s)</th><th>peak model force (N)</th>"
+          "<th>where the jaws closed (LPS, mm)</th><th>ended</th></tr>\n";
+      for (std::size_t g = 0; g < tool.grasps.size(); ++g) {
+        const GraspEvent& grasp = tool.grasps[g];
+        html += fmt::format(
+            "<tr><td>{}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.1f}, {:.1f}, "
+            "{:.1f}</td><td>{}</td></tr>\n",
+            g + 1, grasp.start_s, grasp.duration_s, grasp.peak_force_n, grasp.where_mm[0], grasp.where_mm[1],
+            grasp.where_mm[2], grasp.slipped ? "the tissue slipped out of the jaws" : "the jaws let go");
+      }
+      html += "</table>\n";
+    }
   }
 
   html +=
@@ -373,7 +392,7 @@ RunMetrics compute_metrics(const std::string& directory, double force_limit_n) {
   struct State {
     double previous_t = -1.0, force_sum = 0.0;
     std::uint64_t contact_ticks = 0;
-    bool above = false, tip_valid = false;
+    bool above = false, tip_valid = false, grasped = false;
     Eigen::Vector3d tip = Eigen::Vector3d::Zero();
   };
   std::vector<State> state(tools);
@@ -381,7 +400,8 @@ RunMetrics compute_metrics(const std::string& directory, double force_limit_n) {
   std::vector<Accumulator> force(tools, Accumulator(kBuckets)), model_force(tools, Accumulator(kBuckets)),
       depth(tools, Accumulator(kBuckets)), path(tools, Accumulator(kBuckets)), elapsed(tools, Accumulator(kBuckets));
   std::vector<double> row;
-  CsvRows ticks(dir / "ticks.csv", 12);
+  // Runs recorded before grasping have no jaw columns.
+  CsvRows ticks(dir / "ticks.csv", 12, 15);
   while (ticks.next(row)) {
     const double t = row[0];
     const auto i = static_cast<std::size_t>(row[1]) - 1;
@@ -427,6 +447,15 @@ RunMetrics compute_metrics(const std::string& directory, double force_limit_n) {
       }
     }
     s.above = modelled > force_limit_n;
+    const bool grasped = row.size() == 15 && row[13] != 0.0, slipped = row.size() == 15 && row[14] != 0.0;
+    if (grasped && !s.grasped) tool.grasps.push_back({t, 0.0, 0.0, tip, false});
+    if ((grasped || slipped) && !tool.grasps.empty()) {
+      GraspEvent& g = tool.grasps.back();
+      g.duration_s = t - g.start_s;
+      g.peak_force_n = std::max(g.peak_force_n, modelled);
+      g.slipped = g.slipped || slipped;
+    }
+    s.grasped = grasped;
   }
   for (std::size_t i = 0; i < tools; ++i) {
     ToolMetrics& tool = m.tools[i];
@@ -463,6 +492,13 @@ nlohmann::json metrics_json(const RunMetrics& m) {
                         {"duration_s", e.duration_s},
                         {"peak_model_force_n", e.peak_force_n},
                         {"where_mm", {e.where_mm[0], e.where_mm[1], e.where_mm[2]}}});
+    nlohmann::json grasps = nlohmann::json::array();
+    for (const GraspEvent& g : t.grasps)
+      grasps.push_back({{"start_s", g.start_s},
+                        {"duration_s", g.duration_s},
+                        {"peak_model_force_n", g.peak_force_n},
+                        {"where_mm", {g.where_mm[0], g.where_mm[1], g.where_mm[2]}},
+                        {"slipped", g.slipped}});
     tools.push_back({{"tool", t.tool},
                      {"peak_force_n", t.peak_force_n},
                      {"mean_force_in_contact_n", t.mean_force_in_contact_n},
@@ -471,6 +507,9 @@ nlohmann::json metrics_json(const RunMetrics& m) {
                      {"time_above_limit_s", t.time_above_limit_s},
                      {"events_above_limit", t.events.size()},
                      {"events", events},
+                     {"grasps", grasps},
+                     {"grasp_slips",
+                      std::count_if(t.grasps.begin(), t.grasps.end(), [](const GraspEvent& g) { return g.slipped; })},
                      {"path_length_mm", t.path_length_mm},
                      {"peak_depth_mm", t.peak_depth_mm},
                      {"mean_speed_mm_s", t.mean_speed_mm_s},

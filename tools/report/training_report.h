@@ -25,6 +25,15 @@ struct LimitEvent {
   Eigen::Vector3d where_mm = Eigen::Vector3d::Zero();  ///< the tip at the peak, LPS
 };
 
+/// One grasp: the ticks from the jaws taking hold of the organ to their
+/// letting go, or to the tissue slipping out of them (docs/realtime.md#grasping).
+struct GraspEvent {
+  double start_s = 0.0, duration_s = 0.0;
+  double peak_force_n = 0.0;                           ///< the model's largest force while held, N
+  Eigen::Vector3d where_mm = Eigen::Vector3d::Zero();  ///< the tip where the jaws closed, LPS
+  bool slipped = false;                                ///< pulled beyond the holding limit
+};
+
 /// A curve over the session in equal time buckets (memory stays flat).
 struct Curve {
   std::vector<double> values;  ///< per bucket; NaN where nothing fell in it
@@ -39,6 +48,7 @@ struct ToolMetrics {
   double path_length_mm = 0.0, peak_depth_mm = 0.0, mean_speed_mm_s = 0.0;
   std::uint64_t ticks = 0, invalid_pose_ticks = 0;
   std::vector<LimitEvent> events;
+  std::vector<GraspEvent> grasps;
   Curve force, model_force, depth, speed;  ///< N (largest per bucket), N, mm, mm/s (mean)
 };
 

@@ -29,6 +29,10 @@ void ToolStyle::OnKeyPress() {
     present_[selected_] = false;
     (*tools_)[selected_].remove();
   }
+  if (key == "g" && present_[selected_]) {  // a grasper's jaws close on what the tool touches, or open
+    poses_[selected_].jaws_closed = !poses_[selected_].jaws_closed;
+    (*tools_)[selected_].place(poses_[selected_]);
+  }
   if (key == "Tab") selected_ = (selected_ + 1) % poses_.size();
   if (key == "plus" || key == "equal") depth(0.001);
   if (key == "minus") depth(-0.001);

@@ -1,7 +1,8 @@
 // Mouse and keyboard tools on top of the usual camera controls: `n` puts a tool
 // above the organ where the mouse points, shift + drag moves it in the view
-// plane, shift + wheel (or +/-) pushes it in or pulls it out, Tab selects the
-// next tool, `x` removes it. Dragging alone turns the camera.
+// plane, shift + wheel (or +/-) pushes it in or pulls it out, `g` closes or
+// opens its jaws (docs/realtime.md#grasping), Tab selects the next tool, `x`
+// removes it. Dragging alone turns the camera.
 #pragma once
 
 #include <cstddef>

@@ -31,6 +31,10 @@ bool ScriptedDevice::read_pose(double time, ToolPose& pose) noexcept {
       if (shaft.norm() > 0.0) pose.shaft = shaft.normalized();
     }
   }
+  const auto& jaw_times = trajectory_.jaw_times;
+  if (jaw_cursor_ > 0 && jaw_times[jaw_cursor_ - 1] > time) jaw_cursor_ = 0;
+  while (jaw_cursor_ < jaw_times.size() && jaw_times[jaw_cursor_] <= time) ++jaw_cursor_;
+  pose.jaws_closed = jaw_cursor_ > 0 && trajectory_.jaw_closed[jaw_cursor_ - 1] != 0;
   return true;
 }
 

@@ -40,7 +40,7 @@ Session read_session(const std::string& path, const SessionLimits& limits) {
 Session parse_session(std::istream& in, const std::string& path, const SessionLimits& limits) {
   static const std::string kHeader = "# organsim session ";
   static const std::string kNotASession =
-      "not an organsim session (the first line must be '# organsim session 1' or '# organsim session 2')";
+      "not an organsim session (the first line must be '# organsim session 1', '2' or '3')";
   Session session;
   std::string text;
   std::size_t line_number = 0;
@@ -54,9 +54,9 @@ Session parse_session(std::istream& in, const std::string& path, const SessionLi
         if (text.rfind(kHeader, 0) != 0) fail(path, 1, kNotASession);
         const std::string rest = text.substr(kHeader.size());
         const std::string number = rest.substr(0, rest.find(' '));
-        if (number != "1" && number != "2")
-          fail(path, 1, "session format version '" + number + "' is not one this organsim reads (1 or 2)");
-        version = number == "1" ? 1 : 2;
+        if (number != "1" && number != "2" && number != "3")
+          fail(path, 1, "session format version '" + number + "' is not one this organsim reads (1, 2 or 3)");
+        version = number[0] - '0';
       }
       continue;
     }
@@ -84,6 +84,39 @@ Session parse_session(std::istream& in, const std::string& path, const SessionLi
       if (session.tools[tool].tip_radius >= 0.0)
         fail(path, line_number, "tool " + std::to_string(tool + 1) + " has a second tip line");
       session.tools[tool].tip_radius = radius * 1e-3;
+      continue;
+    }
+    if (text.rfind("jaw,", 0) == 0) {
+      // jaw,TOOL,TIME_S,closed|open: a grasper's jaws from that time on (version 3).
+      if (version < 3) fail(path, line_number, "a 'jaw' line needs format version 3 ('# organsim session 3')");
+      if (std::count(text.begin(), text.end(), ',') != 3)
+        fail(path, line_number, "expected jaw,TOOL,TIME_S,closed or jaw,TOOL,TIME_S,open");
+      const std::size_t first = text.find(',', 4), second = text.find(',', first + 1);
+      const std::string tool_field = text.substr(4, first - 4), time_field = text.substr(first + 1, second - first - 1),
+                        state = text.substr(second + 1);
+      char* stop = nullptr;
+      const double tool_value = std::strtod(tool_field.c_str(), &stop);
+      if (tool_field.empty() || stop != tool_field.c_str() + tool_field.size() ||
+          !(tool_value >= 1 && tool_value <= 16) || tool_value != std::floor(tool_value))
+        fail(path, line_number, "tool numbers are 1 to 16");
+      const double time = std::strtod(time_field.c_str(), &stop);
+      if (time_field.empty() || stop != time_field.c_str() + time_field.size() || !std::isfinite(time))
+        fail(path, line_number, "'" + time_field + "' is not a finite number");
+      if (time < 0.0) fail(path, line_number, "times start at 0 s");
+      if (time > limits.max_duration)
+        fail(path, line_number,
+             fmt(time) + " s is later than a session may last (" + fmt(limits.max_duration / 3600.0) +
+                 " h); check that times are in seconds, or pass --long-session to run it on purpose");
+      if (state != "closed" && state != "open")
+        fail(path, line_number, "'" + state + "' is not a jaw state: write closed or open");
+      const auto tool = static_cast<std::size_t>(tool_value) - 1;
+      if (tool >= session.tools.size()) session.tools.resize(tool + 1);
+      Trajectory& t = session.tools[tool];
+      if (!t.jaw_times.empty() && time <= t.jaw_times.back())
+        fail(path, line_number, "jaw times of a tool must increase");
+      t.jaw_times.push_back(time);
+      t.jaw_closed.push_back(state == "closed" ? 1 : 0);
+      session.duration = std::max(session.duration, time);
       continue;
     }
     const auto fields = static_cast<int>(std::count(text.begin(), text.end(), ',')) + 1;
@@ -142,12 +175,22 @@ void write_session(const Session& session, const std::string& path) {
   std::ostringstream out;
   const bool tips =
       std::any_of(session.tools.begin(), session.tools.end(), [](const Trajectory& t) { return t.tip_radius >= 0.0; });
-  out << (tips ? "# organsim session 2\n" : "# organsim session 1\n")
+  const bool jaws =
+      std::any_of(session.tools.begin(), session.tools.end(), [](const Trajectory& t) { return !t.jaw_times.empty(); });
+  out << (jaws   ? "# organsim session 3\n"
+          : tips ? "# organsim session 2\n"
+                 : "# organsim session 1\n")
       << "# time_s,tool,x_mm,y_mm,z_mm[,shaft_x,shaft_y,shaft_z] (model frame)\n";
   char line[200];
   for (std::size_t k = 0; k < session.tools.size(); ++k)
     if (session.tools[k].tip_radius >= 0.0) {
       std::snprintf(line, sizeof line, "tip,%zu,%.6g\n", k + 1, session.tools[k].tip_radius * 1e3);
+      out << line;
+    }
+  for (std::size_t k = 0; k < session.tools.size(); ++k)
+    for (std::size_t i = 0; i < session.tools[k].jaw_times.size(); ++i) {
+      std::snprintf(line, sizeof line, "jaw,%zu,%.4f,%s\n", k + 1, session.tools[k].jaw_times[i],
+                    session.tools[k].jaw_closed[i] ? "closed" : "open");
       out << line;
     }
   for (std::size_t k = 0; k < session.tools.size(); ++k)

@@ -17,6 +17,8 @@ struct HDErrorInfo {
 };
 
 constexpr HHD kInvalidHandle = 0xFFFFFFFF;
+constexpr HDenum kCurrentButtons = 0x2000;       // 1 int: a bit per stylus button
+constexpr int kDeviceButton1 = 1 << 0;           // the stylus's first (front) button
 constexpr HDenum kCurrentPosition = 0x2050;      // 3 doubles, mm
 constexpr HDenum kCurrentTransform = 0x2052;     // 16 doubles, column-major 4×4, translation in mm
 constexpr HDenum kCurrentForce = 0x2700;         // 3 doubles, N

@@ -29,6 +29,7 @@ struct HdLibrary::Api {
   void (*begin_frame)(HHD);
   void (*end_frame)(HHD);
   void (*get_doublev)(HDenum, double*);
+  void (*get_integerv)(HDenum, int*);
   void (*set_doublev)(HDenum, const double*);
   void (*enable)(HDenum);
   void (*start_scheduler)();
@@ -58,6 +59,7 @@ HdLibrary::HdLibrary(const std::string& path) : api_(std::make_unique<Api>()) {
   resolve(api_->begin_frame, "hdBeginFrame");
   resolve(api_->end_frame, "hdEndFrame");
   resolve(api_->get_doublev, "hdGetDoublev");
+  resolve(api_->get_integerv, "hdGetIntegerv");
   resolve(api_->set_doublev, "hdSetDoublev");
   resolve(api_->enable, "hdEnable");
   resolve(api_->start_scheduler, "hdStartScheduler");
@@ -101,6 +103,8 @@ bool OpenHapticsDevice::read_pose(double, ToolPose& pose) noexcept {
   double transform[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   hd.make_current_device(handle_);
   hd.get_doublev(kCurrentTransform, transform);
+  int buttons = 0;
+  hd.get_integerv(kCurrentButtons, &buttons);
   error_this_tick_ = false;
   if (note_error()) {
     seen_.write_slot().valid = false;
@@ -112,6 +116,8 @@ bool OpenHapticsDevice::read_pose(double, ToolPose& pose) noexcept {
   pose.tip = placement_.offset + placement_.scale * (placement_.rotation * device);
   pose.shaft =
       stylus_z.norm() > 0.0 ? Eigen::Vector3d(placement_.rotation * stylus_z.normalized()) : Eigen::Vector3d::Zero();
+  // Held down, the stylus's front button closes a grasper's jaws (docs/realtime.md#grasping).
+  pose.jaws_closed = (buttons & kDeviceButton1) != 0;
   const bool valid = pose.tip.allFinite() && pose.shaft.allFinite();
   seen_.write_slot() = {valid, pose};
   seen_.publish();

@@ -13,6 +13,8 @@
 #include <string>
 
 #include <thread>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -168,8 +170,8 @@ TEST_F(SessionFile, CrlfLineEndingsReadTheSameAsLf) {
 }
 
 TEST_F(SessionFile, AWrongOrMissingHeaderIsRejectedAtItsLine) {
-  expect_error("# organsim session 3\n0,1,0,0,0\n", 1, "version '3' is not one this organsim reads (1 or 2)");
-  expect_error("# organsim session\n0,1,0,0,0\n", 1, "first line must be '# organsim session 1' or");
+  expect_error("# organsim session 4\n0,1,0,0,0\n", 1, "version '4' is not one this organsim reads (1, 2 or 3)");
+  expect_error("# organsim session\n0,1,0,0,0\n", 1, "first line must be '# organsim session 1', '2' or '3'");
   expect_error("# some other file\n0,1,0,0,0\n", 1, "not an organsim session");
   expect_error("0,1,1,2,3\n", 1, "not an organsim session");
   // The header must be the first line: after a blank line it is only a comment,
@@ -458,6 +460,73 @@ TEST_F(SessionFile, AShaftWithHugeComponentsIsNormalizedNotLost) {
   const Session s = read_session(write(std::string(kHeader) + "0,1,0,0,0,1e200,0,1e200\n1,1,0,0,0,1e308,0,0\n"));
   EXPECT_NEAR((s.tools[0].shafts[0] - Eigen::Vector3d(std::sqrt(0.5), 0.0, std::sqrt(0.5))).norm(), 0.0, 1e-15);
   EXPECT_NEAR((s.tools[0].shafts[1] - Eigen::Vector3d(1.0, 0.0, 0.0)).norm(), 0.0, 1e-15);
+}
+
+// Format version 3 adds `jaw,TOOL,TIME_S,closed|open`: a grasper's jaws
+// (docs/session-format.md); versions 1 and 2 still read, and a file without
+// jaw events is still written as one of them.
+TEST_F(SessionFile, Version3GivesGraspersJawEvents) {
+  const std::string path =
+      write("# organsim session 3\ntip,1,2.5\n0,1,0,0,0\n1,1,0,0,5\njaw,1,0.25,closed\n0,2,1,1,1\njaw,1,0.75,open\n");
+  const Session session = read_session(path);
+  ASSERT_EQ(session.tools.size(), 2u);
+  EXPECT_EQ(session.tools[0].jaw_times, (std::vector<double>{0.25, 0.75}));
+  EXPECT_EQ(session.tools[0].jaw_closed, (std::vector<unsigned char>{1, 0}));
+  EXPECT_TRUE(session.tools[1].jaw_times.empty()) << "a probe";
+  EXPECT_DOUBLE_EQ(session.tools[0].tip_radius, 2.5e-3);
+
+  const std::string copy = (dir_ / "copy.session").string();
+  write_session(session, copy);
+  EXPECT_EQ(read_text(copy).rfind("# organsim session 3\n", 0), 0u);
+  const Session again = read_session(copy);
+  EXPECT_EQ(again.tools[0].jaw_times, session.tools[0].jaw_times);
+  EXPECT_EQ(again.tools[0].jaw_closed, session.tools[0].jaw_closed);
+  EXPECT_EQ(again.tools[0].times, session.tools[0].times);
+  Session probes = session;
+  for (Trajectory& t : probes.tools) {
+    t.jaw_times.clear();
+    t.jaw_closed.clear();
+  }
+  write_session(probes, copy);
+  EXPECT_EQ(read_text(copy).rfind("# organsim session 2\n", 0), 0u);
+
+  // A jaw event after the last sample lengthens the session.
+  EXPECT_DOUBLE_EQ(read_session(write("# organsim session 3\n0,1,0,0,0\njaw,1,2.5,closed\n")).duration, 2.5);
+
+  const std::string v3 = "# organsim session 3\n0,1,0,0,0\n";
+  expect_error("# organsim session 2\n0,1,0,0,0\njaw,1,0,closed\n", 3, "needs format version 3");
+  expect_error(v3 + "jaw,1,0\n", 3, "expected jaw,TOOL,TIME_S,closed or jaw,TOOL,TIME_S,open");
+  expect_error(v3 + "jaw,1,0,shut\n", 3, "'shut' is not a jaw state: write closed or open");
+  expect_error(v3 + "jaw,1,nan,closed\n", 3, "is not a finite number");
+  expect_error(v3 + "jaw,1,-1,closed\n", 3, "times start at 0 s");
+  expect_error(v3 + "jaw,0,1,closed\n", 3, "tool numbers are 1 to 16");
+  expect_error(v3 + "jaw,1,1,closed\njaw,1,1,open\n", 4, "jaw times of a tool must increase");
+  expect_error(v3 + "jaw,1,90000,closed\n", 3, "later than a session may last");
+  try {
+    read_session(write(v3 + "jaw,2,1,closed\n"));
+    ADD_FAILURE() << "jaws for a tool without samples";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("tool 2 has no samples"), std::string::npos) << e.what();
+  }
+}
+
+// The jaws are open before the first event and as the last event at or
+// before the time left them after it, also when time goes back or repeats.
+TEST(ScriptedDevice, PlaysTheJawsAsAStepFunction) {
+  Trajectory t = three_samples();
+  t.jaw_times = {0.5, 1.0};
+  t.jaw_closed = {1, 0};
+  ScriptedDevice device(t, {}, 0, 2.0);
+  ToolPose pose;
+  const std::pair<double, bool> expected[] = {{0.0, false}, {0.49, false}, {0.5, true}, {0.9, true}, {1.0, false},
+                                              {1.9, false}, {0.6, true},   {2.6, true}, {3.2, false}};
+  for (const auto& [time, closed] : expected) {
+    ASSERT_TRUE(device.read_pose(time, pose));
+    EXPECT_EQ(pose.jaws_closed, closed) << time;
+  }
+  ScriptedDevice probe(three_samples(), {}, 0);
+  ASSERT_TRUE(probe.read_pose(0.7, pose));
+  EXPECT_FALSE(pose.jaws_closed);
 }
 
 TEST(ScriptedDevice, RepeatsItsTrajectoryEveryRepeatPeriod) {

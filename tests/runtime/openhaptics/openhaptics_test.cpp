@@ -77,6 +77,35 @@ TEST(OpenHaptics, ServoDrivesTheForceLoopWithinTheDeviceLimits) {
   EXPECT_NEAR(last[1], 0.0, 1e-6);
 }
 
+// Held down, the stylus's first button closes a grasper's jaws: pressed once
+// the tool is in the organ, it grasps; a tool whose button is never pressed
+// only pushes.
+TEST(OpenHaptics, TheStylusButtonClosesTheJaws) {
+  const HdLibrary library(FAKE_HD_LIBRARY);
+  const testing::CylinderSpec spec;  // far cap at x = 150 mm, clamped at x = 0
+  const organ::Organ organ(testing::make_cylinder_model(spec));
+  for (const bool press : {true, false}) {
+    OpenHapticsDevice device(library, "", DevicePlacement{}, devices::SafetyLimits{});
+    const double from[3] = {160.0, 0.0, 0.0}, to[3] = {146.0, 0.0, 0.0};  // 4 mm into the far cap by 0.3 s
+    control<void (*)(unsigned, const double*, const double*, double)>("fakehd_set_path")(device.handle(), from, to,
+                                                                                         0.3);
+    if (press) control<void (*)(unsigned, double, double)>("fakehd_press_button")(device.handle(), 0.45, 100.0);
+    realtime::Engine engine(organ, {&device}, {});
+    OpenHapticsServo servo(library, {&device}, engine);
+    const auto begin = std::chrono::steady_clock::now();
+    servo.start();
+    auto next = begin;
+    while (std::chrono::steady_clock::now() - begin < std::chrono::milliseconds(700)) {
+      engine.deformation_step(std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count());
+      next += std::chrono::microseconds(16667);
+      std::this_thread::sleep_until(next);
+    }
+    servo.stop();
+    EXPECT_EQ(engine.telemetry(0).contacts, 1u) << press;
+    EXPECT_EQ(engine.telemetry(0).grasps, press ? 1u : 0u);
+  }
+}
+
 // A device reports errors mid-session (a lost USB/FireWire link): its force
 // fades from what the hand felt to zero over ramp_down_time, never jumping up,
 // the other device keeps its force, the event is counted, and after the device

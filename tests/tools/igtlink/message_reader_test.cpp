@@ -19,7 +19,9 @@ using testing::Bytes;
 struct Collected final : MessageReader::Handler {
   std::vector<TransformMessage> transforms;
   std::vector<std::pair<Problem, std::string>> problems;  // with the device name
+  std::vector<JawsMessage> jaws_messages;
   void transform(const TransformMessage& message) override { transforms.push_back(message); }
+  void jaws(const JawsMessage& message) override { jaws_messages.push_back(message); }
   void dropped(Problem problem, const MessageInfo& info) override {
     problems.emplace_back(problem, info.device.data());
   }
@@ -51,6 +53,35 @@ TEST(IgtlMessageReader, ReadsATransformFedAByteAtATimeOrAllAtOnce) {
     EXPECT_NEAR(t.matrix[7], 1.0f, 1e-7);
     EXPECT_NEAR(t.matrix[8], 0.0f, 1e-7);
   }
+}
+
+// A STRING named after a tool says whether its jaws are closed or open
+// (docs/slicer.md); any other text is dropped and named.
+TEST(IgtlMessageReader, ReadsAToolsJawsFromAStringMessage) {
+  const Bytes stream = testing::string_message("tool2", "closed") + testing::string_message("tool1", "open") +
+                       testing::string_message("tool1", "shut") + testing::string_message("tool1", "") +
+                       testing::transform_message("tool1", {80.5, -30.25, 12.0});
+  MessageReader reader;
+  Collected got;
+  for (std::size_t at = 0; at < stream.size(); at += 5)
+    ASSERT_TRUE(reader.feed(stream.data() + at, std::min<std::size_t>(5, stream.size() - at), got));
+  ASSERT_EQ(got.jaws_messages.size(), 2u);
+  EXPECT_STREQ(got.jaws_messages[0].info.device.data(), "tool2");
+  EXPECT_TRUE(got.jaws_messages[0].closed);
+  EXPECT_STREQ(got.jaws_messages[1].info.device.data(), "tool1");
+  EXPECT_FALSE(got.jaws_messages[1].closed);
+  ASSERT_EQ(got.problems.size(), 2u);
+  EXPECT_EQ(got.problems[0].first, Problem::bad_jaws);
+  EXPECT_EQ(got.problems[1].first, Problem::bad_jaws);
+  EXPECT_EQ(got.transforms.size(), 1u);
+  // A STRING whose length field disagrees with its body is the wrong size.
+  Bytes body = {0, 3, 0, 9, 'o', 'p', 'e', 'n'};
+  MessageReader again;
+  Collected wrong;
+  const Bytes message = testing::raw_message("STRING", "tool1", body);
+  ASSERT_TRUE(again.feed(message.data(), message.size(), wrong));
+  ASSERT_EQ(wrong.problems.size(), 1u);
+  EXPECT_EQ(wrong.problems[0].first, Problem::wrong_size);
 }
 
 TEST(IgtlMessageReader, DropsEachKindOfBadMessageAndReadsTheNextOne) {

@@ -101,6 +101,46 @@ TEST_F(Cli, ReportMetricsAreTheHandWorkedOnesOfAKnownPress) {
   EXPECT_DOUBLE_EQ(again["peak_force_n"].get<double>(), peak);                // the limit changes no force
 }
 
+// A grasper presses the cylinder's side 3 mm, closes its jaws at 0.4 s, lifts
+// the side 5 mm above rest and lets go at 1.1 s: the report lists one grasp
+// per hold, where the jaws closed and how it ended. A run recorded before the
+// jaw columns existed
+// (12 values per tick) still makes a report, without grasps.
+TEST_F(Cli, ReportListsEachGraspAndHowItEnded) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const std::string session = (dir_ / "grasp.session").string();
+  std::ofstream(session) << "# organsim session 3\njaw,1,0.4,closed\njaw,1,1.1,open\n"
+                            "0,1,80,45,0\n0.3,1,80,27,0\n0.45,1,80,27,0\n0.8,1,80,35,0\n1.2,1,80,35,0\n1.4,1,80,50,0\n";
+  const fs::path report = dir_ / "report";
+  const CommandRun replay =
+      run_organsim("replay " + model + " " + session + " --fast --report " + report.string(), dir_);
+  ASSERT_EQ(replay.exit_code, 0) << replay.err;
+  const nlohmann::json tool = read_json(report / "metrics.json")["tools"][0];
+  ASSERT_EQ(tool["grasps"].size(), 1u);
+  const nlohmann::json& grasp = tool["grasps"][0];
+  EXPECT_NEAR(grasp["start_s"].get<double>(), 0.4, 2e-3);
+  EXPECT_NEAR(grasp["duration_s"].get<double>(), 0.7, 2e-3);
+  EXPECT_NEAR(grasp["where_mm"][1].get<double>(), 27.0, 0.05);
+  EXPECT_GT(grasp["peak_model_force_n"].get<double>(), 0.0);
+  EXPECT_FALSE(grasp["slipped"].get<bool>());
+  EXPECT_EQ(tool["grasp_slips"], 0);
+  EXPECT_NE(read_text(report / "index.html").find("the jaws let go"), std::string::npos);
+
+  // The ticks without the jaw columns, as an older run wrote them.
+  std::istringstream ticks(read_text(report / "ticks.csv"));
+  std::ostringstream older;
+  for (std::string line; std::getline(ticks, line);) {
+    std::size_t cut = line.size();
+    for (int k = 0; k < 3; ++k) cut = line.rfind(',', cut - 1);
+    older << line.substr(0, cut) << '\n';
+  }
+  std::ofstream(report / "ticks.csv") << older.str();
+  const CommandRun rebuilt = run_organsim("report " + report.string(), dir_);
+  ASSERT_EQ(rebuilt.exit_code, 0) << rebuilt.err;
+  EXPECT_TRUE(read_json(report / "metrics.json")["tools"][0]["grasps"].empty());
+}
+
 // The limit is judged on the force the model computed, before the device's
 // clamp: a clamp below the limit still lets the page see the force go past
 // it, while the force sent stays at the clamp. A rebuild without

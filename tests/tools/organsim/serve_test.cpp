@@ -221,6 +221,50 @@ TEST_F(Cli, ServePressedOverOpenIgtLinkSendsTheDeformedOrganAndPokesForce) {
   EXPECT_EQ(metrics["tools"][1]["peak_force_n"].get<double>(), 0.0);
 }
 
+// A client closes tool 1's jaws with a STRING message once the tool is 3 mm
+// in, then lifts it 5 mm above the rest surface: the organ follows and pulls
+// the tool back (the force points into the organ); the jaws counted once.
+TEST_F(Cli, ServeGraspsWhenAClientClosesAToolsJaws) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const Eigen::Vector3d action(80.0, 30.0, 0.0), normal(0.0, 1.0, 0.0);  // the cylinder's side, mm
+  ServeProcess serve(model + " --igtl-port 0 --tools 1 --json", dir_);
+  const int port = serve.port();
+  ASSERT_GT(port, 0);
+  IgtlClient client(port);
+  ASSERT_TRUE(client.connected());
+  Received r;
+  client.send_tip(action + 10 * normal, normal);
+  client.receive_for(0.2, r);
+  ASSERT_GE(r.surfaces, 1);
+  const std::vector<Eigen::Vector3d> rest = r.surface;
+  for (int step = 1; step <= 26; ++step) {  // 10 mm out to 3 mm in
+    client.send_tip(action + (10.0 - 0.5 * step) * normal, normal);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  client.receive_for(0.2, r);
+  client.send(testing::string_message("tool1", "closed"));
+  client.receive_for(0.2, r);
+  for (int step = 1; step <= 16; ++step) {  // 3 mm in to 5 mm out
+    client.send_tip(action + (-3.0 + 0.5 * step) * normal, normal);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  client.receive_for(0.5, r);
+  ASSERT_EQ(r.forces.count("tool1_force"), 1u);
+  EXPECT_LT(r.forces["tool1_force"].dot(normal), -1e-4) << "N: the lifted side pulls the tool back";
+  double lifted = 0.0;
+  for (std::size_t v = 0; v < rest.size(); ++v)
+    lifted = std::max(lifted, r.surface[v].dot(normal) - rest[v].dot(normal));
+  EXPECT_GT(lifted, 3.0) << "mm: the side follows the jaws up";
+  const CommandRun done = serve.stop();
+  ASSERT_EQ(done.exit_code, 0) << done.err;
+  const nlohmann::json summary = nlohmann::json::parse(done.out);
+  EXPECT_EQ(summary["jaw_changes"], 1);
+  EXPECT_EQ(summary["tools"][0]["grasps"], 1);
+  EXPECT_EQ(summary["tools"][0]["contacts"], 1);
+  EXPECT_GT(summary["tools"][0]["peak_pull_n"].get<double>(), 1e-4);
+}
+
 // --force-rate 1000: each tool's force reaches the client at the haptic rate,
 // between the 60 Hz frames.
 TEST_F(Cli, ServeSendsForcesAtTheForceRate) {

@@ -334,6 +334,9 @@ void print_json(const ReplayOptions& o, const Session& session, const ModelRun& 
     tools.push_back({{"tool", i + 1},
                      {"contacts", run.telemetry[i].contacts},
                      {"peak_force_n", run.telemetry[i].peak_force},
+                     {"grasps", run.telemetry[i].grasps},
+                     {"grasp_slips", run.telemetry[i].grasp_slips},
+                     {"peak_pull_n", run.telemetry[i].peak_pull},
                      {"clamped_ticks", run.clamped[i]},
                      {"watchdog_ticks", run.watchdog[i]},
                      {"non_finite_forces", run.non_finite[i]}});
@@ -382,7 +385,12 @@ void print_text(const ReplayOptions& o, const Session& session, const std::vecto
   };
   for (std::size_t i = 0; i < session.tools.size(); ++i)
     row(fmt::format("tool {}", i + 1), [&](const ModelRun& run) {
-      return fmt::format("{} contact(s), peak force {:.3f} N{}", run.telemetry[i].contacts, run.telemetry[i].peak_force,
+      const ToolTelemetry& t = run.telemetry[i];
+      const std::string grasps =
+          t.grasps > 0 ? fmt::format(", {} grasp(s) pulling up to {:.3f} N{}", t.grasps, t.peak_pull,
+                                     t.grasp_slips > 0 ? fmt::format(", {} slipped", t.grasp_slips) : std::string())
+                       : std::string();
+      return fmt::format("{} contact(s), peak force {:.3f} N{}{}", t.contacts, t.peak_force, grasps,
                          run.clamped[i] > 0
                              ? fmt::format(" (clamped to {:.2f} N in {} ticks)", o.max_force, run.clamped[i])
                              : std::string());

@@ -167,6 +167,9 @@ int run_serve(const ServeOptions& o) {
       tools_json.push_back({{"tool", k + 1},
                             {"contacts", engine.telemetry(k).contacts},
                             {"peak_force_n", engine.telemetry(k).peak_force},
+                            {"grasps", engine.telemetry(k).grasps},
+                            {"grasp_slips", engine.telemetry(k).grasp_slips},
+                            {"peak_pull_n", engine.telemetry(k).peak_pull},
                             {"pose_faults", engine.telemetry(k).pose_faults}});
     std::cout << nlohmann::json{{"model", o.model_path},
                                 {"port", server.port()},
@@ -174,6 +177,7 @@ int run_serve(const ServeOptions& o) {
                                 {"clients_accepted", c.clients_accepted},
                                 {"clients_refused", c.clients_refused},
                                 {"poses", c.poses},
+                                {"jaw_changes", c.jaw_changes},
                                 {"frames_sent", c.frames},
                                 {"surfaces_sent", c.surfaces},
                                 {"frames_missed", c.frames_missed},

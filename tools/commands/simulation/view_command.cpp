@@ -115,7 +115,9 @@ std::string overlay(const std::vector<Eigen::Vector3d>& forces, const std::vecto
     if (present[i]) text += fmt::format("tool {}: {:.3f} N\n", i + 1, forces[i].norm());
   text += fmt::format("force loop {:.0f} Hz, deformation {:.0f} Hz", force_hz, frame_hz);
   if (mouse)
-    text += "\nn: new tool at the mouse   shift+drag: move it   shift+wheel or +/-: depth   tab: next   x: remove";
+    text +=
+        "\nn: new tool at the mouse   shift+drag: move it   shift+wheel or +/-: depth   g: jaws   tab: next   "
+        "x: remove";
   return text;
 }
 

@@ -350,6 +350,10 @@ const char* OrganFem::linear_solver() const noexcept {
 
 bool OrganFem::attached(std::uint32_t tool) const noexcept { return tool < contacts_.size() && contacts_[tool].active; }
 
+void OrganFem::grasp(std::uint32_t tool, bool grasped) noexcept {
+  if (attached(tool)) contacts_[tool].grasped = grasped;
+}
+
 std::size_t OrganFem::held_points(std::uint32_t tool) const noexcept {
   std::size_t count = 0;
   if (attached(tool))
@@ -518,6 +522,7 @@ bool OrganFem::attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, con
   if (!added) return false;
   Contact& c = contacts_[tool];
   c.active = true;
+  c.grasped = false;
   c.tip = tip;
   c.origin = rest_point + tip.seat;
   c.rest_point = nearest.position;
@@ -531,6 +536,7 @@ bool OrganFem::attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, con
 void OrganFem::detach(std::uint32_t tool) noexcept {
   if (!attached(tool)) return;
   contacts_[tool].active = false;
+  contacts_[tool].grasped = false;
   contacts_[tool].stiffness.setZero();
   for (std::size_t k = hold_count_; k-- > 0;)
     if (holds_[k].tool == tool) release(k);
@@ -761,7 +767,7 @@ double OrganFem::iterate(bool& released, bool& unbalanced) noexcept {
     double pull = 0.0;
     for (std::size_t a = 0; a < hold_count_; ++a) {
       const double along = holds_[a].outward.dot(w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a)));
-      if (!holds_[a].bilateral && along < pull) {
+      if (!holds_[a].bilateral && !contacts_[holds_[a].tool].grasped && along < pull) {
         pull = along;
         worst = static_cast<std::ptrdiff_t>(a);
       }

@@ -117,9 +117,12 @@ void Engine::force_tick(double now) noexcept {
     out.tip_valid[i] = valid;
 
     Eigen::Vector3d force = Eigen::Vector3d::Zero();
-    bool touching = false;
+    bool touching = false, grasp_slipped = false;
     double depth = 0.0;
     const ToolContact& contact = contacts.tools[i];
+    // Without a pose the jaws stay as they were.
+    const bool jaws = valid ? pose.jaws_closed : jaws_were_closed_[i];
+    const bool was_grasped = grasped_[i];
     // A pose lost and found again elsewhere (a tool removed and placed anew,
     // another client on the tool's stream) is another tool: the contact it
     // held ends. One found where it was lost resumes its contact.
@@ -131,22 +134,44 @@ void Engine::force_tick(double now) noexcept {
         seen_generation_[i] = contact.generation;
         ++telemetry_[i].contacts;
         slip_[i].setZero();
+        grasped_[i] = false;
+      }
+      // Jaws that close on a live contact take hold of it; jaws closed
+      // before the contact began hold nothing; opening them lets go.
+      if (!jaws) {
+        grasped_[i] = false;
+      } else if (!jaws_were_closed_[i] && !grasped_[i]) {
+        grasped_[i] = true;
+        ++telemetry_[i].grasps;
       }
       // A shaft contact needs the shaft: without it the contact point is unknown.
       if (valid && (contact.shaft_offset == 0.0 || pose.shaft.squaredNorm() > 0.0)) {
         const Eigen::Vector3d displacement =
             pose.tip + contact.shaft_offset * pose.shaft - contact.action_point - slip_[i];
         force.noalias() = contact.force - contact.stiffness * (displacement - contact.reference);
-        // Back outside: the contact ends now. One that began above the rest
-        // surface (the organ moved onto a resting tool) also ends once the
-        // organ would pull the tool: what pushed it there has let go.
-        if (displacement.dot(contact.normal) > contact.release_height + kReleaseMargin ||
-            (contact.release_height > 0.0 && force.dot(contact.normal) < -kPullRelease)) {
+        const bool pulls = force.dot(contact.normal) < 0.0;
+        if (grasped_[i] && pulls && force.norm() > options_.grasp_limit) {
+          // Pulled harder than the jaws hold: the tissue slips out of them.
           released_[i] = contact.generation;
+          grasped_[i] = false;
+          grasp_slipped = true;
+          ++telemetry_[i].grasp_slips;
+          telemetry_[i].peak_pull = std::max(telemetry_[i].peak_pull, force.norm());
+          letting_go_[i] = telemetry_[i].last_force;
+          force.setZero();
+        } else if (!grasped_[i] && (displacement.dot(contact.normal) > contact.release_height + kReleaseMargin ||
+                                    (contact.release_height > 0.0 && force.dot(contact.normal) < -kPullRelease))) {
+          // Back outside: the contact ends now. One that began above the rest
+          // surface (the organ moved onto a resting tool) also ends once the
+          // organ would pull the tool: what pushed it there has let go.
+          // Jaws that opened on a lifted patch let go of its pull.
+          released_[i] = contact.generation;
+          if (was_grasped) letting_go_[i] = telemetry_[i].last_force;
           force.setZero();
         } else {
-          // Friction: outside Coulomb's cone the organ slips under the tool.
-          slip_[i] -= slip_step(contact.stiffness, contact.normal, options_.friction, force);
+          // Friction: outside Coulomb's cone the organ slips under the tool;
+          // held in the jaws it does not.
+          if (!grasped_[i]) slip_[i] -= slip_step(contact.stiffness, contact.normal, options_.friction, force);
           // A fresh linearization takes over from the last one over one
           // deformation period: the step between them (a dynamic model's
           // motion, points taken in or let go of) is felt as a ramp. At the
@@ -158,7 +183,7 @@ void Engine::force_tick(double now) noexcept {
             if (blend_generation_[i] == contact.generation) {
               const HeldLinearization& held = held_[i];
               Eigen::Vector3d last = held.force - held.stiffness * (displacement - held.reference);
-              slip_step(held.stiffness, contact.normal, options_.friction, last);
+              if (!grasped_[i]) slip_step(held.stiffness, contact.normal, options_.friction, last);
               offset = last + blend_left(i, now) * blend_offset_[i] - force;
             }
             blend_offset_[i] = offset;
@@ -170,12 +195,25 @@ void Engine::force_tick(double now) noexcept {
           force += blend_left(i, now) * blend_offset_[i];
           // What the slope cannot take back (a force the model holds at any
           // displacement, a stiffness coupling the directions, the blend)
-          // the cone clips.
-          clip_to_cone(contact.normal, options_.friction, force);
+          // the cone clips; a grasp holds the organ both ways.
+          if (!grasped_[i])
+            clip_to_cone(contact.normal, options_.friction, force);
+          else if (force.dot(contact.normal) < 0.0)
+            telemetry_[i].peak_pull = std::max(telemetry_[i].peak_pull, force.norm());
           touching = true;
           depth = std::max(0.0, -displacement.dot(contact.normal));
         }
       }
+    }
+    if (touching) {
+      letting_go_[i].setZero();
+    } else if (letting_go_[i].squaredNorm() > 0.0) {
+      // What a grasp held fades out at the onset rate, as a contact's force
+      // comes in: letting go is not a kick either.
+      const double left = letting_go_[i].norm() - devices_[i]->limits().onset_rate * dt;
+      letting_go_[i] =
+          left > 0.0 ? Eigen::Vector3d(letting_go_[i] * (left / letting_go_[i].norm())) : Eigen::Vector3d::Zero();
+      force = letting_go_[i];
     }
     if (!valid) {
       // The device lost its pose (an error, a disconnection): fade what the
@@ -192,16 +230,20 @@ void Engine::force_tick(double now) noexcept {
     } else {
       fault_start_[i] = -1.0;
     }
+    if (!contact.active || released_[i] == contact.generation) grasped_[i] = false;
+    if (valid) jaws_were_closed_[i] = jaws;
     out.released[i] = released_[i];
     out.slips[i] = slip_[i];
     out.slip_generation[i] = seen_generation_[i];
+    out.grasped[i] = grasped_[i];
     const Eigen::Vector3d safe = safety_[i].filter(force, now, last_frame, dt);
     devices_[i]->write_force(now, safe, touching);
     ToolTelemetry& t = telemetry_[i];
     t.in_contact = touching;
     t.last_force = safe;
     t.peak_force = std::max(t.peak_force, safe.norm());
-    if (tick_records_[i].capacity() > 0) tick_records_[i].push({now, safe, force, out.tips[i], depth, touching, valid});
+    if (tick_records_[i].capacity() > 0)
+      tick_records_[i].push({now, safe, force, out.tips[i], depth, touching, valid, jaws, grasped_[i], grasp_slipped});
   }
   tool_frames_.publish();
 }
@@ -218,6 +260,13 @@ void Engine::deformation_step(double now) noexcept {
     if (contact.active && tools.released[i] == contact.generation) {
       model_->detach(static_cast<std::uint32_t>(i));
       contact.active = false;
+      // The patch the jaws let go of falls back from the tool: it does not
+      // catch the tool again until the tool has moved.
+      if (held_in_jaws_[i] && tools.tip_valid[i]) {
+        refused_at_[i] = tools.tips[i];
+        refused_valid_[i] = true;
+      }
+      held_in_jaws_[i] = false;
     }
   }
   for (std::size_t i = 0; i < devices_.size(); ++i) {
@@ -301,6 +350,13 @@ void Engine::deformation_step(double now) noexcept {
   touched_ =
       std::any_of(contacts_.tools.begin(), contacts_.tools.begin() + static_cast<std::ptrdiff_t>(devices_.size()),
                   [](const ToolContact& c) { return c.active; });
+  // The jaws hold a contact the force loop has seen; a contact begun in this
+  // frame is not held yet.
+  for (std::size_t i = 0; i < devices_.size(); ++i)
+    if (contacts_.tools[i].active) {
+      held_in_jaws_[i] = tools.grasped[i] && tools.slip_generation[i] == contacts_.tools[i].generation;
+      model_->set_grasp(static_cast<std::uint32_t>(i), held_in_jaws_[i]);
+    }
   SurfaceFrame& frame = surfaces_.write_slot();
   const bool moved =
       model_->step(dt, displacement_.data(), frame.positions.data(), frame.normals.data(), linearizations_.data());

@@ -84,14 +84,24 @@ TEST(RealTime, EngineLoopsAllocateNothingWithEveryModel) {
   press.positions = {{0.16, 0.0, 0.0}, {0.144, 0.002, 0.0}, {0.16, 0.0, 0.0}};
   side.times = {0.0, 0.2, 0.6};
   side.positions = {{0.08, 0.04, 0.0}, {0.08, 0.026, 0.0}, {0.08, 0.04, 0.0}};
+  // A grasper on the side: closes its jaws at its deepest, lifts the side
+  // 4 mm above rest, opens them (docs/realtime.md#grasping).
+  devices::Trajectory grasper;
+  grasper.times = {0.0, 0.2, 0.45, 0.6};
+  grasper.positions = {{0.08, 0.04, 0.0}, {0.08, 0.026, 0.0}, {0.08, 0.034, 0.0}, {0.08, 0.04, 0.0}};
+  grasper.jaw_times = {0.22, 0.47};
+  grasper.jaw_closed = {1, 0};
   // Every registered model (model_registry.h), the springs also with a
   // dynamic region (partial refits of the contact tree) and with volume
   // springs, the fast models matched to a site law, and with tick records
-  // (a training report: its ring fills and drops; nothing is allocated).
-  enum class Variant { plain, dynamic_region, volume, matched, recorded };
+  // (a training report: its ring fills and drops; nothing is allocated), and
+  // every model with the side tool a grasper.
+  enum class Variant { plain, dynamic_region, volume, matched, recorded, grasping };
   std::vector<std::pair<std::string, Variant>> variants;
   for (const realtime::RegisteredModel* model : realtime::registered_models())
     variants.emplace_back(model->name, Variant::plain);
+  for (const realtime::RegisteredModel* model : realtime::registered_models())
+    variants.emplace_back(model->name, Variant::grasping);
   ASSERT_GE(variants.size(), 6u);
   variants.emplace_back("springs", Variant::dynamic_region);
   variants.emplace_back("springs", Variant::volume);
@@ -99,7 +109,7 @@ TEST(RealTime, EngineLoopsAllocateNothingWithEveryModel) {
   variants.emplace_back("springs", Variant::matched);
   variants.emplace_back("beam", Variant::recorded);
   for (const auto& [kind, variant] : variants) {
-    devices::ScriptedDevice a(press, {}, 1000), b(side, {}, 1000);
+    devices::ScriptedDevice a(press, {}, 1000), b(variant == Variant::grasping ? grasper : side, {}, 1000);
     realtime::EngineOptions options;
     options.model = kind;
     if (variant == Variant::dynamic_region) options.springs.simulation.region = springs::Region::dynamic;
@@ -121,6 +131,7 @@ TEST(RealTime, EngineLoopsAllocateNothingWithEveryModel) {
     EXPECT_GE(engine.telemetry(1).contacts, 1u) << kind;
     EXPECT_GT(engine.telemetry(0).peak_force, 0.0) << kind;
     EXPECT_EQ(engine.model().instabilities(), 0u) << kind << " variant " << static_cast<int>(variant);
+    if (variant == Variant::grasping) EXPECT_EQ(engine.telemetry(1).grasps, 1u) << kind;
     if (variant == Variant::recorded) {
       realtime::TickRecord record;
       std::size_t held = 0;

@@ -150,6 +150,10 @@ class OrganFem {
   bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, const geometry::ToolTip& tip = {}) noexcept;
   void detach(std::uint32_t tool) noexcept;
   bool attached(std::uint32_t tool) const noexcept;
+  /// An attached tool's jaws close on (true) or open from (false) what its
+  /// tip holds: while closed, every point the tip holds is held both ways,
+  /// as the first touch always is (docs/realtime.md#grasping).
+  void grasp(std::uint32_t tool, bool grasped) noexcept;
 
   /// One frame: `displacements[tool]` (m) is where each attached tool's
   /// contact point is to be, from its rest position (entries of detached tools
@@ -263,6 +267,7 @@ class OrganFem {
     Eigen::Vector3d rest_point = Eigen::Vector3d::Zero();  ///< m: the first-touch point on the boundary
     Eigen::Vector3d target = Eigen::Vector3d::Zero();      ///< the tool displacement of the last step
     Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();
+    bool grasped = false;  ///< the jaws hold every point the tip holds both ways
   };
   struct Tangent;
   struct Capacitance;

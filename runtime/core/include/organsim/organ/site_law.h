@@ -108,4 +108,27 @@ class SiteLaw {
   double curve_depth_scale_ = 1.0;  // R_fit / R: the curve is read at d R_fit / R
 };
 
+/// A matched site held in a grasper's jaws (docs/realtime.md#grasping). The
+/// jaws close where the tool had displaced the site by `closed_at`; from then
+/// on they hold the patch under the tip both ways: the force goes on from the
+/// law's force there, F = F(d_g) − K_b (d − d_g), with K_b the bonded punch's
+/// stiffness (SiteLaw::stiffness(): a held patch of the tip's radius neither
+/// grows as a press's contact disk does nor lets go when pulled).
+struct SiteGrasp {
+  bool held = false;
+  Eigen::Vector3d closed_at = Eigen::Vector3d::Zero();      ///< m: d_g
+  Eigen::Vector3d closing_force = Eigen::Vector3d::Zero();  ///< N: F(d_g)
+
+  void close(const SiteLaw& law, const Eigen::Vector3d& displacement) noexcept {
+    held = true;
+    closed_at = displacement;
+    closing_force = law.force(displacement);
+  }
+  void open() noexcept { held = false; }
+  /// N on the tool at `displacement` (m).
+  Eigen::Vector3d force(const SiteLaw& law, const Eigen::Vector3d& displacement) const noexcept {
+    return closing_force - law.stiffness() * (displacement - closed_at);
+  }
+};
+
 }  // namespace organsim::organ

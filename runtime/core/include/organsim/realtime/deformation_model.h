@@ -59,6 +59,13 @@ class DeformationModel {
   virtual bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, const geometry::ToolTip& tip,
                       ContactLinearization& contact) noexcept = 0;
   virtual void detach(std::uint32_t tool) noexcept = 0;
+  /// An attached tool's jaws close on (true) or let go of (false) what it
+  /// holds (docs/realtime.md#grasping). While grasped, the contact holds the
+  /// organ both ways: the points the tip holds are not let go when they would
+  /// pull, and a matched contact's force goes on linearly past the rest
+  /// surface (the site law's bonded-punch stiffness) instead of vanishing
+  /// there. detach() ends a grasp too.
+  virtual void set_grasp(std::uint32_t tool, bool grasped) noexcept = 0;
   /// Advances the model by `dt` s with the attached tools' contact-point
   /// displacements (`displacements[tool]`, m; detached tools' entries are
   /// ignored); writes the surface vertex positions and unit normals (the

@@ -27,11 +27,18 @@
 // d₀ = 0: F = −K d), within Coulomb's friction cone: where the tangential
 // part of F exceeds μ times its normal part, the contact slips (the slip, a
 // tangential shift of where the organ is held, grows until F lies on the
-// cone; both loops use it). The organ pushes the tool, never pulls it. Each fresh linearization takes over from the
-// previous one over one deformation period (what changed between them is
-// felt as a ramp, not a step). It ends the contact as soon as the contact
-// point is back outside the tangent plane of the rest surface at the action
-// point, (contact point − action point) · n ≥ 0.
+// cone; both loops use it). The organ pushes a probe, never pulls it (a grasp holds both ways: below). Each fresh
+// linearization takes over from the previous one over one deformation period (what changed between them is felt as a
+// ramp, not a step). It ends the contact as soon as the contact point is back outside the tangent plane of the rest
+// surface at the action point, (contact point − action point) · n ≥ 0.
+//
+// Grasping (docs/realtime.md#grasping): a grasper whose jaws close while its
+// contact is live holds what it touches both ways until they open: its
+// contact does not end outside the tangent plane, does not slip, and its force
+// may pull (the models hold the patch bilaterally, DeformationModel::set_grasp).
+// Jaws closed in the air hold nothing. A grasp whose pull on the tool exceeds
+// EngineOptions::grasp_limit slips: the jaws lose the tissue, the contact
+// ends (the organ springs back) and the slip is counted and recorded.
 #pragma once
 
 #include <array>
@@ -74,6 +81,12 @@ struct EngineOptions {
   /// surface (wet serosa on steel: about 0.1–0.3; docs/realtime.md#contact-rule);
   /// infinity: the organ never slips under the tool.
   double friction = 0.2;
+  /// N: the largest pull a grasp holds; pulled harder, the tissue slips out
+  /// of the jaws. An engineering choice, not a measured tissue property
+  /// (docs/realtime.md#grasping): above the 3.3 N a PHANToM Touch renders, so
+  /// that every pull a trainee can feel is held. Separate from the device's
+  /// force clamp (SafetyLimits::max_force).
+  double grasp_limit = 4.0;
   /// Force-tick records kept per tool for a reader (Engine::take_tick_record);
   /// 0: none are kept.
   std::size_t tick_records = 0;
@@ -113,6 +126,7 @@ struct ToolFrame {
   std::array<std::uint32_t, kMaxTools> released{};         ///< generation of the last contact the force loop ended
   std::array<Eigen::Vector3d, kMaxTools> slips{};          ///< m: how far each contact has slipped (friction)
   std::array<std::uint32_t, kMaxTools> slip_generation{};  ///< the contact each slip belongs to
+  std::array<bool, kMaxTools> grasped{};                   ///< the jaws hold the contact of slip_generation (grasping)
   double time = -1.0;
 };
 
@@ -132,7 +146,10 @@ struct ToolTelemetry {
   /// device's ramp_down_time, and comes back through the onset ramp when
   /// the pose does. The other tools go on.
   std::uint32_t pose_faults = 0;
-  double peak_force = 0.0;  ///< N, after safety
+  double peak_force = 0.0;        ///< N, after safety
+  std::uint32_t grasps = 0;       ///< grasps begun: jaws closed on a live contact
+  std::uint32_t grasp_slips = 0;  ///< grasps that slipped: pulled beyond EngineOptions::grasp_limit
+  double peak_pull = 0.0;         ///< N: the largest force a grasp pulled the tool with, before safety
   bool in_contact = false;
   Eigen::Vector3d last_force = Eigen::Vector3d::Zero();
 };
@@ -146,6 +163,9 @@ struct TickRecord {
   Eigen::Vector3d tip = Eigen::Vector3d::Zero();          ///< m, model frame (zero when the pose was invalid)
   double depth = 0.0;  ///< m: how far the tool's contact point is pushed in along the rest surface's inward normal
   bool in_contact = false, pose_valid = false;
+  bool jaws_closed = false;    ///< the device's jaws (a probe's are always open)
+  bool grasped = false;        ///< the jaws hold the organ
+  bool grasp_slipped = false;  ///< this tick the grasp slipped (pulled beyond the holding limit)
 };
 
 class Engine final : public devices::ForceLoop {
@@ -202,6 +222,9 @@ class Engine final : public devices::ForceLoop {
   std::array<Eigen::Vector3d, kMaxTools> fault_force_{};     // N, the force sent just before
   std::array<Eigen::Vector3d, kMaxTools> last_valid_tip_{};  // m, the tip where the pose was last valid
   std::array<Eigen::Vector3d, kMaxTools> slip_{};            // m, of the current contact
+  std::array<bool, kMaxTools> grasped_{};                    // the jaws hold the current contact
+  std::array<bool, kMaxTools> jaws_were_closed_{};           // the jaws at the last valid pose
+  std::array<Eigen::Vector3d, kMaxTools> letting_go_{};      // N: the force fading out after a grasp let go
   // Blending a fresh linearization in: the one it replaces, the force that
   // one gave at the switch less the fresh one's, when, and for which frame and contact.
   struct HeldLinearization {
@@ -240,6 +263,7 @@ class Engine final : public devices::ForceLoop {
   std::array<Eigen::Vector3d, kMaxTools> displacement_{};
   std::array<Eigen::Vector3d, kMaxTools> refused_at_{};  // where a contact was last refused
   std::array<bool, kMaxTools> refused_valid_{};
+  std::array<bool, kMaxTools> held_in_jaws_{};  // the model was last told that the jaws hold the contact
   std::uint64_t frame_ = 0;
   std::uint64_t refused_ = 0;
 

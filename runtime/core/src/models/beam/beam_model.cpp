@@ -18,7 +18,11 @@ namespace {
 class BeamModel final : public DeformationModel {
  public:
   BeamModel(const organ::Organ& organ, const multibeam::MultiBeamOptions& options)
-      : organ_(organ), beams_(organ, options), tips_(options.max_tools) {}
+      : organ_(organ),
+        beams_(organ, options),
+        tips_(options.max_tools),
+        grasps_(options.max_tools),
+        last_displacements_(options.max_tools, Eigen::Vector3d::Zero()) {}
 
   const char* name() const noexcept override { return "beam"; }
 
@@ -28,6 +32,8 @@ class BeamModel final : public DeformationModel {
     if (!tip.is_point() && !(std::abs(tip.axis.norm() - 1.0) < 1e-6)) return false;
     if (beams_.attach(tool, rest_point, tip.radius) != multibeam::Status::ok) return false;
     tips_[tool] = tip;
+    grasps_[tool].open();
+    last_displacements_[tool].setZero();
     const multibeam::ToolBeam& beam = beams_.beam(tool);
     contact.action_point = beam.action.position;
     contact.normal = organ_.rest_normal_at(beam.action);
@@ -37,7 +43,20 @@ class BeamModel final : public DeformationModel {
     return true;
   }
 
-  void detach(std::uint32_t tool) noexcept override { beams_.detach(tool); }
+  void detach(std::uint32_t tool) noexcept override {
+    beams_.detach(tool);
+    if (tool < grasps_.size()) grasps_[tool].open();
+  }
+
+  /// The beam's own force, −K d, holds both ways already; a matched contact
+  /// goes on past the rest surface with the site's bonded stiffness.
+  void set_grasp(std::uint32_t tool, bool grasped) noexcept override {
+    if (tool >= grasps_.size() || !beams_.beam(tool).attached) return;
+    if (!grasped)
+      grasps_[tool].open();
+    else if (!grasps_[tool].held)
+      grasps_[tool].close(beams_.beam(tool).law, last_displacements_[tool]);
+  }
 
   bool step(double, const Eigen::Vector3d* displacements, model::Point3* positions, model::Point3* normals,
             ContactLinearization* contacts) noexcept override {
@@ -45,10 +64,13 @@ class BeamModel final : public DeformationModel {
     if (beams_.deform(displacements, positions, normals, n) != multibeam::Status::ok) return false;
     for (std::uint32_t tool = 0; tool < tips_.size(); ++tool) {
       const multibeam::ToolBeam& beam = beams_.beam(tool);
-      if (!beam.attached || !beam.matched) continue;
-      contacts[tool].displacement = displacements[tool];
-      contacts[tool].force = beam.law.force(displacements[tool]);
-      contacts[tool].stiffness = beam.law.tangent(displacements[tool]);
+      if (!beam.attached) continue;
+      last_displacements_[tool] = displacements[tool];
+      if (!beam.matched) continue;
+      const organ::SiteGrasp& grasp = grasps_[tool];
+      contacts[tool].displacement = grasp.held ? grasp.closed_at : displacements[tool];
+      contacts[tool].force = grasp.held ? grasp.closing_force : beam.law.force(displacements[tool]);
+      contacts[tool].stiffness = grasp.held ? beam.law.stiffness() : beam.law.tangent(displacements[tool]);
     }
     bool laid = false;
     for (std::uint32_t tool = 0; tool < tips_.size(); ++tool)
@@ -62,7 +84,9 @@ class BeamModel final : public DeformationModel {
  private:
   const organ::Organ& organ_;
   multibeam::MultiBeam beams_;
-  std::vector<geometry::ToolTip> tips_;  // per tool
+  std::vector<geometry::ToolTip> tips_;              // per tool
+  std::vector<organ::SiteGrasp> grasps_;             // per tool: a matched contact in the jaws
+  std::vector<Eigen::Vector3d> last_displacements_;  // per tool, m: the last step's
 };
 
 }  // namespace

@@ -30,6 +30,7 @@ class FemModel final : public DeformationModel {
   }
 
   void detach(std::uint32_t tool) noexcept override { fem_.detach(tool); }
+  void set_grasp(std::uint32_t tool, bool grasped) noexcept override { fem_.grasp(tool, grasped); }
 
   bool step(double, const Eigen::Vector3d* displacements, model::Point3* positions, model::Point3* normals,
             ContactLinearization* contacts) noexcept override {

@@ -54,6 +54,8 @@ class SpringModel final : public DeformationModel {
     t.origin = simulation_.network().rest[node];
     t.displacement = simulation_.position(node) - t.origin;
     t.matched = options_.match_sites && t.law.set(organ_, at, tip.radius);
+    t.grasped = false;
+    t.grasp.open();
     hold(tool, node, Eigen::Vector3d::Zero(), -tip.axis, true);
     contact.action_point = t.origin;
     contact.normal = organ_.rest_normal_at(at);
@@ -66,6 +68,21 @@ class SpringModel final : public DeformationModel {
     for (Hold& h : holds_)
       if (h.used && h.tool == tool) let_go(h);
     tools_[tool].attached = false;
+    tools_[tool].grasped = false;
+    tools_[tool].grasp.open();
+  }
+
+  /// Held in the jaws, a finite tip keeps every node it holds, also those it
+  /// pulls; a matched contact goes on past the rest surface with the site's
+  /// bonded stiffness.
+  void set_grasp(std::uint32_t tool, bool grasped) noexcept override {
+    if (tool >= tools_.size() || !tools_[tool].attached) return;
+    Tool& t = tools_[tool];
+    t.grasped = grasped;
+    if (!grasped)
+      t.grasp.open();
+    else if (t.matched && !t.grasp.held)
+      t.grasp.close(t.law, t.displacement);
   }
 
   bool step(double dt, const Eigen::Vector3d* displacements, model::Point3* positions, model::Point3* normals,
@@ -142,6 +159,8 @@ class SpringModel final : public DeformationModel {
     bool matched = false;  ///< the contact's force is the site law's (SpringModelOptions::match_sites)
     organ::SiteLaw law;
     Eigen::Vector3d displacement = Eigen::Vector3d::Zero();  ///< m: the tip's, from origin
+    bool grasped = false;    ///< the jaws hold what the tip holds (docs/realtime.md#grasping)
+    organ::SiteGrasp grasp;  ///< a matched contact's grasp law
   };
   struct Hold {
     bool used = false;
@@ -175,7 +194,9 @@ class SpringModel final : public DeformationModel {
   /// nodes inside them.
   void update_holds() noexcept {
     for (Hold& h : holds_)
-      if (h.used && !h.first && -simulation_.reaction_force(h.node).dot(h.outward) < -kPullTolerance) let_go(h);
+      if (h.used && !h.first && !tools_[h.tool].grasped &&
+          -simulation_.reaction_force(h.node).dot(h.outward) < -kPullTolerance)
+        let_go(h);
     const auto& rest = simulation_.network().rest;
     for (std::uint32_t tool = 0; tool < tools_.size(); ++tool) {
       const Tool& t = tools_[tool];
@@ -233,9 +254,9 @@ class SpringModel final : public DeformationModel {
   /// agree with.
   void linearize(std::uint32_t tool, ContactLinearization& contact) const noexcept {
     if (const Tool& t = tools_[tool]; t.matched) {
-      contact.displacement = t.displacement;
-      contact.force = t.law.force(t.displacement);
-      contact.stiffness = t.law.tangent(t.displacement);
+      contact.displacement = t.grasp.held ? t.grasp.closed_at : t.displacement;
+      contact.force = t.grasp.held ? t.grasp.closing_force : t.law.force(t.displacement);
+      contact.stiffness = t.grasp.held ? t.law.stiffness() : t.law.tangent(t.displacement);
       return;
     }
     Eigen::Vector3d force = Eigen::Vector3d::Zero(), displacement = Eigen::Vector3d::Zero();

@@ -19,10 +19,12 @@ struct SafetyLimits {
   double ramp_down_time = 0.2;    ///< s from full force to zero once stalled
 };
 
-/// Where a tool is: its tip and, when the device knows it, its shaft.
+/// Where a tool is: its tip and, when the device knows it, its shaft; and,
+/// for a grasper, whether its jaws are closed (docs/realtime.md#grasping).
 struct ToolPose {
   Eigen::Vector3d tip = Eigen::Vector3d::Zero();    ///< model frame, m
   Eigen::Vector3d shaft = Eigen::Vector3d::Zero();  ///< unit, from the tip towards the handle; zero when unknown
+  bool jaws_closed = false;                         ///< a probe's are always open
 };
 
 class HapticDevice {

@@ -23,8 +23,9 @@ struct ForceRecord {
 
 /// Plays a trajectory (linear between samples, the shaft direction normalized
 /// after interpolation; held before the first and after the last sample, or
-/// started again every `repeat_period` seconds when that is positive) and keeps
-/// the forces written to it in a ring of `capacity` records.
+/// started again every `repeat_period` seconds when that is positive; the jaws
+/// as the last jaw event at or before the time left them) and keeps the forces
+/// written to it in a ring of `capacity` records.
 ///
 /// The force loop writes records without allocating or locking; another thread
 /// may take them out while it runs (take_record: one writer, one reader,
@@ -52,6 +53,7 @@ class ScriptedDevice final : public HapticDevice {
   SafetyLimits limits_;
   double repeat_period_;
   std::size_t cursor_ = 0;
+  std::size_t jaw_cursor_ = 0;  // jaw events at or before the last time read
   lockfree::SpscRing<ForceRecord> records_;
 };
 

@@ -23,6 +23,11 @@ struct Trajectory {
   /// m: the radius of the tool's hemispherical end (a `tip` line, format
   /// version 2); negative when the file does not say (the command's --tip-radius).
   double tip_radius = -1.0;
+  /// A grasper's jaws (`jaw` lines, format version 3): from jaw_times[k] (s,
+  /// increasing) on they are closed when jaw_closed[k] is 1, open when 0; open
+  /// before the first. Empty: a probe, whose jaws never close.
+  std::vector<double> jaw_times;
+  std::vector<unsigned char> jaw_closed;
 };
 
 struct Session {
@@ -51,8 +56,9 @@ Session parse_session(std::istream& in, const std::string& name, const SessionLi
 /// is a unit mistake).
 constexpr double kMaxTipRadius = 0.05;
 
-/// Writes a session file (for tools that make sessions): format version 2
-/// when a tool has a tip radius, else 1 (which every organsim reads).
+/// Writes a session file (for tools that make sessions): format version 3
+/// when a tool has jaw events, else 2 when a tool has a tip radius, else 1
+/// (which every organsim reads).
 void write_session(const Session& session, const std::string& path);
 
 }  // namespace organsim::devices
