@@ -103,8 +103,8 @@ TEST_F(Cli, ReportMetricsAreTheHandWorkedOnesOfAKnownPress) {
 
 // A grasper presses the cylinder's side 3 mm, closes its jaws at 0.4 s, lifts
 // the side 5 mm above rest and lets go at 1.1 s: the report lists one grasp
-// per hold, where the jaws closed and how it ended. A run recorded before the
-// jaw columns existed
+// per hold, where the jaws closed and how it ended; held harder than
+// --grasp-limit allows, it slips. A run recorded before the jaw columns existed
 // (12 values per tick) still makes a report, without grasps.
 TEST_F(Cli, ReportListsEachGraspAndHowItEnded) {
   const std::string model = (dir_ / "cylinder.organ").string();
@@ -126,6 +126,18 @@ TEST_F(Cli, ReportListsEachGraspAndHowItEnded) {
   EXPECT_FALSE(grasp["slipped"].get<bool>());
   EXPECT_EQ(tool["grasp_slips"], 0);
   EXPECT_NE(read_text(report / "index.html").find("the jaws let go"), std::string::npos);
+
+  // Held harder than --grasp-limit allows, the tissue slips out of the jaws.
+  const fs::path slipped = dir_ / "slipped";
+  const CommandRun weak = run_organsim(
+      "replay " + model + " " + session + " --fast --json --grasp-limit 0.005 --report " + slipped.string(), dir_);
+  ASSERT_EQ(weak.exit_code, 0) << weak.err;
+  EXPECT_EQ(nlohmann::json::parse(weak.out)["tools"][0]["grasp_slips"], 1);
+  const nlohmann::json weak_tool = read_json(slipped / "metrics.json")["tools"][0];
+  ASSERT_EQ(weak_tool["grasps"].size(), 1u);
+  EXPECT_TRUE(weak_tool["grasps"][0]["slipped"].get<bool>());
+  EXPECT_EQ(weak_tool["grasp_slips"], 1);
+  EXPECT_NE(read_text(slipped / "index.html").find("the tissue slipped out of the jaws"), std::string::npos);
 
   // The ticks without the jaw columns, as an older run wrote them.
   std::istringstream ticks(read_text(report / "ticks.csv"));

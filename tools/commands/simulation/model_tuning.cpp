@@ -77,6 +77,16 @@ void add_model_tuning_options(CLI::App& app, ModelTuning& tuning) {
   add_linear_solver_option(app, tuning.linear_solver);
 }
 
+void add_grasp_option(CLI::App& app, ModelTuning& tuning) {
+  app.add_option(
+         "--grasp-limit", tuning.grasp_limit,
+         "The largest pull a grasper's closed jaws hold, N: pulled harder, the tissue slips out of them and the "
+         "slip is counted (an engineering choice, separate from the device's force clamp; inf: never slips; "
+         "docs/realtime.md#grasping)")
+      ->check(kNonNegativeOrInfinity)
+      ->capture_default_str();
+}
+
 void apply_model_tuning(const ModelTuning& tuning, fem::OrganFemOptions& fem, realtime::SpringModelOptions& springs) {
   fem.fixed_radius = tuning.fixed_radius_mm * 1e-3;
   fem.factorization = factorization_factory(tuning.linear_solver);
@@ -99,6 +109,7 @@ void apply_model_tuning(const ModelTuning& tuning, realtime::EngineOptions& engi
   apply_model_tuning(tuning, engine.fem, engine.springs);
   engine.tip_radius = tuning.tip_radius_mm * 1e-3;
   engine.friction = tuning.friction;
+  engine.grasp_limit = tuning.grasp_limit;
   engine.beams.match_sites = !tuning.unmatched;
 }
 

@@ -23,6 +23,7 @@ struct ModelTuning {
   std::string linear_solver = default_linear_solver();   ///< --linear-solver: the FEM tangents' factorization
   double tip_radius_mm = 2.5;                            ///< --tip-radius: the tools' hemispherical end (0: a point)
   double friction = realtime::EngineOptions{}.friction;  ///< --friction: Coulomb's μ between tool and organ
+  double grasp_limit = realtime::EngineOptions{}.grasp_limit;  ///< --grasp-limit: N a grasp holds before it slips
   bool unmatched = false;  ///< --unmatched: the fast models' own forces, not the site law's
   static const char* default_linear_solver();
 };
@@ -40,6 +41,10 @@ void add_model_tuning_options(CLI::App& app, ModelTuning& tuning);
 /// Applies the tuning to the FEM and mass-spring options (of an engine or of
 /// realtime::ModelOptions).
 void apply_model_tuning(const ModelTuning& tuning, fem::OrganFemOptions& fem, realtime::SpringModelOptions& springs);
+/// --grasp-limit N, for the commands that run the real-time engine (replay,
+/// view, touch, serve): the pull a grasp holds (docs/realtime.md#grasping).
+void add_grasp_option(CLI::App& app, ModelTuning& tuning);
+
 /// The same for an engine, and its tools' tip radius and friction.
 void apply_model_tuning(const ModelTuning& tuning, realtime::EngineOptions& engine);
 

@@ -480,6 +480,7 @@ Command add_replay_command(CLI::App& app) {
       ->check(CLI::IsMember(deformation_model_names()))
       ->capture_default_str();
   add_model_tuning_options(app, o->tuning);
+  add_grasp_option(app, o->tuning);
   app.add_option("--merge", o->merge, "How beams combine: influence (eq. 7) or sum (eq. 5)")
       ->check(CLI::IsMember({"influence", "sum"}))
       ->capture_default_str();

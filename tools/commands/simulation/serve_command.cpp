@@ -240,6 +240,7 @@ Command add_serve_command(CLI::App& app) {
       ->capture_default_str();
   add_deformation_model_option(app, o->deformation);
   add_model_tuning_options(app, o->tuning);
+  add_grasp_option(app, o->tuning);
   app.add_option("--force-rate", o->force_rate,
                  "How often each tool's force is sent, Hz: 60 (with every frame) up to 1000 (robots and haptic "
                  "clients)")

@@ -143,6 +143,7 @@ Command add_touch_command(CLI::App& app) {
   app.add_option("model", o->model_path, "Model file (.organ)")->required();
   add_deformation_model_option(app, o->deformation);
   add_model_tuning_options(app, o->tuning);
+  add_grasp_option(app, o->tuning);
   add_haptic_rig_options(app, o->rig);
   app.add_option("--seconds", o->seconds, "How long to run")->check(kPositive)->capture_default_str();
   app.add_flag("--json", o->json, "Print the summary as one JSON object on stdout");

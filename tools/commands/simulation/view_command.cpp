@@ -373,6 +373,7 @@ Command add_view_command(CLI::App& app) {
   app.add_flag("--phantom", o->phantom, "Tools are PHANToM / Touch devices (OpenHaptics, loaded at run time)");
   add_deformation_model_option(app, o->deformation);
   add_model_tuning_options(app, o->tuning);
+  add_grasp_option(app, o->tuning);
   add_haptic_rig_options(app, o->rig);
   return [o] { return run_view(*o); };
 }
