@@ -8,6 +8,8 @@
 #include <string>
 
 #include "organsim/calculix/calculix.h"
+#include "organsim/fem/organ_fem.h"
+#include "test_models.h"
 
 namespace organsim::fem {
 namespace {
@@ -72,6 +74,61 @@ TEST(CalculiX, MooneyRivlinWithoutStabilizationAgrees) {
   // κ / μ = 9.7 and 50 (the paper's ν = 0.49).
   expect_agreement(Material::mooney_rivlin_from_young(1e5, 0.45, 0), "Mooney-Rivlin, nu 0.45");
   expect_agreement(Material::mooney_rivlin_from_young(1e5, 0.49, 0), "Mooney-Rivlin, nu 0.49");
+}
+
+/// The real-time FEM model's grasp on the helper cylinder (150 mm long,
+/// radius 30 mm, clamped over its x = 0 cap): a point tool touches the side's
+/// top node at x = 80 mm, the jaws close, and the tool pulls it `pull` out.
+/// Returns the engine model's nodal displacements once the frames have
+/// converged, and fills `problem` with the same held node prescribed and the
+/// same clamp, for CalculiX (docs/realtime.md#grasping).
+Eigen::VectorXd grasp_and_pull(MaterialModel law, const Eigen::Vector3d& pull, StaticProblem& problem) {
+  testing::CylinderSpec spec;
+  spec.stations = 2;
+  spec.section_polygon_vertices = 32;
+  const model::OrganModel m = testing::make_cylinder_model(spec);
+  OrganFemOptions options;
+  options.fixed_radius = 0.031;
+  options.refresh_frames = 2;
+  std::int32_t node = -1;
+  double best = 1e9;
+  for (std::size_t n = 0; n < m.volume_vertices.size(); ++n) {
+    const Eigen::Vector3d x(m.volume_vertices[n][0], m.volume_vertices[n][1], m.volume_vertices[n][2]);
+    const double distance = (x - Eigen::Vector3d(0.08, 0.03, 0.0)).norm();
+    if (distance < best) best = distance, node = static_cast<std::int32_t>(n);
+  }
+  const auto& held = m.volume_vertices[static_cast<std::size_t>(node)];
+  OrganFem fem(m, law, options, 1);
+  EXPECT_TRUE(fem.attach(0, {held[0], held[1], held[2]}));
+  fem.grasp(0, true);
+  for (int frame = 0; frame < 400; ++frame) {
+    EXPECT_NE(fem.step(&pull), FrameStatus::not_finite);
+    if (frame > 10 && fem.unbalanced_force() < 1e-12) break;
+  }
+  EXPECT_LT(fem.unbalanced_force(), 1e-9) << "the frames converged";
+  problem = StaticProblem{};
+  problem.mesh = tet_mesh_of(m);
+  problem.material = Material::from_young(law, m.material.young_modulus, m.material.poisson_ratio);
+  problem.load_steps = 4;
+  for (std::size_t n = 0; n < problem.mesh.nodes.size(); ++n)
+    if (problem.mesh.nodes[n].norm() <= options.fixed_radius) problem.fixed.push_back(static_cast<std::int32_t>(n));
+  for (int k = 0; k < 3; ++k) problem.prescribed.push_back({node, k, pull[k]});
+  return fem.displacements();
+}
+
+// A grasp in the real-time FEM model is a prescribed displacement of the held
+// point: pulled 10 mm out of the cylinder's side (and 5 mm along it), the
+// engine model's nodal displacements are CalculiX's with that node prescribed
+// on the same C3D4 mesh, small strain and large.
+TEST(CalculiX, AGraspedPointPulledOutIsAPrescribedDisplacement) {
+  for (const MaterialModel law : {MaterialModel::linear, MaterialModel::stvk}) {
+    StaticProblem problem;
+    const Eigen::VectorXd ours = grasp_and_pull(law, {0.005, 0.010, 0.0}, problem);
+    const double difference = relative_difference(ours, run_calculix(problem, "grasp"));
+    std::printf("grasp, %s: largest difference / largest displacement %.3g\n",
+                law == MaterialModel::linear ? "linear" : "stvk", difference);
+    EXPECT_LT(difference, 1e-4);
+  }
 }
 
 }  // namespace
