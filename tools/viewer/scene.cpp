@@ -234,7 +234,12 @@ void OrganScene::show_tool(std::size_t i, bool present, const devices::ToolPose&
   t.shaft_pose->Scale(1.0, length, 1.0);
   t.tip_pose->Identity();
   t.tip_pose->Translate(pose.tip.data());
-  t.tip->GetProperty()->SetColor(in_contact ? 0.9 : 0.15, in_contact ? 0.3 : 0.15, 0.15);
+  // The tip: red while it touches, green while its closed jaws hold the
+  // organ, blue when they are closed in the air, dark when open and free.
+  if (pose.jaws_closed)
+    t.tip->GetProperty()->SetColor(0.15, in_contact ? 0.85 : 0.35, in_contact ? 0.25 : 0.85);
+  else
+    t.tip->GetProperty()->SetColor(in_contact ? 0.9 : 0.15, in_contact ? 0.3 : 0.15, 0.15);
   // vtkArrowSource points along x with length 1.
   const double magnitude = force.norm();
   if (magnitude > 1e-4) {

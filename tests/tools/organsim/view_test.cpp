@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include <algorithm>
 #include <array>
 #include <fstream>
 #include <sstream>
@@ -84,6 +85,47 @@ TEST_F(Cli, ViewScreenshotShowsTheOrganMovedWhereTheToolsPushed) {
     EXPECT_GT(near_tool[k], 3 * near_clamp)
         << near_tool[k] << " changed pixels near tool " << k + 1 << ", " << near_clamp << " near the clamp";
   }
+}
+
+// A grasper closes its jaws on the cylinder's top and lifts it 5 mm while a
+// probe presses beside it: the viewer draws the grasper's tip green (closed
+// jaws holding the organ; the liver texture has no green), and its JSON says
+// which jaws are closed.
+TEST_F(Cli, ViewShowsClosedJawsHoldingTheOrgan) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const fs::path session = dir_ / "grasp.session", picture = dir_ / "grasp.png";
+  std::ofstream(session) << "# organsim session 3\njaw,1,0.4,closed\n"
+                            "0,1,80,0,50\n0.3,1,80,0,27\n0.45,1,80,0,27\n0.8,1,80,0,35\n1.0,1,80,0,35\n"
+                            "0,2,130,0,50\n0.4,2,130,0,25\n1.0,2,130,0,25\n";
+  const CommandRun run = run_viewer(
+      "view " + model + " --session " + session.string() + " --offscreen --json --screenshot " + picture.string(),
+      dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json j = nlohmann::json::parse(run.out);
+  EXPECT_EQ(j["tools"][0]["grasps"], 1);
+  EXPECT_TRUE(j["tools"][0]["jaws_closed"].get<bool>());
+  EXPECT_EQ(j["tools"][1]["grasps"], 0);
+  EXPECT_FALSE(j["tools"][1]["jaws_closed"].get<bool>());
+  const cv::Mat image = cv::imread(picture.string());
+  ASSERT_FALSE(image.empty());
+  // The tip's colour: the most saturated pixel within 4 pixels of where it appears.
+  const auto tip_colour = [&](int tool) {  // BGR
+    const double x = j["tools"][tool]["tip_px"][0].get<double>(), y = j["tools"][tool]["tip_px"][1].get<double>();
+    cv::Vec3b best(0, 0, 0);
+    int best_spread = -1;
+    for (int r = static_cast<int>(y) - 4; r <= static_cast<int>(y) + 4; ++r)
+      for (int c = static_cast<int>(x) - 4; c <= static_cast<int>(x) + 4; ++c) {
+        if (r < 0 || c < 0 || r >= image.rows || c >= image.cols) continue;
+        const cv::Vec3b bgr = image.at<cv::Vec3b>(r, c);
+        const int spread = std::max({bgr[0], bgr[1], bgr[2]}) - std::min({bgr[0], bgr[1], bgr[2]});
+        if (spread > best_spread) best_spread = spread, best = bgr;
+      }
+    return best;
+  };
+  const cv::Vec3b grasper = tip_colour(0);
+  EXPECT_GT(grasper[1], grasper[2] + 40) << "the grasper's tip is green (BGR " << grasper << ")";
+  EXPECT_GT(grasper[1], grasper[0] + 40) << "BGR " << grasper;
 }
 
 // The disk fills during the recording (a file-size limit stands in; OpenCV's

@@ -161,6 +161,8 @@ void view_session(const organ::Organ& organ, const Session& session, ViewRun& ru
       const Eigen::Vector2d pixel = run.scene.project(pose.tip);
       run.tools_json.push_back({{"tool", i + 1},
                                 {"contacts", engine.telemetry(i).contacts},
+                                {"grasps", engine.telemetry(i).grasps},
+                                {"jaws_closed", pose.jaws_closed},
                                 {"tip_px", {pixel[0], pixel[1]}},
                                 {"force_n", forces[i].norm()}});
     }
