@@ -112,10 +112,12 @@ def read_springs(output):
 
 
 def read_replay(output):
-    frames = json.loads(output)["deformation_loop"]
+    report = json.loads(output)
+    frames = report["deformation_loop"]
     compute = frames["compute"]
+    kept = f"; {report['instabilities']} kept their shape" if report.get("instabilities") else ""
     return (f"frame p50 **{compute['p50_ms']:.2f} ms**, p99 **{compute['p99_ms']:.2f} ms**, "
-            f"max {compute['max_ms']:.2f} ms; {frames['dropped']} of {frames['frames']} frames dropped")
+            f"max {compute['max_ms']:.2f} ms; {frames['dropped']} of {frames['frames']} frames dropped{kept}")
 
 
 def read_psh_press(output):
@@ -173,6 +175,9 @@ FIGURES = [
            f"build/tools/organsim replay MODEL {SESSION} --model psh --json", read_replay),
     Figure("frame_beam", "real-time frame, multi-beam, the shipped two-tool session",
            f"build/tools/organsim replay MODEL {SESSION} --model beam --json", read_replay),
+    Figure("frame_grasp", "real-time frame, co-rotational FEM, the two-handed retract-and-probe session (a grasp lifts 20 mm)",
+           "build/tools/organsim replay MODEL data_samples/liver_retract_and_probe.session --model corotational --json",
+           read_replay),
     Figure("psh_newton", "PSH static press on the baked liver, one Newton iteration",
            "ORGANSIM_BENCH_MODEL=MODEL build/tests/fem_bench --benchmark_filter=PshPress --benchmark_format=json",
            read_psh_press),
