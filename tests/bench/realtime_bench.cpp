@@ -1,5 +1,5 @@
 // Force-loop compute per tick with 1, 2, 4 and 8 tools in contact (scripted
-// devices, safety included), on a 100k-vertex organ, and with the fast models
+// devices, safety included), on a 100k-vertex organ, pressing or grasping, and with the fast models
 // matched to the FEM reference through the site law; and the contact tree's
 // refit, full vs only above the moved vertices (the paper's partial refit).
 #include <algorithm>
@@ -40,22 +40,39 @@ Trajectory pressing(int k, int count) {
   return t;
 }
 
-// Ticks with `tools` tools pressing `organ`'s sphere, each from its own side.
-void tick_pressing_tools(benchmark::State& state, const organ::Organ& organ, const EngineOptions& options, int tools) {
+// Tool k pressing as above, then a grasper: its jaws close once it is in and
+// it lifts its point to 3 mm outside the sphere, where it holds it.
+Trajectory grasping(int k, int count) {
+  Trajectory t = pressing(k, count);
+  const Eigen::Vector3d n = t.positions.front().normalized();
+  t.times.push_back(0.2);
+  t.positions.push_back((kRadius + 0.003) * n);
+  t.jaw_times = {0.12};
+  t.jaw_closed = {1};
+  return t;
+}
+
+// Ticks with `tools` tools pressing `organ`'s sphere, each from its own side
+// (or grasping it and lifting).
+void tick_pressing_tools(benchmark::State& state, const organ::Organ& organ, const EngineOptions& options, int tools,
+                         bool grasp = false) {
   std::vector<std::unique_ptr<ScriptedDevice>> devices;
   std::vector<HapticDevice*> pointers;
   for (int k = 0; k < tools; ++k) {
-    devices.push_back(std::make_unique<ScriptedDevice>(pressing(k, tools), SafetyLimits{}, 1024));
+    devices.push_back(
+        std::make_unique<ScriptedDevice>(grasp ? grasping(k, tools) : pressing(k, tools), SafetyLimits{}, 1024));
     pointers.push_back(devices.back().get());
   }
   Engine engine(organ, pointers, options);
   double time = 0.0;
-  for (int tick = 0; tick < 200; ++tick, time += 1e-3) {  // contacts established
+  for (int tick = 0; tick < 300; ++tick, time += 1e-3) {  // contacts established (and grasps lifted)
     if (tick % 16 == 0) engine.deformation_step(time);
     engine.force_tick(time);
   }
-  for (int k = 0; k < tools; ++k)
+  for (int k = 0; k < tools; ++k) {
     if (!engine.telemetry(k).in_contact) state.SkipWithError("a tool is not in contact");
+    if (grasp && engine.telemetry(k).grasps != 1) state.SkipWithError("a tool does not grasp");
+  }
   // Ticks at one instant: the same work as a live tick (devices, contacts,
   // safety), with the simulation fresh and the force steady.
   engine.deformation_step(time);
@@ -68,6 +85,13 @@ void BM_ForceTick(benchmark::State& state) {
   tick_pressing_tools(state, organ(), {}, static_cast<int>(state.range(0)));
 }
 BENCHMARK(BM_ForceTick)->Arg(1)->Arg(2)->Arg(4)->Arg(8)->Unit(benchmark::kMicrosecond);
+
+// The same with every tool a grasper holding its point 3 mm above the surface
+// (docs/realtime.md#grasping): no friction cone, a pulling force.
+void BM_ForceTickGrasping(benchmark::State& state) {
+  tick_pressing_tools(state, organ(), {}, static_cast<int>(state.range(0)), true);
+}
+BENCHMARK(BM_ForceTickGrasping)->Arg(1)->Arg(8)->Unit(benchmark::kMicrosecond);
 
 // The fast models matched to the FEM reference (docs/matching.md): with site
 // compliances the force each tool feels is the site law's for its 2.5 mm tip,

@@ -102,7 +102,8 @@ def read_deformation(output):
 def read_force_tick(output):
     runs = benchmarks(output)
     return (f"1 tool **{median_of(runs, 'BM_ForceTick/1'):.3f} µs**, "
-            f"8 tools **{median_of(runs, 'BM_ForceTick/8'):.3f} µs**")
+            f"8 tools **{median_of(runs, 'BM_ForceTick/8'):.3f} µs**; grasping: 1 tool "
+            f"{median_of(runs, 'BM_ForceTickGrasping/1'):.3f} µs, 8 tools {median_of(runs, 'BM_ForceTickGrasping/8'):.3f} µs")
 
 
 def read_springs(output):
@@ -163,8 +164,9 @@ FIGURES = [
     Figure("deformation", "multi-beam whole-organ deformation (distortion and normals), 100k vertices",
            "build/tests/multibeam_bench --benchmark_filter='Deformation/vertices:100000/tools:[148]/threads:2' "
            "--benchmark_repetitions=3 --benchmark_format=json", read_deformation),
-    Figure("force_tick", "engine force tick with 2.5 mm tips",
-           "build/tests/realtime_bench --benchmark_filter='BM_ForceTick/[18]$' --benchmark_repetitions=3 --benchmark_format=json",
+    Figure("force_tick", "engine force tick with 2.5 mm tips, pressing and grasping",
+           "build/tests/realtime_bench --benchmark_filter='BM_ForceTick(Grasping)?/[18]$' --benchmark_repetitions=3 "
+           "--benchmark_format=json",
            read_force_tick),
     Figure("springs_step", "mass-spring step on the baked liver, per integrator",
            "ORGANSIM_BENCH_MODEL=MODEL build/tests/springs_bench --benchmark_filter=StepBakedLiver "
