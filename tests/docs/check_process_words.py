@@ -2,12 +2,12 @@
 """The repository speaks of the product, not of how it was built.
 
 Fails, listing file:line, where a tracked text file (docs, code, comments, tests, scripts)
-says when something was done instead of what the software does: "stop 12", "issue 40",
-"this session", "this round", "a later session", "an earlier session", "earlier round".
-History belongs in CHANGELOG.md, which is not checked.
+says when something was done instead of what the software does: a numbered stop or issue,
+or a session, round or stop named by "this", "a later", "an earlier", "the previous" and
+the like (PROCESS_WORDS below). History belongs in CHANGELOG.md, which is not checked.
 
 A citation of another project's tracker is not development history and passes: an issue
-number after a project's name or in a link ("ITK issue #1234", ".../issues/1234").
+number after a project's name, or a link to its tracker (CITATION below).
 
 Usage: check_process_words.py [REPOSITORY]   (default: this file's repository)
 """

@@ -22,6 +22,25 @@ std::string fmt(double value) {
   return text;
 }
 
+// A tool's number as a line gives it (1 to 16) -> its index.
+std::size_t tool_index(const std::string& field, const std::string& path, std::size_t line) {
+  char* stop = nullptr;
+  const double value = std::strtod(field.c_str(), &stop);
+  if (field.empty() || stop != field.c_str() + field.size() || !(value >= 1 && value <= 16) ||
+      value != std::floor(value))
+    fail(path, line, "tool numbers are 1 to 16");
+  return static_cast<std::size_t>(value) - 1;
+}
+
+// A time stamp within the session's limits, s.
+void check_time(double time, const SessionLimits& limits, const std::string& path, std::size_t line) {
+  if (time < 0.0) fail(path, line, "times start at 0 s");
+  if (time > limits.max_duration)
+    fail(path, line,
+         fmt(time) + " s is later than a session may last (" + fmt(limits.max_duration / 3600.0) +
+             " h); check that times are in seconds, or pass --long-session to run it on purpose");
+}
+
 // Without overflow for coordinates near the largest doubles (AlignedBox's
 // exteriorDistance squares them).
 double distance_outside(const Eigen::AlignedBox3d& box, const Eigen::Vector3d& p) {
@@ -68,18 +87,14 @@ Session parse_session(std::istream& in, const std::string& path, const SessionLi
         fail(path, line_number, "expected tip,TOOL,RADIUS_MM (the tool's tip radius in millimetres)");
       const std::size_t comma = text.find(',', 4);
       const std::string tool_field = text.substr(4, comma - 4), radius_field = text.substr(comma + 1);
+      const std::size_t tool = tool_index(tool_field, path, line_number);
       char* stop = nullptr;
-      const double tool_value = std::strtod(tool_field.c_str(), &stop);
-      if (tool_field.empty() || stop != tool_field.c_str() + tool_field.size() ||
-          !(tool_value >= 1 && tool_value <= 16) || tool_value != std::floor(tool_value))
-        fail(path, line_number, "tool numbers are 1 to 16");
       const double radius = std::strtod(radius_field.c_str(), &stop);
       if (radius_field.empty() || stop != radius_field.c_str() + radius_field.size() || !(radius >= 0.0) ||
           !(radius * 1e-3 <= kMaxTipRadius))
         fail(path, line_number,
              "'" + radius_field + "' is not a tip radius: a number of millimetres from 0 to " +
                  fmt(kMaxTipRadius * 1e3));
-      const auto tool = static_cast<std::size_t>(tool_value) - 1;
       if (tool >= session.tools.size()) session.tools.resize(tool + 1);
       if (session.tools[tool].tip_radius >= 0.0)
         fail(path, line_number, "tool " + std::to_string(tool + 1) + " has a second tip line");
@@ -94,22 +109,14 @@ Session parse_session(std::istream& in, const std::string& path, const SessionLi
       const std::size_t first = text.find(',', 4), second = text.find(',', first + 1);
       const std::string tool_field = text.substr(4, first - 4), time_field = text.substr(first + 1, second - first - 1),
                         state = text.substr(second + 1);
+      const std::size_t tool = tool_index(tool_field, path, line_number);
       char* stop = nullptr;
-      const double tool_value = std::strtod(tool_field.c_str(), &stop);
-      if (tool_field.empty() || stop != tool_field.c_str() + tool_field.size() ||
-          !(tool_value >= 1 && tool_value <= 16) || tool_value != std::floor(tool_value))
-        fail(path, line_number, "tool numbers are 1 to 16");
       const double time = std::strtod(time_field.c_str(), &stop);
       if (time_field.empty() || stop != time_field.c_str() + time_field.size() || !std::isfinite(time))
         fail(path, line_number, "'" + time_field + "' is not a finite number");
-      if (time < 0.0) fail(path, line_number, "times start at 0 s");
-      if (time > limits.max_duration)
-        fail(path, line_number,
-             fmt(time) + " s is later than a session may last (" + fmt(limits.max_duration / 3600.0) +
-                 " h); check that times are in seconds, or pass --long-session to run it on purpose");
+      check_time(time, limits, path, line_number);
       if (state != "closed" && state != "open")
         fail(path, line_number, "'" + state + "' is not a jaw state: write closed or open");
-      const auto tool = static_cast<std::size_t>(tool_value) - 1;
       if (tool >= session.tools.size()) session.tools.resize(tool + 1);
       Trajectory& t = session.tools[tool];
       if (!t.jaw_times.empty() && time <= t.jaw_times.back())
@@ -140,11 +147,7 @@ Session parse_session(std::istream& in, const std::string& path, const SessionLi
     const auto tool = static_cast<std::size_t>(tool_value) - 1;
     if (tool >= session.tools.size()) session.tools.resize(tool + 1);
     Trajectory& t = session.tools[tool];
-    if (values[0] < 0.0) fail(path, line_number, "times start at 0 s");
-    if (values[0] > limits.max_duration)
-      fail(path, line_number,
-           fmt(values[0]) + " s is later than a session may last (" + fmt(limits.max_duration / 3600.0) +
-               " h); check that times are in seconds, or pass --long-session to run it on purpose");
+    check_time(values[0], limits, path, line_number);
     if (!t.times.empty() && values[0] <= t.times.back()) fail(path, line_number, "times of a tool must increase");
     if (!t.times.empty() && t.shafts.empty() != (fields == 5))
       fail(path, line_number, "a tool's samples must all have a shaft direction or all have none");
