@@ -187,6 +187,27 @@ TEST_F(Cli, PokeJsonHasTheDocumentedKeysAndWritesTheDeformedSurface) {
   EXPECT_NE(text.out.find("|F| 0.0141 N"), std::string::npos) << text.out;  // 3EIδ/L³ of the helper cylinder
 }
 
+// `poke --grasp 3`: each tool bites 3 mm in along the inward normal, closes
+// its jaws and then moves to its displacement; pulled 5 mm out of the
+// cylinder's side, the organ follows and pulls the tool back in every model,
+// and nothing slips (docs/realtime.md#grasping).
+TEST_F(Cli, PokeWithAGraspPullsTheOrganOutInEveryModel) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  for (const char* name : {"beam", "springs", "linear", "corotational", "stvk", "psh"}) {
+    const CommandRun run = run_organsim(
+        fmt::format("poke {} --tool 80,30,0/0,5,0 --grasp 3 --model {} --fixed-radius 31 --json", model, name), dir_);
+    ASSERT_EQ(run.exit_code, 0) << name << ": " << run.err;
+    const nlohmann::json j = nlohmann::json::parse(run.out);
+    const nlohmann::json& tool = j["tools"][0];
+    EXPECT_LT(tool["force_n"][1].get<double>(), -1e-3) << name << ": the organ pulls the tool back";
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(tool["slip_mm"][k].get<double>(), 0.0) << name;
+    EXPECT_GT(j["organ"]["max_displacement_mm"].get<double>(), 3.0) << name << ": the side follows the jaws";
+  }
+  const CommandRun zero = run_organsim("poke " + model + " --tool 80,30,0/0,5,0 --grasp 0", dir_);
+  EXPECT_NE(zero.exit_code, 0) << "a grasp bites in: --grasp takes a positive depth";
+}
+
 TEST_F(Cli, PokeWithTheSpringModelPushesBackHarderTheDeeperItPresses) {
   // The same press through the mass-spring model: the organ settles under the
   // held node, and the force opposes the press and grows with its depth.

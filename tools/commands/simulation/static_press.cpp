@@ -105,6 +105,15 @@ std::vector<Eigen::Vector3d> cone_normals(const organ::Organ& organ, const std::
   return normals;
 }
 
+/// m per tool: the grasp's bite, straight in along the inward normal (zero
+/// vectors without a grasp).
+std::vector<Eigen::Vector3d> grasp_bites(const std::vector<Eigen::Vector3d>& normals, const PressOptions& o) {
+  std::vector<Eigen::Vector3d> bites(normals.size(), Eigen::Vector3d::Zero());
+  if (o.grasp_bite_mm > 0.0)
+    for (std::size_t i = 0; i < normals.size(); ++i) bites[i] = -o.grasp_bite_mm * 1e-3 * normals[i];
+  return bites;
+}
+
 /// The multi-beam model: static, so one deformation gives the pressed organ.
 PressResult press_beams(const organ::Organ& organ, const std::vector<ToolSpec>& tools, const PressOptions& o) {
   using namespace organsim::multibeam;
@@ -136,7 +145,19 @@ PressResult press_beams(const organ::Organ& organ, const std::vector<ToolSpec>& 
   const std::vector<Eigen::Vector3d> normals = cone_normals(organ, tools, o);
   std::vector<Eigen::Vector3d> slips(tools.size(), Eigen::Vector3d::Zero()), forces(tools.size());
   std::vector<Eigen::Matrix3d> stiffnesses(tools.size());
-  const int steps = load_steps_for(displacements, o);
+  // A grasp bites straight in, where the cone holds, and then holds both ways:
+  // no slip. Its force is the beam's −K d, or a matched site's grasp law.
+  const std::vector<Eigen::Vector3d> bites = grasp_bites(normals, o);
+  std::vector<organ::SiteGrasp> grasps(tools.size());
+  for (std::uint32_t i = 0; i < tools.size(); ++i)
+    if (o.grasp_bite_mm > 0.0 && beams.beam(i).matched) grasps[i].close(beams.beam(i).law, bites[i]);
+  const auto force_at = [&](std::uint32_t i, const Eigen::Vector3d& d, Eigen::Vector3d& force) {
+    if (grasps[i].held)
+      force = grasps[i].force(beams.beam(i).law, d);
+    else
+      beams.force(i, d, force);
+  };
+  const int steps = o.grasp_bite_mm > 0.0 ? 0 : load_steps_for(displacements, o);
   for (int step = 1; step <= steps; ++step)
     for (int slip = 0; slip < kMaxSlipSteps; ++slip) {
       for (std::uint32_t i = 0; i < tools.size(); ++i) {
@@ -160,7 +181,7 @@ PressResult press_beams(const organ::Organ& organ, const std::vector<ToolSpec>& 
   constexpr int kForceRepeats = 1000;  // one call is too short to time alone
   const auto force_start = std::chrono::steady_clock::now();
   for (int repeat = 0; repeat < kForceRepeats; ++repeat)
-    for (std::uint32_t i = 0; i < tools.size(); ++i) beams.force(i, displacements[i], r.tools[i].force);
+    for (std::uint32_t i = 0; i < tools.size(); ++i) force_at(i, displacements[i], r.tools[i].force);
   r.force_seconds = seconds_since(force_start) / (kForceRepeats * tools.size());
 
   r.positions.resize(organ.vertex_count());
@@ -229,11 +250,14 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
   r.setup_seconds = seconds_since(setup_start);
   r.tools.resize(tools.size());
   std::vector<Eigen::Vector3d> displacements(tools.size());
+  const std::vector<Eigen::Vector3d> normals = cone_normals(organ, tools, o);
+  const std::vector<Eigen::Vector3d> bites = grasp_bites(normals, o);
+  const bool grasp = o.grasp_bite_mm > 0.0;
   const auto attach_start = std::chrono::steady_clock::now();
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
     displacements[i] = tools[i].displacement_mm * 1e-3;
     const Eigen::Vector3d at = snap_to_surface(organ, tools[i], i, o);
-    if (!fem.attach(i, at, press_tip(organ, at, displacements[i], o)))
+    if (!fem.attach(i, at, press_tip(organ, at, grasp ? bites[i] : displacements[i], o)))
       throw std::runtime_error(
           fmt::format("tool {} ({}): the nearest boundary face of the tetrahedra is clamped or "
                       "touches another tool's",
@@ -290,10 +314,14 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
   // failing that, from rest again in four times as many. Within each load
   // step the organ slips under a tool whose force left the friction cone
   // (slip_once), and the step is balanced again, as the engine's force loop
-  // lets it slip along the same path.
+  // lets it slip along the same path. A grasp bites in over the first half of
+  // the steps, closes the jaws, and moves to the displacement over the second
+  // half, held both ways (no slip).
   std::string failure;
-  const int first = load_steps_for(displacements, o);
-  const std::vector<Eigen::Vector3d> normals = cone_normals(organ, tools, o);
+  std::vector<Eigen::Vector3d> from_bite(tools.size());
+  for (std::size_t i = 0; i < tools.size(); ++i) from_bite[i] = displacements[i] - bites[i];
+  const int first =
+      grasp ? std::max(load_steps_for(bites, o), load_steps_for(from_bite, o)) : load_steps_for(displacements, o);
   std::vector<Eigen::Vector3d> slips(tools.size(), Eigen::Vector3d::Zero()), forces(tools.size());
   std::vector<Eigen::Matrix3d> stiffnesses(tools.size());
   double reached = 0.0;  // the largest fraction of the press any attempt balanced
@@ -301,18 +329,25 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
   for (int load_steps : {first, 4 * first}) {
     solved_in = load_steps;
     fem.reset();
+    for (std::uint32_t i = 0; i < tools.size(); ++i) fem.grasp(i, false);
     r.frames = 1;
     failure.clear();
     std::fill(slips.begin(), slips.end(), Eigen::Vector3d::Zero());
-    for (int step = 1; step <= load_steps && failure.empty(); ++step) {
+    const int total = grasp ? 2 * load_steps : load_steps;
+    for (int step = 1; step <= total && failure.empty(); ++step) {
+      if (grasp && step == load_steps + 1)
+        for (std::uint32_t i = 0; i < tools.size(); ++i) fem.grasp(i, true);
       auto target = [&] {
         std::vector<Eigen::Vector3d> t(tools.size());
         for (std::size_t i = 0; i < tools.size(); ++i)
-          t[i] = displacements[i] * (static_cast<double>(step) / load_steps) - slips[i];
+          t[i] = !grasp ? Eigen::Vector3d(displacements[i] * (static_cast<double>(step) / load_steps) - slips[i])
+                 : step <= load_steps
+                     ? Eigen::Vector3d(bites[i] * (static_cast<double>(step) / load_steps))
+                     : Eigen::Vector3d(bites[i] + from_bite[i] * (static_cast<double>(step - load_steps) / load_steps));
         return t;
       };
       failure = equilibrium(target());
-      for (int slip = 0; failure.empty() && slip < kMaxSlipSteps; ++slip) {
+      for (int slip = 0; !grasp && failure.empty() && slip < kMaxSlipSteps; ++slip) {
         for (std::uint32_t i = 0; i < tools.size(); ++i) {
           forces[i] = fem.contact_force(i);
           stiffnesses[i] = fem.contact_stiffness(i);
@@ -320,7 +355,7 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
         if (!slip_once(forces, stiffnesses, normals, o.tuning.friction, slips)) break;
         failure = equilibrium(target());
       }
-      if (failure.empty()) reached = std::max(reached, static_cast<double>(step) / load_steps);
+      if (failure.empty()) reached = std::max(reached, static_cast<double>(step) / total);
     }
     if (failure.empty()) break;
   }
@@ -379,11 +414,14 @@ PressResult press_springs(const organ::Organ& organ, const std::vector<ToolSpec>
   r.tools.resize(tools.size());
   std::vector<ContactLinearization> contacts(tools.size());
   std::vector<Eigen::Vector3d> displacements(tools.size());
+  const std::vector<Eigen::Vector3d> normals = cone_normals(organ, tools, o);
+  const std::vector<Eigen::Vector3d> bites = grasp_bites(normals, o);
+  const bool grasp = o.grasp_bite_mm > 0.0;
   const auto attach_start = std::chrono::steady_clock::now();
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
     displacements[i] = tools[i].displacement_mm * 1e-3;
     const Eigen::Vector3d at = snap_to_surface(organ, tools[i], i, o);
-    if (!springs->attach(i, at, press_tip(organ, at, displacements[i], o), contacts[i]))
+    if (!springs->attach(i, at, press_tip(organ, at, grasp ? bites[i] : displacements[i], o), contacts[i]))
       throw std::runtime_error(
           fmt::format("tool {} ({}): the nearest node is clamped or held by another tool", i + 1, tools[i].text));
   }
@@ -392,17 +430,23 @@ PressResult press_springs(const organ::Organ& organ, const std::vector<ToolSpec>
   r.normals.resize(organ.vertex_count());
   // The organ slips under a tool whose force leaves the friction cone, as in
   // the engine: the force loop's 16 ticks per frame each take a slip step on
-  // the frame's linearization.
-  const std::vector<Eigen::Vector3d> normals = cone_normals(organ, tools, o);
-  std::vector<Eigen::Vector3d> slips(tools.size(), Eigen::Vector3d::Zero()), forces(tools.size()), held(displacements);
+  // the frame's linearization. A grasp settles at its bite, closes the jaws,
+  // and settles again at the displacement, held both ways (no slip).
+  std::vector<Eigen::Vector3d> slips(tools.size(), Eigen::Vector3d::Zero()), forces(tools.size()),
+      held(grasp ? bites : displacements);
   std::vector<Eigen::Matrix3d> stiffnesses(tools.size());
   constexpr int kTicksPerFrame = 16;
   const auto deform_start = std::chrono::steady_clock::now();
   r.frames = 0;
-  for (int frame = 0; frame < static_cast<int>(o.settle_seconds * 60.0 + 0.5); ++frame, ++r.frames) {
+  const int settle_frames = static_cast<int>(o.settle_seconds * 60.0 + 0.5);
+  for (int frame = 0; frame < (grasp ? 2 : 1) * settle_frames; ++frame, ++r.frames) {
+    if (grasp && frame == settle_frames) {
+      for (std::uint32_t i = 0; i < tools.size(); ++i) springs->set_grasp(i, true);
+      held = displacements;
+    }
     if (!springs->step(1.0 / 60.0, held.data(), r.positions.data(), r.normals.data(), contacts.data()))
       throw std::runtime_error("the mass-spring model could not move the organ (a displacement is not finite)");
-    for (int tick = 0; tick < kTicksPerFrame; ++tick) {
+    for (int tick = 0; !grasp && tick < kTicksPerFrame; ++tick) {
       for (std::uint32_t i = 0; i < tools.size(); ++i) {
         forces[i] = ContactLaw{contacts[i].force, contacts[i].stiffness, contacts[i].displacement}.at(held[i]);
         stiffnesses[i] = contacts[i].stiffness;
@@ -620,6 +664,11 @@ void add_press_options(CLI::App& app, std::vector<std::string>& tools, PressOpti
       ->check(kNonNegative)
       ->capture_default_str();
   add_model_tuning_options(app, o.tuning);
+  app.add_option("--grasp", o.grasp_bite_mm,
+                 "Grasp: each tool presses this far in along the inward normal, mm, closes its jaws on what it holds "
+                 "and then moves to its displacement (outward: a pull), the organ held both ways "
+                 "(docs/realtime.md#grasping)")
+      ->check(kPositive);
   app.add_option("--settle", o.settle_seconds, "Mass-spring model: seconds the press is held before the force is read")
       ->check(kPositive)
       ->capture_default_str();

@@ -42,6 +42,11 @@ struct PressOptions {
   std::string sections = "eccentric";      ///< multi-beam: eccentric (through the section centroids) or centred
   double snap_distance_mm = 10.0;          ///< farthest a tool point may be from the surface
   double settle_seconds = 2.0;             ///< mass-spring: how long the press is held before the force is read
+  /// > 0: a grasp (docs/realtime.md#grasping). Each tool first presses this
+  /// far in along the inward normal at its point (mm), closes its jaws on what
+  /// it holds, then moves to its displacement (outward: a pull), the organ
+  /// held both ways and never slipping.
+  double grasp_bite_mm = 0.0;
   ModelTuning tuning;
 };
 
