@@ -32,7 +32,12 @@ std::string svg_chart(const std::vector<ChartSeries>& series, const ChartAxes& a
       y_low = std::min(y_low, s.y[k]);
       y_high = std::max(y_high, s.y[k]);
     }
-  if (!axes.line_label.empty()) y_high = std::max(y_high, axes.line_at * 1.1);
+  const double peak = y_high;
+  const bool has_line = !axes.line_label.empty();
+  // The data fill the plot; the line joins them where they come near it.
+  const bool line_in_view = has_line && (!(peak > 0.0) || peak >= 0.5 * axes.line_at);
+  y_high = peak > 0.0 ? 1.1 * peak : y_high;
+  if (line_in_view) y_high = std::max(y_high, axes.line_at * 1.1);
   if (!(x_high > x_low)) x_low = 0.0, x_high = std::max(x_high, 1.0);
   if (!(y_high > y_low)) y_high = y_low + 1.0;
   const double plot_w = kWidth - kLeft - kRight, plot_h = kHeight - kTop - kBottom;
@@ -60,7 +65,11 @@ std::string svg_chart(const std::vector<ChartSeries>& series, const ChartAxes& a
                      axes.x_label);
   svg += fmt::format("<text x=\"15\" y=\"{0}\" text-anchor=\"middle\" transform=\"rotate(-90 15 {0})\">{1}</text>\n",
                      kTop + plot_h / 2, axes.y_label);
-  if (!axes.line_label.empty())
+  if (has_line && !line_in_view)
+    svg += fmt::format(
+        "<text x=\"{}\" y=\"{}\" fill=\"#d00\">{} {:g} is above this scale: the peak is {:.1f} % of it</text>\n",
+        kLeft + 6, kTop + 14, axes.line_label, axes.line_at, 100.0 * peak / axes.line_at);
+  if (line_in_view)
     svg += fmt::format(
         "<line x1=\"{0}\" y1=\"{1:.1f}\" x2=\"{2}\" y2=\"{1:.1f}\" stroke=\"#d00\" stroke-dasharray=\"6 4\"/>"
         "<text x=\"{3}\" y=\"{4:.1f}\" fill=\"#d00\">{5} {6:g}</text>\n",

@@ -18,7 +18,10 @@ struct ChartAxes {
   std::string line_label;
 };
 
-/// One chart (about 900 × 260 pixels) with axes, ticks and a legend.
+/// One chart (about 900 × 260 pixels) with axes, ticks and a legend. The y
+/// axis fits the data, so that a small force fills the plot: a line whose y
+/// is within view (the data reach at least half of it) is drawn; one far
+/// above the data is stated in words instead, with the peak's fraction of it.
 std::string svg_chart(const std::vector<ChartSeries>& series, const ChartAxes& axes);
 
 }  // namespace organsim::report

@@ -1,0 +1,44 @@
+// The training report's charts (report/svg_chart.h): the y axis fits the
+// data, so that a 20 mN push is seen on a chart whose limit is 2 N.
+#include <algorithm>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "report/svg_chart.h"
+
+namespace organsim::report {
+namespace {
+
+/// The polyline's highest point as a fraction of the plot's height above its bottom.
+double highest_fraction(const std::string& svg) {
+  const std::size_t rect = svg.find("<rect ");
+  double top = 0, height = 0;
+  std::sscanf(svg.c_str() + svg.find("y=\"", rect), "y=\"%lf\"", &top);
+  std::sscanf(svg.c_str() + svg.find("height=\"", rect), "height=\"%lf\"", &height);
+  const std::size_t begin = svg.find("points=\"", svg.find("<polyline")) + 8;
+  std::istringstream points(svg.substr(begin, svg.find('"', begin) - begin));
+  double lowest_y = 1e9;
+  for (std::string point; points >> point;) lowest_y = std::min(lowest_y, std::stod(point.substr(point.find(',') + 1)));
+  return (top + height - lowest_y) / height;
+}
+
+TEST(SvgChart, ASmallForceFillsItsPlotAndAFarLimitIsStatedInWords) {
+  const ChartSeries push{"force sent", "#1f77b4", {0.0, 1.0, 2.0, 3.0}, {0.0, 0.02, 0.01, 0.0}};
+  const std::string svg = svg_chart({push}, {"time (s)", "force (N)", 2.0, "limit"});
+  EXPECT_GE(highest_fraction(svg), 0.2) << "a 20 mN push against a 2 N limit";
+  EXPECT_EQ(svg.find("stroke-dasharray"), std::string::npos) << "the limit is not drawn far above the data";
+  EXPECT_NE(svg.find("limit 2 is above this scale: the peak is 1.0 % of it"), std::string::npos) << svg;
+}
+
+TEST(SvgChart, ALimitTheDataComeNearIsDrawn) {
+  const ChartSeries push{"force sent", "#1f77b4", {0.0, 1.0, 2.0}, {0.0, 1.5, 0.0}};
+  const std::string svg = svg_chart({push}, {"time (s)", "force (N)", 2.0, "limit"});
+  EXPECT_NE(svg.find("stroke-dasharray"), std::string::npos);
+  EXPECT_EQ(svg.find("above this scale"), std::string::npos);
+  EXPECT_GE(highest_fraction(svg), 0.6);
+}
+
+}  // namespace
+}  // namespace organsim::report
