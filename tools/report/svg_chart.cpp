@@ -50,6 +50,13 @@ std::string svg_chart(const std::vector<ChartSeries>& series, const ChartAxes& a
       kWidth, kHeight);
   svg += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"#888\"/>\n", kLeft,
                      kTop, plot_w, plot_h);
+  for (const ChartSpan& span : axes.spans) {
+    const double from = px(std::clamp(span.from, x_low, x_high)), to = px(std::clamp(span.to, x_low, x_high));
+    svg += fmt::format(
+        "<rect x=\"{:.1f}\" y=\"{}\" width=\"{:.1f}\" height=\"{}\" fill=\"{}\" fill-opacity=\"0.18\">"
+        "<title>{}</title></rect>\n",
+        from, kTop, std::max(to - from, 1.0), plot_h, span.colour, span.label);
+  }
   const double xs = tick_step(x_low, x_high), ys = tick_step(y_low, y_high);
   for (double x = std::ceil(x_low / xs) * xs; x <= x_high + 1e-9 * xs; x += xs)
     svg += fmt::format(
@@ -74,6 +81,19 @@ std::string svg_chart(const std::vector<ChartSeries>& series, const ChartAxes& a
         "<line x1=\"{0}\" y1=\"{1:.1f}\" x2=\"{2}\" y2=\"{1:.1f}\" stroke=\"#d00\" stroke-dasharray=\"6 4\"/>"
         "<text x=\"{3}\" y=\"{4:.1f}\" fill=\"#d00\">{5} {6:g}</text>\n",
         kLeft, py(axes.line_at), kLeft + plot_w, kLeft + 6, py(axes.line_at) - 4, axes.line_label, axes.line_at);
+  std::vector<const ChartSpan*> span_legend;  // one entry per label, after the series
+  for (const ChartSpan& span : axes.spans)
+    if (std::none_of(span_legend.begin(), span_legend.end(),
+                     [&](const ChartSpan* other) { return other->label == span.label; }))
+      span_legend.push_back(&span);
+  for (std::size_t k = 0; k < span_legend.size(); ++k) {
+    const double legend_y = kTop + 14.0 + 18.0 * static_cast<double>(series.size() + k);
+    svg += fmt::format(
+        "<rect x=\"{}\" y=\"{:.1f}\" width=\"20\" height=\"10\" fill=\"{}\" fill-opacity=\"0.35\"/>"
+        "<text x=\"{}\" y=\"{:.1f}\">{}</text>\n",
+        kLeft + plot_w + 8, legend_y - 5, span_legend[k]->colour, kLeft + plot_w + 32, legend_y + 4,
+        span_legend[k]->label);
+  }
   for (std::size_t k = 0; k < series.size(); ++k) {
     const ChartSeries& s = series[k];
     // Buckets without a sample (frames are sparser than ticks) are skipped, not gaps.

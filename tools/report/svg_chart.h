@@ -12,10 +12,18 @@ struct ChartSeries {
   std::vector<double> x, y;  ///< same length; points with a NaN y are left out
 };
 
+/// A stretch of x to shade behind the lines (an event: a grasp, a force above the limit).
+struct ChartSpan {
+  double from = 0.0, to = 0.0;
+  std::string colour;  ///< a CSS colour (#rrggbb), drawn translucent
+  std::string label;   ///< named in the legend once per label, and as the span's tooltip
+};
+
 struct ChartAxes {
   std::string x_label, y_label;
   double line_at = 0.0;  ///< a dashed horizontal line at this y (with `line_label`), when the label is set
   std::string line_label;
+  std::vector<ChartSpan> spans;
 };
 
 /// One chart (about 900 × 260 pixels) with axes, ticks and a legend. The y

@@ -325,7 +325,14 @@ std::string page(const RunMetrics& m, const RunMetrics* reference, const Picture
                                    {"model force", "#ff7f0e", t, tool.model_force.values}};
     if (reference && i < reference->tools.size())
       force.push_back({"reference: force sent", "#2ca02c", bucket_times(*reference), reference->tools[i].force.values});
-    html += svg_chart(force, {"time (s)", "force (N)", m.force_limit_n, "limit"});
+    // The grasps and the stretches above the limit, shaded on the force chart.
+    ChartAxes force_axes{"time (s)", "force (N)", m.force_limit_n, "limit", {}};
+    for (const GraspEvent& g : tool.grasps)
+      force_axes.spans.push_back({g.start_s, g.start_s + g.duration_s, g.slipped ? "#d62728" : "#2ca02c",
+                                  g.slipped ? "grasp that slipped" : "grasp"});
+    for (const LimitEvent& e : tool.events)
+      force_axes.spans.push_back({e.start_s, e.start_s + e.duration_s, "#ff0000", "above the limit"});
+    html += svg_chart(force, force_axes);
     html += svg_chart({{"indentation depth", "#9467bd", t, tool.depth.values}}, {"time (s)", "depth (mm)", 0.0, ""});
     html += svg_chart({{"tip speed", "#d62728", t, tool.speed.values}}, {"time (s)", "speed (mm/s)", 0.0, ""});
     if (tool.events.empty()) {

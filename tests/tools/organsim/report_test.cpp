@@ -126,6 +126,8 @@ TEST_F(Cli, ReportListsEachGraspAndHowItEnded) {
   EXPECT_FALSE(grasp["slipped"].get<bool>());
   EXPECT_EQ(tool["grasp_slips"], 0);
   EXPECT_NE(read_text(report / "index.html").find("the jaws let go"), std::string::npos);
+  EXPECT_NE(read_text(report / "index.html").find("<title>grasp</title>"), std::string::npos)
+      << "the grasp is shaded on the force chart";
 
   // Held harder than --grasp-limit allows, the tissue slips out of the jaws.
   const fs::path slipped = dir_ / "slipped";
@@ -138,6 +140,7 @@ TEST_F(Cli, ReportListsEachGraspAndHowItEnded) {
   EXPECT_TRUE(weak_tool["grasps"][0]["slipped"].get<bool>());
   EXPECT_EQ(weak_tool["grasp_slips"], 1);
   EXPECT_NE(read_text(slipped / "index.html").find("the tissue slipped out of the jaws"), std::string::npos);
+  EXPECT_NE(read_text(slipped / "index.html").find("<title>grasp that slipped</title>"), std::string::npos);
 
   // The ticks without the jaw columns, as an older run wrote them.
   std::istringstream ticks(read_text(report / "ticks.csv"));

@@ -40,5 +40,29 @@ TEST(SvgChart, ALimitTheDataComeNearIsDrawn) {
   EXPECT_GE(highest_fraction(svg), 0.6);
 }
 
+// Events are shaded behind the lines over their stretch of time, each kind
+// named once in the legend and every span by its tooltip.
+TEST(SvgChart, EventsAreShadedOverTheirTime) {
+  const ChartSeries push{"force sent", "#1f77b4", {0.0, 1.0, 2.0, 3.0, 4.0}, {0.0, 0.5, 0.5, 0.5, 0.0}};
+  ChartAxes axes{"time (s)", "force (N)", 2.0, "limit", {}};
+  axes.spans = {{1.0, 2.0, "#2ca02c", "grasp"}, {2.5, 3.0, "#2ca02c", "grasp"}};
+  const std::string svg = svg_chart({push}, axes);
+  std::size_t shaded = 0;
+  for (std::size_t at = svg.find("<title>grasp</title>"); at != std::string::npos;
+       at = svg.find("<title>grasp</title>", at + 1))
+    ++shaded;
+  EXPECT_EQ(shaded, 2u);
+  // The first span: 1 s to 2 s of a 0-4 s axis over the plot's width.
+  const std::size_t span = svg.find("fill-opacity=\"0.18\"");
+  ASSERT_NE(span, std::string::npos);
+  const std::size_t rect = svg.rfind("<rect ", span);
+  double x = 0, width = 0;
+  std::sscanf(svg.c_str() + svg.find("x=\"", rect), "x=\"%lf\"", &x);
+  std::sscanf(svg.c_str() + svg.find("width=\"", rect), "width=\"%lf\"", &width);
+  EXPECT_NEAR(x, 70 + 660 * 0.25, 0.1);
+  EXPECT_NEAR(width, 660 * 0.25, 0.1);
+  EXPECT_NE(svg.find(">grasp</text>"), std::string::npos) << "named in the legend";
+}
+
 }  // namespace
 }  // namespace organsim::report
