@@ -44,6 +44,8 @@
 #include "organsim/fem/contact_responses.h"
 #include "organsim/fem/elasticity_system.h"
 #include "organsim/fem/factorization.h"
+#include "organsim/fem/organ_fem.h"
+#include "organsim/multibeam/multibeam.h"
 #include "organsim/fem/static_solver.h"
 #include "organsim/fem/tet_mesh.h"
 #include "organsim/model/model_file.h"
@@ -400,7 +402,7 @@ organsim::organ::Organ read_organ(const std::string& path) {
 organsim::realtime::ModelOptions replay_options() {
   organsim::realtime::ModelOptions options;
 #ifdef ORGANSIM_HAVE_FEM_DIRECT
-  options.fem.factorization = direct_factorization;
+  options.edit<organsim::fem::OrganFemOptions>().factorization = direct_factorization;
 #endif
   return options;
 }
@@ -452,7 +454,7 @@ void PeerStep(benchmark::State& state, const std::string& path) {
   std::vector<bool> clamped(3 * mesh.nodes.size(), false);
   std::size_t loaded = 0;
   for (std::size_t n = 0; n < mesh.nodes.size(); ++n) {
-    if ((mesh.nodes[n] - fixed).norm() <= options.fem.fixed_radius)
+    if ((mesh.nodes[n] - fixed).norm() <= options.of<organsim::fem::OrganFemOptions>().fixed_radius)
       clamped[3 * n] = clamped[3 * n + 1] = clamped[3 * n + 2] = true;
     if ((mesh.nodes[n] - press.point).norm() < (mesh.nodes[loaded] - press.point).norm()) loaded = n;
   }

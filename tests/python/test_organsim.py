@@ -146,6 +146,31 @@ def test_replay_gives_the_programs_forces(phantom, tmp_path):
     np.testing.assert_allclose(result["forces"][0], table[:, 2:5], rtol=1e-8, atol=1e-12)
 
 
+def test_the_models_settings_are_the_programs_options_in_si(phantom, tmp_path):
+    # Every model's setting is a keyword (its option's name with _ for -, lengths in m),
+    # read by the model's own registered parameter: the program's forces with the same
+    # settings (--merge sum --volume-springs --fixed-radius 30), bit for bit.
+    path = phantom[0]
+    model = organsim.load(path)
+    session = press_session(model, tmp_path)
+    for kind, settings, options in [("beam", {"merge": "sum"}, ["--merge", "sum"]),
+                                    ("springs", {"volume_springs": True, "fixed_radius": 0.03},
+                                     ["--volume-springs", "--fixed-radius", "30"])]:
+        result = organsim.replay(model, session, kind, **settings)
+        forces_csv = tmp_path / f"{kind}.csv"
+        code, _, err = run_program("replay", path, session, "--model", kind, *options, "--fast", "--forces",
+                                   forces_csv, "--quiet")
+        assert code == 0, err
+        table = np.loadtxt(forces_csv, delimiter=",", skiprows=1)
+        assert np.abs(table[:, 2:5]).max() > 0
+        np.testing.assert_allclose(result["forces"][0], table[:, 2:5], rtol=1e-8, atol=1e-12)
+    with pytest.raises(ValueError, match="no model takes the setting 'stiffness'.*region_threshold"):
+        organsim.Simulation(model, "springs", stiffness=3.0)
+    with pytest.raises(ValueError, match="fixed_radius: the clamp's radius must be a positive length"):
+        organsim.Simulation(model, "linear", fixed_radius=-0.01)
+    assert "region_threshold" in organsim.Simulation.__init__.__doc__
+
+
 def test_the_tip_radius_reaches_the_engine_as_the_programs_does(phantom, tmp_path):
     # With the bake's site compliances a tool of finite size gets the FEM
     # reference's site law for its radius, a point tool the springs' own

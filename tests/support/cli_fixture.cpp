@@ -9,9 +9,9 @@
 
 namespace organsim::cli::testing {
 
-CommandRun run_organsim_with_prefix(const std::string& prefix, const std::string& arguments, const fs::path& dir) {
+CommandRun run_program(const std::string& program, const std::string& arguments, const fs::path& dir) {
   const fs::path err_file = dir / "stderr.txt";
-  const std::string command = prefix + std::string(ORGANSIM_EXECUTABLE) + " " + arguments + " 2>" + err_file.string();
+  const std::string command = program + " " + arguments + " 2>" + err_file.string();
   CommandRun run;
   FILE* pipe = ::popen(command.c_str(), "r");
   std::array<char, 4096> buffer{};
@@ -23,6 +23,10 @@ CommandRun run_organsim_with_prefix(const std::string& prefix, const std::string
   run.err.assign(std::istreambuf_iterator<char>(err), {});
   fs::remove(err_file);
   return run;
+}
+
+CommandRun run_organsim_with_prefix(const std::string& prefix, const std::string& arguments, const fs::path& dir) {
+  return run_program(prefix + ORGANSIM_EXECUTABLE, arguments, dir);
 }
 
 CommandRun run_organsim(const std::string& arguments, const fs::path& dir) {

@@ -20,6 +20,9 @@ struct CommandRun {
   std::string err;
 };
 
+/// Runs `program` (a path, or a command line's start) with `arguments` (already
+/// shell-quoted); stderr goes through a file in `dir`.
+CommandRun run_program(const std::string& program, const std::string& arguments, const std::filesystem::path& dir);
 /// Runs the organsim binary with `arguments` (already shell-quoted), after
 /// `prefix` (e.g. a wrapper command); stderr goes through a file in `dir`.
 CommandRun run_organsim_with_prefix(const std::string& prefix, const std::string& arguments,

@@ -10,6 +10,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <optional>
@@ -167,39 +168,87 @@ void check_model_name(const std::string& name, const model::OrganModel& model) {
   if (const std::string why = realtime::unsuitable_model(*entry, model); !why.empty()) throw std::runtime_error(why);
 }
 
-/// Any of the engine's deformation models (model_registry.h: beam, springs,
-/// linear, corotational, stvk, psh) through the engine's own interface: attach a tool,
-/// step time with the tools' displacements, read each contact's force.
+/// The models' options from keyword arguments: each a registered parameter
+/// (model_options.h) with '_' for '-', a length in m, a flag True or False, a
+/// choice's name, a number. ValueError for a name no model takes or a value out of range.
+realtime::ModelOptions model_options(const py::kwargs& settings) {
+  realtime::ModelOptions options;
+  for (const auto& [key, value] : settings) {
+    std::string name = py::cast<std::string>(key);
+    std::replace(name.begin(), name.end(), '_', '-');
+    std::string known;
+    bool taken = false;
+    for (const realtime::RegisteredModel* entry : realtime::registered_models())
+      for (std::size_t k = 0; k < entry->parameter_count; ++k) {
+        const realtime::ModelParameter& parameter = entry->parameters[k];
+        if (known.find(std::string(" ") + parameter.name + ",") == std::string::npos)
+          known += std::string(" ") + parameter.name + ",";
+        if (name != parameter.name) continue;
+        taken = true;
+        std::string text;
+        realtime::ParameterValue given;
+        if (parameter.kind == realtime::ModelParameter::Kind::choice) {
+          text = py::cast<std::string>(value);
+          given.text = text;
+        } else {
+          given.number = parameter.kind == realtime::ModelParameter::Kind::flag ? (py::cast<bool>(value) ? 1.0 : 0.0)
+                                                                                : py::cast<double>(value);
+        }
+        if (const std::string why = parameter.set(options, given); !why.empty())
+          throw std::invalid_argument(py::cast<std::string>(key) + ": " + why);
+      }
+    if (!taken) {
+      std::replace(known.begin(), known.end(), '-', '_');
+      throw std::invalid_argument("no model takes the setting '" + py::cast<std::string>(key) +
+                                  "'; the models' settings are" + known.substr(0, known.size() - 1));
+    }
+  }
+  return options;
+}
+
+/// The keyword arguments model_options() takes, for the help texts.
+std::string settings_help() {
+  std::string help = "Settings (keyword arguments; lengths in m):";
+  std::vector<std::string> listed;
+  for (const realtime::RegisteredModel* entry : realtime::registered_models())
+    for (std::size_t k = 0; k < entry->parameter_count; ++k) {
+      const realtime::ModelParameter& parameter = entry->parameters[k];
+      if (std::find(listed.begin(), listed.end(), parameter.name) != listed.end()) continue;
+      listed.emplace_back(parameter.name);
+      std::string name = parameter.name;
+      std::replace(name.begin(), name.end(), '-', '_');
+      help += "\n  " + name + ": " + parameter.help;
+    }
+  return help;
+}
+
+/// Any of the engine's deformation models (model_registry.h) through the
+/// engine's own interface: attach a tool, step time with the tools'
+/// displacements, read each contact's force.
 class Simulation {
  public:
-  Simulation(const Model& model, const std::string& kind, std::uint32_t tools, const std::string& merge,
-             double fixed_radius, double tip_radius)
-      : organ_(std::make_shared<organ::Organ>(*model)), contacts_(tools), attached_(tools, false) {
+  Simulation(const Model& model, const std::string& kind, std::uint32_t tools, double tip_radius,
+             const py::kwargs& settings)
+      : organ_(std::make_shared<organ::Organ>(*model)),
+        tip_radius_(tip_radius),
+        contacts_(tools),
+        attached_(tools, false) {
     check_model_name(kind, *model);
-    if (!(tip_radius >= 0.0) || !std::isfinite(tip_radius)) throw std::invalid_argument("tip_radius must be >= 0, m");
-    tip_.radius = tip_radius;
+    if (!geometry::ToolTip::valid_radius(tip_radius)) throw std::invalid_argument("tip_radius must be >= 0, m");
     if (tools < 1 || tools > multibeam::kMaxTools)
       throw std::invalid_argument("tools must be 1 to " + std::to_string(multibeam::kMaxTools));
-    realtime::ModelOptions options;
-    options.beams.merge = merge_rule(merge);
-    options.fem.fixed_radius = fixed_radius;
-    model_ = realtime::make_deformation_model(kind, *organ_, options, tools);
+    model_ = realtime::make_deformation_model(kind, *organ_, model_options(settings), tools);
     positions_.resize(organ_->vertex_count());
     normals_.resize(organ_->vertex_count());
   }
 
   py::dict attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, const std::optional<Eigen::Vector3d>& shaft) {
     check_tool(tool);
-    geometry::ToolTip tip = tip_;
+    if (shaft && (!(shaft->norm() > 0.0) || !shaft->allFinite()))
+      throw std::invalid_argument("the shaft direction is zero or not finite");
     const Eigen::Vector3d normal = organ_->rest_normal_at(organ_->surface_tree().closest_point(rest_point));
-    if (shaft) {
-      if (!(shaft->norm() > 0.0) || !shaft->allFinite())
-        throw std::invalid_argument("the shaft direction is zero or not finite");
-      tip.axis = shaft->normalized();
-    } else {
-      tip.axis = normal;
-    }
-    tip.seat_on(normal);
+    const geometry::ToolTip tip =
+        geometry::ToolTip::touching(tip_radius_, shaft.value_or(Eigen::Vector3d::Zero()), normal);
     if (!model_->attach(tool, rest_point, tip, contacts_[tool]))
       throw std::runtime_error(
           "the model cannot take a contact here (too near the clamp, or too far from the surface)");
@@ -258,7 +307,7 @@ class Simulation {
   }
   std::shared_ptr<organ::Organ> organ_;
   std::unique_ptr<realtime::DeformationModel> model_;
-  geometry::ToolTip tip_;
+  double tip_radius_;  // m
   std::vector<realtime::ContactLinearization> contacts_;
   std::vector<bool> attached_;
   std::vector<model::Point3> positions_, normals_;
@@ -266,16 +315,15 @@ class Simulation {
 
 /// `organsim replay --fast` of a session: the engine's loops stepped
 /// deterministically; every force written to each tool's device.
-py::dict replay(const Model& model, const std::string& session_path, const std::string& kind, const std::string& merge,
-                double fixed_radius, double tip_radius) {
+py::dict replay(const Model& model, const std::string& session_path, const std::string& kind, double tip_radius,
+                const py::kwargs& settings) {
   const devices::Session session = devices::read_session(session_path);
   realtime::EngineOptions options;
-  if (!(tip_radius >= 0.0) || !std::isfinite(tip_radius)) throw std::invalid_argument("tip_radius must be >= 0, m");
+  if (!geometry::ToolTip::valid_radius(tip_radius)) throw std::invalid_argument("tip_radius must be >= 0, m");
   options.tip_radius = tip_radius;
   check_model_name(kind, *model);
   options.model = kind;
-  options.beams.merge = merge_rule(merge);
-  options.fem.fixed_radius = fixed_radius;
+  options.models = model_options(settings);
   const organ::Organ organ(*model);
   realtime::PlaybackOptions playback_options;
   playback_options.records_per_tool = realtime::records_for_whole_session(session.duration, options.force_period);
@@ -504,13 +552,14 @@ PYBIND11_MODULE(_organsim, m) {
            "(max_tools, 3) tip displacements (m; rows of detached tools ignored) -> (positions, normals), each (N, 3) "
            "in the model file's vertex order");
 
-  py::class_<Simulation>(m, "Simulation",
-                         "Any deformation model through the real-time engine's interface: beam, springs, linear, "
-                         "corotational, stvk, psh")
-      .def(py::init<const Model&, const std::string&, std::uint32_t, const std::string&, double, double>(),
-           py::arg("model"), py::arg("kind") = "beam", py::arg("tools") = 1, py::arg("merge") = "influence",
-           py::arg("fixed_radius") = 0.010, py::arg("tip_radius") = 2.5e-3,
-           "tip_radius: the tools' hemispherical end, m (0: a point tool; docs/realtime.md#contact-rule)")
+  py::class_<Simulation>(
+      m, "Simulation",
+      ("Any deformation model through the real-time engine's interface: " + realtime::model_names(", ")).c_str())
+      .def(py::init<const Model&, const std::string&, std::uint32_t, double, const py::kwargs&>(), py::arg("model"),
+           py::arg("kind") = realtime::default_model().name, py::arg("tools") = 1, py::arg("tip_radius") = 2.5e-3,
+           ("tip_radius: the tools' hemispherical end, m (0: a point tool; docs/realtime.md#contact-rule). " +
+            settings_help())
+               .c_str())
       .def_property_readonly("kind", &Simulation::kind)
       .def("attach", &Simulation::attach, py::arg("tool"), py::arg("rest_point"), py::arg("shaft") = py::none(),
            "Contact begins where the tool's tip touches a rest-surface point (m); shaft: unit direction from the tip "
@@ -525,7 +574,7 @@ PYBIND11_MODULE(_organsim, m) {
            "What the 1 kHz loop renders: F0 - K (d - d0) from the last step, N")
       .def("contact", &Simulation::contact, py::arg("tool"));
 
-  m.def("_replay", &replay, py::arg("model"), py::arg("session"), py::arg("kind") = "beam",
-        py::arg("merge") = "influence", py::arg("fixed_radius") = 0.010, py::arg("tip_radius") = 2.5e-3,
+  m.def("_replay", &replay, py::arg("model"), py::arg("session"), py::arg("kind") = realtime::default_model().name,
+        py::arg("tip_radius") = 2.5e-3,
         "organsim replay --fast: forces (tools, R, 3) N at times (R,) s, in_contact (tools, R)");
 }

@@ -26,6 +26,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command_line.h"
+#include "organsim/realtime/model_registry.h"
 #include "organsim/model/model_file.h"
 #include "depth_curve_fit.h"
 #include "held_out_evaluation.h"
@@ -37,7 +38,7 @@ namespace {
 
 struct CalibrateOptions {
   std::string model_path, output_path;
-  std::string reference = "psh";
+  std::string reference = realtime::reference_model().name;
   int presses = 16;
   double depth_mm = 5.0;
   std::uint32_t seed = 1;
@@ -260,8 +261,10 @@ void record_calibration(model::OrganModel& calibrated, const CalibrateOptions& o
   parameters["calibration_presses"] = fmt::format("{} fitted, {} held out", fitted, held_out);
   parameters["calibration_depth_mm"] = fmt::format("{:g}", o.depth_mm);
   parameters["calibration_seed"] = std::to_string(o.seed);
-  parameters["calibration_fixed_radius_mm"] = fmt::format("{:g}", o.press.tuning.fixed_radius_mm);
-  parameters["calibration_beam"] = fmt::format("{}, {} sections", o.press.theory, o.press.sections);
+  // The models' settings the presses were made with: calibration_<model> = "name value, …".
+  for (const realtime::RegisteredModel* entry : realtime::registered_models())
+    if (entry->name == o.reference || entry->matches_reference)
+      parameters["calibration_" + std::string(entry->name)] = parameter_values(*entry, o.press.tuning.models).dump();
   parameters["calibration_held_out_beam"] =
       fmt::format("displacement {:.3g} -> {:.3g} % of the bounding box, force off by x {:.3g} -> {:.3g}",
                   100 * before.beam_difference, 100 * after.beam_difference, before.beam_factor, after.beam_factor);
@@ -392,7 +395,7 @@ int run_calibrate(CalibrateOptions o) {
 
   // What the user gets: every held-out press again with both materials.
   model::OrganModel calibrated = with_material(original, c.after);
-  if (!original.sites.empty() && o.curve_sites > 0 && o.press.tuning.tip_radius_mm > 0.0) {
+  if (!original.sites.empty() && o.curve_sites > 0 && o.press.tuning.tip_radius > 0.0) {
     DepthCurveOptions curve;
     curve.sites = o.curve_sites;
     curve.depths_mm = o.evaluation.depths_mm;
@@ -405,10 +408,10 @@ int run_calibrate(CalibrateOptions o) {
     curve.press = o.press;
     c.curve = fit_depth_curve(original, curve);
     calibrated.sites.depth_curve = c.curve.curve;
-    calibrated.sites.curve_tip_radius = o.press.tuning.tip_radius_mm * 1e-3;
+    calibrated.sites.curve_tip_radius = o.press.tuning.tip_radius;
     calibrated.provenance.parameters["calibration_depth_curve"] = fmt::format(
         "{} on {:g} mm cells, {} sites, {} of {} presses solved, tip {:g} mm", o.reference, c.curve.refine_size_mm,
-        o.curve_sites, c.curve.solved, c.curve.presses, o.press.tuning.tip_radius_mm);
+        o.curve_sites, c.curve.solved, c.curve.presses, o.press.tuning.tip_radius * 1e3);
   }
   note("calibrate", "measuring the held-out presses before and after");
   c.error_before = measure_held_out(organ, held_out, o.press, extent);
@@ -431,7 +434,7 @@ Command add_calibrate_command(CLI::App& app) {
   app.add_option("model", o->model_path, "Model file (.organ)")->required();
   app.add_option("-o,--output", o->output_path, "The calibrated model file to write (not with --evaluate)");
   app.add_option("--reference", o->reference, "The FEM model the fast models are fitted to")
-      ->check(CLI::IsMember({"psh", "corotational"}))
+      ->check(CLI::IsMember(reference_model_names()))
       ->capture_default_str();
   app.add_option("--presses", o->presses, "Presses spread over the surface: half to fit, half held out (4-256)")
       ->capture_default_str();
@@ -441,7 +444,6 @@ Command add_calibrate_command(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--seed", o->seed, "Where the press sites start (the same seed, the same sites)")
       ->capture_default_str();
-  add_beam_options(app, o->press);
   add_model_tuning_options(app, o->press.tuning);
   app.add_option("--settle", o->press.settle_seconds,
                  "Mass-spring model: seconds each press is held before the force is read")

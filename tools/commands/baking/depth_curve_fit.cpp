@@ -17,7 +17,7 @@ namespace organsim::cli {
 
 DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOptions& o) {
   DepthCurveFit fit;
-  const double radius_mm = o.press.tuning.tip_radius_mm;
+  const double radius_mm = o.press.tuning.tip_radius * 1e3;
   if (model.sites.empty() || !(radius_mm > 0.0) || o.sites <= 0) return fit;
   const organ::Organ organ(model);
   const std::vector<Eigen::Vector3d> normals = rest_normals(organ);
@@ -26,14 +26,18 @@ DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOp
   const double refine_radius_mm = *std::max_element(o.depths_mm.begin(), o.depths_mm.end()) + 2.0 * radius_mm;
   // The fast models' force with the law alone (no curve, g = 1), pressed by
   // the same contact rule as the reference (a tool that slips under the law
-  // slips under it at the curve's sites too); the beam's where the model has
-  // beam tables, else the springs' (both give the site law's force).
+  // slips under it at the curve's sites too): the first registered model
+  // matched to the reference that runs on this model file (each gives the site
+  // law's force).
   model::OrganModel linear_model = model;
   linear_model.sites.depth_curve.clear();
   const organ::Organ linear_law(std::move(linear_model));
-  const char* fast_model = model.beams.empty() ? "springs" : "beam";
+  std::string fast_model;
+  for (const realtime::RegisteredModel* entry : realtime::registered_models())
+    if (entry->matches_reference && fast_model.empty() && realtime::unsuitable_model(*entry, model).empty())
+      fast_model = entry->name;
   PressOptions fast_press = o.press;
-  fast_press.tuning.unmatched = false;
+  set_parameter(fast_press.tuning.models, "unmatched", {0.0, {}});
   // Per site: its presses and, for each that solved, (depth mm, ln |F_ref| / |F_law|).
   auto press_site = [&](std::size_t k) {
     const Eigen::Vector3d at = site_point(organ, sites[k]);
@@ -57,7 +61,7 @@ DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOp
         }
         organ::SiteLaw law;
         const geometry::SurfacePoint touched = organ.surface_tree().closest_point(tool.point_mm * 1e-3);
-        if (!(force.norm() > 0.0) || !law.set(organ, touched, radius_mm * 1e-3)) continue;
+        if (!(force.norm() > 0.0) || !law.set(organ, touched, o.press.tuning.tip_radius)) continue;
         const Eigen::Vector3d linear = press(fast_model, linear_law, {tool}, fast_press).tools[0].force;
         if (!(linear.norm() > 0.0)) continue;
         ratios.push_back({exact_json(depth), exact_json(std::log(force.norm() / linear.norm()))});

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "organsim/realtime/model_registry.h"
 #include "organsim/model/organ_model.h"
 #include "static_press.h"
 
@@ -24,7 +25,7 @@ struct DepthCurveOptions {
   std::uint32_t seed = 1;
   double refine_size_mm =
       -1.0;  ///< the reference's cells under each press: < 0 half the tip's radius; 0 the model's own
-  std::string reference = "psh";
+  std::string reference = realtime::reference_model().name;
   /// Processes the sites are shared among (site_jobs.h; the curve is the
   /// same whatever the number); 0: one per CPU.
   int jobs = 0;
@@ -41,7 +42,7 @@ struct DepthCurveFit {
 };
 
 /// The depth curve of `model` (which has site compliances) for the tip of
-/// `o.press.tuning.tip_radius_mm`. Throws std::runtime_error when no press solves.
+/// `o.press.tuning.tip_radius`. Throws std::runtime_error when no press solves.
 DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOptions& o);
 
 }  // namespace organsim::cli

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command_line.h"
+#include "organsim/realtime/model_registry.h"
 #include "plot/power_law.h"
 #include "press_plan.h"
 #include "refined_reference.h"
@@ -22,7 +23,13 @@ namespace organsim::cli {
 namespace {
 
 constexpr double kDegreesPerRadian = 57.29577951308232;
-const char* const kFastModels[] = {"beam", "springs"};
+/// The models matched to the reference (model_registry.h), which the evaluation measures.
+std::vector<std::string> fast_models() {
+  std::vector<std::string> names;
+  for (const realtime::RegisteredModel* entry : realtime::registered_models())
+    if (entry->matches_reference) names.emplace_back(entry->name);
+  return names;
+}
 
 /// One fast model's answer to one press, against the reference's.
 struct FastAnswer {
@@ -206,7 +213,7 @@ void print_json(const EvaluationOptions& o, double refine_size_mm, std::size_t s
     }
     presses.push_back(std::move(p));
   }
-  for (const char* model : kFastModels) {
+  for (const std::string& model : fast_models()) {
     nlohmann::json by_depth;
     for (const double depth : o.depths_mm) {
       auto at = [&](const PressRecord& r) { return r.depth_mm == depth; };
@@ -234,7 +241,7 @@ void print_json(const EvaluationOptions& o, double refine_size_mm, std::size_t s
   }
   const nlohmann::json j = {{"model", o.model_path},
                             {"reference", o.reference},
-                            {"tip_radius_mm", o.press.tuning.tip_radius_mm},
+                            {"tip_radius_mm", o.press.tuning.tip_radius * 1e3},
                             {"reference_cells_mm", refine_size_mm},
                             {"check_cells_mm", o.check_size_mm},
                             {"seed", o.seed},
@@ -256,7 +263,7 @@ void print_table(const EvaluationOptions& o, double refine_size_mm, std::size_t 
       "evaluate", o.model_path, o.reference,
       refine_size_mm > 0.0 ? fmt::format("tetrahedra re-meshed to {:g} mm around each site", refine_size_mm)
                            : std::string("the model's own tetrahedra"),
-      sites, o.seed, records.size(), o.press.tuning.tip_radius_mm);
+      sites, o.seed, records.size(), o.press.tuning.tip_radius * 1e3);
   for (const PressRecord& r : records)
     if (!r.reference_solved)
       std::cout << fmt::format("{:<14}site {} {} {:g} mm ({}): {}\n", "unsolved", r.site + 1, tilt_name(r.tilt),
@@ -267,7 +274,7 @@ void print_table(const EvaluationOptions& o, double refine_size_mm, std::size_t 
       "diagonal ({} of {} presses solved by the reference)\n\n",
       records.size() - failed, records.size());
   std::cout << "| model   | depth | direction | presses | force factor | direction mean / max | displacement |\n";
-  for (const char* model : kFastModels)
+  for (const std::string& model : fast_models())
     for (const double depth : o.depths_mm)
       for (const char* direction : {"straight", "tilted", "all"}) {
         const Summary s = summarize(records, model, [&](const PressRecord& r) {
@@ -473,12 +480,13 @@ std::vector<PressRecord> press_site(const Plan& plan, std::size_t k) {
     if (!r.reference_solved) continue;
     PressResult reference;
     reference.positions = std::move(surfaces[i]);
-    for (const char* name : kFastModels)
-      r.fast[name] =
-          answer(name, organ, r, reference, std::string(name) == "springs" ? plan.settled : o.press, plan.extent);
-    detail("calibrate",
-           fmt::format("|F| {} {:.4f} N, beam {:.4f} N, springs {:.4f} N", o.reference, r.reference_force.norm(),
-                       r.fast["beam"].force.norm(), r.fast["springs"].force.norm()));
+    std::string forces;
+    for (const std::string& name : fast_models()) {
+      const bool settles = realtime::find_model(name)->static_press == realtime::StaticPress::settled;
+      r.fast[name] = answer(name.c_str(), organ, r, reference, settles ? plan.settled : o.press, plan.extent);
+      forces += fmt::format(", {} {:.4f} N", name, r.fast[name].force.norm());
+    }
+    detail("calibrate", fmt::format("|F| {} {:.4f} N{}", o.reference, r.reference_force.norm(), forces));
   }
   return records;
 }
@@ -543,10 +551,12 @@ int run_evaluation(const EvaluationOptions& o) {
     if (!(d > 0.0 && std::isfinite(d)))
       throw CLI::ValidationError("--depths", "each depth must be a positive number of mm");
   if (o.jobs < 0) throw CLI::ValidationError("--jobs", "must be 0 (one per CPU) or more");
-  const model::OrganModel model = load_simulation_model("calibrate", o.model_path, {o.reference, "beam", "springs"});
-  warn_if_depth_curve_rescaled("calibrate", model, {"beam", "springs"}, o.press.tuning);
+  std::vector<std::string> needed = fast_models();
+  needed.push_back(o.reference);
+  const model::OrganModel model = load_simulation_model("calibrate", o.model_path, needed);
+  warn_if_depth_curve_rescaled("calibrate", model, fast_models(), o.press.tuning);
   const organ::Organ organ(model);
-  const double radius_mm = o.press.tuning.tip_radius_mm;
+  const double radius_mm = o.press.tuning.tip_radius * 1e3;
   // A mass-spring press held longer for a softened network (calibrate's rule).
   PressOptions settled = o.press;
   settled.settle_seconds *= std::min(5.0, 1.0 / std::sqrt(std::min(1.0, model.material.spring_stiffness_scale)));
@@ -558,16 +568,18 @@ int run_evaluation(const EvaluationOptions& o) {
       o.reference_cache,
       o.reference_cache.empty()
           ? std::string()
-          : reference_fingerprint(model, {{"reference", o.reference},
-                                          {"depths_mm", o.depths_mm},
-                                          {"refine_size_mm", exact_json(refine_size_mm)},
-                                          {"refine_radius_mm", exact_json(refine_radius_mm)},
-                                          {"check_size_mm", exact_json(o.check_size_mm)},
-                                          {"snap_distance_mm", exact_json(o.press.snap_distance_mm)},
-                                          {"fixed_radius_mm", exact_json(o.press.tuning.fixed_radius_mm)},
-                                          {"linear_solver", o.press.tuning.linear_solver},
-                                          {"tip_radius_mm", exact_json(radius_mm)},
-                                          {"friction", exact_json(o.press.tuning.friction)}}));
+          : reference_fingerprint(
+                model,
+                {{"reference", o.reference},
+                 {"depths_mm", o.depths_mm},
+                 {"refine_size_mm", exact_json(refine_size_mm)},
+                 {"refine_radius_mm", exact_json(refine_radius_mm)},
+                 {"check_size_mm", exact_json(o.check_size_mm)},
+                 {"snap_distance_mm", exact_json(o.press.snap_distance_mm)},
+                 {"fixed_radius_mm", exact_json(o.press.tuning.models.of<fem::OrganFemOptions>().fixed_radius * 1e3)},
+                 {"linear_solver", o.press.tuning.linear_solver},
+                 {"tip_radius_mm", exact_json(radius_mm)},
+                 {"friction", exact_json(o.press.tuning.friction)}}));
   const Plan plan{o,
                   model,
                   organ,

@@ -10,13 +10,14 @@
 #include <string>
 #include <vector>
 
+#include "organsim/realtime/model_registry.h"
 #include "static_press.h"
 
 namespace organsim::cli {
 
 struct EvaluationOptions {
   std::string model_path;
-  std::string reference = "psh";
+  std::string reference = realtime::reference_model().name;
   int sites = 24;
   std::vector<double> depths_mm{2.0, 5.0, 10.0};
   std::uint32_t seed = 1;

@@ -54,7 +54,7 @@ constexpr double kFirstSide[] = {0.0, 0.5 * M_PI};  ///< where tangent_a's and t
 std::vector<std::uint32_t> press_sites(const organ::Organ& organ, int count, std::uint32_t seed,
                                        const PressOptions& o) {
   const std::vector<model::Point3>& vertices = organ.model().surface_vertices;
-  const double clamp_radius = o.tuning.fixed_radius_mm * 1e-3;
+  const double clamp_radius = o.tuning.models.of<fem::OrganFemOptions>().fixed_radius;
   double farthest = 0.0;
   for (const model::Point3& v : vertices) farthest = std::max(farthest, (point(v) - organ.fixed_point()).norm());
   const double nearest_allowed = clamp_radius + 0.25 * (farthest - clamp_radius);

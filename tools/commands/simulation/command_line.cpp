@@ -176,6 +176,13 @@ std::string deformation_model_help() {
   return help + "; docs/architecture.md";
 }
 
+std::vector<std::string> reference_model_names() {
+  std::vector<std::string> names;
+  for (const realtime::RegisteredModel* model : realtime::registered_models())
+    if (model->static_press == realtime::StaticPress::equilibrium) names.emplace_back(model->name);
+  return names;
+}
+
 void add_deformation_model_option(CLI::App& app, std::string& kind) {
   app.add_option("--model", kind, deformation_model_help())
       ->check(CLI::IsMember(deformation_model_names()))
@@ -217,11 +224,13 @@ void warn_if_depth_curve_rescaled(const std::string& command, const model::Organ
                                   const std::vector<std::string>& models, const ModelTuning& tuning,
                                   const devices::Session* session) {
   const model::SiteCompliance& sites = model.sites;
-  const bool matched =
-      std::any_of(models.begin(), models.end(), [](const std::string& m) { return m == "beam" || m == "springs"; });
-  if (sites.depth_curve.empty() || !matched || tuning.unmatched) return;
+  const bool matched = std::any_of(models.begin(), models.end(), [&](const std::string& m) {
+    const realtime::RegisteredModel* entry = realtime::find_model(m);
+    return entry && entry->matches_reference && entry->matches_reference(tuning.models);
+  });
+  if (sites.depth_curve.empty() || !matched) return;
   realtime::EngineOptions options;
-  options.tip_radius = tuning.tip_radius_mm * 1e-3;
+  options.tip_radius = tuning.tip_radius;
   if (session) options = realtime::with_session_tips(options, *session);
   std::vector<double> radii;  // m, each tool's as the engine will take it
   for (std::size_t k = 0; k < (session ? session->tools.size() : 1); ++k) radii.push_back(options.tip_radius_of(k));

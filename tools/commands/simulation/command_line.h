@@ -71,6 +71,9 @@ const std::vector<std::string>& deformation_model_names();
 /// "Deformation model: beam (multi-beam …), springs (…), …": the registered
 /// models with their descriptions, for --model's help.
 std::string deformation_model_help();
+/// The models a fast model may be measured against: those with a static
+/// equilibrium (the FEM models).
+std::vector<std::string> reference_model_names();
 /// --model NAME: which deformation model the engine runs (default beam).
 /// `kind` receives a registered name (realtime::find_model).
 void add_deformation_model_option(CLI::App& app, std::string& kind);
@@ -89,8 +92,8 @@ struct ModelTuning;
 /// fitted for a tip of another radius than a tool's: the curve is then read at
 /// the same depth relative to the tip's radius
 /// (docs/matching.md#the-depth-curve-organsim-calibrate). Only the fast models
-/// matched to the reference read it (`models` holds beam or springs, without
-/// --unmatched), and a point tool has no site law. The tools' radii: each
+/// matched to the reference read it (`models` holds one that `tuning` keeps
+/// matched: RegisteredModel::matches_reference), and a point tool has no site law. The tools' radii: each
 /// `session` tool's own tip line, else --tip-radius.
 void warn_if_depth_curve_rescaled(const std::string& command, const model::OrganModel& model,
                                   const std::vector<std::string>& models, const ModelTuning& tuning,

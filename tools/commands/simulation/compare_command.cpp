@@ -26,7 +26,7 @@ struct CompareOptions {
   std::string model_path;
   std::vector<std::string> tools;
   std::vector<std::string> models = deformation_model_names();
-  std::string reference = "psh";
+  std::string reference = realtime::reference_model().name;
   bool models_given = false;  // --models on the command line
   bool json = false;
   std::string out_dir;

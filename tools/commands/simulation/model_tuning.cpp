@@ -1,5 +1,12 @@
 #include "model_tuning.h"
 
+#include <algorithm>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
 #include "command_line.h"
 
 #ifdef ORGANSIM_HAVE_FEM_DIRECT
@@ -38,43 +45,137 @@ fem::FactorizationFactory factorization_factory(const std::string& linear_solver
   return nullptr;
 }
 
+namespace {
+
+using realtime::ModelParameter;
+
+/// Every model's parameter called `name`, in the order the models are registered.
+std::vector<std::pair<const realtime::RegisteredModel*, const ModelParameter*>> parameters_called(
+    const std::string& name) {
+  std::vector<std::pair<const realtime::RegisteredModel*, const ModelParameter*>> found;
+  for (const realtime::RegisteredModel* entry : realtime::registered_models())
+    for (std::size_t k = 0; k < entry->parameter_count; ++k)
+      if (name == entry->parameters[k].name) found.emplace_back(entry, &entry->parameters[k]);
+  return found;
+}
+
+/// The value as the command line writes it (lengths in mm).
+std::string command_line_text(const ModelParameter& parameter, const realtime::ParameterValue& value) {
+  switch (parameter.kind) {
+    case ModelParameter::Kind::length: return fmt::format("{:g}", value.number * 1e3);
+    case ModelParameter::Kind::choice: return std::string(value.text);
+    case ModelParameter::Kind::flag: return value.number != 0.0 ? "true" : "false";
+    case ModelParameter::Kind::number:
+    case ModelParameter::Kind::count: break;
+  }
+  return fmt::format("{:g}", value.number);
+}
+
+std::vector<std::string> choices_of(const ModelParameter& parameter) {
+  std::vector<std::string> choices;
+  const std::string all = parameter.choices ? parameter.choices : "";
+  for (std::size_t start = 0; start <= all.size();) {
+    const std::size_t bar = std::min(all.find('|', start), all.size());
+    choices.push_back(all.substr(start, bar - start));
+    start = bar + 1;
+  }
+  return choices;
+}
+
+}  // namespace
+
+void set_parameter(realtime::ModelOptions& options, const std::string& name, const realtime::ParameterValue& value,
+                   const std::string& text) {
+  for (const auto& [entry, parameter] : parameters_called(name))
+    if (const std::string why = parameter->set(options, value); !why.empty())
+      throw CLI::ValidationError("--" + name, "'" + (text.empty() ? std::string(value.text) : text) + "': " + why);
+}
+
+realtime::ModelOptions ModelTuning::with_default_linear_solver() {
+  realtime::ModelOptions options;
+  options.edit<fem::OrganFemOptions>().factorization = factorization_factory(default_linear_solver());
+  return options;
+}
+
 void add_model_tuning_options(CLI::App& app, ModelTuning& tuning) {
-  app.add_option("--tip-radius", tuning.tip_radius_mm,
-                 "The tools' end: a hemisphere of this radius on the shaft, mm (a 5 mm laparoscopic probe: 2.5; 0: a "
-                 "point tool; docs/realtime.md#contact-rule)")
+  app.add_option_function<double>(
+         "--tip-radius", [&tuning](double mm) { tuning.tip_radius = mm * 1e-3; },
+         "The tools' end: a hemisphere of this radius on the shaft, mm (a 5 mm laparoscopic probe: 2.5; 0: a "
+         "point tool; docs/realtime.md#contact-rule)")
       ->check(kNonNegative)
-      ->capture_default_str();
+      ->default_str(fmt::format("{:g}", ModelTuning{}.tip_radius * 1e3));
   app.add_option("--friction", tuning.friction,
                  "Coulomb's friction coefficient between the tools and the organ: beyond it the organ slips under a "
                  "tool, in the real-time engine and in static presses alike (wet serosa on steel: 0.1-0.3; inf: it "
                  "never slips, as in a grasp; docs/realtime.md#contact-rule)")
       ->check(kNonNegativeOrInfinity)
       ->capture_default_str();
-  app.add_option(
-         "--fixed-radius", tuning.fixed_radius_mm,
-         "FEM models (and springs with --volume-springs): clamp the tetrahedral nodes within this distance of the "
-         "fixed point, mm (docs/fem.md)")
-      ->check(kPositive)
-      ->capture_default_str();
-  app.add_flag("--volume-springs", tuning.volume_springs,
-               "springs: also a spring on every tetrahedron edge, the surface tied to the tetrahedra, held at the "
-               "clamp like the FEM models (--fixed-radius) instead of by body springs (docs/springs.md)");
-  app.add_option(
-         "--region", tuning.region,
-         "springs: integrate all nodes, only a dynamic region around the tools, or a fixed one (--region-rings)")
-      ->check(CLI::IsMember({"all", "dynamic", "fixed"}))
-      ->capture_default_str();
-  app.add_option("--region-rings", tuning.region_rings, "springs, fixed region: its size in springs from each tool")
-      ->check(CLI::Range(1u, 1000000u))
-      ->capture_default_str();
-  app.add_option("--region-threshold", tuning.region_threshold_mm,
-                 "springs, dynamic region: a node displaced beyond this activates its neighbours, mm")
-      ->check(kPositive)
-      ->capture_default_str();
-  app.add_flag("--unmatched", tuning.unmatched,
-               "beam, springs: the model's own contact force, not the FEM reference's site law that a model with "
-               "site compliances gives a tool of finite size (docs/matching.md)");
+  std::vector<std::string> added;
+  for (const realtime::RegisteredModel* entry : realtime::registered_models())
+    for (std::size_t k = 0; k < entry->parameter_count; ++k) {
+      const ModelParameter& parameter = entry->parameters[k];
+      const std::string name = parameter.name;
+      if (std::find(added.begin(), added.end(), name) != added.end()) continue;
+      added.push_back(name);
+      realtime::ModelOptions& models = tuning.models;
+      if (parameter.kind == ModelParameter::Kind::flag) {
+        app.add_flag_callback(
+            "--" + name,
+            [&models, name] {
+              set_parameter(models, name, {1.0, {}}, "true");
+            },
+            parameter.help);
+        continue;
+      }
+      const bool length = parameter.kind == ModelParameter::Kind::length;
+      const std::string help = length ? std::string(parameter.help) + ", mm" : parameter.help;
+      CLI::Option* option = app.add_option_function<std::string>(
+          "--" + name,
+          [&models, name, &parameter](const std::string& text) {
+            realtime::ParameterValue value{0.0, text};
+            if (parameter.kind != ModelParameter::Kind::choice) {
+              char* end = nullptr;
+              value.number = std::strtod(text.c_str(), &end);
+              if (text.empty() || end != text.c_str() + text.size())
+                throw CLI::ValidationError("--" + name, "'" + text + "' is not a number");
+              if (parameter.kind == ModelParameter::Kind::length) value.number *= 1e-3;  // mm on the command line
+            }
+            set_parameter(models, name, value, text);
+          },
+          help);
+      option->default_str(command_line_text(parameter, parameter.get(realtime::ModelOptions{})));
+      if (parameter.kind == ModelParameter::Kind::choice) option->check(CLI::IsMember(choices_of(parameter)));
+    }
   add_linear_solver_option(app, tuning.linear_solver);
+  app.get_option("--linear-solver")->each([&tuning](const std::string& solver) {
+    tuning.models.edit<fem::OrganFemOptions>().factorization = factorization_factory(solver);
+  });
+}
+
+std::string choice_text(const realtime::RegisteredModel& entry, const realtime::ModelOptions& options,
+                        const std::string& lead) {
+  std::string text;
+  for (std::size_t k = 0; k < entry.parameter_count; ++k)
+    if (entry.parameters[k].kind == ModelParameter::Kind::choice)
+      text += lead + entry.parameters[k].name + " " + std::string(entry.parameters[k].get(options).text);
+  return text;
+}
+
+nlohmann::json parameter_values(const realtime::RegisteredModel& entry, const realtime::ModelOptions& options) {
+  nlohmann::json values = nlohmann::json::object();
+  for (std::size_t k = 0; k < entry.parameter_count; ++k) {
+    const ModelParameter& parameter = entry.parameters[k];
+    const realtime::ParameterValue value = parameter.get(options);
+    nlohmann::json& slot = values[parameter.name];
+    switch (parameter.kind) {
+      case ModelParameter::Kind::length: slot = value.number * 1e3; break;
+      case ModelParameter::Kind::choice: slot = std::string(value.text); break;
+      case ModelParameter::Kind::flag: slot = value.number != 0.0; break;
+      case ModelParameter::Kind::number:
+      case ModelParameter::Kind::count: slot = value.number; break;
+    }
+  }
+  return values;
 }
 
 void add_grasp_option(CLI::App& app, ModelTuning& tuning) {
@@ -87,30 +188,11 @@ void add_grasp_option(CLI::App& app, ModelTuning& tuning) {
       ->capture_default_str();
 }
 
-void apply_model_tuning(const ModelTuning& tuning, fem::OrganFemOptions& fem, realtime::SpringModelOptions& springs) {
-  fem.fixed_radius = tuning.fixed_radius_mm * 1e-3;
-  fem.factorization = factorization_factory(tuning.linear_solver);
-  springs.network.volume_springs = tuning.volume_springs;
-  if (tuning.volume_springs) {
-    // The body springs stand in for the interior a surface network lacks, and
-    // pin each vertex in space; with the interior's springs there, the organ is
-    // held where the FEM models hold it, so that it moves about the clamp as
-    // theirs does (docs/springs.md#organ-networks-make_organ_network).
-    springs.network.body_factor = 0.0;
-    springs.network.clamp_radius = tuning.fixed_radius_mm * 1e-3;
-  }
-  springs.simulation.region = springs::parse_region(tuning.region);
-  springs.simulation.region_rings = tuning.region_rings;
-  springs.simulation.threshold = tuning.region_threshold_mm * 1e-3;
-  springs.match_sites = !tuning.unmatched;
-}
-
 void apply_model_tuning(const ModelTuning& tuning, realtime::EngineOptions& engine) {
-  apply_model_tuning(tuning, engine.fem, engine.springs);
-  engine.tip_radius = tuning.tip_radius_mm * 1e-3;
+  engine.models = tuning.models;
+  engine.tip_radius = tuning.tip_radius;
   engine.friction = tuning.friction;
   engine.grasp_limit = tuning.grasp_limit;
-  engine.beams.match_sites = !tuning.unmatched;
 }
 
 }  // namespace organsim::cli

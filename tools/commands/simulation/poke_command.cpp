@@ -26,7 +26,7 @@ struct PokeOptions {
   bool json = false;
   std::string out_path;
   std::string png_path;  ///< a picture of the deformed tetrahedra, or empty
-  std::string deformation = "beam";
+  std::string deformation = realtime::default_model().name;
   std::string compare;  ///< a second model to press the same way, or empty
   PressOptions press;
 };
@@ -41,7 +41,7 @@ void draw_tetrahedra(const organ::Organ& organ, const PressResult& r, const std:
     throw std::runtime_error("--png: the " + o.deformation +
                              " model moves only the surface here (the mass-spring model needs --volume-springs)");
   plot::FieldPanel panel;
-  panel.title = o.deformation == "beam" ? fmt::format("beam, {} merge", o.press.merge) : o.deformation;
+  panel.title = o.deformation + choice_text(*realtime::find_model(o.deformation), o.press.tuning.models, ", ");
   const std::vector<model::Point3>& rest = organ.model().volume_vertices;
   double deepest = 0.0;
   for (const ToolSpec& t : tools) deepest = std::max(deepest, t.displacement_mm.norm());
@@ -77,8 +77,9 @@ int run_poke(const PokeOptions& o) {
   warn_if_depth_curve_rescaled("poke", loaded, models, o.press.tuning);
   const std::vector<model::Triangle> file_triangles = loaded.surface_triangles;
   const organ::Organ organ(std::move(loaded));
-  const bool beam = o.deformation == "beam";
-  const bool fem = !beam && o.deformation != "springs";  // the FEM models hold points of the boundary
+  const realtime::RegisteredModel& entry = *realtime::find_model(o.deformation);
+  const bool beam = entry.static_press == realtime::StaticPress::beam_tables;
+  const bool fem = entry.static_press == realtime::StaticPress::equilibrium;  // they hold points of the boundary
   const PressResult r = press(o.deformation, organ, tools, o.press);
   const std::vector<model::Point3>& positions = r.positions;
   const Deformation shape = measure(organ, r);
@@ -104,8 +105,7 @@ int run_poke(const PokeOptions& o) {
     j["model"] = o.model_path;
     j["deformation_model"] = o.deformation;
     j["setup"] = r.summary;
-    j["merge"] = o.press.merge;
-    j["theory"] = o.press.theory;
+    j.update(parameter_values(entry, o.press.tuning.models));
     nlohmann::json list = nlohmann::json::array();
     for (std::uint32_t i = 0; i < tools.size(); ++i) {
       const ToolResult& t = r.tools[i];
@@ -158,9 +158,9 @@ int run_poke(const PokeOptions& o) {
     const ToolResult& t = r.tools[i];
     std::cout << fmt::format("{:<14}at {} -> action point {} (snapped {:.2f} mm){}\n", fmt::format("tool {}", i + 1),
                              mm(tools[i].point_mm), mm(t.action_point * 1e3), t.snap_distance * 1e3,
-                             beam                         ? fmt::format(", beam {:.1f} mm", t.beam_length * 1e3)
-                             : o.deformation == "springs" ? std::string(", held node")
-                                                          : std::string(", held boundary point"));
+                             beam  ? fmt::format(", beam {:.1f} mm", t.beam_length * 1e3)
+                             : fem ? std::string(", held boundary point")
+                                   : std::string(", held node"));
     std::cout << fmt::format("{:<14}press {} -> action point moved {} ({:.2f} mm from the tool's target)\n", "",
                              mm(tools[i].displacement_mm), mm(t.action_moved * 1e3),
                              (t.action_moved * 1e3 - tools[i].displacement_mm).norm());
@@ -177,7 +177,7 @@ int run_poke(const PokeOptions& o) {
         "{:<14}beam {:.1f} us per tool, force {:.3f} us per tool, deformation {:.3f} ms "
         "(first frame of a contact, normals included)\n",
         "time", r.attach_seconds * 1e6, r.force_seconds * 1e6, r.deform_seconds * 1e3);
-  else if (o.deformation == "springs")
+  else if (!fem)
     std::cout << fmt::format(
         "{:<14}attach {:.1f} us per tool, force {:.3f} us per tool, deformation {:.3f} ms per frame "
         "(normals included)\n",

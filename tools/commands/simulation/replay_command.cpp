@@ -38,8 +38,7 @@ using namespace organsim::realtime;
 struct ReplayOptions {
   std::string model_path;
   std::string session_path;
-  std::string merge = "influence";
-  std::vector<std::string> models{"beam"};
+  std::vector<std::string> models{realtime::default_model().name};
   ModelTuning tuning;
   std::string forces_path;
   std::string frames_dir;
@@ -213,7 +212,6 @@ EngineOptions engine_options(const ReplayOptions& o, const std::string& name) {
   options.model = name;
   if (!o.report_dir.empty()) options.tick_records = report::kTickRecordsPerTool;
   apply_model_tuning(o.tuning, options);
-  multibeam::parse_merge_rule(o.merge, options.beams.merge);  // --merge admits only the names it knows
   return options;
 }
 
@@ -326,7 +324,7 @@ void print_json(const ReplayOptions& o, const Session& session, const ModelRun& 
   j["model"] = o.model_path;
   j["session"] = o.session_path;
   j["mode"] = o.fast ? "fast" : "realtime";
-  j["merge"] = o.merge;
+  j.update(parameter_values(*realtime::find_model(run.name), o.tuning.models));
   j["duration_s"] = o.repeat_for > 0.0 ? o.repeat_for : session.duration;
   j["wall_s"] = timings.wall_seconds;
   nlohmann::json tools = nlohmann::json::array();
@@ -370,10 +368,11 @@ void print_text(const ReplayOptions& o, const Session& session, const std::vecto
   const bool single = runs.size() == 1;
   std::string names;
   for (const ModelRun& run : runs) names += (names.empty() ? "" : ", ") + run.name;
-  std::cout << fmt::format("{:<16}{} with {} ({} model{}, {} tools, {:.2f} s, {} mode{})\n", "replay", o.session_path,
-                           o.model_path, names, single ? "" : "s", session.tools.size(),
-                           o.repeat_for > 0.0 ? o.repeat_for : session.duration, o.fast ? "fast" : "real-time",
-                           runs.front().name == "beam" || !single ? ", " + o.merge + " merge" : std::string());
+  std::cout << fmt::format(
+      "{:<16}{} with {} ({} model{}, {} tools, {:.2f} s, {} mode{})\n", "replay", o.session_path, o.model_path, names,
+      single ? "" : "s", session.tools.size(), o.repeat_for > 0.0 ? o.repeat_for : session.duration,
+      o.fast ? "fast" : "real-time",
+      single ? choice_text(*realtime::find_model(runs.front().name), o.tuning.models, ", ") : std::string());
   auto row = [&](const std::string& label, auto&& cell) {
     std::string line = fmt::format("{:<16}", label);
     for (std::size_t m = 0; m < runs.size(); ++m) {
@@ -472,18 +471,14 @@ Command add_replay_command(CLI::App& app) {
   app.add_option("model", o->model_path, "Model file (.organ)")->required();
   app.add_option("session", o->session_path, "Session file: recorded tool trajectories (docs/session-format.md)")
       ->required();
-  app.add_option(
-         "--model", o->models,
-         "Deformation model: beam (multi-beam), springs (mass-spring), or FEM: linear, corotational, stvk, psh; "
-         "a list (beam,springs,psh) replays the session through each and reports them side by side")
+  app.add_option("--model", o->models,
+                 deformation_model_help() +
+                     "; a comma-separated list replays the session through each and reports them side by side")
       ->delimiter(',')
       ->check(CLI::IsMember(deformation_model_names()))
       ->capture_default_str();
   add_model_tuning_options(app, o->tuning);
   add_grasp_option(app, o->tuning);
-  app.add_option("--merge", o->merge, "How beams combine: influence (eq. 7) or sum (eq. 5)")
-      ->check(CLI::IsMember({"influence", "sum"}))
-      ->capture_default_str();
   app.add_option("--forces", o->forces_path,
                  "Write every force sent to the devices (CSV: t_s,tool,fx_n,fy_n,fz_n,in_contact)");
   app.add_option("--frames", o->frames_dir,

@@ -25,7 +25,7 @@ struct ServeOptions {
   std::string model_path;
   igtlink::ServerOptions server;
   std::size_t tools = 2;
-  std::string deformation = "beam";
+  std::string deformation = realtime::default_model().name;
   ModelTuning tuning;
   double seconds = 0.0;  // 0: until interrupted
   double max_force = devices::SafetyLimits{}.max_force;

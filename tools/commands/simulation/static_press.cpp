@@ -87,7 +87,7 @@ int load_steps_for(const std::vector<Eigen::Vector3d>& displacements, const Pres
   constexpr double kStepPerRadius = 0.125;  // the tip's largest move per load step, in radii
   constexpr int kMaxFirstSteps = 64;        // a tip much smaller than the press is nearly a point
   int steps = 1;
-  const double radius = o.tuning.tip_radius_mm * 1e-3;
+  const double radius = o.tuning.tip_radius;
   if (radius > 0.0)
     for (const Eigen::Vector3d& d : displacements)
       steps =
@@ -117,13 +117,9 @@ std::vector<Eigen::Vector3d> grasp_bites(const std::vector<Eigen::Vector3d>& nor
 /// The multi-beam model: static, so one deformation gives the pressed organ.
 PressResult press_beams(const organ::Organ& organ, const std::vector<ToolSpec>& tools, const PressOptions& o) {
   using namespace organsim::multibeam;
-  MultiBeamOptions options;
+  MultiBeamOptions options = o.tuning.models.of<MultiBeamOptions>();
   options.max_tools = static_cast<std::uint32_t>(tools.size());
-  parse_merge_rule(o.merge, options.merge);  // the options' checks admit only the names it knows
-  parse_beam_theory(o.theory, options.beam.theory);
-  options.beam.centroid_offsets = o.sections == "eccentric";
   options.snap_distance = o.snap_distance_mm * 1e-3;
-  options.match_sites = !o.tuning.unmatched;
   MultiBeam beams(organ, options);
 
   PressResult r;
@@ -132,7 +128,7 @@ PressResult press_beams(const organ::Organ& organ, const std::vector<ToolSpec>& 
   const auto attach_start = std::chrono::steady_clock::now();
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
     displacements[i] = tools[i].displacement_mm * 1e-3;
-    const Status status = beams.attach(i, tools[i].point_mm * 1e-3, o.tuning.tip_radius_mm * 1e-3);
+    const Status status = beams.attach(i, tools[i].point_mm * 1e-3, o.tuning.tip_radius);
     if (status != Status::ok)
       throw std::runtime_error(fmt::format("tool {} ({}): {}", i + 1, tools[i].text, describe(status)));
     if (!displacements[i].allFinite())
@@ -213,10 +209,12 @@ PressResult press_beams(const organ::Organ& organ, const std::vector<ToolSpec>& 
     r.tools[i].beam_length = b.length;
     r.tools[i].action_moved = beams.displacement_at(b.action.position);
   }
-  r.summary =
-      fmt::format("{} stations per beam; E {:g} Pa x {:g}, nu {:g}, attenuation {:g} 1/m; {}, {} sections, {} merge",
-                  beams.stations(), organ.model().material.young_modulus, organ.model().material.beam_stiffness_scale,
-                  organ.model().material.poisson_ratio, beams.attenuation_rate(), o.theory, o.sections, o.merge);
+  r.summary = fmt::format(
+      "{} stations per beam; E {:g} Pa x {:g}, nu {:g}, attenuation {:g} 1/m; {}, {} sections, {} merge",
+      beams.stations(), organ.model().material.young_modulus, organ.model().material.beam_stiffness_scale,
+      organ.model().material.poisson_ratio, beams.attenuation_rate(),
+      options.beam.theory == BeamTheory::timoshenko ? "timoshenko" : "euler-bernoulli",
+      options.beam.centroid_offsets ? "eccentric" : "centred", options.merge == MergeRule::sum ? "sum" : "influence");
   return r;
 }
 
@@ -238,9 +236,7 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
   constexpr double kSteadyContraction = 0.95;
   constexpr int kKeptTangents = 8;
   constexpr double kKeptTangentContraction = 0.1, kMaxKeptContraction = 0.9;
-  fem::OrganFemOptions options;
-  realtime::SpringModelOptions unused;
-  apply_model_tuning(o.tuning, options, unused);
+  fem::OrganFemOptions options = o.tuning.models.of<fem::OrganFemOptions>();
   options.refresh_frames = 0;
   options.relaxation = 1.0;  // Newton: full steps
   options.realtime_solves = false;
@@ -398,18 +394,19 @@ PressResult press_fem(const organ::Organ& organ, const std::vector<ToolSpec>& to
   r.summary = fmt::format(
       "{} tetrahedra, {} nodes ({} clamped within {:g} mm); {}; Newton, {} iteration(s) in {} load step(s), {}",
       organ.model().tetrahedra.size(), organ.model().volume_vertices.size(), fem.clamped_node_count(),
-      o.tuning.fixed_radius_mm, constants, r.frames, solved_in, fem.linear_solver());
+      options.fixed_radius * 1e3, constants, r.frames, solved_in, fem.linear_solver());
   return r;
 }
 
-/// The mass-spring model: dynamic, so the press is held while the organ
-/// settles (deformation frames of 1/60 s, as in the engine) and the force is
-/// read from the settled state.
-PressResult press_springs(const organ::Organ& organ, const std::vector<ToolSpec>& tools, const PressOptions& o) {
+/// Any model through the engine's interface (the mass-spring model, and any
+/// model without a static solver of its own): the press is held while the
+/// organ settles (deformation frames of 1/60 s, as in the engine) and the force
+/// is read from the settled state.
+PressResult press_settled(const realtime::RegisteredModel& entry, const organ::Organ& organ,
+                          const std::vector<ToolSpec>& tools, const PressOptions& o) {
   using namespace organsim::realtime;
-  ModelOptions options;
-  apply_model_tuning(o.tuning, options.fem, options.springs);
-  const std::unique_ptr<DeformationModel> springs = make_deformation_model("springs", organ, options, tools.size());
+  const std::unique_ptr<DeformationModel> springs =
+      make_deformation_model(entry.name, organ, o.tuning.models, tools.size());
   PressResult r;
   r.tools.resize(tools.size());
   std::vector<ContactLinearization> contacts(tools.size());
@@ -445,7 +442,8 @@ PressResult press_springs(const organ::Organ& organ, const std::vector<ToolSpec>
       held = displacements;
     }
     if (!springs->step(1.0 / 60.0, held.data(), r.positions.data(), r.normals.data(), contacts.data()))
-      throw std::runtime_error("the mass-spring model could not move the organ (a displacement is not finite)");
+      throw std::runtime_error(std::string("the ") + entry.name +
+                               " model could not move the organ (a displacement is not finite)");
     for (int tick = 0; !grasp && tick < kTicksPerFrame; ++tick) {
       for (std::uint32_t i = 0; i < tools.size(); ++i) {
         forces[i] = ContactLaw{contacts[i].force, contacts[i].stiffness, contacts[i].displacement}.at(held[i]);
@@ -458,11 +456,10 @@ PressResult press_springs(const organ::Organ& organ, const std::vector<ToolSpec>
   r.deform_seconds = r.frame_seconds = seconds_since(deform_start) / std::max(r.frames, 1);
   r.node_positions.resize(organ.model().volume_vertices.size());
   if (!springs->volume_node_positions(r.node_positions.data(), r.node_positions.size())) r.node_positions.clear();
-  r.summary = fmt::format("mass-spring{}, settled over {} frames of 1/60 s",
-                          o.tuning.volume_springs ? " with volume springs" : "", r.frames);
+  r.summary = fmt::format("{}, settled over {} frames of 1/60 s", entry.description, r.frames);
   if (springs->instabilities() > 0)
     warn(o.command,
-         fmt::format("the mass-spring model diverged {} time(s) and was reset to rest", springs->instabilities()));
+         fmt::format("the {} model diverged {} time(s) and was reset to rest", entry.name, springs->instabilities()));
   std::vector<ContactLaw> laws(tools.size());
   for (std::uint32_t i = 0; i < tools.size(); ++i) {
     laws[i] = {contacts[i].force, contacts[i].stiffness, contacts[i].displacement};
@@ -495,12 +492,10 @@ Eigen::Vector3d snap_to_surface(const organ::Organ& organ, const ToolSpec& tool,
 
 geometry::ToolTip press_tip(const organ::Organ& organ, const Eigen::Vector3d& rest_point,
                             const Eigen::Vector3d& displacement, const PressOptions& o) {
-  geometry::ToolTip tip;
-  tip.radius = o.tuning.tip_radius_mm * 1e-3;
   const Eigen::Vector3d normal = organ.rest_normal_at(organ.surface_tree().closest_point(rest_point));
-  tip.axis = displacement.dot(normal) < 0.0 ? Eigen::Vector3d(-displacement.normalized()) : normal;
-  tip.seat_on(normal);
-  return tip;
+  // The probe pushed along its shaft: the shaft trails a press into the organ.
+  const Eigen::Vector3d shaft = displacement.dot(normal) < 0.0 ? Eigen::Vector3d(-displacement) : normal;
+  return geometry::ToolTip::touching(o.tuning.tip_radius, shaft, normal);
 }
 
 double shaft_entry(const organ::Organ& organ, const Eigen::Vector3d& rest_point, const geometry::ToolTip& tip) {
@@ -547,9 +542,12 @@ PressResult press(const std::string& name, const organ::Organ& organ, const std:
                       i + 1, tools[i].text, tilt * 180.0 / M_PI, through * 1e3));
     }
   }
-  PressResult r = name == "beam"        ? press_beams(organ, tools, o)
-                  : entry->fem_material ? press_fem(organ, tools, o, *entry->fem_material)
-                                        : press_springs(organ, tools, o);
+  PressResult r;
+  switch (entry->static_press) {
+    case realtime::StaticPress::beam_tables: r = press_beams(organ, tools, o); break;
+    case realtime::StaticPress::equilibrium: r = press_fem(organ, tools, o, *entry->fem_material); break;
+    case realtime::StaticPress::settled: r = press_settled(*entry, organ, tools, o); break;
+  }
   r.model = name;
   return r;
 }
@@ -639,27 +637,12 @@ Comparison compare_presses(const PressResult& press, const PressResult& referenc
   return c;
 }
 
-void add_beam_options(CLI::App& app, PressOptions& o) {
-  app.add_option("--theory", o.theory, "Multi-beam: euler-bernoulli or timoshenko")
-      ->check(CLI::IsMember({"euler-bernoulli", "timoshenko"}))
-      ->capture_default_str();
-  app.add_option("--sections", o.sections,
-                 "Multi-beam: eccentric (elements through the section centroids, the default) or centred (on the "
-                 "fixed point-action point line)")
-      ->check(CLI::IsMember({"eccentric", "centred"}))
-      ->capture_default_str();
-}
-
 void add_press_options(CLI::App& app, std::vector<std::string>& tools, PressOptions& o) {
   app.add_option("--tool", tools,
                  "A tool: X,Y,Z/DX,DY,DZ, a point on or near the surface and its prescribed displacement "
                  "(model frame, mm); repeat for more tools")
       ->required()
       ->allow_extra_args(false);
-  app.add_option("--merge", o.merge, "Multi-beam: how beams combine, influence (eq. 7) or sum (eq. 5)")
-      ->check(CLI::IsMember({"influence", "sum"}))
-      ->capture_default_str();
-  add_beam_options(app, o);
   app.add_option("--snap-distance", o.snap_distance_mm, "Farthest a tool point may be from the surface, mm")
       ->check(kNonNegative)
       ->capture_default_str();

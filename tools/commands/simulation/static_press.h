@@ -36,12 +36,9 @@ ToolSpec parse_tool(const std::string& text);
 
 /// How a press is set up beyond the model's name.
 struct PressOptions {
-  std::string command = "poke";            ///< for warnings
-  std::string merge = "influence";         ///< multi-beam: influence or sum
-  std::string theory = "euler-bernoulli";  ///< multi-beam: euler-bernoulli or timoshenko
-  std::string sections = "eccentric";      ///< multi-beam: eccentric (through the section centroids) or centred
-  double snap_distance_mm = 10.0;          ///< farthest a tool point may be from the surface
-  double settle_seconds = 2.0;             ///< mass-spring: how long the press is held before the force is read
+  std::string command = "poke";    ///< for warnings
+  double snap_distance_mm = 10.0;  ///< farthest a tool point may be from the surface
+  double settle_seconds = 2.0;     ///< mass-spring: how long the press is held before the force is read
   /// > 0: a grasp (docs/realtime.md#grasping). Each tool first presses this
   /// far in along the inward normal at its point (mm), closes its jaws on what
   /// it holds, then moves to its displacement (outward: a pull), the organ
@@ -87,11 +84,8 @@ struct PressResult {
   std::uint64_t contact_points_left_out = 0;
 };
 
-/// Registers --theory and --sections (the multi-beam model's beams).
-void add_beam_options(CLI::App& app, PressOptions& o);
-
-/// Registers --tool (repeatable, required; into `tools`), --merge, --theory,
-/// --sections, --snap-distance, the model tuning options and --settle.
+/// Registers --tool (repeatable, required; into `tools`), --snap-distance,
+/// the model tuning options (every model's parameters) and --settle.
 void add_press_options(CLI::App& app, std::vector<std::string>& tools, PressOptions& o);
 
 /// The rest-surface point a tool presses: the nearest one, within the snap
@@ -119,10 +113,10 @@ double shaft_entry(const organ::Organ& organ, const Eigen::Vector3d& rest_point,
 /// with a finite value.
 double shaft_entry(const organ::Organ& organ, const ToolSpec& tool, const PressOptions& o);
 
-/// Presses the organ with `model` (beam, springs, linear, corotational,
-/// stvk, psh): the multi-beam model's one deformation, the mass-spring model
-/// settled over `settle_seconds`, a FEM model's static equilibrium by Newton's
-/// method. Throws std::runtime_error with a one-line reason (also for a tool
+/// Presses the organ with the registered model `model`, as its entry's
+/// static_press says: the multi-beam model's one deformation, a FEM model's
+/// static equilibrium by Newton's method, any other model (the mass-spring
+/// model) settled over `settle_seconds`. Throws std::runtime_error with a one-line reason (also for a tool
 /// whose shaft passes through the organ: shaft_entry).
 PressResult press(const std::string& model, const organ::Organ& organ, const std::vector<ToolSpec>& tools,
                   const PressOptions& o);

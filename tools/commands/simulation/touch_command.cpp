@@ -25,7 +25,7 @@ struct TouchOptions {
   std::string model_path;
   devices::HapticRigOptions rig;
   double seconds = 60.0;
-  std::string deformation = "beam";
+  std::string deformation = realtime::default_model().name;
   ModelTuning tuning;
   bool json = false;
   std::string report_dir;  // "": no training report

@@ -57,7 +57,7 @@ struct ViewOptions {
   long frames = 0;  // 0: the whole session, or until the window closes
   double seconds = 600.0;
   bool phantom = false;
-  std::string deformation = "beam";
+  std::string deformation = realtime::default_model().name;
   ModelTuning tuning;
   HapticRigOptions rig;
   std::string report_dir;  // "": no training report

@@ -31,14 +31,19 @@ def load(path):
     return _load(os.fspath(path))
 
 
-def replay(model, session, kind="beam", merge="influence", fixed_radius=0.010, tip_radius=2.5e-3):
+def replay(model, session, kind=None, tip_radius=2.5e-3, **settings):
     """`organsim replay --fast` of a session file through the real-time engine.
 
-    tip_radius (m) is the tools' hemispherical end, as `--tip-radius` (mm) is
-    the program's; a session file's tip lines override it per tool.
+    kind: a deformation model's name (the default: the program's); tip_radius
+    (m) is the tools' hemispherical end, as `--tip-radius` (mm) is the
+    program's; a session file's tip lines override it per tool. settings: the
+    models' settings by name, as organsim.Simulation takes them (merge="sum",
+    fixed_radius=0.03, volume_springs=True, ...: lengths in m).
     Returns a dict: times (R,) s, forces (tools, R, 3) N as sent to each device,
     in_contact (tools, R), duration s. Bit-identical to the program's forces."""
-    return _replay(model, os.fspath(session), kind, merge, fixed_radius, tip_radius)
+    if kind is None:
+        return _replay(model, os.fspath(session), tip_radius=tip_radius, **settings)
+    return _replay(model, os.fspath(session), kind, tip_radius, **settings)
 
 
 def _number(kind):

@@ -13,11 +13,6 @@
 namespace organsim::realtime {
 namespace {
 
-multibeam::MultiBeamOptions with_tools(multibeam::MultiBeamOptions options, std::size_t tools) {
-  options.max_tools = static_cast<std::uint32_t>(tools);
-  return options;
-}
-
 SurfaceFrame rest_frame(const organ::Organ& organ) {
   SurfaceFrame frame;
   frame.positions = organ.model().surface_vertices;
@@ -53,30 +48,27 @@ Engine::Engine(const organ::Organ& organ, const std::vector<devices::HapticDevic
     : organ_(organ),
       devices_(devices),
       options_(options),
-      model_(make_deformation_model(
-          options.model, organ,
-          {with_tools(options.beams, std::max<std::size_t>(devices.size(), 1)), options.springs, options.fem},
-          std::max<std::size_t>(devices.size(), 1))),
+      model_(make_deformation_model(options.model, organ, options.models, std::max<std::size_t>(devices.size(), 1))),
       deformed_tree_(organ.model().surface_vertices, organ.model().surface_triangles),
       moved_mark_(organ.vertex_count(), 0),
       moved_list_(organ.vertex_count()),
       surfaces_(rest_frame(organ)) {
   if (devices.empty() || devices.size() > kMaxTools) throw std::invalid_argument("an engine drives 1 to 16 tools");
   for (std::size_t i = 0; i < devices.size(); ++i)
-    if (!(options.tip_radius_of(i) >= 0.0) || !std::isfinite(options.tip_radius_of(i)))
+    if (!geometry::ToolTip::valid_radius(options.tip_radius_of(i)))
       throw std::invalid_argument("a tool's tip radius must be a finite length >= 0");
   for (devices::HapticDevice* d : devices)
     if (d == nullptr) throw std::invalid_argument("a haptic device is missing");
   for (std::size_t i = 0; i < devices.size(); ++i) safety_[i] = ForceSafety(devices[i]->limits());
   if (!(options.friction >= 0.0)) throw std::invalid_argument("the friction coefficient must be >= 0 (or infinity)");
-  for (auto& d : displacement_) d.setZero();
-  for (auto& s : slip_) s.setZero();
-  for (auto& f : blend_offset_) f.setZero();
+  // Eigen's vectors start uninitialized, even value-initialized in an array.
+  for (auto* vectors : {&displacement_, &slip_, &blend_offset_, &fault_force_, &letting_go_, &last_valid_tip_,
+                        &previous_tip_, &refused_at_})
+    for (Eigen::Vector3d& v : *vectors) v.setZero();
   blend_frame_.fill(-1.0);
   fault_start_.fill(-1.0);
   if (options.tick_records > 0)
     for (std::size_t i = 0; i < devices.size(); ++i) tick_records_[i].allocate(options.tick_records);
-  for (auto& f : fault_force_) f.setZero();
 }
 
 void Engine::publish_linearization(std::size_t tool) noexcept {
@@ -306,15 +298,11 @@ void Engine::deformation_step(double now) noexcept {
       const model::Triangle& t = triangles[hit.triangle];
       const Eigen::Vector3d rest_point = hit.barycentric[0] * vec(rest[t[0]]) + hit.barycentric[1] * vec(rest[t[1]]) +
                                          hit.barycentric[2] * vec(rest[t[2]]);
-      geometry::ToolTip tip;
-      tip.radius = options_.tip_radius_of(i);
-      tip.shaft_length = options_.shaft_length;
       geometry::SurfacePoint touched;
       touched.triangle = hit.triangle;
       touched.barycentric = hit.barycentric;
-      const Eigen::Vector3d normal = organ_.rest_normal_at(touched);
-      tip.axis = tools.shafts[i].squaredNorm() > 0.0 ? Eigen::Vector3d(tools.shafts[i].normalized()) : normal;
-      tip.seat_on(normal);
+      const geometry::ToolTip tip = geometry::ToolTip::touching(options_.tip_radius_of(i), tools.shafts[i],
+                                                                organ_.rest_normal_at(touched), options_.shaft_length);
       if (model_->attach(tool, rest_point, tip, linearizations_[i])) {
         contact.normal = linearizations_[i].normal;
         contact.action_point = linearizations_[i].action_point;

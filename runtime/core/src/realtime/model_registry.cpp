@@ -5,6 +5,8 @@
 // The registered models, in the order help texts list them: X(name) for the
 // entry `name_model` that runtime/core/src/models/<name>/ defines.
 #define ORGANSIM_REGISTERED_MODELS(X) X(beam) X(springs) X(linear) X(corotational) X(stvk) X(psh)
+// The converged reference the fast models are measured against and matched to (docs/matching.md).
+#define ORGANSIM_REFERENCE_MODEL psh_model
 
 namespace organsim::realtime {
 
@@ -12,12 +14,28 @@ namespace organsim::realtime {
 ORGANSIM_REGISTERED_MODELS(ORGANSIM_DECLARE_MODEL)
 #undef ORGANSIM_DECLARE_MODEL
 
-const std::vector<const RegisteredModel*>& registered_models() {
+namespace {
+
+std::vector<const RegisteredModel*>& table() {
 #define ORGANSIM_LIST_MODEL(name) &name##_model,
-  static const std::vector<const RegisteredModel*> models{ORGANSIM_REGISTERED_MODELS(ORGANSIM_LIST_MODEL)};
+  static std::vector<const RegisteredModel*> models{ORGANSIM_REGISTERED_MODELS(ORGANSIM_LIST_MODEL)};
 #undef ORGANSIM_LIST_MODEL
   return models;
 }
+
+}  // namespace
+
+const std::vector<const RegisteredModel*>& registered_models() { return table(); }
+
+bool register_model(const RegisteredModel& entry) {
+  if (find_model(entry.name)) throw std::logic_error(std::string("two deformation models are called ") + entry.name);
+  table().push_back(&entry);
+  return true;
+}
+
+const RegisteredModel& default_model() { return *table().front(); }
+
+const RegisteredModel& reference_model() { return ORGANSIM_REFERENCE_MODEL; }
 
 const RegisteredModel* find_model(std::string_view name) noexcept {
   for (const RegisteredModel* model : registered_models())

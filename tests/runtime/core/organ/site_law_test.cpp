@@ -9,6 +9,7 @@
 #include "organsim/geometry/model_measures.h"
 #include "organsim/organ/organ.h"
 #include "organsim/organ/site_law.h"
+#include "organsim/multibeam/multibeam.h"
 #include "organsim/realtime/model_registry.h"
 #include "test_models.h"
 
@@ -267,8 +268,8 @@ TEST(SiteLaw, TheFastModelsGiveTheLawsForce) {
   for (const char* name : {"beam", "springs"})
     for (bool matched : {true, false}) {
       realtime::ModelOptions options;
-      options.beams.match_sites = matched;
-      options.springs.match_sites = matched;
+      options.edit<organsim::multibeam::MultiBeamOptions>().match_sites = matched;
+      options.edit<realtime::SpringModelOptions>().match_sites = matched;
       const auto model = realtime::make_deformation_model(name, organ, options, 1);
       realtime::ContactLinearization contact;
       ASSERT_TRUE(model->attach(0, touch, tip, contact)) << name;

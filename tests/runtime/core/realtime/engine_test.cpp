@@ -14,6 +14,7 @@
 
 #include <gtest/gtest.h>
 
+#include "organsim/fem/organ_fem.h"
 #include "organsim/realtime/engine.h"
 #include "organsim/realtime/model_registry.h"
 #include "organsim/realtime/loop_runner.h"
@@ -144,7 +145,7 @@ TEST_F(CylinderEngine, ASpringsDynamicRegionReportsEveryVertexItMoves) {
   // The engine refits its contact tree only above the vertices a model says it
   // moved: every vertex whose position changed in a frame must be listed.
   ModelOptions options;
-  options.springs.simulation.region = springs::Region::dynamic;
+  options.edit<SpringModelOptions>().simulation.region = springs::Region::dynamic;
   const std::unique_ptr<DeformationModel> model = make_deformation_model("springs", organ, options, 1);
   const std::size_t n = organ.vertex_count();
   std::vector<model::Point3> previous = organ.model().surface_vertices, positions(n), normals(n);
@@ -221,7 +222,7 @@ void enter_slide_and_leave(const organ::Organ& organ, const RegisteredModel& mod
                         {}, 2000);
   EngineOptions options;
   options.model = model.name;
-  options.fem.fixed_radius = 0.031;  // the clamped cap
+  options.models.edit<fem::OrganFemOptions>().fixed_radius = 0.031;  // the clamped cap
   ASSERT_EQ(options.tip_radius, 2.5e-3);
   Engine engine(organ, {&device}, options);
   run_fast(engine, 1.6);
@@ -289,7 +290,7 @@ TEST_F(CylinderEngine, AStepThatArrivesWithAFreshFrameIsFeltAtOnce) {
                           {}, 2000);
     EngineOptions options;
     options.model = model;
-    options.fem.fixed_radius = 0.031;  // the clamped cap
+    options.models.edit<fem::OrganFemOptions>().fixed_radius = 0.031;  // the clamped cap
     Engine engine(organ, {&device}, options);
     run_fast(engine, step_time + 0.05);
     Eigen::Vector3d before = Eigen::Vector3d::Constant(NAN), after = Eigen::Vector3d::Constant(NAN);
@@ -370,7 +371,7 @@ TEST_F(CylinderEngine, AnOrganThatMovesOntoARestingToolPushesOnIt) {
   ScriptedDevice resting(path({{0.0, {0.145, -0.0305, 0.0}}, {1.6, {0.145, -0.0305, 0.0}}}), {}, 2000);
   EngineOptions options;
   options.model = "corotational";
-  options.fem.fixed_radius = 0.031;  // the clamped cap
+  options.models.edit<fem::OrganFemOptions>().fixed_radius = 0.031;  // the clamped cap
   Engine engine(organ, {&pressing, &resting}, options);
   run_fast(engine, 1.6);
   EXPECT_EQ(engine.telemetry(0).contacts, 1u);

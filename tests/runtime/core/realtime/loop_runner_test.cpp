@@ -19,6 +19,7 @@
 
 #include <gtest/gtest.h>
 
+#include "organsim/fem/organ_fem.h"
 #include "organsim/devices/scripted_device.h"
 #include "organsim/realtime/engine.h"
 #include "organsim/realtime/loop_runner.h"
@@ -464,7 +465,7 @@ TEST(RunRealtime, UnderABusyCoreFemFramesAreDroppedAndCountedAndTheForceStaysCon
   // and continuity, never a time.
   EngineOptions options;
   options.model = "corotational";
-  options.fem.fixed_radius = 0.031;  // the cylinder's x = 0 cap
+  options.models.edit<fem::OrganFemOptions>().fixed_radius = 0.031;  // the cylinder's x = 0 cap
   ScriptedDevice quiet(press(), {}, 1000);
   Engine reference(cylinder(), {&quiet}, options);
   run_fast(reference, 0.6);

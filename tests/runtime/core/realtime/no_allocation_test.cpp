@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include "organsim/fem/organ_fem.h"
 #include "organsim/multibeam/multibeam.h"
 #include "organsim/realtime/engine.h"
 #include "organsim/realtime/model_registry.h"
@@ -112,10 +113,13 @@ TEST(RealTime, EngineLoopsAllocateNothingWithEveryModel) {
     devices::ScriptedDevice a(press, {}, 1000), b(variant == Variant::grasping ? grasper : side, {}, 1000);
     realtime::EngineOptions options;
     options.model = kind;
-    if (variant == Variant::dynamic_region) options.springs.simulation.region = springs::Region::dynamic;
-    options.springs.network.volume_springs = variant == Variant::volume;
-    options.fem.fixed_radius = 0.031;  // the cylinder's clamped cap
-    options.fem.refresh_frames = 3;    // tangents adopted during the test
+    auto& network = options.models.edit<realtime::SpringModelOptions>();
+    if (variant == Variant::dynamic_region) network.simulation.region = springs::Region::dynamic;
+    network.network.volume_springs = variant == Variant::volume;
+    network.volume_clamp_radius = 0.0;  // volume springs beside the body springs
+    auto& finite_elements = options.models.edit<organsim::fem::OrganFemOptions>();
+    finite_elements.fixed_radius = 0.031;  // the cylinder's clamped cap
+    finite_elements.refresh_frames = 3;    // tangents adopted during the test
     if (variant == Variant::recorded) options.tick_records = 256;
     realtime::Engine engine(variant == Variant::matched ? matched_organ : organ, {&a, &b}, options);
     const long before = allocations;
@@ -131,7 +135,9 @@ TEST(RealTime, EngineLoopsAllocateNothingWithEveryModel) {
     EXPECT_GE(engine.telemetry(1).contacts, 1u) << kind;
     EXPECT_GT(engine.telemetry(0).peak_force, 0.0) << kind;
     EXPECT_EQ(engine.model().instabilities(), 0u) << kind << " variant " << static_cast<int>(variant);
-    if (variant == Variant::grasping) EXPECT_EQ(engine.telemetry(1).grasps, 1u) << kind;
+    if (variant == Variant::grasping) {
+      EXPECT_EQ(engine.telemetry(1).grasps, 1u) << kind;
+    }
     if (variant == Variant::recorded) {
       realtime::TickRecord record;
       std::size_t held = 0;

@@ -23,6 +23,24 @@ struct ToolTip {
   double shaft_length = 0.30;                      ///< m of shaft behind the hemisphere that can touch
   Eigen::Vector3d seat = Eigen::Vector3d::Zero();  ///< m: the foremost point at first touch, from the touched point
 
+  /// The tip of radius `radius` (m) touching a surface point of outward unit
+  /// normal `normal`, its shaft along `shaft` (from the tip towards the
+  /// handle; any length) or, where that is zero or not finite, along the
+  /// normal, and seated there (seat_on). Every place a tool touches the organ
+  /// (the engine's contacts, the static presses, the Python module) makes its tip here.
+  static ToolTip touching(double radius, const Eigen::Vector3d& shaft, const Eigen::Vector3d& normal,
+                          double shaft_length = 0.30) noexcept {
+    ToolTip tip;
+    tip.radius = radius;
+    tip.shaft_length = shaft_length;
+    tip.axis = shaft.squaredNorm() > 0.0 && shaft.allFinite() ? Eigen::Vector3d(shaft.normalized()) : normal;
+    tip.seat_on(normal);
+    return tip;
+  }
+
+  /// Whether `radius` (m) is one a tip may have: finite and ≥ 0 (0: a point tool).
+  static bool valid_radius(double radius) noexcept { return radius >= 0.0 && std::isfinite(radius); }
+
   /// Seats the tip at a touched surface point of outward unit normal
   /// `normal`: the hemisphere rests tangent to the surface there (its centre
   /// R along the normal), so a tool tilted θ from the normal begins outside

@@ -28,10 +28,8 @@
 
 #include <Eigen/Core>
 
-#include "organsim/fem/organ_fem.h"
 #include "organsim/geometry/tool_tip.h"
 #include "organsim/model/organ_model.h"
-#include "organsim/multibeam/multibeam.h"
 #include "organsim/springs/mass_spring.h"
 
 namespace organsim::realtime {
@@ -122,6 +120,15 @@ struct SpringModelOptions {
   /// reference's force (organsim/organ/site_law.h, docs/matching.md) instead
   /// of the network's reaction; false: always the network's.
   bool match_sites = true;
+  /// m, with network.volume_springs: the tetrahedral nodes within this of the
+  /// model's fixed point are clamped, as the FEM models clamp theirs
+  /// (fem::OrganFemOptions::fixed_radius), and the body springs are left out:
+  /// they stand in for the interior a surface network lacks and pin each vertex
+  /// in space, while with the interior's springs there the organ is held where
+  /// the FEM models hold it and moves about the clamp as theirs does
+  /// (docs/springs.md#organ-networks-make_organ_network). 0: the network
+  /// options as given (the volume springs beside the body springs).
+  double volume_clamp_radius = 0.010;
 
   /// Symplectic Euler at 1 ms, and no gravity: the CT shows the organ under
   /// its own weight, so its shape is the rest state (as for the multi-beam
@@ -133,13 +140,6 @@ struct SpringModelOptions {
     s.gravity.setZero();
     return s;
   }
-};
-
-/// The options of every model; each model reads its own.
-struct ModelOptions {
-  multibeam::MultiBeamOptions beams;
-  SpringModelOptions springs;
-  fem::OrganFemOptions fem;
 };
 
 }  // namespace organsim::realtime

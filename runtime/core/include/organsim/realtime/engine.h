@@ -56,6 +56,8 @@
 #include "organsim/organ/organ.h"
 #include "organsim/realtime/deformation_model.h"
 #include "organsim/realtime/force_safety.h"
+#include "organsim/realtime/model_options.h"
+#include "organsim/realtime/model_registry.h"
 #include "organsim/lockfree/triple_buffer.h"
 #include "organsim/lockfree/spsc_ring.h"
 
@@ -65,13 +67,11 @@ using lockfree::TripleBuffer;
 using multibeam::kMaxTools;
 
 struct EngineOptions {
-  std::string model = "beam";              ///< which deformation model runs: a name in model_registry.h
-  multibeam::MultiBeamOptions beams;       ///< merge rule, beam theory, distances (max_tools is set from the devices)
-  SpringModelOptions springs;              ///< the mass-spring model's network and integration
-  fem::OrganFemOptions fem;                ///< the FEM models' clamp and psh material
-  double force_period = 1e-3;              ///< s
-  double deformation_period = 1.0 / 60.0;  ///< s
-  double shaft_length = 0.30;              ///< m, tip to handle (laparoscopic instruments: 30–36 cm)
+  std::string model = default_model().name;  ///< which deformation model runs: a name in model_registry.h
+  ModelOptions models;                       ///< each model's own options (model_options.h)
+  double force_period = 1e-3;                ///< s
+  double deformation_period = 1.0 / 60.0;    ///< s
+  double shaft_length = 0.30;                ///< m, tip to handle (laparoscopic instruments: 30–36 cm)
   /// m: the radius of every tool's hemispherical end (a 5 mm laparoscopic
   /// probe); 0 is a point tool.
   double tip_radius = 2.5e-3;

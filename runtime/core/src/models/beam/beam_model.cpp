@@ -1,5 +1,7 @@
 // The multi-beam model (Ushiki et al.; organsim/multibeam/multibeam.h) in the engine.
 #include <cmath>
+#include <iterator>
+#include <string>
 #include <vector>
 
 #include "organsim/multibeam/multibeam.h"
@@ -89,6 +91,51 @@ class BeamModel final : public DeformationModel {
   std::vector<Eigen::Vector3d> last_displacements_;  // per tool, m: the last step's
 };
 
+const char* merge_name(multibeam::MergeRule rule) { return rule == multibeam::MergeRule::sum ? "sum" : "influence"; }
+
+const ModelParameter kBeamParameters[] = {
+    {"merge", ModelParameter::Kind::choice, "beam: how the tools' beams combine, influence (eq. 7) or sum (eq. 5)",
+     "influence|sum",
+     [](ModelOptions& o, const ParameterValue& v) -> std::string {
+       return multibeam::parse_merge_rule(v.text, o.edit<multibeam::MultiBeamOptions>().merge) ? "" : "unknown rule";
+     },
+     [](const ModelOptions& o) {
+       return ParameterValue{0.0, merge_name(o.of<multibeam::MultiBeamOptions>().merge)};
+     }},
+    {"theory", ModelParameter::Kind::choice, "beam: the beams' theory", "euler-bernoulli|timoshenko",
+     [](ModelOptions& o, const ParameterValue& v) -> std::string {
+       return multibeam::parse_beam_theory(v.text, o.edit<multibeam::MultiBeamOptions>().beam.theory)
+                  ? ""
+                  : "unknown theory";
+     },
+     [](const ModelOptions& o) {
+       const bool timoshenko = o.of<multibeam::MultiBeamOptions>().beam.theory == multibeam::BeamTheory::timoshenko;
+       return ParameterValue{0.0, timoshenko ? "timoshenko" : "euler-bernoulli"};
+     }},
+    {"sections", ModelParameter::Kind::choice,
+     "beam: eccentric (elements through the section centroids) or centred (on the fixed point-action point line)",
+     "eccentric|centred",
+     [](ModelOptions& o, const ParameterValue& v) -> std::string {
+       if (v.text != "eccentric" && v.text != "centred") return "unknown sections";
+       o.edit<multibeam::MultiBeamOptions>().beam.centroid_offsets = v.text == "eccentric";
+       return "";
+     },
+     [](const ModelOptions& o) {
+       return ParameterValue{0.0, o.of<multibeam::MultiBeamOptions>().beam.centroid_offsets ? "eccentric" : "centred"};
+     }},
+    {"unmatched", ModelParameter::Kind::flag,
+     "beam, springs: the model's own contact force, not the FEM reference's site law that a model with site "
+     "compliances gives a tool of finite size (docs/matching.md)",
+     nullptr,
+     [](ModelOptions& o, const ParameterValue& v) -> std::string {
+       o.edit<multibeam::MultiBeamOptions>().match_sites = v.number == 0.0;
+       return "";
+     },
+     [](const ModelOptions& o) {
+       return ParameterValue{o.of<multibeam::MultiBeamOptions>().match_sites ? 0.0 : 1.0, {}};
+     }},
+};
+
 }  // namespace
 
 extern const RegisteredModel beam_model{
@@ -96,9 +143,15 @@ extern const RegisteredModel beam_model{
     "multi-beam (Ushiki et al.): a clamped beam per tool, the organ moved by their space distortion",
     /*needs_beam_tables=*/true,
     /*needs_tetrahedra=*/false,
-    std::nullopt,
-    [](const organ::Organ& organ, const ModelOptions& options, std::size_t) -> std::unique_ptr<DeformationModel> {
-      return std::make_unique<BeamModel>(organ, options.beams);
+    /*fem_material=*/std::nullopt,
+    StaticPress::beam_tables,
+    [](const ModelOptions& options) { return options.of<multibeam::MultiBeamOptions>().match_sites; },
+    kBeamParameters,
+    std::size(kBeamParameters),
+    [](const organ::Organ& organ, const ModelOptions& options, std::size_t tools) -> std::unique_ptr<DeformationModel> {
+      multibeam::MultiBeamOptions beams = options.of<multibeam::MultiBeamOptions>();
+      beams.max_tools = static_cast<std::uint32_t>(tools);
+      return std::make_unique<BeamModel>(organ, beams);
     }};
 
 }  // namespace organsim::realtime

@@ -1,7 +1,12 @@
 // The FEM models on the model's tetrahedra (organsim/fem/organ_fem.h) in the
 // engine: linear, co-rotational, St. Venant–Kirchhoff and pressure-stabilized
 // Mooney–Rivlin (Ogata et al.), one class with the material as a parameter.
+#include <cmath>
+#include <iterator>
+#include <string>
+
 #include "organsim/fem/organ_fem.h"
+#include "organsim/multibeam/multibeam.h"
 #include "organsim/realtime/model_registry.h"
 
 namespace organsim::realtime {
@@ -72,8 +77,23 @@ class FemModel final : public DeformationModel {
 
 std::unique_ptr<DeformationModel> make_fem(const char* name, fem::MaterialModel material, const organ::Organ& organ,
                                            const ModelOptions& options, std::size_t tools) {
-  return std::make_unique<FemModel>(name, material, organ, options.fem, tools);
+  return std::make_unique<FemModel>(name, material, organ, options.of<fem::OrganFemOptions>(), tools);
 }
+
+const ModelParameter kFemParameters[] = {
+    {"fixed-radius", ModelParameter::Kind::length,
+     "FEM models (and springs with --volume-springs): clamp the tetrahedral nodes within this distance of the fixed "
+     "point (docs/fem.md)",
+     nullptr,
+     [](ModelOptions& o, const ParameterValue& v) -> std::string {
+       if (!(v.number > 0.0) || !std::isfinite(v.number)) return "the clamp's radius must be a positive length";
+       o.edit<fem::OrganFemOptions>().fixed_radius = v.number;
+       return "";
+     },
+     [](const ModelOptions& o) {
+       return ParameterValue{o.of<fem::OrganFemOptions>().fixed_radius, {}};
+     }},
+};
 
 }  // namespace
 
@@ -83,6 +103,10 @@ extern const RegisteredModel linear_model{
     false,
     true,
     fem::MaterialModel::linear,
+    StaticPress::equilibrium,
+    /*matches_reference=*/nullptr,
+    kFemParameters,
+    std::size(kFemParameters),
     [](const organ::Organ& organ, const ModelOptions& options, std::size_t tools) {
       return make_fem("linear", fem::MaterialModel::linear, organ, options, tools);
     }};
@@ -92,6 +116,10 @@ extern const RegisteredModel corotational_model{
     false,
     true,
     fem::MaterialModel::corotational,
+    StaticPress::equilibrium,
+    /*matches_reference=*/nullptr,
+    kFemParameters,
+    std::size(kFemParameters),
     [](const organ::Organ& organ, const ModelOptions& options, std::size_t tools) {
       return make_fem("corotational", fem::MaterialModel::corotational, organ, options, tools);
     }};
@@ -100,6 +128,10 @@ extern const RegisteredModel stvk_model{"stvk",
                                         false,
                                         true,
                                         fem::MaterialModel::stvk,
+                                        StaticPress::equilibrium,
+                                        /*matches_reference=*/nullptr,
+                                        kFemParameters,
+                                        std::size(kFemParameters),
                                         [](const organ::Organ& organ, const ModelOptions& options, std::size_t tools) {
                                           return make_fem("stvk", fem::MaterialModel::stvk, organ, options, tools);
                                         }};
@@ -109,6 +141,10 @@ extern const RegisteredModel psh_model{
     false,
     true,
     fem::MaterialModel::mooney_rivlin,
+    StaticPress::equilibrium,
+    /*matches_reference=*/nullptr,
+    kFemParameters,
+    std::size(kFemParameters),
     [](const organ::Organ& organ, const ModelOptions& options, std::size_t tools) {
       return make_fem("psh", fem::MaterialModel::mooney_rivlin, organ, options, tools);
     }};

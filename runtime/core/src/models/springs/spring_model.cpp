@@ -1,6 +1,8 @@
 // The mass-spring model (He et al.; organsim/springs/mass_spring.h) in the engine.
 #include <algorithm>
 #include <cmath>
+#include <iterator>
+#include <string>
 #include <stdexcept>
 #include <vector>
 
@@ -25,8 +27,8 @@ class SpringModel final : public DeformationModel {
  public:
   SpringModel(const organ::Organ& organ, const SpringModelOptions& options, std::size_t tools)
       : organ_(organ),
-        options_(options),
-        simulation_(make_simulation(organ.model(), options)),
+        options_(held_as_the_fem_models(options)),
+        simulation_(make_simulation(organ.model(), options_)),
         tools_(tools),
         holds_(kHoldsPerTool * tools),
         holder_(simulation_.node_count(), kFree),
@@ -215,6 +217,16 @@ class SpringModel final : public DeformationModel {
     }
   }
 
+  /// With volume springs, the organ held at the FEM models' clamp instead of
+  /// by body springs (SpringModelOptions::volume_clamp_radius).
+  static SpringModelOptions held_as_the_fem_models(SpringModelOptions options) {
+    if (options.network.volume_springs && options.volume_clamp_radius > 0.0) {
+      options.network.body_factor = 0.0;
+      options.network.clamp_radius = options.volume_clamp_radius;
+    }
+    return options;
+  }
+
   /// The simulation at options.simulation.dt, or at a smaller step where the
   /// network's stiffest mode needs one (kStableFraction of the integrator's limit).
   static springs::MassSpring make_simulation(const model::OrganModel& model, const SpringModelOptions& options) {
@@ -292,6 +304,83 @@ class SpringModel final : public DeformationModel {
   bool moved_all_ = true;
 };
 
+const char* region_name(springs::Region region) {
+  switch (region) {
+    case springs::Region::dynamic: return "dynamic";
+    case springs::Region::fixed: return "fixed";
+    case springs::Region::all: break;
+  }
+  return "all";
+}
+
+const ModelParameter kSpringParameters[] = {
+    {"volume-springs", ModelParameter::Kind::flag,
+     "springs: also a spring on every tetrahedron edge, the surface tied to the tetrahedra, held at the clamp like "
+     "the FEM models (--fixed-radius) instead of by body springs (docs/springs.md)",
+     nullptr,
+     [](ModelOptions& o, const ParameterValue& v) -> std::string {
+       o.edit<SpringModelOptions>().network.volume_springs = v.number != 0.0;
+       return "";
+     },
+     [](const ModelOptions& o) {
+       return ParameterValue{o.of<SpringModelOptions>().network.volume_springs ? 1.0 : 0.0, {}};
+     }},
+    {"fixed-radius", ModelParameter::Kind::length,
+     "FEM models (and springs with --volume-springs): clamp the tetrahedral nodes within this distance of the fixed "
+     "point (docs/fem.md)",
+     nullptr,
+     [](ModelOptions& o, const ParameterValue& v) -> std::string {
+       if (!(v.number > 0.0) || !std::isfinite(v.number)) return "the clamp's radius must be a positive length";
+       o.edit<SpringModelOptions>().volume_clamp_radius = v.number;
+       return "";
+     },
+     [](const ModelOptions& o) {
+       return ParameterValue{o.of<SpringModelOptions>().volume_clamp_radius, {}};
+     }},
+    {"region", ModelParameter::Kind::choice,
+     "springs: integrate all nodes, only a dynamic region around the tools, or a fixed one (--region-rings)",
+     "all|dynamic|fixed",
+     [](ModelOptions& o, const ParameterValue& v) -> std::string {
+       if (v.text != "all" && v.text != "dynamic" && v.text != "fixed") return "unknown region";
+       o.edit<SpringModelOptions>().simulation.region = springs::parse_region(std::string(v.text));
+       return "";
+     },
+     [](const ModelOptions& o) {
+       return ParameterValue{0.0, region_name(o.of<SpringModelOptions>().simulation.region)};
+     }},
+    {"region-rings", ModelParameter::Kind::count, "springs, fixed region: its size in springs from each tool", nullptr,
+     [](ModelOptions& o, const ParameterValue& v) -> std::string {
+       if (!(v.number >= 1.0 && v.number <= 1e6) || v.number != std::floor(v.number))
+         return "the region's size must be a whole number of springs from 1 to 1000000";
+       o.edit<SpringModelOptions>().simulation.region_rings = static_cast<std::uint32_t>(v.number);
+       return "";
+     },
+     [](const ModelOptions& o) {
+       return ParameterValue{static_cast<double>(o.of<SpringModelOptions>().simulation.region_rings), {}};
+     }},
+    {"region-threshold", ModelParameter::Kind::length,
+     "springs, dynamic region: a node displaced beyond this activates its neighbours", nullptr,
+     [](ModelOptions& o, const ParameterValue& v) -> std::string {
+       if (!(v.number > 0.0) || !std::isfinite(v.number)) return "the threshold must be a positive length";
+       o.edit<SpringModelOptions>().simulation.threshold = v.number;
+       return "";
+     },
+     [](const ModelOptions& o) {
+       return ParameterValue{o.of<SpringModelOptions>().simulation.threshold, {}};
+     }},
+    {"unmatched", ModelParameter::Kind::flag,
+     "beam, springs: the model's own contact force, not the FEM reference's site law that a model with site "
+     "compliances gives a tool of finite size (docs/matching.md)",
+     nullptr,
+     [](ModelOptions& o, const ParameterValue& v) -> std::string {
+       o.edit<SpringModelOptions>().match_sites = v.number == 0.0;
+       return "";
+     },
+     [](const ModelOptions& o) {
+       return ParameterValue{o.of<SpringModelOptions>().match_sites ? 0.0 : 1.0, {}};
+     }},
+};
+
 }  // namespace
 
 extern const RegisteredModel springs_model{
@@ -299,9 +388,13 @@ extern const RegisteredModel springs_model{
     "mass-spring (He et al.): the surface (and optionally the tetrahedra) as a damped spring network",
     /*needs_beam_tables=*/false,
     /*needs_tetrahedra=*/false,
-    std::nullopt,
+    /*fem_material=*/std::nullopt,
+    StaticPress::settled,
+    [](const ModelOptions& options) { return options.of<SpringModelOptions>().match_sites; },
+    kSpringParameters,
+    std::size(kSpringParameters),
     [](const organ::Organ& organ, const ModelOptions& options, std::size_t tools) -> std::unique_ptr<DeformationModel> {
-      return std::make_unique<SpringModel>(organ, options.springs, tools);
+      return std::make_unique<SpringModel>(organ, options.of<SpringModelOptions>(), tools);
     }};
 
 }  // namespace organsim::realtime
