@@ -52,7 +52,11 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("model", help="a baked liver (.organ)")
     parser.add_argument("-o", "--output", required=True, help="the session file to write")
+    parser.add_argument("--hold", type=float, default=1.8,
+                        help="seconds the edge is held up (default 1.8; tools/soak_held_grasp.sh holds it for minutes)")
     args = parser.parse_args()
+    if not args.hold >= 1.5:
+        sys.exit("--hold must be at least 1.5 s: the probe presses while the edge is held up")
 
     model = organsim.load(args.model)
     vertices = np.asarray(model.surface_vertices, dtype=float)
@@ -80,8 +84,9 @@ def main():
         return (vertices[vertex] + outward_mm * 1e-3 * normals[vertex]) * 1e3
 
     # (time s, mm along the outward normal from the vertex)
-    grasper = [(0.0, 10), (0.5, 0), (0.7, -2), (0.9, -2), (1.9, 20), (3.7, 20), (4.1, 40)]
-    prober = [(0.0, 10), (1.9, 10), (2.2, 0), (2.4, -5), (3.0, -5), (3.3, 10), (4.1, 10)]
+    held_until = 1.9 + args.hold
+    grasper = [(0.0, 10), (0.5, 0), (0.7, -2), (0.9, -2), (1.9, 20), (held_until, 20), (held_until + 0.4, 40)]
+    prober = [(0.0, 10), (1.9, 10), (2.2, 0), (2.4, -5), (3.0, -5), (3.3, 10), (held_until + 0.4, 10)]
     lines = [
         "# organsim session 3",
         f"# Written by tools/sessions/retract_and_probe.py from {args.model} (model frame, mm).",
@@ -91,7 +96,7 @@ def main():
         "tip,1,2.5",
         "tip,2,2.5",
         "jaw,1,0.8,closed",
-        "jaw,1,3.6,open",
+        f"jaw,1,{held_until - 0.1:g},open",
         "# time_s,tool,x_mm,y_mm,z_mm",
     ]
     for tool, (vertex, path) in enumerate([(edge, grasper), (probe, prober)], start=1):

@@ -361,6 +361,15 @@ std::size_t OrganFem::held_points(std::uint32_t tool) const noexcept {
   return count;
 }
 
+std::vector<OrganFem::HeldPoint> OrganFem::held_point_displacements(std::uint32_t tool) const {
+  std::vector<HeldPoint> points;
+  if (attached(tool))
+    for (std::size_t k = 0; k < hold_count_; ++k)
+      if (const Hold& h = holds_[k]; h.tool == tool)
+        points.push_back({h.nodes, h.weights, contacts_[tool].target + h.offset});
+  return points;
+}
+
 Eigen::Vector3d OrganFem::displacement_at(const std::array<std::int32_t, 3>& nodes,
                                           const Eigen::Vector3d& weights) const noexcept {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();

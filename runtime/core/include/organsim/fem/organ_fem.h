@@ -183,6 +183,17 @@ class OrganFem {
   /// Boundary points the tool holds (1 for a point tool, the first touch and
   /// those a finite tip took in).
   std::size_t held_points(std::uint32_t tool) const noexcept;
+  /// One held point as a prescribed displacement: a boundary face's nodes,
+  /// the point's barycentric weights on them (a weight 0 leaves a node out)
+  /// and the displacement the tool holds it at (m).
+  struct HeldPoint {
+    std::array<std::int32_t, 3> nodes{};
+    Eigen::Vector3d weights = Eigen::Vector3d::Zero();
+    Eigen::Vector3d displacement = Eigen::Vector3d::Zero();
+  };
+  /// The points `tool` holds now, as prescribed displacements: what an
+  /// independent solver is given to reproduce a grasp (tests; allocates).
+  std::vector<HeldPoint> held_point_displacements(std::uint32_t tool) const;
   /// True when the last step neither took nor let go of a point: the
   /// contact's active set is settled (a static solve converges only then).
   bool contact_settled() const noexcept { return contact_settled_; }

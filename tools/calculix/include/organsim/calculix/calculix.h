@@ -10,8 +10,11 @@
 // The co-rotational and stabilized models have no ccx counterpart.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -19,13 +22,38 @@
 
 namespace organsim::calculix {
 
-/// Writes `problem` as a ccx input deck (node and element numbers 1-based).
-/// Throws std::invalid_argument for a material ccx cannot take.
-void write_deck(const fem::StaticProblem& problem, const std::filesystem::path& path);
+/// A material point of the mesh moved by a prescribed displacement: the
+/// barycentric combination `weights` of `nodes` (a weight 0 leaves a node out)
+/// is held at `displacement` (m), as a grasp holds the points of its patch. In
+/// the deck: a node of its own held at the displacement (*BOUNDARY) and tied to
+/// the point, Σ wᵢ uᵢ − u = 0 per component (*EQUATION).
+struct PointDisplacement {
+  std::array<std::int32_t, 3> nodes{};
+  Eigen::Vector3d weights = Eigen::Vector3d::Zero();
+  Eigen::Vector3d displacement = Eigen::Vector3d::Zero();
+};
+
+/// What ccx gave: the displacements (3 per node, m) and the force the
+/// prescribed points take, summed (N, applied to the organ there: the
+/// internal forces of their faces' free nodes, which only the points load).
+struct Solution {
+  Eigen::VectorXd displacements;
+  Eigen::Vector3d point_force = Eigen::Vector3d::Zero();
+};
+
+/// Writes `problem`, with `points` held, as a ccx input deck (node and
+/// element numbers 1-based). Throws std::invalid_argument for a material ccx
+/// cannot take, or a point whose nodes are all clamped or tied to another
+/// point already.
+void write_deck(const fem::StaticProblem& problem, const std::filesystem::path& path,
+                const std::vector<PointDisplacement>& points = {});
 
 /// Solves `problem` with ccx in a scratch directory (removed afterwards unless
 /// ccx fails) and returns the displacements (3 per node, m). Throws
 /// std::runtime_error naming the log when ccx fails or is missing.
 Eigen::VectorXd solve(const fem::StaticProblem& problem, const std::string& job_name);
+/// The same with `points` held at their displacements, and their force.
+Solution solve(const fem::StaticProblem& problem, const std::string& job_name,
+               const std::vector<PointDisplacement>& points);
 
 }  // namespace organsim::calculix
