@@ -180,6 +180,43 @@ TEST_F(Cli, EvaluateMeasuresTheFastModelsOnPressesNoFitSaw) {
   EXPECT_NE(table.out.find("spread        2 mm: "), std::string::npos) << table.out;
 }
 
+// With --pull each site is grasped after the bite and drawn out, straight
+// along the outward normal and tilted 45 degrees: the reference and the fast
+// models are pulled the same way, the organ pulls the tools back in, and the
+// tools move out of the organ.
+TEST_F(Cli, EvaluateMeasuresTheFastModelsOnPulls) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const CommandRun run = run_organsim("calibrate " + model +
+                                          " --evaluate --pull 2 --sites 2 --depths 5 --fixed-radius 31 "
+                                          "--reference-cells 0 --json",
+                                      dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json j = nlohmann::json::parse(run.out);
+  EXPECT_EQ(j["pull_bite_mm"], 2.0);
+  ASSERT_EQ(j["presses"].size(), 4u);  // 2 sites x (straight, tilted) x 1 depth
+  const organ::Organ cylinder(testing::make_cylinder_model({}));
+  for (const nlohmann::json& p : j["presses"]) {
+    ASSERT_TRUE(p["reference_solved"].get<bool>()) << p.dump();
+    const model::Point3& n = cylinder.rest_normals()[p["vertex"].get<std::size_t>()];
+    const Eigen::Vector3d normal(n[0], n[1], n[2]);
+    const std::string tool = p["tool"];
+    const std::string by = tool.substr(tool.find('/') + 1);
+    Eigen::Vector3d displacement;
+    ASSERT_EQ(std::sscanf(by.c_str(), "%lf,%lf,%lf", &displacement[0], &displacement[1], &displacement[2]), 3);
+    EXPECT_NEAR(displacement.norm(), 5.0, 1e-3);
+    // Out of the organ: along the normal, or 45 degrees from it.
+    EXPECT_NEAR(displacement.normalized().dot(normal), p["direction"] == "straight" ? 1.0 : std::sqrt(0.5), 0.02)
+        << p.dump();
+    const std::vector<double> f = p["reference_force_n"];
+    EXPECT_LT(Eigen::Vector3d(f[0], f[1], f[2]).dot(normal), 0.0) << "the organ pulls the tool back in: " << p.dump();
+    for (const char* fast : {"beam", "springs"}) {
+      ASSERT_TRUE(p[fast].contains("force_ratio")) << p.dump();
+      EXPECT_LT(p[fast]["direction_error_deg"].get<double>(), 45.0) << fast << ": " << p.dump();
+    }
+  }
+}
+
 // The matched models' CI bound: on the phantom baked from its CT as a user
 // would (site compliances at the default 8 mm tetrahedra), the matched fast
 // models give the PSH reference's force on presses no fit saw (straight and

@@ -486,6 +486,11 @@ Command add_calibrate_command(CLI::App& app) {
                  "--evaluate: also press straight in on cells of this size, mm, and print how much the reference "
                  "changed (its convergence)")
       ->check(kNonNegative);
+  app.add_option("--pull", o->evaluation.pull_bite_mm,
+                 "--evaluate: pulls instead of presses: each site grasped after a bite this deep, mm, and drawn out by "
+                 "each depth, straight along the normal and tilted 45 degrees (docs/realtime.md#grasping)")
+      ->check(kPositive)
+      ->needs("--evaluate");
   app.add_flag("--json", o->json,
                "Print the fitted values and the held-out errors (or the evaluation) as one JSON object");
   return [o] { return run_calibrate(*o); };

@@ -245,6 +245,7 @@ void print_json(const EvaluationOptions& o, double refine_size_mm, std::size_t s
                             {"reference_cells_mm", refine_size_mm},
                             {"check_cells_mm", o.check_size_mm},
                             {"seed", o.seed},
+                            {"pull_bite_mm", o.pull_bite_mm},
                             {"sites", sites},
                             {"depths_mm", o.depths_mm},
                             {"summary", summary},
@@ -258,12 +259,15 @@ void print_table(const EvaluationOptions& o, double refine_size_mm, std::size_t 
   std::size_t failed = 0;
   for (const PressRecord& r : records) failed += !r.reference_solved;
   std::cout << fmt::format(
-      "{:<14}{} against {} on {}: {} sites (seed {}), each pressed straight in and tilted 45 degrees, {} presses; tip "
-      "radius {:g} mm\n",
-      "evaluate", o.model_path, o.reference,
+      "{:<14}{} against {} on {}: {} sites (seed {}), each {} 45 degrees, {} presses; tip radius {:g} mm\n", "evaluate",
+      o.model_path, o.reference,
       refine_size_mm > 0.0 ? fmt::format("tetrahedra re-meshed to {:g} mm around each site", refine_size_mm)
                            : std::string("the model's own tetrahedra"),
-      sites, o.seed, records.size(), o.press.tuning.tip_radius * 1e3);
+      sites, o.seed,
+      o.pull_bite_mm > 0.0
+          ? fmt::format("grasped after a {:g} mm bite and pulled straight out and tilted", o.pull_bite_mm)
+          : std::string("pressed straight in and tilted"),
+      records.size(), o.press.tuning.tip_radius * 1e3);
   for (const PressRecord& r : records)
     if (!r.reference_solved)
       std::cout << fmt::format("{:<14}site {} {} {:g} mm ({}): {}\n", "unsolved", r.site + 1, tilt_name(r.tilt),
@@ -434,6 +438,14 @@ bool read_reference(const nlohmann::json& kept, std::vector<PressRecord>& record
   return true;
 }
 
+/// The press `tool` mirrored in the tangent plane: drawn out by its depth,
+/// straight along the outward `normal` or tilted as the press was.
+ToolSpec pulled_out(const ToolSpec& tool, const Eigen::Vector3d& normal) {
+  const Eigen::Vector3d by = tool.displacement_mm - 2.0 * tool.displacement_mm.dot(normal) * normal;
+  const Eigen::Vector3d& at = tool.point_mm;
+  return {fmt::format("{:.2f},{:.2f},{:.2f}/{:.3f},{:.3f},{:.3f}", at[0], at[1], at[2], by[0], by[1], by[2]), at, by};
+}
+
 /// Site k's presses: straight in and tilted, at every depth, the reference on
 /// the organ re-meshed around the site (or as --reference-cache kept it),
 /// then the fast models.
@@ -451,6 +463,7 @@ std::vector<PressRecord> press_site(const Plan& plan, std::size_t k) {
       r.tilt = tilt;
       r.depth_mm = depth;
       r.tool = site_press(organ, vertex, plan.normals[vertex], tilt, depth, o.press);
+      if (o.pull_bite_mm > 0.0) r.tool = pulled_out(r.tool, plan.normals[vertex]);
       r.thickness_mm = 1e3 * thickness_along(organ, at, -plan.normals[vertex]);
       r.clamp_distance_mm = 1e3 * (at - organ.fixed_point()).norm();
       records.push_back(std::move(r));
@@ -545,7 +558,9 @@ PressRecord record_from(const nlohmann::json& j) {
 
 }  // namespace
 
-int run_evaluation(const EvaluationOptions& o) {
+int run_evaluation(const EvaluationOptions& given) {
+  EvaluationOptions o = given;
+  o.press.grasp_bite_mm = o.pull_bite_mm;  // a pull is a grasp drawn out (press(): a bite, the jaws closed, the move)
   if (o.depths_mm.empty()) throw CLI::ValidationError("--depths", "give at least one depth");
   for (const double d : o.depths_mm)
     if (!(d > 0.0 && std::isfinite(d)))
@@ -575,6 +590,7 @@ int run_evaluation(const EvaluationOptions& o) {
                  {"refine_size_mm", exact_json(refine_size_mm)},
                  {"refine_radius_mm", exact_json(refine_radius_mm)},
                  {"check_size_mm", exact_json(o.check_size_mm)},
+                 {"pull_bite_mm", exact_json(o.pull_bite_mm)},
                  {"snap_distance_mm", exact_json(o.press.snap_distance_mm)},
                  {"fixed_radius_mm", exact_json(o.press.tuning.models.of<fem::OrganFemOptions>().fixed_radius * 1e3)},
                  {"linear_solver", o.press.tuning.linear_solver},

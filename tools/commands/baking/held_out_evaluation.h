@@ -1,7 +1,8 @@
 // `organsim calibrate MODEL --evaluate`: the fast models (multi-beam,
 // mass-spring) as the model file makes them, measured against a FEM reference
 // on presses no fit saw: sites spread over the organ (seeded), each pressed
-// straight in and tilted 45°, at several depths. The reference is pressed on
+// straight in and tilted 45°, at several depths (or grasped and pulled out:
+// pull_bite_mm). The reference is pressed on
 // the organ re-meshed with cells of half the tip's radius around each site,
 // where its force no longer depends on the mesh (docs/fem.md#a-tool-of-finite-size).
 #pragma once
@@ -27,6 +28,10 @@ struct EvaluationOptions {
   /// > 0: the straight presses' reference again on cells of this size, to
   /// show how much it still changes under refinement.
   double check_size_mm = 0.0;
+  /// > 0: pulls instead of presses: each site grasped after a bite this deep
+  /// (mm; docs/realtime.md#grasping) and drawn out by each depth, straight
+  /// along the outward normal and tilted 45° from it.
+  double pull_bite_mm = 0.0;
   bool json = false;
   /// Processes the sites are shared among (each presses every jobs-th site;
   /// the table is the same whatever the number); 0: one per CPU, at most one
