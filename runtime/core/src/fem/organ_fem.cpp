@@ -16,6 +16,7 @@
 #include <Eigen/LU>
 
 #include "organsim/fem/contact_responses.h"
+#include "organsim/organ/organ.h"
 
 namespace organsim::fem {
 namespace {
@@ -197,7 +198,8 @@ std::vector<bool> clamped_dofs(const model::OrganModel& model, double fixed_radi
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector3d> clamped;
   for (std::size_t n = 0; n < model.volume_vertices.size(); ++n)
-    if (const Eigen::Vector3d at = point(model.volume_vertices[n]); (at - fixed_point).norm() <= fixed_radius) {
+    if (const Eigen::Vector3d at = point(model.volume_vertices[n]);
+        organ::within_clamp(at, fixed_point, fixed_radius)) {
       clamped.push_back(at);
       mean += at;
       constrained[3 * n] = constrained[3 * n + 1] = constrained[3 * n + 2] = true;

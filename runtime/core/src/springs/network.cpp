@@ -9,6 +9,7 @@
 
 #include "organsim/geometry/model_measures.h"
 #include "organsim/geometry/tetrahedral_embedding.h"
+#include "organsim/organ/organ.h"
 #include "organsim/springs/network.h"
 
 namespace organsim::springs {
@@ -310,9 +311,9 @@ std::size_t add_nodes(SpringNetwork& net, const model::OrganModel& model, const 
     require(!model.fixed_points.empty(), "clamp_radius needs a fixed point");
     const Eigen::Vector3d centre = vec(model.fixed_points[0]);
     for (std::size_t v = 0; v < vertex_count; ++v)
-      if ((net.rest[v] - centre).norm() <= o.clamp_radius) net.fixed[v] = 1;
+      if (organ::within_clamp(net.rest[v], centre, o.clamp_radius)) net.fixed[v] = 1;
     for (std::size_t v = volume_base; v < net.rest.size(); ++v)
-      if ((net.rest[v] - centre).norm() <= o.clamp_radius) net.fixed[v] = 1;
+      if (organ::within_clamp(net.rest[v], centre, o.clamp_radius)) net.fixed[v] = 1;
   }
   return volume_base;
 }

@@ -103,6 +103,13 @@ class Organ {
 void compute_vertex_normals(const Organ& organ, const model::Point3* positions, model::Point3* normals,
                             std::size_t first, std::size_t last) noexcept;
 
+/// The clamp every model holds the organ by: a point (m) within `radius` (m)
+/// of the model's fixed point is held in place (the FEM models' nodes, the
+/// mass-spring model's nodes with volume springs).
+inline bool within_clamp(const Eigen::Vector3d& point, const Eigen::Vector3d& fixed_point, double radius) noexcept {
+  return (point - fixed_point).norm() <= radius;
+}
+
 /// The instruction set the per-vertex kernels (distortion, normals) run with:
 /// "x86-64-v4" (AVX-512), "x86-64-v3" (AVX2, FMA) or "x86-64" in the portable
 /// build, the widest this CPU has; "native" in a build for one CPU.
