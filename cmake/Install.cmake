@@ -5,7 +5,9 @@ include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
 set(ORGANSIM_INSTALLED_LIBRARIES
-  organsim_io organsim_model_file organsim_lockfree organsim_devices organsim_fem organsim_runtime organsim_openhaptics)
+  organsim_io organsim_model_file organsim_lockfree organsim_devices organsim_fem organsim_geometry
+  organsim_vertex_kernels organsim_organ organsim_multibeam organsim_springs organsim_organ_fem organsim_realtime
+  organsim_runtime organsim_openhaptics)
 if(TARGET organsim_fem_direct)
   list(APPEND ORGANSIM_INSTALLED_LIBRARIES organsim_fem_direct)
 endif()
@@ -19,7 +21,9 @@ install(TARGETS ${ORGANSIM_INSTALLED_LIBRARIES} EXPORT organsimTargets
   ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT development
   LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT development)
 foreach(headers runtime/io/include runtime/model_file/include runtime/lockfree/include runtime/devices/include
-                runtime/fem/include runtime/core/include runtime/openhaptics/include runtime/direct/include)
+                runtime/fem/include runtime/geometry/include runtime/vertex_kernels/include runtime/organ/include
+                runtime/multibeam/include runtime/springs/include runtime/organ_fem/include runtime/realtime/include
+                runtime/openhaptics/include runtime/direct/include cmake/forwarding_headers)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${headers}/organsim DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
     COMPONENT development FILES_MATCHING PATTERN "*.h")
 endforeach()

@@ -44,7 +44,7 @@
 #include "organsim/fem/contact_responses.h"
 #include "organsim/fem/elasticity_system.h"
 #include "organsim/fem/factorization.h"
-#include "organsim/fem/organ_fem.h"
+#include "organsim/organ_fem/organ_fem.h"
 #include "organsim/multibeam/multibeam.h"
 #include "organsim/fem/static_solver.h"
 #include "organsim/fem/tet_mesh.h"
@@ -52,7 +52,7 @@
 #include "organsim/organ/organ.h"
 #include "organsim/realtime/model_registry.h"
 #ifdef ORGANSIM_HAVE_FEM_DIRECT
-#include "organsim/fem/direct_factorizations.h"
+#include "organsim/fem_direct/direct_factorizations.h"
 #endif
 #ifdef ORGANSIM_CHOOSES_BLAS_KERNELS
 #include "blas_kernels.h"

@@ -19,7 +19,7 @@ def formatter():
         path = shutil.which(name)
         if path:
             return path
-    raise SystemExit("clang-format-14 is not installed: `apt-get install clang-format-14` (tools/setup.sh installs it)")
+    raise SystemExit("clang-format-14 is not installed: `apt-get install clang-format-14` (tools/scripts/setup.sh installs it)")
 
 
 def cpp_files(repo):

@@ -2,7 +2,7 @@
 """A deformation model is named only by its own folder, the registry and the tests.
 
 Every command, the Python module and the static presses reach a model through the
-registry (runtime/core/include/organsim/realtime/model_registry.h): its entry says
+registry (runtime/realtime/include/organsim/realtime/model_registry.h): its entry says
 what the model needs, how a static press solves it, whether it is matched to the
 reference, and which settings it takes. Fails, listing file:line, where the source
 of the runtime, the pipeline or the tools writes a registered model's name as a
@@ -19,8 +19,8 @@ import pathlib
 import re
 import sys
 
-REGISTRY = "runtime/core/src/realtime/model_registry.cpp"
-OWNERS = ("runtime/core/src/models/", REGISTRY, "tests/")
+REGISTRY = "runtime/realtime/src/model_registry.cpp"
+OWNERS = ("runtime/realtime/src/models/", REGISTRY, "tests/")
 CHECKED = ("runtime/", "pipeline/", "tools/")
 SUFFIXES = {".cpp", ".h", ".py"}
 # file (or folder) -> what the words mean there, not the registered models.
@@ -28,13 +28,10 @@ ELSEWHERE = {
     "runtime/fem/": "the FEM library's material laws (a fem problem file's \"model\")",
     "tools/commands/simulation/fem_problem_file.h": "the material laws of a fem problem file",
     "tools/experiments/": "the paper reproductions, which compare the models their papers compare",
-    "tools/fem_mesh_sizes.py": "the FEM models whose mesh sizes it measures",
+    "tools/scripts/fem_mesh_sizes.py": "the FEM models whose mesh sizes it measures",
     "tools/commands/simulation/info_command.cpp": "the \"beam\" key: one vertex's beam table",
     "tools/commands/simulation/export_command.cpp": "the \"beam\" output: one vertex's beam table",
     "tools/commands/simulation/springs_command.cpp": "the springs command (the mass-spring paper's experiment)",
-    "tools/commands/baking/calibrate_command.cpp":
-        "the constants calibrate fits: the multi-beam model's attenuation and the beam and spring stiffness "
-        "scales of the model file's material",
 }
 # A line that names the springs command, not the model.
 COMMAND_NAME = re.compile(r'add_command\(app, table, "springs"')

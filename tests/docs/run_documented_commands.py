@@ -7,8 +7,8 @@ marker, an HTML comment on the line just above its opening fence:
   <!-- run -->                  run the block, as written, with bash (set -e, pipefail) from
                                 the root of a scratch copy of the repository; exit 0 expected
   <!-- run: after-demo -->       the same, once demo_output/liver.organ exists (the block says
-                                "after bash tools/demo.sh"): baked first by the very command
-                                tools/demo.sh bakes it with
+                                "after bash tools/scripts/demo.sh"): baked first by the very command
+                                tools/scripts/demo.sh bakes it with
   <!-- run: interrupt=S -->      a command that runs until Ctrl-C: SIGINT to the block's
                                 process group after S seconds; exit 0 expected
   <!-- run: timeout=S -->        the block's limit (default 300 s)
@@ -49,7 +49,7 @@ SHELL_LANGUAGES = {"sh", "bash", "shell", "console"}
 MARKER = re.compile(r"^\s*<!--\s*run(?::\s*(?P<options>.*?))?\s*-->\s*$")
 FENCE = re.compile(r"^(?P<indent>\s*)(?P<fence>`{3,}|~{3,})\s*(?P<info>[^`\s]*)")
 DEFAULT_TIMEOUT = 300.0
-# What tools/demo.sh bakes demo_output/liver.organ with (found in it, so that the two never differ).
+# What tools/scripts/demo.sh bakes demo_output/liver.organ with (found in it, so that the two never differ).
 DEMO_MODEL = '"$out/liver.organ"'
 
 
@@ -147,13 +147,13 @@ def scratch_copy(repo, build, into):
 
 
 def demo_bake_command(repo):
-    """tools/demo.sh's command that bakes $out/liver.organ, as bash that runs from the repository root."""
-    text = (repo / "tools" / "demo.sh").read_text()
+    """tools/scripts/demo.sh's command that bakes $out/liver.organ, as bash that runs from the repository root."""
+    text = (repo / "tools" / "scripts" / "demo.sh").read_text()
     for command in re.sub(r"\\\n", " ", text).splitlines():
         if " bake " in command and f"-o {DEMO_MODEL}" in command:
             return ('repo=$PWD; build=$PWD/build; out=$PWD/demo_output; sample=$repo/data_samples/real_ct_totalseg\n'
                     'mkdir -p "$out"\n' + command.strip() + "\n")
-    raise DocsError(f"tools/demo.sh: no command bakes {DEMO_MODEL}")
+    raise DocsError(f"tools/scripts/demo.sh: no command bakes {DEMO_MODEL}")
 
 
 @dataclasses.dataclass
@@ -271,7 +271,7 @@ class DocumentRun:
             code, output, _, _ = run_script(demo_bake_command(self.repo), root, DEFAULT_TIMEOUT)
             if code != 0:
                 return Result(block, "failed", time.monotonic() - start,
-                              f"{block.where}: preparing demo_output/liver.organ as tools/demo.sh does "
+                              f"{block.where}: preparing demo_output/liver.organ as tools/scripts/demo.sh does "
                               f"failed (exit {code}):\n{tail(output)}")
             self.demo_ready = True
         if options.get("synopsis"):

@@ -8,7 +8,7 @@ measures it, and the CPU it ran on. Re-running this script is how a figure chang
   python3 tools/benchmarks/performance_table.py [--build build] [--model demo_output/liver.organ]
                                                 [--only NAME,...] [--list] [--check]
 
---model is the liver that README command (a) bakes (`bash tools/demo.sh`); the rows that
+--model is the liver that README command (a) bakes (`bash tools/scripts/demo.sh`); the rows that
 press it need it. --check only verifies that the document's table has one row per figure
 here, in order, each with this script's command (a test runs it). The full run takes
 about 3 minutes on two cores; run it on an otherwise idle machine.
@@ -148,6 +148,20 @@ def read_igtl(output):
             f" (machine floor: {floor['gaps_over_1ms']} gaps over 1 ms in 2 s, largest {floor['largest_gap_ms']:.2f} ms)")
 
 
+def read_end_to_end(output):
+    floor = re.search(r"gaps > 0\.1 ms \d+, > 1 ms (\d+), > 2 ms (\d+); largest ([\d.]+) ms", output)
+    view = next((json.loads(line) for line in output.splitlines() if line.startswith("{")), None)
+    if not floor or view is None or "timing" not in view:
+        raise ValueError("no machine floor line or no view --realtime JSON in the output")
+    t = view["timing"]
+    return (f"force period p50 **{t['force_period_p50_ms']:.3f} ms**, p99 {t['force_period_p99_ms']:.3f} ms, "
+            f"max {t['force_period_max_ms']:.2f} ms, {t['force_deadline_misses']} over 2 ms; deformation p50 "
+            f"{t['deformation_p50_ms']:.2f} ms, {t['frames_dropped']} of "
+            f"{t['deformation_frames'] + t['frames_dropped']} frames dropped; drawn **{t['frames_drawn_per_second']:.1f} "
+            f"frames per second**, drawing p50 {t['draw_p50_ms']:.1f} ms, p99 {t['draw_p99_ms']:.1f} ms (machine floor: "
+            f"{floor[2]} gaps over 2 ms in 5 s, largest {float(floor[3]):.2f} ms)")
+
+
 FIGURES = [
     Figure("bake_phantom", "bake a 512 × 512 × 200 phantom CT to a 5k-vertex surface (both cores)",
            "build/tests/bake_bench --benchmark_format=json", read_bake_bench),
@@ -180,6 +194,14 @@ FIGURES = [
     Figure("frame_grasp", "real-time frame, co-rotational FEM, the two-handed retract-and-probe session (a grasp lifts 20 mm)",
            "build/tools/organsim replay MODEL data_samples/liver_retract_and_probe.session --model corotational --json",
            read_replay),
+    Figure("end_to_end_ushiki",
+           "end to end at Ushiki et al.'s scale (9,218 tetrahedra, 3,000-vertex surface): multi-beam, the shipped "
+           "two-tool session, 1 kHz force and 60 Hz deformation on their threads, every frame drawn (Xvfb, software "
+           "OpenGL)",
+           f"build/tools/organsim bake {LIVER_CT} --label {LIVER_LABEL} --tet-size 9.5 --clamp-cells 0 "
+           f"--facet-distance 0.6 -o ushiki.organ > /dev/null && build/tests/cpu_stalls 5 && xvfb-run -a "
+           f"build/tools/organsim view ushiki.organ --session {SESSION} --model beam --realtime --offscreen --json",
+           read_end_to_end),
     Figure("psh_newton", "PSH static press on the baked liver, one Newton iteration",
            "ORGANSIM_BENCH_MODEL=MODEL build/tests/fem_bench --benchmark_filter=PshPress --benchmark_format=json",
            read_psh_press),
@@ -274,7 +296,7 @@ def main():
     if unknown:
         parser.error(f"unknown figure(s) {', '.join(sorted(unknown))}: --list names them")
     if any(re.search(r"\bMODEL\b", f.command) for f in FIGURES if f.name in wanted) and not args.model.is_file():
-        parser.error(f"{args.model} does not exist: run `bash tools/demo.sh` first, or give --model")
+        parser.error(f"{args.model} does not exist: run `bash tools/scripts/demo.sh` first, or give --model")
     head, rows, tail = table_in(text)
     old = {}
     for line in rows:

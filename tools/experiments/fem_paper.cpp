@@ -44,7 +44,7 @@
 #include "organsim/model/model_file.h"
 #include "plot/field_view.h"
 #ifdef ORGANSIM_HAVE_FEM_DIRECT
-#include "organsim/fem/direct_factorizations.h"
+#include "organsim/fem_direct/direct_factorizations.h"
 #endif
 #ifdef ORGANSIM_CHOOSES_BLAS_KERNELS
 #include "blas_kernels.h"

@@ -1,6 +1,7 @@
 #include "training_report.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -15,7 +16,7 @@
 #include <vtkBase64Utilities.h>
 
 #include "organsim/io/atomic_file.h"
-#include "plot/field_view.h"
+#include "surface_picture.h"
 #include "svg_chart.h"
 
 namespace organsim::report {
@@ -123,28 +124,27 @@ struct Pictures {
 };
 
 Pictures render_organ(const fs::path& directory, const RunMetrics& metrics) {
-  plot::FieldPanel panel;
+  SurfacePicture picture;
   std::vector<double> row;
   CsvRows surface(directory / "surface.csv", 4);
   double deepest = 0.0;
   while (surface.next(row)) {
-    panel.points.push_back({row[0], row[1], row[2]});
-    panel.point_values.push_back(row[3]);
+    picture.points.push_back({row[0], row[1], row[2]});
+    picture.values.push_back(row[3]);
     deepest = std::max(deepest, row[3]);
   }
   CsvRows triangles(directory / "triangles.csv", 3);
   while (triangles.next(row))
-    panel.triangles.push_back(
+    picture.triangles.push_back(
         {static_cast<std::int32_t>(row[0]), static_cast<std::int32_t>(row[1]), static_cast<std::int32_t>(row[2])});
   for (const ToolMetrics& tool : metrics.tools)
-    for (const LimitEvent& e : tool.events) panel.markers.push_back({e.where_mm[0], e.where_mm[1], e.where_mm[2]});
-  panel.marker_radius = 3.0;
-  plot::FieldView view;
-  view.scalar_title = "depth (mm)";
-  view.low = 0.0;
-  view.high = std::max(deepest, 1e-3);
-  view.panel_width = 420;
-  view.height = 380;
+    for (const LimitEvent& e : tool.events) picture.markers.push_back({e.where_mm[0], e.where_mm[1], e.where_mm[2]});
+  picture.marker_radius = 3.0;
+  picture.scale_title = "deepest indentation (mm)";
+  picture.low = 0.0;
+  picture.high = std::max(deepest, 1e-3);
+  picture.width = 420;
+  picture.height = 380;
   // LPS: anterior is −y, superior +z, the patient's right −x.
   const struct {
     const char* title;
@@ -154,21 +154,16 @@ Pictures render_organ(const fs::path& directory, const RunMetrics& metrics) {
                {"top (superior)", {0, 0, -1}, {0, -1, 0}}};
   Pictures pictures;
   for (const auto& side : sides) {
-    panel.title = side.title;
-    view.view_direction = side.direction;
-    view.view_up = side.up;
-    const fs::path png = directory / fmt::format("view_{}.png", pictures.views.size() + pictures.problems.size());
+    picture.title = side.title;
+    picture.view_direction = side.direction;
+    picture.view_up = side.up;
     try {
-      plot::write_field_view_png({panel}, view, png.string());
-      std::ifstream in(png, std::ios::binary);
-      const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-      std::string encoded(bytes.size() * 4 / 3 + 8, '\0');
+      const std::vector<unsigned char> png = draw_surface_png(picture);
+      std::string encoded(png.size() * 4 / 3 + 8, '\0');
       const unsigned long length =
-          vtkBase64Utilities::Encode(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(),
-                                     reinterpret_cast<unsigned char*>(encoded.data()));
+          vtkBase64Utilities::Encode(png.data(), png.size(), reinterpret_cast<unsigned char*>(encoded.data()));
       encoded.resize(length);
       pictures.views.emplace_back(side.title, "data:image/png;base64," + encoded);
-      fs::remove(png);
     } catch (const std::exception& e) {
       pictures.problems.push_back(fmt::format("{}: not drawn: {}", side.title, e.what()));
     }

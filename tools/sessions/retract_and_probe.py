@@ -53,7 +53,7 @@ def main():
     parser.add_argument("model", help="a baked liver (.organ)")
     parser.add_argument("-o", "--output", required=True, help="the session file to write")
     parser.add_argument("--hold", type=float, default=1.8,
-                        help="seconds the edge is held up (default 1.8; tools/soak_held_grasp.sh holds it for minutes)")
+                        help="seconds the edge is held up (default 1.8; tools/scripts/soak_held_grasp.sh holds it for minutes)")
     args = parser.parse_args()
     if not args.hold >= 1.5:
         sys.exit("--hold must be at least 1.5 s: the probe presses while the edge is held up")

@@ -1,6 +1,7 @@
 #include "scene.h"
 
 #include <cmath>
+#include <limits>
 
 #include <vtkActor.h>
 #include <vtkArrowSource.h>
@@ -84,6 +85,11 @@ struct OrganScene::Parts {
   vtkNew<vtkSphereSource> sphere;
   vtkNew<vtkArrowSource> arrow_source;
   std::vector<std::unique_ptr<ToolActors>> tools;
+  std::vector<model::Point3> rest;  ///< the rest surface, m: where the held patches are found
+  vtkNew<vtkPolyData> held;         ///< the held patches' vertices, drawn as green points
+  vtkNew<vtkPoints> held_points;
+  vtkNew<vtkActor> held_actor;
+  std::vector<std::size_t> held_counts;
 };
 
 OrganScene::OrganScene(const organ::Organ& organ, std::size_t tools, SceneOptions options)
@@ -176,6 +182,21 @@ OrganScene::OrganScene(const organ::Organ& organ, std::size_t tools, SceneOption
   p.window->SetOffScreenRendering(p.options.offscreen ? 1 : 0);
   p.window->SetWindowName("organsim");
   p.window->AddRenderer(p.renderer);
+  // The held patches: green points on the organ where grasping jaws hold it.
+  p.rest = model.surface_vertices;
+  p.held_counts.assign(tools, 0);
+  p.held_points->SetDataTypeToDouble();
+  p.held->SetPoints(p.held_points);
+  vtkNew<vtkPolyDataMapper> held_mapper;
+  held_mapper->SetInputData(p.held);
+  p.held_actor->SetMapper(held_mapper);
+  p.held_actor->GetProperty()->SetColor(0.15, 0.9, 0.3);
+  p.held_actor->GetProperty()->SetPointSize(7.0);
+  p.held_actor->GetProperty()->RenderPointsAsSpheresOn();
+  p.held_actor->GetProperty()->LightingOff();
+  p.held_actor->VisibilityOff();
+  p.renderer->AddActor(p.held_actor);
+
   realtime::SurfaceFrame rest;
   rest.positions = model.surface_vertices;
   rest.normals.resize(rest.positions.size());
@@ -202,6 +223,37 @@ void OrganScene::show_surface(const realtime::SurfaceFrame& frame) {
   p.points->Modified();
   p.normals->Modified();
   p.surface->Modified();
+
+  // The held patches, a little outside the surface so that the organ does not hide them.
+  constexpr double kLift = 3e-4;  // m
+  p.held_points->Reset();
+  vtkNew<vtkCellArray> vertices;
+  const auto mark = [&](std::size_t v) {
+    const Eigen::Vector3d x =
+        Eigen::Vector3d(frame.positions[v].data()) + kLift * Eigen::Vector3d(frame.normals[v].data());
+    const vtkIdType id = p.held_points->InsertNextPoint(x.data());
+    vertices->InsertNextCell(1, &id);
+  };
+  for (std::size_t i = 0; i < p.held_counts.size(); ++i) {
+    p.held_counts[i] = 0;
+    if (!frame.holding[i] || frame.positions.size() != p.rest.size()) continue;
+    std::size_t nearest = 0;
+    double nearest_distance = std::numeric_limits<double>::infinity();
+    for (std::size_t v = 0; v < p.rest.size(); ++v) {
+      const double distance = (Eigen::Vector3d(p.rest[v].data()) - frame.held_point[i]).norm();
+      if (distance <= frame.held_radius[i]) mark(v), ++p.held_counts[i];
+      if (distance < nearest_distance) nearest_distance = distance, nearest = v;
+    }
+    if (p.held_counts[i] == 0 && !p.rest.empty()) mark(nearest), p.held_counts[i] = 1;
+  }
+  p.held->SetVerts(vertices);
+  p.held_points->Modified();
+  p.held->Modified();
+  p.held_actor->SetVisibility(p.held_points->GetNumberOfPoints() > 0);
+}
+
+std::size_t OrganScene::held_vertices(std::size_t i) const {
+  return i < parts_->held_counts.size() ? parts_->held_counts[i] : 0;
 }
 
 void OrganScene::show_tool(std::size_t i, bool present, const devices::ToolPose& pose, const Eigen::Vector3d& force,

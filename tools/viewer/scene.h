@@ -35,8 +35,12 @@ class OrganScene {
   OrganScene(const organ::Organ& organ, std::size_t tools, SceneOptions options);
   ~OrganScene();
 
-  /// The deformed surface (organ::Organ's vertex order).
+  /// The deformed surface (organ::Organ's vertex order), with the patch each
+  /// grasping tool holds marked: the surface vertices within its tip radius of
+  /// the point its jaws hold (the nearest one where none is), drawn green.
   void show_surface(const realtime::SurfaceFrame& frame);
+  /// The vertices marked as tool `i`'s held patch in the last surface shown.
+  std::size_t held_vertices(std::size_t i) const;
   /// Tool `i`: its pose, the force it feels (N) and whether it touches.
   void show_tool(std::size_t i, bool present, const devices::ToolPose& pose, const Eigen::Vector3d& force,
                  bool in_contact);

@@ -386,6 +386,11 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
     model.tetrahedra = tetrahedra.tetrahedra;
     model.fixed_points = {fixed_point_m};
     model.material = o.material;
+    model.meshing.tet_size = o.tetrahedra.tet_size_mm * 1e-3;
+    if (o.clamp_cells_mm > 0.0) {
+      model.meshing.clamp_radius = o.sites.fixed_radius;
+      model.meshing.clamp_cell_size = o.clamp_cells_mm * 1e-3;
+    }
     require_valid(model);
   });
   if (o.site_compliance)

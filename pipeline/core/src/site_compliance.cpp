@@ -15,11 +15,11 @@
 
 #include "organsim/fem/elasticity_system.h"
 #include "organsim/fem/material.h"
-#include "organsim/fem/organ_fem.h"
+#include "organsim/organ_fem/organ_fem.h"
 #include "organsim/geometry/tetrahedral_embedding.h"
 #include "organsim/organ/site_law.h"
 #ifdef ORGANSIM_HAVE_FEM_DIRECT
-#include "organsim/fem/direct_factorizations.h"
+#include "organsim/fem_direct/direct_factorizations.h"
 #endif
 
 namespace organsim::pipeline {

@@ -25,7 +25,7 @@
 
 #include "organsim/geometry/model_measures.h"
 #include "organsim/pipeline/segmentation.h"
-#include "organsim/pipeline/volume_matching.h"
+#include "organsim/tetrahedra/volume_matching.h"
 
 namespace organsim::pipeline {
 namespace {

@@ -1,4 +1,4 @@
-#include "organsim/pipeline/connected_part.h"
+#include "organsim/tetrahedra/connected_part.h"
 
 #include "tetrahedron_faces.h"
 

@@ -1,4 +1,4 @@
-#include "organsim/pipeline/sliver_removal.h"
+#include "organsim/tetrahedra/sliver_removal.h"
 
 #include "tetrahedron_faces.h"
 

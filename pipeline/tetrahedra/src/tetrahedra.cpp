@@ -1,4 +1,4 @@
-#include "organsim/pipeline/tetrahedra.h"
+#include "organsim/tetrahedra/tetrahedra.h"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Mesh_complex_3_in_triangulation_3.h>
@@ -22,9 +22,9 @@
 #include <fmt/format.h>
 
 #include "organsim/geometry/model_measures.h"
-#include "organsim/pipeline/connected_part.h"
-#include "organsim/pipeline/sliver_removal.h"
-#include "organsim/pipeline/volume_matching.h"
+#include "organsim/tetrahedra/connected_part.h"
+#include "organsim/tetrahedra/sliver_removal.h"
+#include "organsim/tetrahedra/volume_matching.h"
 
 namespace organsim::pipeline {
 namespace {

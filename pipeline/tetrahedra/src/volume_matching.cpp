@@ -1,4 +1,4 @@
-#include "organsim/pipeline/volume_matching.h"
+#include "organsim/tetrahedra/volume_matching.h"
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -12,7 +12,7 @@
 #include <fmt/format.h>
 
 #include "organsim/geometry/model_measures.h"
-#include "organsim/pipeline/sliver_removal.h"
+#include "organsim/tetrahedra/sliver_removal.h"
 
 namespace organsim::pipeline {
 namespace {

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <vector>
 
-#include "organsim/fem/direct_factorizations.h"
+#include "organsim/fem_direct/direct_factorizations.h"
 #include "organsim/fem/supernodal_solve.h"
 
 #include "solver_threads.h"

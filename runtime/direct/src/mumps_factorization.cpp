@@ -7,7 +7,7 @@
 #include <type_traits>
 #include <vector>
 
-#include "organsim/fem/direct_factorizations.h"
+#include "organsim/fem_direct/direct_factorizations.h"
 
 #include "solver_threads.h"
 

@@ -56,6 +56,8 @@ inline constexpr std::uint32_t kSiteFieldsV1_2 = 6;
 inline constexpr std::uint64_t kMaxDepthCurvePoints = 256;
 /// Format 1.3's site curvature: reals per vertex (κ₁, κ₂).
 inline constexpr std::uint32_t kCurvatureFieldsV1_3 = 2;
+/// Format 1.4's meshing record: reals (tet size, clamp radius, clamp cell size).
+inline constexpr std::uint32_t kMeshingFieldsV1_4 = 3;
 
 enum class Section {
   Metadata,
@@ -68,7 +70,8 @@ enum class Section {
   Material,
   BeamTables,
   SiteCompliance,
-  SiteCurvature
+  SiteCurvature,
+  Meshing
 };
 
 struct SectionDescription {
@@ -91,6 +94,7 @@ inline constexpr SectionDescription kSections[] = {
     {Section::BeamTables, "BEAM", "beam tables", false},
     {Section::SiteCompliance, "SITE", "site compliance", false},
     {Section::SiteCurvature, "CURV", "site curvature", false},
+    {Section::Meshing, "MESH", "meshing", false},
 };
 
 inline const SectionDescription& describe(Section id) { return kSections[static_cast<std::size_t>(id)]; }

@@ -129,6 +129,11 @@ std::vector<std::uint8_t> encode_section(Section id, const OrganModel& m) {
       w.put<std::uint32_t>(0);
       w.put_array(m.sites.curvature);
       break;
+    case Section::Meshing:
+      w.put<std::uint32_t>(format::kMeshingFieldsV1_4);
+      w.put<std::uint32_t>(0);
+      for (double v : {m.meshing.tet_size, m.meshing.clamp_radius, m.meshing.clamp_cell_size}) w.put<double>(v);
+      break;
   }
   return w.take();
 }
@@ -141,6 +146,7 @@ bool section_present(Section id, const OrganModel& m) {
     case Section::BeamTables: return !m.beams.empty();
     case Section::SiteCompliance: return !m.sites.empty();
     case Section::SiteCurvature: return !m.sites.curvature.empty();
+    case Section::Meshing: return !m.meshing.empty();
     default: return true;
   }
 }
@@ -316,6 +322,22 @@ void read_curvature(const std::uint8_t* data, std::size_t size, SiteCompliance& 
     fail_section(id, "field count " + std::to_string(fields) + " is not " +
                          std::to_string(format::kCurvatureFieldsV1_3) + "; " + kDamagedAdvice);
   sites.curvature = read_array<double, 2>(id, r.here(), r.remaining());
+}
+
+void read_meshing(const std::uint8_t* data, std::size_t size, Meshing& meshing) {
+  const Section id = Section::Meshing;
+  PayloadReader r(data, size);
+  std::uint32_t fields = 0, reserved = 0;
+  if (!r.get(fields) || !r.get(reserved))
+    fail_section(id, std::string("payload too short for its header; ") + kDamagedAdvice);
+  // Fields beyond those known (a newer minor version's) are skipped.
+  if (fields < format::kMeshingFieldsV1_4 || r.remaining() != std::size_t{fields} * sizeof(double))
+    fail_section(id, "field count " + std::to_string(fields) + " does not match the payload of " +
+                         std::to_string(size) + " bytes (at least " + std::to_string(format::kMeshingFieldsV1_4) +
+                         " reals); " + kDamagedAdvice);
+  r.get(meshing.tet_size);
+  r.get(meshing.clamp_radius);
+  r.get(meshing.clamp_cell_size);
 }
 
 // Returns whether every value is plausible (checked chunk by chunk as it is
@@ -623,6 +645,7 @@ OrganModel read_sections(const std::uint8_t* data, const SectionIndex& index, co
     read_sites(payload(Section::SiteCompliance), bytes(Section::SiteCompliance), m.sites);
   if (index.has(Section::SiteCurvature))
     read_curvature(payload(Section::SiteCurvature), bytes(Section::SiteCurvature), m.sites);
+  if (index.has(Section::Meshing)) read_meshing(payload(Section::Meshing), bytes(Section::Meshing), m.meshing);
   if (const auto issue = find_model_issue(m, beams_plausible))
     fail_section(issue->section, issue->message + "; " + kDamagedAdvice);
   return m;

@@ -38,6 +38,19 @@ bool is_lower_hex(const std::string& s) {
   return true;
 }
 
+/// What is wrong with the meshing record, or "".
+std::string meshing_issue(const OrganModel& m) {
+  const Meshing& mesh = m.meshing;
+  if (mesh == Meshing{}) return {};
+  if (!(std::isfinite(mesh.tet_size) && mesh.tet_size > 0.0))
+    return "the tetrahedron size must be a positive number of metres";
+  if (!(std::isfinite(mesh.clamp_radius) && mesh.clamp_radius >= 0.0 && std::isfinite(mesh.clamp_cell_size) &&
+        mesh.clamp_cell_size >= 0.0))
+    return "the clamp radius and the clamp's cell size must be zero or positive numbers of metres";
+  if (m.tetrahedra.empty()) return "a meshing record without tetrahedra";
+  return {};
+}
+
 /// What is wrong with the site curvature, or "".
 std::string site_curvature_issue(const OrganModel& m) {
   const SiteCompliance& sites = m.sites;
@@ -181,6 +194,7 @@ std::optional<ModelIssue> find_model_issue(const OrganModel& m, bool beam_values
 
   if (auto e = site_compliance_issue(m); !e.empty()) return issue(format::Section::SiteCompliance, e);
   if (auto e = site_curvature_issue(m); !e.empty()) return issue(format::Section::SiteCurvature, e);
+  if (auto e = meshing_issue(m); !e.empty()) return issue(format::Section::Meshing, e);
 
   const BeamTables& b = m.beams;
   if (b.empty()) {

@@ -89,6 +89,10 @@ bool SiteCompliance::operator==(const SiteCompliance& o) const {
          depth_curve == o.depth_curve && curve_tip_radius == o.curve_tip_radius && curvature == o.curvature;
 }
 
+bool Meshing::operator==(const Meshing& o) const {
+  return tet_size == o.tet_size && clamp_radius == o.clamp_radius && clamp_cell_size == o.clamp_cell_size;
+}
+
 bool ModelProvenance::operator==(const ModelProvenance& o) const {
   return coordinate_frame == o.coordinate_frame && program_version == o.program_version &&
          input_sha256 == o.input_sha256 && parameters == o.parameters;
@@ -98,7 +102,7 @@ bool OrganModel::operator==(const OrganModel& o) const {
   return provenance == o.provenance && surface_vertices == o.surface_vertices &&
          surface_triangles == o.surface_triangles && surface_texcoords == o.surface_texcoords &&
          volume_vertices == o.volume_vertices && tetrahedra == o.tetrahedra && fixed_points == o.fixed_points &&
-         material == o.material && beams == o.beams && sites == o.sites;
+         material == o.material && beams == o.beams && sites == o.sites && meshing == o.meshing;
 }
 
 std::string validate_organ_model(const OrganModel& model) {

@@ -1,4 +1,4 @@
-#include "organsim/devices/haptic_rig.h"
+#include "organsim/openhaptics/haptic_rig.h"
 
 #include <Eigen/Geometry>
 

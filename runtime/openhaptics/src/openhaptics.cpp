@@ -1,4 +1,4 @@
-#include "organsim/devices/openhaptics.h"
+#include "organsim/openhaptics/openhaptics.h"
 
 #include <dlfcn.h>
 #include <time.h>

@@ -11,7 +11,7 @@
 #include <memory>
 #include <string>
 
-#include "organsim/fem/direct_factorizations.h"
+#include "organsim/fem_direct/direct_factorizations.h"
 
 extern "C" void dgemm_(const char* transa, const char* transb, const int* m, const int* n, const int* k,
                        const double* alpha, const double* a, const int* lda, const double* b, const int* ldb,

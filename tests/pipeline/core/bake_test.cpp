@@ -126,6 +126,8 @@ TEST_F(Bake, PhantomFromASeedGivesAValidModelWithConsistentVolumes) {
   EXPECT_EQ(m.provenance.input_sha256, image_sha256(*read_ct(o.ct_path)));
   EXPECT_EQ(m.provenance.input_sha256.size(), 64u);
   EXPECT_EQ(m.provenance.parameters.at("tet_size_mm"), "10");
+  // The meshing as model data, for a program that meshes the organ again.
+  EXPECT_DOUBLE_EQ(m.meshing.tet_size, 0.010);
   EXPECT_EQ(m.provenance.parameters.at("fixed_point_source"), "given point");
   for (const auto& [key, value] : m.provenance.parameters)
     EXPECT_EQ(value.find("phantom_ct"), std::string::npos) << key;
@@ -215,6 +217,8 @@ TEST_F(Bake, RealCtWithItsLiverLabelNifti) {
   EXPECT_TRUE(r.tetrahedra_warnings.empty());
   EXPECT_GE(clamped_nodes(result.model), 80u) << "the FEM clamp's ball resolved (8 mm cells put 4 nodes in it)";
   EXPECT_EQ(result.model.provenance.parameters.at("clamp_cells_mm"), "2.5");
+  EXPECT_DOUBLE_EQ(result.model.meshing.clamp_cell_size, 0.0025);
+  EXPECT_DOUBLE_EQ(result.model.meshing.clamp_radius, o.sites.fixed_radius);
   RecordProperty("clamped_nodes", std::to_string(clamped_nodes(result.model)));
   RecordProperty("tet_volume_error", std::to_string(r.tetrahedra_volume_ml / r.mask_volume_ml - 1));
   RecordProperty("min_dihedral_deg", std::to_string(r.tetrahedra.min_dihedral_deg));
@@ -253,6 +257,8 @@ TEST_F(Bake, RealCtDicomSeriesWithAFlippedLabelMap) {
   EXPECT_TRUE(r.tetrahedra_warnings.empty());
   EXPECT_GE(clamped_nodes(result.model), 80u) << "the FEM clamp's ball resolved (8 mm cells put 4 nodes in it)";
   EXPECT_EQ(result.model.provenance.parameters.at("clamp_cells_mm"), "2.5");
+  EXPECT_DOUBLE_EQ(result.model.meshing.clamp_cell_size, 0.0025);
+  EXPECT_DOUBLE_EQ(result.model.meshing.clamp_radius, o.sites.fixed_radius);
   RecordProperty("clamped_nodes", std::to_string(clamped_nodes(result.model)));
   RecordProperty("tet_volume_error", std::to_string(r.tetrahedra_volume_ml / r.mask_volume_ml - 1));
   RecordProperty("min_dihedral_deg", std::to_string(r.tetrahedra.min_dihedral_deg));

@@ -9,10 +9,10 @@
 #include <Eigen/Geometry>
 
 #include "organsim/geometry/model_measures.h"
-#include "organsim/pipeline/connected_part.h"
+#include "organsim/tetrahedra/connected_part.h"
 #include "organsim/pipeline/surface.h"
-#include "organsim/pipeline/sliver_removal.h"
-#include "organsim/pipeline/tetrahedra.h"
+#include "organsim/tetrahedra/sliver_removal.h"
+#include "organsim/tetrahedra/tetrahedra.h"
 #include "synthetic_volumes.h"
 
 namespace organsim::pipeline {

@@ -3,7 +3,7 @@
 // tangents, the same static solves, CHOLMOD's solves allocate nothing once
 // warm, and the library's one-column BLAS products equal the matrix products. Its own program: it replaces malloc to
 // count allocations (the libraries are C and Fortran: operator new would not see them).
-#include "organsim/fem/direct_factorizations.h"
+#include "organsim/fem_direct/direct_factorizations.h"
 
 #include <dlfcn.h>
 #include <strings.h>

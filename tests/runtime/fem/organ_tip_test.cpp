@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "organsim/fem/direct_factorizations.h"
-#include "organsim/fem/organ_fem.h"
+#include "organsim/fem_direct/direct_factorizations.h"
+#include "organsim/organ_fem/organ_fem.h"
 #include "organsim/fem/tet_mesh.h"
 #include "organsim/geometry/tetrahedral_embedding.h"
 

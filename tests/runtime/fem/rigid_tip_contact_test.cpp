@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "organsim/fem/direct_factorizations.h"
+#include "organsim/fem_direct/direct_factorizations.h"
 #include "organsim/fem/rigid_tip_contact.h"
 
 namespace organsim::fem {

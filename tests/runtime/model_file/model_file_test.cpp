@@ -43,6 +43,7 @@ model::OrganModel small_model() {
   m.sites.depth_curve = {{{0.0, 1.0}}, {{0.005, 1.4}}, {{0.010, 2.1}}};
   m.sites.curve_tip_radius = 0.0025;
   for (std::size_t v = 0; v < m.surface_vertices.size(); ++v) m.sites.curvature.push_back({40.0 + 1e-2 * v, -5.0});
+  m.meshing = {0.004, 0.01, 0.0025};
   return m;
 }
 
@@ -84,7 +85,7 @@ TEST(ModelFile, RoundTripOfEverySection) {
   std::set<std::string> tags;
   for (const auto& s : r.file.sections) tags.insert(s.tag);
   EXPECT_EQ(tags, (std::set<std::string>{"META", "SVRT", "STRI", "SUVC", "TVRT", "TETS", "FIXP", "MATL", "BEAM", "SITE",
-                                         "CURV"}));
+                                         "CURV", "MESH"}));
   EXPECT_EQ(r.file.version.major, 1);
   EXPECT_EQ(r.file.file_bytes, bytes.size());
 }
@@ -96,6 +97,7 @@ TEST(ModelFile, RoundTripWithoutOptionalSections) {
   model.tetrahedra.clear();
   model.beams = {};
   model.sites = {};
+  model.meshing = {};
   model.provenance.parameters.clear();
   model.provenance.input_sha256.clear();
   const auto bytes = model::serialize_organ_model(model);
@@ -173,7 +175,7 @@ TEST(ModelFile, TruncationInsideHeaderAndTable) {
 TEST(ModelFile, TruncationAtAndInsideEverySection) {
   const auto bytes = encoded();
   const auto sections = list_sections(bytes);
-  ASSERT_EQ(sections.size(), 11u);
+  ASSERT_EQ(sections.size(), 12u);
   for (const auto& s : sections) {
     EXPECT_ERROR(std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + s.offset),
                  "truncated at the start of section '" + s.tag + "'");
@@ -220,7 +222,7 @@ TEST(ModelFile, FutureMajorVersionIsRefusedWithBothVersions) {
   poke<std::uint16_t>(bytes, 8, 2);
   poke<std::uint16_t>(bytes, 10, 3);
   refresh_checksums(bytes);
-  EXPECT_ERROR(bytes, "format version 2.3 but this organsim reads format 1.3");
+  EXPECT_ERROR(bytes, "format version 2.3 but this organsim reads format 1.4");
 }
 
 TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
@@ -228,7 +230,7 @@ TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
   const auto suvc = find_section(bytes, "SUVC");
   std::memcpy(bytes.data() + suvc.table_entry, "XTRA", 4);
   refresh_checksums(bytes);
-  EXPECT_ERROR(bytes, "section 'XTRA' is unknown in a format 1.3 file");
+  EXPECT_ERROR(bytes, "section 'XTRA' is unknown in a format 1.4 file");
 
   poke<std::uint16_t>(bytes, 10, model::kModelFormatVersion.minor + 1);
   refresh_checksums(bytes);
@@ -283,6 +285,47 @@ TEST(ModelFile, FormatOnePointTwoFileWithoutCurvaturesLoads) {
   EXPECT_EQ(r.file.version.minor, 2);
   EXPECT_TRUE(r.model->sites.curvature.empty());
   EXPECT_TRUE(*r.model == without);
+}
+
+TEST(ModelFile, FormatOnePointThreeFileWithoutMeshingLoads) {
+  // A 1.3 writer knew no MESH section: a re-mesh takes the mesher's defaults.
+  model::OrganModel without = small_model();
+  without.meshing = {};
+  auto bytes = model::serialize_organ_model(without);
+  EXPECT_THROW(find_section(bytes, "MESH"), std::exception);
+  poke<std::uint16_t>(bytes, 10, 3);
+  refresh_checksums(bytes);
+  const model::ModelReadResult r = model::parse_organ_model(bytes.data(), bytes.size(), "x");
+  ASSERT_TRUE(r) << r.error;
+  EXPECT_EQ(r.file.version.minor, 3);
+  EXPECT_TRUE(r.model->meshing.empty());
+  EXPECT_TRUE(*r.model == without);
+}
+
+TEST(ModelFile, ImplausibleMeshingIsRefused) {
+  const auto original = encoded();
+  const auto mesh = find_section(original, "MESH");
+  const std::size_t first_real = mesh.offset + 8;  // after the field count and the reserved word
+  auto check = [&](std::size_t at, double value, const char* what) {
+    auto bytes = original;
+    poke<double>(bytes, at, value);
+    refresh_checksums(bytes);
+    EXPECT_ERROR(bytes, "section 'MESH' (meshing): ");
+    EXPECT_ERROR(bytes, what);
+  };
+  check(first_real, 0.0, "tetrahedron size must be a positive number of metres");
+  check(first_real, std::nan(""), "tetrahedron size must be a positive number of metres");
+  check(first_real + 8, -0.01, "clamp radius");
+  check(first_real + 16, std::numeric_limits<double>::infinity(), "clamp radius");
+  auto fields = original;
+  poke<std::uint32_t>(fields, mesh.offset, 2u);
+  refresh_checksums(fields);
+  EXPECT_ERROR(fields, "section 'MESH' (meshing): field count 2 does not match");
+  // Without tetrahedra a meshing record means nothing.
+  model::OrganModel no_tetrahedra = small_model();
+  no_tetrahedra.tetrahedra.clear();
+  no_tetrahedra.volume_vertices.clear();
+  EXPECT_NE(model::validate_organ_model(no_tetrahedra).find("a meshing record without tetrahedra"), std::string::npos);
 }
 
 TEST(ModelFile, ImplausibleSiteCurvaturesAreRefused) {

@@ -10,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-#include "organsim/devices/openhaptics.h"
+#include "organsim/openhaptics/openhaptics.h"
 #include "organsim/realtime/engine.h"
 #include "test_models.h"
 

@@ -12,7 +12,7 @@
 #include <string>
 
 #include "organsim/calculix/calculix.h"
-#include "organsim/fem/organ_fem.h"
+#include "organsim/organ_fem/organ_fem.h"
 #include "organsim/geometry/tool_tip.h"
 #include "organsim/model/model_file.h"
 #include "organsim/organ/organ.h"

@@ -19,6 +19,7 @@
 #include "organsim/organ/organ.h"
 #include "organsim/pipeline/site_compliance.h"
 #include "press_plan.h"
+#include "refined_reference.h"
 #include "test_models.h"
 
 namespace organsim {
@@ -458,6 +459,35 @@ TEST_F(Cli, CalibrateBadInputFailsWithOneLine) {
     EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << arguments << ": " << run.err;
     EXPECT_FALSE(fs::exists(dir_ / "out.organ")) << arguments;
   }
+}
+
+TEST(RefinedReference, MeshesAwayFromTheToolAsTheModelsMeshingRecordSays) {
+  // The bake's meshing is model data (the MESH section): the reference's
+  // re-mesh keeps its cell size away from the tool and its clamp refinement.
+  model::OrganModel model = testing::make_cylinder_model({});
+  const Eigen::Vector3d site(model.surface_vertices.front()[0], model.surface_vertices.front()[1],
+                             model.surface_vertices.front()[2]);
+  const auto cells_near = [&](const model::OrganModel& m, const model::Point3& centre, double radius) {
+    std::size_t count = 0;
+    for (const model::Tetrahedron& t : m.tetrahedra) {
+      Eigen::Vector3d c = Eigen::Vector3d::Zero();
+      for (std::uint32_t v : t)
+        c += Eigen::Vector3d(m.volume_vertices[v][0], m.volume_vertices[v][1], m.volume_vertices[v][2]);
+      if ((c / 4 - Eigen::Vector3d(centre[0], centre[1], centre[2])).norm() < radius) ++count;
+    }
+    return count;
+  };
+  model.meshing = {};
+  const model::OrganModel unrecorded = cli::refined_at(model, site, 2.0, 10.0);
+  model.meshing = {0.006, 0.0, 0.0};
+  const model::OrganModel finer = cli::refined_at(model, site, 2.0, 10.0);
+  EXPECT_GT(finer.tetrahedra.size(), unrecorded.tetrahedra.size() * 3 / 2) << "6 mm cells, not the default 8 mm";
+  model.meshing = {0.006, 0.01, 0.0025};
+  const model::OrganModel clamped = cli::refined_at(model, site, 2.0, 10.0);
+  EXPECT_GT(cells_near(clamped, model.fixed_points.front(), 0.01),
+            3 * cells_near(finer, model.fixed_points.front(), 0.01))
+      << "2.5 mm cells within the 10 mm clamp";
+  EXPECT_TRUE(clamped.meshing == model.meshing);
 }
 
 }  // namespace

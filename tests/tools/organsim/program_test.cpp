@@ -1,4 +1,4 @@
-// The conventions every `organsim` subcommand shares (tools/commands/simulation/command_line.h,
+// The conventions every `organsim` subcommand shares (tools/command_line/command_line.h,
 // docs/cli.md#conventions): exit 0, 1 (input) or 2 (command line); one error
 // line, `organsim CMD: error: …`; --help, --version, --quiet and --verbose on
 // the program and on every subcommand. Each test checks every subcommand.

@@ -11,6 +11,10 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+#include <vtkBase64Utilities.h>
 
 #include "cli_fixture.h"
 #include "organsim/model/model_file.h"
@@ -224,7 +228,10 @@ TEST_F(Cli, ReplayOfSeveralModelsWritesAReportPerModelThatReportRebuildsAll) {
 TEST_F(Cli, ReportPageIsSelfContainedAndHoldsNoPatientData) {
   const KnownPress press = write_known_press(dir_);
   const fs::path report = dir_ / "report";
-  ASSERT_EQ(run_organsim("replay " + press.model + " " + press.session + " --fast --report " + report.string(), dir_)
+  // No display at all: the organ's pictures need none.
+  ASSERT_EQ(run_organsim_with_prefix(
+                "env -u DISPLAY ",
+                "replay " + press.model + " " + press.session + " --fast --report " + report.string(), dir_)
                 .exit_code,
             0);
   const std::string html = read_text(report / "index.html");
@@ -238,16 +245,26 @@ TEST_F(Cli, ReportPageIsSelfContainedAndHoldsNoPatientData) {
   for (std::size_t at = html.find("<svg"); at != std::string::npos; at = html.find("<svg", at + 1)) ++charts;
   EXPECT_EQ(charts, 4u);
   EXPECT_NE(html.find("<polyline"), std::string::npos);
-  // The organ's three views, or, without a display, a line saying why each is missing.
+  // The organ's three views, each a picture of the organ on a white page.
+  const std::string prefix = "data:image/png;base64,";
   std::size_t pictures = 0;
-  for (std::size_t at = html.find("data:image/png;base64,"); at != std::string::npos;
-       at = html.find("data:image/png;base64,", at + 1))
+  for (std::size_t at = html.find(prefix); at != std::string::npos; at = html.find(prefix, at + 1)) {
     ++pictures;
-  const char* display = std::getenv("DISPLAY");
-  if (display != nullptr && *display != '\0')
-    EXPECT_EQ(pictures, 3u);
-  else
-    EXPECT_NE(html.find("not drawn"), std::string::npos);
+    const std::size_t begin = at + prefix.size(), end = html.find('"', begin);
+    const std::string encoded = html.substr(begin, end - begin);
+    std::vector<unsigned char> png(encoded.size());
+    png.resize(vtkBase64Utilities::DecodeSafely(reinterpret_cast<const unsigned char*>(encoded.data()), encoded.size(),
+                                                png.data(), png.size()));
+    const cv::Mat image = cv::imdecode(png, cv::IMREAD_COLOR);
+    ASSERT_FALSE(image.empty()) << "picture " << pictures;
+    EXPECT_EQ(image.cols, 420);
+    EXPECT_EQ(image.rows, 380);
+    EXPECT_EQ(image.at<cv::Vec3b>(2, 2), cv::Vec3b(255, 255, 255)) << "picture " << pictures;
+    const cv::Vec3b middle = image.at<cv::Vec3b>(image.rows / 2, image.cols / 2);
+    EXPECT_LT(middle[0] + middle[1] + middle[2], 3 * 250) << "the organ fills the middle: picture " << pictures;
+  }
+  EXPECT_EQ(pictures, 3u);
+  EXPECT_EQ(html.find("not drawn"), std::string::npos);
   // Nothing of the (file-name) patient anywhere in the report's files.
   for (const auto& entry : fs::directory_iterator(report)) {
     const std::string text = read_text(entry.path());

@@ -126,6 +126,30 @@ TEST_F(Cli, ViewShowsClosedJawsHoldingTheOrgan) {
   const cv::Vec3b grasper = tip_colour(0);
   EXPECT_GT(grasper[1], grasper[2] + 40) << "the grasper's tip is green (BGR " << grasper << ")";
   EXPECT_GT(grasper[1], grasper[0] + 40) << "BGR " << grasper;
+  // The patch the jaws hold is marked on the organ; the probe holds none.
+  EXPECT_GE(j["tools"][0]["held_vertices"].get<int>(), 1);
+  EXPECT_EQ(j["tools"][1]["held_vertices"].get<int>(), 0);
+  // Drawn without the instruments, the marks are the only green near the grasper.
+  const fs::path organ_alone = dir_ / "grasp_organ.png";
+  const CommandRun bare = run_viewer("view " + model + " --session " + session.string() +
+                                         " --offscreen --hide-tools --screenshot " + organ_alone.string(),
+                                     dir_);
+  ASSERT_EQ(bare.exit_code, 0) << bare.err;
+  const cv::Mat organ = cv::imread(organ_alone.string());
+  ASSERT_FALSE(organ.empty());
+  const auto green_near = [&](int tool) {
+    const int x = static_cast<int>(j["tools"][tool]["tip_px"][0].get<double>());
+    const int y = static_cast<int>(j["tools"][tool]["tip_px"][1].get<double>());
+    int count = 0;
+    for (int r = std::max(0, y - 40); r < std::min(organ.rows, y + 40); ++r)
+      for (int c = std::max(0, x - 40); c < std::min(organ.cols, x + 40); ++c) {
+        const cv::Vec3b bgr = organ.at<cv::Vec3b>(r, c);
+        if (bgr[1] > bgr[2] + 60 && bgr[1] > bgr[0] + 40) ++count;
+      }
+    return count;
+  };
+  EXPECT_GT(green_near(0), 4) << "the held patch is drawn";
+  EXPECT_EQ(green_near(1), 0) << "no patch where a probe presses";
 }
 
 // The disk fills during the recording (a file-size limit stands in; OpenCV's
@@ -218,6 +242,34 @@ TEST_F(Cli, ViewRunsMouseToolsAndPhantomDevicesInRealTime) {
       run_viewer("view " + model + " --phantom --hd-library /nonexistent/libHD.so --frames 2", dir_);
   EXPECT_EQ(missing.exit_code, 1);
   EXPECT_NE(missing.err.find("cannot load the OpenHaptics HD library"), std::string::npos) << missing.err;
+}
+
+// --session --realtime: the loops on their threads in real time and each new
+// surface drawn; the timings of the whole chain are reported, and the tools
+// still press the organ (both tools' forces reach the drawing).
+TEST_F(Cli, ViewPlaysASessionInRealTimeAndTimesTheWholeChain) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const std::string session = write_press_session(dir_).string();
+  const CommandRun run = run_viewer("view " + model + " --session " + session + " --realtime --offscreen --json", dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json j = nlohmann::json::parse(run.out);
+  const nlohmann::json& t = j["timing"];
+  // One second of session: about 1,000 force ticks and 60 frames, whatever
+  // the machine; the drawing keeps up with a part of them on any machine.
+  EXPECT_GT(t["force_ticks"].get<double>(), 900.0);
+  EXPECT_LT(t["force_ticks"].get<double>(), 1100.0);
+  EXPECT_GT(t["deformation_frames"].get<double>() + t["frames_dropped"].get<double>(), 50.0);
+  EXPECT_GT(t["frames_drawn"].get<double>(), 5.0);
+  EXPECT_EQ(j["frames"].get<double>(), t["frames_drawn"].get<double>());
+  EXPECT_GT(t["force_period_p50_ms"].get<double>(), 0.9);
+  EXPECT_LT(t["force_period_p50_ms"].get<double>(), 1.1);
+  EXPECT_GT(t["draw_p50_ms"].get<double>(), 0.0);
+  EXPECT_NE(run.out.find("\"force_n\""), std::string::npos);
+  for (int k = 0; k < 2; ++k) EXPECT_GT(j["tools"][k]["force_n"].get<double>(), 0.0) << "tool " << k + 1;
+  const CommandRun alone = run_viewer("view " + model + " --realtime --frames 2", dir_);
+  EXPECT_EQ(alone.exit_code, 2);
+  EXPECT_NE(alone.err.find("--realtime"), std::string::npos) << alone.err;
 }
 
 // --report in each of the viewer's three modes: a page and metrics with one

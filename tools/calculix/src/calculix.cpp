@@ -124,8 +124,9 @@ Solution solve(const fem::StaticProblem& problem, const std::string& job_name,
   write_deck(problem, dir / (job_name + ".inp"), points);
   const std::string command = "cd '" + dir.string() + "' && OMP_NUM_THREADS=1 ccx -i " + job_name + " > ccx.log 2>&1";
   if (std::system(command.c_str()) != 0)
-    throw std::runtime_error("ccx failed (is Debian's calculix-ccx installed? tools/setup.sh installs it); see " +
-                             (dir / "ccx.log").string());
+    throw std::runtime_error(
+        "ccx failed (is Debian's calculix-ccx installed? tools/scripts/setup.sh installs it); see " +
+        (dir / "ccx.log").string());
   std::ifstream dat(dir / (job_name + ".dat"));
   std::string line;
   // The last "displacements" and "forces" blocks: the end of the step.

@@ -12,7 +12,7 @@
 #include <unistd.h>
 
 #include "bake_command.h"
-#include "command_line.h"
+#include "command_line/command_line.h"
 #include "organsim/model/model_file.h"
 #include "organsim/pipeline/bake.h"
 #include "organsim/version.h"

@@ -1,4 +1,4 @@
-#include "command_line.h"
+#include "baking_commands.h"
 
 namespace organsim::cli {
 

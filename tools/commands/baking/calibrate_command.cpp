@@ -25,13 +25,13 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "command_line.h"
+#include "command_line/command_line.h"
 #include "organsim/realtime/model_registry.h"
 #include "organsim/model/model_file.h"
 #include "depth_curve_fit.h"
 #include "held_out_evaluation.h"
 #include "press_plan.h"
-#include "static_press.h"
+#include "static_press/static_press.h"
 
 namespace organsim::cli {
 namespace {
@@ -62,19 +62,47 @@ Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 /// The depth curve's sites start from --seed plus this.
 constexpr std::uint32_t kCurveSeedOffset = 1000;
 
+/// The fast models calibrate fits (their registry entries' calibration), in
+/// the registry's order; at most the first with an attenuation has it fitted.
+std::vector<const realtime::RegisteredModel*> calibrated_models() {
+  std::vector<const realtime::RegisteredModel*> models;
+  for (const realtime::RegisteredModel* entry : realtime::registered_models())
+    if (entry->calibration.stiffness_scale) models.push_back(entry);
+  return models;
+}
+
+/// The index in `models` of the model whose attenuation is fitted, or -1.
+int attenuated_index(const std::vector<const realtime::RegisteredModel*>& models) {
+  for (std::size_t k = 0; k < models.size(); ++k)
+    if (models[k]->calibration.attenuated) return static_cast<int>(k);
+  return -1;
+}
+
+/// `o` for pressing `entry` on an organ of `material`: a model that settles
+/// (StaticPress::settled) softened by a stiffness scale s rings 1/sqrt(s)
+/// times longer, and is held that much longer (at most 5 times) so that each
+/// press is measured settled.
+PressOptions held_until_settled(const realtime::RegisteredModel& entry, const model::Material& material,
+                                PressOptions o) {
+  if (entry.static_press == realtime::StaticPress::settled && entry.calibration.stiffness_scale)
+    o.settle_seconds *= std::min(5.0, 1.0 / std::sqrt(std::min(1.0, material.*entry.calibration.stiffness_scale)));
+  return o;
+}
+
 /// One press of the calibration: the reference's answer and what the fast
 /// models need to be refitted without pressing again.
 struct Probe {
   ToolSpec tool;
   PressResult reference;
-  std::vector<Eigen::Vector3d> unattenuated;  ///< per tetrahedral node: the beam's distortion with κ = 0, m
-  std::vector<double> distance;               ///< per tetrahedral node: from the beam's action point, m
-  Eigen::Vector3d beam_force, spring_force;   ///< N, at stiffness scale 1
+  std::vector<Eigen::Vector3d>
+      unattenuated;                    ///< per tetrahedral node: the attenuated model's displacement with κ = 0, m
+  std::vector<double> distance;        ///< per tetrahedral node: from that model's action point, m
+  std::vector<Eigen::Vector3d> force;  ///< per calibrated model: its force at stiffness scale 1, N
 };
 
 /// Mean nodal displacement difference (fraction of the bounding box's
-/// diagonal) of the beam field exp(−κ d) s against the reference.
-double beam_difference(const Probe& p, const organ::Organ& organ, double rate, double diagonal) {
+/// diagonal) of the attenuated field exp(−κ d) s against the reference.
+double attenuated_difference(const Probe& p, const organ::Organ& organ, double rate, double diagonal) {
   const std::vector<model::Point3>& rest = organ.model().volume_vertices;
   double sum = 0.0;
   for (std::size_t n = 0; n < rest.size(); ++n) {
@@ -84,9 +112,10 @@ double beam_difference(const Probe& p, const organ::Organ& organ, double rate, d
   return sum / (diagonal * static_cast<double>(std::max<std::size_t>(rest.size(), 1)));
 }
 
-double mean_beam_difference(const std::vector<Probe>& probes, const organ::Organ& organ, double rate, double diagonal) {
+double mean_attenuated_difference(const std::vector<Probe>& probes, const organ::Organ& organ, double rate,
+                                  double diagonal) {
   double sum = 0.0;
-  for (const Probe& p : probes) sum += beam_difference(p, organ, rate, diagonal);
+  for (const Probe& p : probes) sum += attenuated_difference(p, organ, rate, diagonal);
   return sum / static_cast<double>(probes.size());
 }
 
@@ -94,7 +123,7 @@ double mean_beam_difference(const std::vector<Probe>& probes, const organ::Organ
 /// over [0, 400] 1/m, then golden-section search around the best point.
 double fit_attenuation_rate(const std::vector<Probe>& probes, const organ::Organ& organ, double diagonal) {
   constexpr double kHighest = 400.0, kStep = 10.0;
-  auto cost = [&](double rate) { return mean_beam_difference(probes, organ, rate, diagonal); };
+  auto cost = [&](double rate) { return mean_attenuated_difference(probes, organ, rate, diagonal); };
   double best = 0.0, best_cost = cost(0.0);
   for (double rate = kStep; rate <= kHighest; rate += kStep)
     if (const double c = cost(rate); c < best_cost) best = rate, best_cost = c;
@@ -120,60 +149,57 @@ double log_force_ratio(const Eigen::Vector3d& force, const Eigen::Vector3d& refe
   return std::log(force.norm() / reference.norm());
 }
 
-/// The scale s minimizing Σ ln²(s |F| / |F_reference|) over the probes: the
-/// geometric mean of the ratios |F_reference| / |F|.
-double fit_force_scale(const std::vector<Probe>& probes, Eigen::Vector3d Probe::*force) {
+/// The scale s minimizing Σ ln²(s |F| / |F_reference|) over the probes (the
+/// forces of calibrated model `k`): the geometric mean of the ratios
+/// |F_reference| / |F|.
+double fit_force_scale(const std::vector<Probe>& probes, std::size_t k) {
   double sum = 0.0;
   for (const Probe& p : probes) {
-    if (!((p.*force).norm() > 0.0) || !(p.reference.tools[0].force.norm() > 0.0))
+    if (!(p.force[k].norm() > 0.0) || !(p.reference.tools[0].force.norm() > 0.0))
       throw std::runtime_error("a press gave no force to fit a stiffness to: press deeper (--depth)");
-    sum -= log_force_ratio(p.*force, p.reference.tools[0].force);
+    sum -= log_force_ratio(p.force[k], p.reference.tools[0].force);
   }
   return std::exp(sum / static_cast<double>(probes.size()));
 }
 
-/// The factor by which the forces are typically off, exp(sqrt(mean ln²(s |F|
-/// / |F_reference|))) (1 = exact; 2 = twice or half the reference's): what the
-/// fit minimizes, stiff and soft alike.
-double force_factor(const std::vector<Probe>& probes, Eigen::Vector3d Probe::*force, double scale) {
+/// The factor by which model `k`'s forces are typically off, exp(sqrt(mean
+/// ln²(s |F| / |F_reference|))) (1 = exact; 2 = twice or half the
+/// reference's): what the fit minimizes, stiff and soft alike.
+double force_factor(const std::vector<Probe>& probes, std::size_t k, double scale) {
   double sum = 0.0;
-  for (const Probe& p : probes) sum += std::pow(log_force_ratio(scale * (p.*force), p.reference.tools[0].force), 2);
+  for (const Probe& p : probes) sum += std::pow(log_force_ratio(scale * p.force[k], p.reference.tools[0].force), 2);
   return std::exp(std::sqrt(sum / static_cast<double>(probes.size())));
 }
 
-/// Held-out errors of the fast models as pressed with `organ`'s material.
+/// Held-out errors of one fast model as pressed with an organ's material.
 /// Forces as the typical factor off (force_factor) and as the vector error
 /// sqrt(Σ |F − F_reference|² / Σ |F_reference|²), which the largest forces
 /// dominate.
-struct HeldOutError {
-  double beam_difference = 0.0, beam_force = 0.0, beam_factor = 0.0;
-  double spring_difference = 0.0, spring_force = 0.0, spring_factor = 0.0;
+struct ModelError {
+  double difference = 0.0, force = 0.0, factor = 0.0;
 };
+/// Per calibrated model.
+using HeldOutError = std::vector<ModelError>;
 
-HeldOutError measure_held_out(const organ::Organ& organ, const std::vector<Probe>& probes, const PressOptions& o,
-                              const Eigen::Vector3d& extent) {
-  HeldOutError e;
-  double reference_size = 0.0, beam_log = 0.0, spring_log = 0.0;
-  // A network softened by s rings 1/sqrt(s) times longer: it is held that much
-  // longer (at most 5 times), so that each is measured settled.
-  PressOptions settled = o;
-  settled.settle_seconds *=
-      std::min(5.0, 1.0 / std::sqrt(std::min(1.0, organ.model().material.spring_stiffness_scale)));
-  for (const Probe& p : probes) {
-    const PressResult beam = press("beam", organ, {p.tool}, o);
-    const PressResult springs = press("springs", organ, {p.tool}, settled);
-    const Eigen::Vector3d& reference = p.reference.tools[0].force;
-    e.beam_difference += compare_presses(beam, p.reference, extent).measure.mean;
-    e.spring_difference += compare_presses(springs, p.reference, extent).measure.mean;
-    e.beam_force += (beam.tools[0].force - reference).squaredNorm();
-    e.spring_force += (springs.tools[0].force - reference).squaredNorm();
-    beam_log += std::pow(log_force_ratio(beam.tools[0].force, reference), 2);
-    spring_log += std::pow(log_force_ratio(springs.tools[0].force, reference), 2);
-    reference_size += reference.squaredNorm();
-  }
+HeldOutError measure_held_out(const organ::Organ& organ, const std::vector<const realtime::RegisteredModel*>& models,
+                              const std::vector<Probe>& probes, const PressOptions& o, const Eigen::Vector3d& extent) {
+  HeldOutError errors(models.size());
+  double reference_size = 0.0;
+  for (const Probe& p : probes) reference_size += p.reference.tools[0].force.squaredNorm();
   const double n = static_cast<double>(probes.size());
-  return {e.beam_difference / n,   std::sqrt(e.beam_force / reference_size),   std::exp(std::sqrt(beam_log / n)),
-          e.spring_difference / n, std::sqrt(e.spring_force / reference_size), std::exp(std::sqrt(spring_log / n))};
+  for (std::size_t k = 0; k < models.size(); ++k) {
+    const PressOptions held = held_until_settled(*models[k], organ.model().material, o);
+    double difference = 0.0, force = 0.0, log_squares = 0.0;
+    for (const Probe& p : probes) {
+      const PressResult pressed = press(models[k]->name, organ, {p.tool}, held);
+      const Eigen::Vector3d& reference = p.reference.tools[0].force;
+      difference += compare_presses(pressed, p.reference, extent).measure.mean;
+      force += (pressed.tools[0].force - reference).squaredNorm();
+      log_squares += std::pow(log_force_ratio(pressed.tools[0].force, reference), 2);
+    }
+    errors[k] = {difference / n, std::sqrt(force / reference_size), std::exp(std::sqrt(log_squares / n))};
+  }
+  return errors;
 }
 
 model::OrganModel with_material(model::OrganModel model, const model::Material& material) {
@@ -184,10 +210,12 @@ model::OrganModel with_material(model::OrganModel model, const model::Material& 
 /// The presses, alternately to fit and held out: each pressed with the
 /// reference on `organ` and with the fast models on `unit_organ` (unit scales,
 /// no attenuation). A press the reference cannot solve is left out with a warning.
-void press_probes(const CalibrateOptions& o, const organ::Organ& organ, const organ::Organ& unit_organ,
-                  std::vector<Probe>& fit, std::vector<Probe>& held_out) {
+void press_probes(const CalibrateOptions& o, const std::vector<const realtime::RegisteredModel*>& models,
+                  const organ::Organ& organ, const organ::Organ& unit_organ, std::vector<Probe>& fit,
+                  std::vector<Probe>& held_out) {
   const std::vector<Eigen::Vector3d> normals = rest_normals(organ);
   const std::vector<std::uint32_t> sites = press_sites(organ, o.presses, o.seed, o.press);
+  const int attenuated = attenuated_index(models);
   for (std::size_t k = 0; k < sites.size(); ++k) {
     // Straight in, or tilted 45° along one of two tangents in turn: the organ
     // is pressed and dragged in use, and a fit to one kind would not transfer.
@@ -200,17 +228,20 @@ void press_probes(const CalibrateOptions& o, const organ::Organ& organ, const or
       warn("calibrate", fmt::format("press {} ({}) left out: {}", k + 1, p.tool.text, e.what()));
       continue;
     }
-    const PressResult beam = press("beam", unit_organ, {p.tool}, o.press);
-    const PressResult springs = press("springs", unit_organ, {p.tool}, o.press);
-    const std::vector<model::Point3>& rest = organ.model().volume_vertices;
-    for (std::size_t n = 0; n < rest.size(); ++n) {
-      p.unattenuated.push_back(point(beam.node_positions[n]) - point(rest[n]));
-      p.distance.push_back((point(rest[n]) - beam.tools[0].action_point).norm());
+    std::string forces = fmt::format("|F| {} {:.4f} N", o.reference, p.reference.tools[0].force.norm());
+    for (std::size_t m = 0; m < models.size(); ++m) {
+      const PressResult pressed = press(models[m]->name, unit_organ, {p.tool}, o.press);
+      if (static_cast<int>(m) == attenuated) {
+        const std::vector<model::Point3>& rest = organ.model().volume_vertices;
+        for (std::size_t n = 0; n < rest.size(); ++n) {
+          p.unattenuated.push_back(point(pressed.node_positions[n]) - point(rest[n]));
+          p.distance.push_back((point(rest[n]) - pressed.tools[0].action_point).norm());
+        }
+      }
+      p.force.push_back(pressed.tools[0].force);
+      forces += fmt::format(", {} {:.4f} N", models[m]->name, pressed.tools[0].force.norm());
     }
-    p.beam_force = beam.tools[0].force;
-    p.spring_force = springs.tools[0].force;
-    detail("calibrate", fmt::format("|F| {} {:.4f} N, beam {:.4f} N, springs {:.4f} N", o.reference,
-                                    p.reference.tools[0].force.norm(), p.beam_force.norm(), p.spring_force.norm()));
+    detail("calibrate", forces);
     ((fit.size() + held_out.size()) % 2 == 0 ? fit : held_out).push_back(std::move(p));
   }
   if (fit.size() < 2 || held_out.size() < 2)
@@ -225,36 +256,37 @@ struct FittedMaterial {
   std::vector<std::string> kept;
 };
 
-FittedMaterial fit_material(const model::Material& before, const std::vector<Probe>& fit,
-                            const std::vector<Probe>& held_out, const organ::Organ& unit_organ, double diagonal) {
-  const double alpha = std::abs(std::log(before.attenuation_alpha)) > 1e-12 ? before.attenuation_alpha : std::exp(1.0);
-  const double rate_before = before.attenuation_beta * std::log(before.attenuation_alpha);
+FittedMaterial fit_material(const model::Material& before, const std::vector<const realtime::RegisteredModel*>& models,
+                            const std::vector<Probe>& fit, const std::vector<Probe>& held_out,
+                            const organ::Organ& unit_organ, double diagonal) {
   FittedMaterial result{before, {}};
   model::Material& after = result.material;
-  after.attenuation_alpha = alpha;
-  const double rate = fit_attenuation_rate(fit, unit_organ, diagonal);
-  if (mean_beam_difference(held_out, unit_organ, rate, diagonal) <=
-      mean_beam_difference(held_out, unit_organ, rate_before, diagonal))
-    after.attenuation_beta = rate / std::log(alpha);
-  else
-    result.kept.push_back("attenuation");
-  const double beam_scale = fit_force_scale(fit, &Probe::beam_force);
-  if (force_factor(held_out, &Probe::beam_force, beam_scale) <=
-      force_factor(held_out, &Probe::beam_force, before.beam_stiffness_scale))
-    after.beam_stiffness_scale = beam_scale;
-  else
-    result.kept.push_back("beam stiffness");
-  const double spring_scale = fit_force_scale(fit, &Probe::spring_force);
-  if (force_factor(held_out, &Probe::spring_force, spring_scale) <=
-      force_factor(held_out, &Probe::spring_force, before.spring_stiffness_scale))
-    after.spring_stiffness_scale = spring_scale;
-  else
-    result.kept.push_back("spring stiffness");
+  if (attenuated_index(models) >= 0) {
+    const double alpha =
+        std::abs(std::log(before.attenuation_alpha)) > 1e-12 ? before.attenuation_alpha : std::exp(1.0);
+    const double rate_before = before.attenuation_beta * std::log(before.attenuation_alpha);
+    after.attenuation_alpha = alpha;
+    const double rate = fit_attenuation_rate(fit, unit_organ, diagonal);
+    if (mean_attenuated_difference(held_out, unit_organ, rate, diagonal) <=
+        mean_attenuated_difference(held_out, unit_organ, rate_before, diagonal))
+      after.attenuation_beta = rate / std::log(alpha);
+    else
+      result.kept.push_back("attenuation");
+  }
+  for (std::size_t k = 0; k < models.size(); ++k) {
+    double model::Material::*scale = models[k]->calibration.stiffness_scale;
+    const double fitted = fit_force_scale(fit, k);
+    if (force_factor(held_out, k, fitted) <= force_factor(held_out, k, before.*scale))
+      after.*scale = fitted;
+    else
+      result.kept.push_back(std::string(models[k]->name) + " stiffness");
+  }
   return result;
 }
 
 /// How the calibration was made and what it achieved, in the model's provenance.
-void record_calibration(model::OrganModel& calibrated, const CalibrateOptions& o, std::size_t fitted,
+void record_calibration(model::OrganModel& calibrated, const CalibrateOptions& o,
+                        const std::vector<const realtime::RegisteredModel*>& models, std::size_t fitted,
                         std::size_t held_out, const HeldOutError& before, const HeldOutError& after) {
   auto& parameters = calibrated.provenance.parameters;
   parameters["calibration_reference"] = o.reference;
@@ -265,15 +297,14 @@ void record_calibration(model::OrganModel& calibrated, const CalibrateOptions& o
   for (const realtime::RegisteredModel* entry : realtime::registered_models())
     if (entry->name == o.reference || entry->matches_reference)
       parameters["calibration_" + std::string(entry->name)] = parameter_values(*entry, o.press.tuning.models).dump();
-  parameters["calibration_held_out_beam"] =
-      fmt::format("displacement {:.3g} -> {:.3g} % of the bounding box, force off by x {:.3g} -> {:.3g}",
-                  100 * before.beam_difference, 100 * after.beam_difference, before.beam_factor, after.beam_factor);
-  parameters["calibration_held_out_springs"] = fmt::format(
-      "displacement {:.3g} -> {:.3g} % of the bounding box, force off by x {:.3g} -> {:.3g}",
-      100 * before.spring_difference, 100 * after.spring_difference, before.spring_factor, after.spring_factor);
+  for (std::size_t k = 0; k < models.size(); ++k)
+    parameters["calibration_held_out_" + std::string(models[k]->name)] =
+        fmt::format("displacement {:.3g} -> {:.3g} % of the bounding box, force off by x {:.3g} -> {:.3g}",
+                    100 * before[k].difference, 100 * after[k].difference, before[k].factor, after[k].factor);
 }
 
 struct CalibrationOutcome {
+  std::vector<const realtime::RegisteredModel*> models;  ///< the calibrated fast models
   std::size_t fitted = 0, held_out = 0;
   model::Material before, after;
   std::vector<std::string> kept;
@@ -288,14 +319,12 @@ void print_json(const CalibrateOptions& o, const CalibrationOutcome& c) {
                           {"beam_stiffness_scale", m.beam_stiffness_scale},
                           {"spring_stiffness_scale", m.spring_stiffness_scale}};
   };
-  auto errors = [](const HeldOutError& e) {
-    return nlohmann::json{
-        {"beam",
-         {{"mean_difference", e.beam_difference}, {"force_factor", e.beam_factor}, {"force_error", e.beam_force}}},
-        {"springs",
-         {{"mean_difference", e.spring_difference},
-          {"force_factor", e.spring_factor},
-          {"force_error", e.spring_force}}}};
+  auto errors = [&](const HeldOutError& e) {
+    nlohmann::json models = nlohmann::json::object();
+    for (std::size_t k = 0; k < c.models.size(); ++k)
+      models[c.models[k]->name] = {
+          {"mean_difference", e[k].difference}, {"force_factor", e[k].factor}, {"force_error", e[k].force}};
+    return models;
   };
   nlohmann::json j = {{"reference", o.reference},
                       {"model", o.model_path},
@@ -322,12 +351,16 @@ void print_table(const CalibrateOptions& o, const CalibrationOutcome& c) {
       "{:<14}{} against {}: {} presses of {:g} mm, inward or tilted 45 degrees (seed {}), {} fitted, "
       "{} held out\n",
       "calibrate", o.model_path, o.reference, c.fitted + c.held_out, o.depth_mm, o.seed, c.fitted, c.held_out);
-  std::cout << fmt::format(
-      "{:<14}beam: attenuation beta {:g} -> {:g} 1/m (alpha {:g}; only beta ln alpha enters), "
-      "stiffness E x {:g} -> {:g}; springs: stiffness E x {:g} -> {:g}\n",
-      "fitted", c.before.attenuation_beta, c.after.attenuation_beta, c.after.attenuation_alpha,
-      c.before.beam_stiffness_scale, c.after.beam_stiffness_scale, c.before.spring_stiffness_scale,
-      c.after.spring_stiffness_scale);
+  std::string fitted;
+  for (const realtime::RegisteredModel* entry : c.models) {
+    fitted += fmt::format("{}{}: ", fitted.empty() ? "" : "; ", entry->name);
+    if (entry->calibration.attenuated)
+      fitted += fmt::format("attenuation beta {:g} -> {:g} 1/m (alpha {:g}; only beta ln alpha enters), ",
+                            c.before.attenuation_beta, c.after.attenuation_beta, c.after.attenuation_alpha);
+    fitted += fmt::format("stiffness E x {:g} -> {:g}", c.before.*entry->calibration.stiffness_scale,
+                          c.after.*entry->calibration.stiffness_scale);
+  }
+  std::cout << fmt::format("{:<14}{}\n", "fitted", fitted);
   for (const std::string& k : c.kept)
     std::cout << fmt::format("{:<14}{}: the fitted value would raise the held-out error; the model's value is kept\n",
                              "kept", k);
@@ -352,10 +385,10 @@ void print_table(const CalibrateOptions& o, const CalibrationOutcome& c) {
     std::cout << fmt::format("| {:<7} | {:>18.3f}% | {:>5.3f}% | {:>18.2f}x | {:>5.2f}x | {:>17.1f}% | {:>5.1f}% |\n",
                              name, 100 * d0, 100 * d1, k0, k1, 100 * f0, 100 * f1);
   };
-  const HeldOutError &b = c.error_before, &a = c.error_after;
-  row("beam", b.beam_difference, a.beam_difference, b.beam_factor, a.beam_factor, b.beam_force, a.beam_force);
-  row("springs", b.spring_difference, a.spring_difference, b.spring_factor, a.spring_factor, b.spring_force,
-      a.spring_force);
+  for (std::size_t k = 0; k < c.models.size(); ++k) {
+    const ModelError &b = c.error_before[k], &a = c.error_after[k];
+    row(c.models[k]->name, b.difference, a.difference, b.factor, a.factor, b.force, a.force);
+  }
   std::cout << fmt::format("\n{:<14}{}\n", "written", o.output_path);
 }
 
@@ -375,21 +408,24 @@ int run_calibrate(CalibrateOptions o) {
   if (o.presses < 4 || o.presses > 256)
     throw CLI::ValidationError("--presses", "must be 4 to 256 (half fit, half held out)");
   o.press.command = "calibrate";
-  const model::OrganModel original = load_simulation_model("calibrate", o.model_path, {o.reference, "beam", "springs"});
   CalibrationOutcome c;
+  c.models = calibrated_models();
+  std::vector<std::string> pressed{o.reference};
+  for (const realtime::RegisteredModel* entry : c.models) pressed.push_back(entry->name);
+  const model::OrganModel original = load_simulation_model("calibrate", o.model_path, pressed);
   c.before = original.material;
   const organ::Organ organ(original);  // its own material: the errors before
   model::Material unit = c.before;     // κ = 0 and unit scales: what the fit scales
   unit.attenuation_beta = 0.0;
-  unit.beam_stiffness_scale = unit.spring_stiffness_scale = 1.0;
+  for (const realtime::RegisteredModel* entry : c.models) unit.*entry->calibration.stiffness_scale = 1.0;
   const organ::Organ unit_organ(with_material(original, unit));
   const Eigen::Vector3d extent = bounding_box_extent(organ.model().surface_vertices);
 
   std::vector<Probe> fit, held_out;
-  press_probes(o, organ, unit_organ, fit, held_out);
+  press_probes(o, c.models, organ, unit_organ, fit, held_out);
   c.fitted = fit.size();
   c.held_out = held_out.size();
-  FittedMaterial fitted = fit_material(c.before, fit, held_out, unit_organ, extent.norm());
+  FittedMaterial fitted = fit_material(c.before, c.models, fit, held_out, unit_organ, extent.norm());
   c.after = fitted.material;
   c.kept = std::move(fitted.kept);
 
@@ -414,10 +450,10 @@ int run_calibrate(CalibrateOptions o) {
         o.curve_sites, c.curve.solved, c.curve.presses, o.press.tuning.tip_radius * 1e3);
   }
   note("calibrate", "measuring the held-out presses before and after");
-  c.error_before = measure_held_out(organ, held_out, o.press, extent);
+  c.error_before = measure_held_out(organ, c.models, held_out, o.press, extent);
   const organ::Organ calibrated_organ(calibrated);
-  c.error_after = measure_held_out(calibrated_organ, held_out, o.press, extent);
-  record_calibration(calibrated, o, c.fitted, c.held_out, c.error_before, c.error_after);
+  c.error_after = measure_held_out(calibrated_organ, c.models, held_out, o.press, extent);
+  record_calibration(calibrated, o, c.models, c.fitted, c.held_out, c.error_before, c.error_after);
   model::write_organ_model_file(calibrated, o.output_path);
 
   if (o.json)

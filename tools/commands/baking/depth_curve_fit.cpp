@@ -7,7 +7,7 @@
 
 #include <fmt/format.h>
 
-#include "command_line.h"
+#include "command_line/command_line.h"
 #include "organsim/organ/site_law.h"
 #include "press_plan.h"
 #include "refined_reference.h"

@@ -15,7 +15,7 @@
 
 #include "organsim/realtime/model_registry.h"
 #include "organsim/model/organ_model.h"
-#include "static_press.h"
+#include "static_press/static_press.h"
 
 namespace organsim::cli {
 

@@ -11,9 +11,9 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "command_line.h"
+#include "command_line/command_line.h"
 #include "organsim/realtime/model_registry.h"
-#include "plot/power_law.h"
+#include "power_law/power_law.h"
 #include "press_plan.h"
 #include "refined_reference.h"
 #include "reference_cache.h"

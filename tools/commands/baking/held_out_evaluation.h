@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "organsim/realtime/model_registry.h"
-#include "static_press.h"
+#include "static_press/static_press.h"
 
 namespace organsim::cli {
 

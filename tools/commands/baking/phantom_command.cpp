@@ -1,7 +1,7 @@
 // `organsim phantom -o CT [--mask MASK] [--dicom DIR] [--seed N] [--size ...] [--spacing ...]`
 #include <fmt/format.h>
 
-#include "command_line.h"
+#include "command_line/command_line.h"
 #include "organsim/pipeline/image_io.h"
 #include "organsim/pipeline/phantom.h"
 

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "organsim/organ/organ.h"
-#include "static_press.h"
+#include "static_press/static_press.h"
 
 namespace organsim::cli {
 

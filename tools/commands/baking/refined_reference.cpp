@@ -1,26 +1,20 @@
 #include "refined_reference.h"
 
-#include <stdexcept>
-#include <string>
-
-#include "organsim/pipeline/tetrahedra.h"
+#include "organsim/tetrahedra/tetrahedra.h"
 
 namespace organsim::cli {
 
 model::OrganModel refined_at(const model::OrganModel& model, const Eigen::Vector3d& site, double size_mm,
                              double radius_mm) {
+  // Meshed as the bake meshed it (the model's meshing record), finer under the
+  // tool; a model that does not say keeps the mesher's default size and an
+  // unrefined clamp.
   pipeline::TetrahedraOptions options;
-  const auto given = model.provenance.parameters.find("tet_size_mm");
-  if (given != model.provenance.parameters.end()) options.tet_size_mm = std::stod(given->second);
+  if (!model.meshing.empty()) options.tet_size_mm = model.meshing.tet_size * 1e3;
   options.refinements.push_back({{site.x(), site.y(), site.z()}, radius_mm, size_mm});
-  // The clamp resolved as the bake resolved it (a model baked before the
-  // clamp was refined keeps its coarse clamp: the same organ, re-meshed).
-  const auto clamp_cells = model.provenance.parameters.find("clamp_cells_mm");
-  const auto clamp_radius = model.provenance.parameters.find("clamp_radius_mm");
-  if (clamp_cells != model.provenance.parameters.end() && clamp_radius != model.provenance.parameters.end() &&
-      std::stod(clamp_cells->second) > 0.0 && !model.fixed_points.empty())
-    options.refinements.push_back(pipeline::clamp_refinement(
-        model.fixed_points.front(), std::stod(clamp_radius->second) * 1e-3, std::stod(clamp_cells->second)));
+  if (model.meshing.clamp_cell_size > 0.0 && model.meshing.clamp_radius > 0.0 && !model.fixed_points.empty())
+    options.refinements.push_back(pipeline::clamp_refinement(model.fixed_points.front(), model.meshing.clamp_radius,
+                                                             model.meshing.clamp_cell_size * 1e3));
   const geometry::TetrahedralMesh mesh =
       pipeline::make_tetrahedra({model.surface_vertices, model.surface_triangles}, options);
   model::OrganModel refined = model;

@@ -11,8 +11,9 @@ namespace organsim::cli {
 
 /// The model with its surface re-meshed (pipeline/tetrahedra.h): cells of
 /// `size_mm` within `radius_mm` of `site` (m), growing back to the model's
-/// own tetrahedron size (its provenance's tet_size_mm; 8 mm when it does not
-/// say) away from it. Surface, clamp and material are the model's; the beam
+/// own tetrahedron size away from it, with its clamp refined as the bake
+/// refined it (its meshing record; 8 mm and no clamp refinement when it has
+/// none). Surface, clamp and material are the model's; the beam
 /// tables are dropped (a reference is a FEM model). Throws std::runtime_error
 /// when the surface cannot be meshed.
 model::OrganModel refined_at(const model::OrganModel& model, const Eigen::Vector3d& site, double size_mm,

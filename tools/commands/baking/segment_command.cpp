@@ -7,7 +7,7 @@
 
 #include <fmt/format.h>
 
-#include "command_line.h"
+#include "command_line/command_line.h"
 #include "organsim/pipeline/ct_input.h"
 #include "organsim/pipeline/image_io.h"
 #include "organsim/pipeline/segmentation.h"

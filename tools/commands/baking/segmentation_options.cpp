@@ -5,7 +5,7 @@
 
 #include <fmt/format.h>
 
-#include "command_line.h"
+#include "command_line/command_line.h"
 
 namespace organsim::cli {
 namespace {

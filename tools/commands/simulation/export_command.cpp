@@ -9,7 +9,7 @@
 
 #include <fmt/format.h>
 
-#include "command_line.h"
+#include "command_line/command_line.h"
 #include "organsim/io/atomic_file.h"
 #include "organsim/mesh_io/mesh_io.h"
 #include "organsim/model/model_file.h"

@@ -13,9 +13,9 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "command_line.h"
+#include "command_line/command_line.h"
 #include "fem_problem_file.h"
-#include "model_tuning.h"
+#include "command_line/model_tuning.h"
 #include "organsim/fem/elasticity_system.h"
 #include "organsim/mesh_io/mesh_io.h"
 

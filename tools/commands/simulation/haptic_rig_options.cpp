@@ -1,6 +1,6 @@
 #include "haptic_rig_options.h"
 
-#include "command_line.h"
+#include "command_line/command_line.h"
 
 namespace organsim::cli {
 

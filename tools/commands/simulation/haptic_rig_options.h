@@ -4,7 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "organsim/devices/haptic_rig.h"
+#include "organsim/openhaptics/haptic_rig.h"
 
 namespace organsim::cli {
 

@@ -8,7 +8,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "command_line.h"
+#include "command_line/command_line.h"
 #include "organsim/geometry/model_measures.h"
 #include "organsim/model/beam_frame.h"
 #include "organsim/model/model_file.h"
@@ -149,6 +149,10 @@ nlohmann::json summary_json(const InfoOptions& o, const model::ModelReadResult& 
   nlohmann::json fixed = nlohmann::json::array();
   for (const model::Point3& p : m.fixed_points) fixed.push_back(as_json(p));
   j["fixed_points_m"] = fixed;
+  j["meshing"] = m.meshing.empty() ? nlohmann::json(nullptr)
+                                   : nlohmann::json{{"tet_size_m", m.meshing.tet_size},
+                                                    {"clamp_radius_m", m.meshing.clamp_radius},
+                                                    {"clamp_cell_size_m", m.meshing.clamp_cell_size}};
   j["provenance"] = {{"program_version", m.provenance.program_version},
                      {"input_sha256", m.provenance.input_sha256},
                      {"parameters", m.provenance.parameters}};
@@ -175,6 +179,14 @@ void print_text(const nlohmann::json& j) {
              c["texture_coordinates"].get<std::size_t>() > 0 ? ", with texture coordinates" : "");
   fmt::print("tetrahedra      {} tetrahedra on {} vertices\n", c["tetrahedra"].get<std::size_t>(),
              c["volume_vertices"].get<std::size_t>());
+  if (!j["meshing"].is_null()) {
+    const auto& mesh = j["meshing"];
+    fmt::print("meshed          {:g} mm cells", mesh["tet_size_m"].get<double>() * 1e3);
+    if (mesh["clamp_cell_size_m"].get<double>() > 0.0)
+      fmt::print(", {:g} mm within {:g} mm of the fixed point", mesh["clamp_cell_size_m"].get<double>() * 1e3,
+                 mesh["clamp_radius_m"].get<double>() * 1e3);
+    fmt::print("\n");
+  }
   fmt::print("bounding box    min ({}) mm, max ({}) mm, size ({}) mm\n", vec_mm(j["bounding_box_m"]["min"]),
              vec_mm(j["bounding_box_m"]["max"]), vec_mm(j["bounding_box_m"]["size"]));
   const auto& volume = j["volume_m3"];

@@ -15,9 +15,9 @@
 
 #include <fmt/format.h>
 
-#include "command_line.h"
+#include "command_line/command_line.h"
 #include "plot/line_plot.h"
-#include "plot/power_law.h"
+#include "power_law/power_law.h"
 
 namespace organsim::cli {
 namespace {

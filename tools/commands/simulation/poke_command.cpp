@@ -11,11 +11,11 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "command_line.h"
+#include "command_line/command_line.h"
 #include "organsim/mesh_io/mesh_io.h"
 #include "organsim/model/model_file.h"
 #include "plot/field_view.h"
-#include "static_press.h"
+#include "static_press/static_press.h"
 
 namespace organsim::cli {
 namespace {

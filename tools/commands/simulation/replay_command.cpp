@@ -15,8 +15,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "command_line.h"
-#include "model_tuning.h"
+#include "command_line/command_line.h"
+#include "command_line/model_tuning.h"
 #include "report_options.h"
 #include "session_limits.h"
 #include "report/run_recorder.h"
@@ -142,7 +142,7 @@ double resident_mib() {
 
 // A line every `interval` seconds of wall time while a model runs: elapsed
 // time, resident memory and the loops' statistics over the interval (stderr;
-// JSON with --json), for long runs and soaks (tools/soak.sh).
+// JSON with --json), for long runs and soaks (tools/scripts/soak.sh).
 class ProgressReporter {
  public:
   ProgressReporter(double interval, const std::string& model, bool json)

@@ -11,7 +11,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "command_line.h"
+#include "command_line/command_line.h"
 #include "report_options.h"
 
 namespace organsim::cli {

@@ -10,9 +10,9 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "command_line.h"
+#include "command_line/command_line.h"
 #include "igtlink/igtl_server.h"
-#include "model_tuning.h"
+#include "command_line/model_tuning.h"
 #include "report_options.h"
 #include "report/run_recorder.h"
 #include "organsim/model/model_file.h"

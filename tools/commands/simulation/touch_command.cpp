@@ -10,8 +10,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "command_line.h"
-#include "model_tuning.h"
+#include "command_line/command_line.h"
+#include "command_line/model_tuning.h"
 #include "haptic_rig_options.h"
 #include "report_options.h"
 #include "report/run_recorder.h"

@@ -17,8 +17,8 @@
 #include <vtkNew.h>
 #include <vtkRenderWindowInteractor.h>
 
-#include "command_line.h"
-#include "model_tuning.h"
+#include "command_line/command_line.h"
+#include "command_line/model_tuning.h"
 #include "haptic_rig_options.h"
 #include "report_options.h"
 #include "report/run_recorder.h"
@@ -52,6 +52,7 @@ struct ViewOptions {
   std::string screenshot_path;
   std::string record_path;
   bool offscreen = false;
+  bool realtime = false;  // --realtime: a session on the engine's real-time loops, drawn as frames arrive
   bool hide_tools = false;
   bool json = false;
   long frames = 0;  // 0: the whole session, or until the window closes
@@ -73,6 +74,7 @@ struct ViewRun {
   long frames = 0;
   nlohmann::json tools_json = nlohmann::json::array();  ///< the last drawn frame's tools, for scripts and tests
   std::unique_ptr<report::RunRecorder> report;          ///< --report
+  nlohmann::json timing;                                ///< --realtime: the loops' and the drawing's timings
 
   /// The training report takes the frame drawn and the ticks since the last one.
   void record(Engine& engine, const SurfaceFrame& surface) {
@@ -91,7 +93,7 @@ struct ViewRun {
     facts.mode = mode;
     facts.duration_s = seconds;
     facts.device_max_force_n = max_force;
-    facts.real_time = options.session_path.empty();  // a session is stepped, live tools run in real time
+    facts.real_time = options.session_path.empty() || options.realtime;  // a session is stepped unless --realtime
     health["frames"] = frames;
     facts.loop_health = std::move(health);
     report->finish(engine, report::describe_session(facts, engine));
@@ -164,7 +166,8 @@ void view_session(const organ::Organ& organ, const Session& session, ViewRun& ru
                                 {"grasps", engine.telemetry(i).grasps},
                                 {"jaws_closed", pose.jaws_closed},
                                 {"tip_px", {pixel[0], pixel[1]}},
-                                {"force_n", forces[i].norm()}});
+                                {"force_n", forces[i].norm()},
+                                {"held_vertices", run.scene.held_vertices(i)}});
     }
     if (!o.hide_tools)
       run.scene.show_text(overlay(forces, present, 1.0 / engine.options().force_period, 1.0 / frame_period, false));
@@ -174,6 +177,84 @@ void view_session(const organ::Organ& organ, const Session& session, ViewRun& ru
   });
   run.finish_report(engine, "view (a recorded session, scripted tools)", engine.surfaces().read().time,
                     playback_options.limits.max_force, {{"force_ticks", timings.force_computes.count()}});
+}
+
+/// A recorded session in real time, as a trainee's station runs it: the
+/// force loop (1 kHz) and the deformation loop (60 Hz) on their own threads,
+/// as `replay` runs them, and each new surface drawn on this thread as it
+/// arrives. Measures the whole chain: the loops' periods, the frames dropped
+/// and the time each drawing takes.
+void view_session_realtime(const organ::Organ& organ, const Session& session, ViewRun& run) {
+  const ViewOptions& o = run.options;
+  PlaybackOptions playback_options;
+  playback_options.records_per_tool = 4096;  // drained at every poll
+  SessionPlayback playback(organ, session, engine_options(o), playback_options);
+  Engine& engine = playback.engine();
+  engine.set_reproducible(false);  // real time: a frame never waits for the FEM tangent worker
+  warn_if_frames_overrun("view", engine);
+  const auto& scripted = playback.devices();
+  std::vector<Eigen::Vector3d> forces(scripted.size(), Eigen::Vector3d::Zero());
+  std::vector<ToolPose> poses(scripted.size());  // as last drawn
+  const std::vector<bool> present(scripted.size(), true);
+  DurationHistogram drawing;  // s from a new surface to the frame drawn
+  const auto start = std::chrono::steady_clock::now();
+  const RunTimings timings = playback.run_realtime(session.duration, [&](const RunTimings& so_far) {
+    ForceRecord latest;
+    for (std::size_t i = 0; i < scripted.size(); ++i)
+      while (scripted[i]->take_record(latest)) forces[i] = latest.force;
+    if (run.frame_limit_reached()) return false;
+    if (!engine.surfaces().update()) return true;
+    const auto began = std::chrono::steady_clock::now();
+    const SurfaceFrame& surface = engine.surfaces().read();
+    run.scene.show_surface(surface);
+    run.record(engine, surface);
+    for (std::size_t i = 0; i < scripted.size(); ++i) {
+      scripted[i]->read_pose(surface.time, poses[i]);
+      run.scene.show_tool(i, !o.hide_tools, poses[i], forces[i], forces[i].norm() > 0.0);
+    }
+    const double elapsed = std::chrono::duration<double>(began - start).count();
+    if (!o.hide_tools)
+      run.scene.show_text(overlay(forces, present,
+                                  static_cast<double>(so_far.force_computes.count()) / std::max(elapsed, 1e-3),
+                                  surface.frame / std::max(elapsed, 1e-3), false));
+    run.draw();
+    drawing.record(std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count());
+    return true;
+  });
+  // The loops have stopped: their telemetry may be read.
+  run.tools_json = nlohmann::json::array();
+  for (std::size_t i = 0; i < scripted.size(); ++i) {
+    const Eigen::Vector2d pixel = run.scene.project(poses[i].tip);
+    run.tools_json.push_back({{"tool", i + 1},
+                              {"contacts", engine.telemetry(i).contacts},
+                              {"grasps", engine.telemetry(i).grasps},
+                              {"jaws_closed", poses[i].jaws_closed},
+                              {"tip_px", {pixel[0], pixel[1]}},
+                              {"force_n", forces[i].norm()},
+                              {"held_vertices", run.scene.held_vertices(i)}});
+  }
+  const Percentiles period = timings.force_periods.percentiles();
+  const Percentiles frame = timings.deformation_computes.percentiles();
+  const Percentiles draw = drawing.percentiles();
+  run.timing = {
+      {"seconds", timings.wall_seconds},
+      {"force_ticks", timings.force_computes.count()},
+      {"force_period_p50_ms", period.p50 * 1e3},
+      {"force_period_p99_ms", period.p99 * 1e3},
+      {"force_period_max_ms", period.max * 1e3},
+      {"force_deadline_misses", timings.force_deadline_misses},
+      {"realtime_priority", timings.realtime_priority},
+      {"deformation_frames", timings.deformation_computes.count()},
+      {"deformation_p50_ms", frame.p50 * 1e3},
+      {"deformation_p99_ms", frame.p99 * 1e3},
+      {"frames_dropped", timings.deformation_frames_dropped},
+      {"frames_drawn", drawing.count()},
+      {"frames_drawn_per_second", static_cast<double>(drawing.count()) / std::max(timings.wall_seconds, 1e-9)},
+      {"draw_p50_ms", draw.p50 * 1e3},
+      {"draw_p99_ms", draw.p99 * 1e3},
+      {"draw_max_ms", draw.max * 1e3}};
+  run.finish_report(engine, "view (a recorded session in real time)", timings.wall_seconds,
+                    playback_options.limits.max_force, run.timing);
 }
 
 /// PHANToM / Touch devices: the HD servo runs the force loop; the deformation
@@ -279,12 +360,29 @@ void print_summary(const ViewRun& run, const std::vector<std::string>& warnings)
     if (!o.screenshot_path.empty()) j["screenshot"] = o.screenshot_path;
     if (!o.record_path.empty()) j["record"] = {{"path", o.record_path}, {"frames", run.recorder.count()}};
     if (run.report) j["report"] = o.report_dir + "/index.html";
+    if (!run.timing.is_null()) j["timing"] = run.timing;
     std::cout << j.dump() << '\n';
   } else {
     std::cout << fmt::format(
         "{:<12}{} frames drawn{}{}\n", "view", run.frames,
         o.screenshot_path.empty() ? "" : ", screenshot " + o.screenshot_path,
         o.record_path.empty() ? "" : fmt::format(", recording {} ({} frames)", o.record_path, run.recorder.count()));
+    if (!run.timing.is_null()) {
+      const nlohmann::json& t = run.timing;
+      std::cout << fmt::format(
+          "{:<12}force loop: {} ticks, period p50 {:.3f} ms, p99 {:.3f} ms, max {:.2f} ms, {} over 2 ms{}\n", "timing",
+          t["force_ticks"].get<std::uint64_t>(), t["force_period_p50_ms"].get<double>(),
+          t["force_period_p99_ms"].get<double>(), t["force_period_max_ms"].get<double>(),
+          t["force_deadline_misses"].get<std::uint64_t>(),
+          t["realtime_priority"].get<bool>() ? "" : " (without real-time priority)");
+      std::cout << fmt::format(
+          "{:<12}deformation: {} frames, p50 {:.2f} ms, p99 {:.2f} ms, {} dropped; drawing: {} frames, {:.1f} per "
+          "second, p50 {:.2f} ms, p99 {:.2f} ms, max {:.1f} ms\n",
+          "", t["deformation_frames"].get<std::uint64_t>(), t["deformation_p50_ms"].get<double>(),
+          t["deformation_p99_ms"].get<double>(), t["frames_dropped"].get<std::uint64_t>(),
+          t["frames_drawn"].get<std::uint64_t>(), t["frames_drawn_per_second"].get<double>(),
+          t["draw_p50_ms"].get<double>(), t["draw_p99_ms"].get<double>(), t["draw_max_ms"].get<double>());
+    }
   }
 }
 
@@ -295,6 +393,10 @@ int run_view(const ViewOptions& o) {
     throw std::runtime_error("--screenshot " + o.screenshot_path + ": screenshots are PNG files; name it .png");
   if (o.phantom && !o.session_path.empty())
     throw std::runtime_error("--phantom and --session are exclusive; choose one");
+  if (o.realtime && o.session_path.empty())
+    throw CLI::ValidationError("--realtime",
+                               "plays a --session in real time; give one (mouse and PHANToM tools "
+                               "always run in real time)");
   model::OrganModel loaded = load_simulation_model("view", o.model_path, {o.deformation});
   const organ::Organ organ(std::move(loaded));
 
@@ -330,7 +432,9 @@ int run_view(const ViewOptions& o) {
               0,
               nlohmann::json::array(),
               o.report_dir.empty() ? nullptr : std::make_unique<report::RunRecorder>(o.report_dir, organ, tool_count)};
-  if (!o.session_path.empty())
+  if (!o.session_path.empty() && o.realtime)
+    view_session_realtime(organ, session, run);
+  else if (!o.session_path.empty())
     view_session(organ, session, run);
   else if (o.phantom)
     view_phantom(organ, rig, run);
@@ -358,6 +462,10 @@ Command add_view_command(CLI::App& app) {
   app.add_option("--screenshot", o->screenshot_path, "Write a PNG of the last frame");
   app.add_option("--record", o->record_path, "Record every frame into a Motion-JPEG AVI");
   app.add_flag("--offscreen", o->offscreen, "Render without a window (works under Xvfb)");
+  app.add_flag("--realtime", o->realtime,
+               "With --session: run the engine's real-time loops (1 kHz force, 60 Hz deformation, on their own "
+               "threads) and draw each new frame as it arrives, then print the loops' and the drawing's timings "
+               "(default: the session stepped in its own time, as replay --fast)");
   app.add_option("--report", o->report_dir,
                  "Write a training report of the session into this directory (index.html, metrics.json, raw data; "
                  "docs/report.md)");

@@ -21,7 +21,7 @@
 #include "organsim/pipeline/seeded_segmentation.h"
 #include "organsim/pipeline/site_compliance.h"
 #include "organsim/pipeline/surface.h"
-#include "organsim/pipeline/tetrahedra.h"
+#include "organsim/tetrahedra/tetrahedra.h"
 
 namespace organsim::pipeline {
 

@@ -178,6 +178,19 @@ struct SiteCompliance {
   bool operator==(const SiteCompliance& other) const;
 };
 
+/// How the tetrahedra were meshed (format 1.4), so that a program that meshes
+/// the organ again (calibrate's refined reference) meshes it as the bake did.
+/// All zero when the file does not say (an older file, or tetrahedra made
+/// elsewhere).
+struct Meshing {
+  double tet_size = 0.0;         ///< m: the mesher's cell and facet size away from refinements; 0: unknown
+  double clamp_radius = 0.0;     ///< m: the ball around fixed_points[0] that is meshed finer; 0: none
+  double clamp_cell_size = 0.0;  ///< m: the cell size within that ball; 0: not refined
+
+  bool empty() const { return !(tet_size > 0.0); }
+  bool operator==(const Meshing& other) const;
+};
+
 /// Where the model came from. Never holds patient-identifying information: the
 /// input image is identified only by the SHA-256 of its voxel values.
 struct ModelProvenance {
@@ -201,6 +214,7 @@ struct OrganModel {
   Material material;
   BeamTables beams;
   SiteCompliance sites;  ///< per-site contact law of the FEM reference (format 1.2; curvatures 1.3), or empty
+  Meshing meshing;       ///< how the tetrahedra were meshed (format 1.4), or empty
 
   bool operator==(const OrganModel& other) const;
 };
