@@ -3,6 +3,7 @@
 #include <openssl/evp.h>
 
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 #include <ctime>
 #include <thread>
@@ -67,7 +68,11 @@ std::string utc_date_now() {
 }  // namespace
 
 RunRecorder::RunRecorder(const std::string& directory, const organ::Organ& organ, std::size_t tools)
-    : directory_(directory), organ_(organ), tools_(tools), peak_indentation_(organ.vertex_count(), 0.0) {
+    : directory_(directory),
+      organ_(organ),
+      tools_(tools),
+      peak_indentation_(organ.vertex_count(), 0.0),
+      peak_strain_(organ.model().surface_triangles.size(), 0.0) {
   std::error_code error;
   fs::create_directories(directory_, error);
   if (error || !fs::is_directory(directory_))
@@ -87,7 +92,7 @@ void RunRecorder::take_ticks(realtime::Engine& engine) {
     while (engine.take_tick_record(tool, r)) {
       const Eigen::Vector3d tip = r.tip * kMillimetresPerMetre;
       const int length =
-          std::snprintf(line_, sizeof line_, "%.6f,%zu,%.9g,%.9g,%.9g,%.9g,%d,%.4f,%.4f,%.4f,%.5f,%d,%d,%d,%d\n",
+          std::snprintf(line_, sizeof line_, "%.6f,%zu,%.9g,%.9g,%.9g,%.9g,%d,%.6f,%.6f,%.6f,%.5f,%d,%d,%d,%d\n",
                         r.time, tool + 1, r.sent_force[0], r.sent_force[1], r.sent_force[2], r.model_force.norm(),
                         r.in_contact ? 1 : 0, tip[0], tip[1], tip[2], r.depth * kMillimetresPerMetre,
                         r.pose_valid ? 1 : 0, r.jaws_closed ? 1 : 0, r.grasped ? 1 : 0, r.grasp_slipped ? 1 : 0);
@@ -105,6 +110,19 @@ void RunRecorder::take_frame(const realtime::SurfaceFrame& frame) {
     for (int k = 0; k < 3; ++k) inward -= (frame.positions[v][k] - rest[v][k]) * normals[v][k];
     peak_indentation_[v] = std::max(peak_indentation_[v], inward);
   }
+  // The surface's stretch: each triangle's edges against their rest lengths.
+  const auto& triangles = organ_.model().surface_triangles;
+  if (frame.positions.size() == rest.size())
+    for (std::size_t f = 0; f < triangles.size(); ++f)
+      for (int e = 0; e < 3; ++e) {
+        const std::uint32_t a = triangles[f][e], b = triangles[f][(e + 1) % 3];
+        double now = 0.0, before = 0.0;
+        for (int k = 0; k < 3; ++k) {
+          now += (frame.positions[a][k] - frame.positions[b][k]) * (frame.positions[a][k] - frame.positions[b][k]);
+          before += (rest[a][k] - rest[b][k]) * (rest[a][k] - rest[b][k]);
+        }
+        if (before > 0.0) peak_strain_[f] = std::max(peak_strain_[f], std::abs(std::sqrt(now / before) - 1.0));
+      }
   const int length =
       std::snprintf(line_, sizeof line_, "%.6f,%.6f\n", frame.time, enclosed_volume(organ_, frame.positions) * 1e6);
   frames_->append(line_, static_cast<std::size_t>(length));
@@ -129,9 +147,11 @@ void RunRecorder::finish(realtime::Engine& engine, nlohmann::json run) {
                            peak_indentation_[v] * 1e3);
   }
   io::write_file_atomically((fs::path(directory_) / "surface.csv").string(), surface);
-  std::string triangles = "a,b,c\n";
-  for (const model::Triangle& t : organ_.model().surface_triangles)
-    triangles += fmt::format("{},{},{}\n", file_index[t[0]], file_index[t[1]], file_index[t[2]]);
+  std::string triangles = "a,b,c,peak_strain\n";
+  const auto& faces = organ_.model().surface_triangles;
+  for (std::size_t f = 0; f < faces.size(); ++f)
+    triangles += fmt::format("{},{},{},{:.5f}\n", file_index[faces[f][0]], file_index[faces[f][1]],
+                             file_index[faces[f][2]], peak_strain_[f]);
   io::write_file_atomically((fs::path(directory_) / "triangles.csv").string(), triangles);
 
   run["tools"] = tools_;

@@ -50,6 +50,7 @@ class RunRecorder {
   std::size_t tools_;
   std::unique_ptr<io::AtomicStream> ticks_, frames_;
   std::vector<double> peak_indentation_;  // m, per surface vertex (runtime order)
+  std::vector<double> peak_strain_;       // per surface triangle: its edges' largest |length / rest − 1|
   std::size_t tick_count_ = 0, frame_count_ = 0;
   char line_[256];
 };

@@ -32,6 +32,8 @@ std::string svg_chart(const std::vector<ChartSeries>& series, const ChartAxes& a
       y_low = std::min(y_low, s.y[k]);
       y_high = std::max(y_high, s.y[k]);
     }
+  const bool has_band = !axes.band_label.empty();
+  if (has_band) y_high = std::max(y_high, axes.band_high / 1.1), y_low = std::min(y_low, axes.band_low);
   const double peak = y_high;
   const bool has_line = !axes.line_label.empty();
   // The data fill the plot; the line joins them where they come near it.
@@ -56,6 +58,13 @@ std::string svg_chart(const std::vector<ChartSeries>& series, const ChartAxes& a
         "<rect x=\"{:.1f}\" y=\"{}\" width=\"{:.1f}\" height=\"{}\" fill=\"{}\" fill-opacity=\"0.18\">"
         "<title>{}</title></rect>\n",
         from, kTop, std::max(to - from, 1.0), plot_h, span.colour, span.label);
+  }
+  if (has_band) {
+    const double top = py(std::min(axes.band_high, y_high)), bottom = py(std::max(axes.band_low, y_low));
+    svg += fmt::format(
+        "<rect x=\"{}\" y=\"{:.1f}\" width=\"{}\" height=\"{:.1f}\" fill=\"#2ca02c\" fill-opacity=\"0.15\">"
+        "<title>{}</title></rect>\n",
+        kLeft, top, plot_w, std::max(bottom - top, 1.0), axes.band_label);
   }
   const double xs = tick_step(x_low, x_high), ys = tick_step(y_low, y_high);
   for (double x = std::ceil(x_low / xs) * xs; x <= x_high + 1e-9 * xs; x += xs)
@@ -103,6 +112,11 @@ std::string svg_chart(const std::vector<ChartSeries>& series, const ChartAxes& a
     if (!points.empty())
       svg +=
           fmt::format("<polyline fill=\"none\" stroke=\"{}\" stroke-width=\"2\" points=\"{}\"/>\n", s.colour, points);
+    if (axes.points)
+      for (std::size_t i = 0; i < s.x.size() && i < s.y.size(); ++i)
+        if (std::isfinite(s.y[i]))
+          svg += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"4\" fill=\"{}\"/>\n", px(s.x[i]), py(s.y[i]),
+                             s.colour);
     const double legend_y = kTop + 14.0 + 18.0 * static_cast<double>(k);
     svg += fmt::format(
         "<line x1=\"{0}\" y1=\"{1:.1f}\" x2=\"{2}\" y2=\"{1:.1f}\" stroke=\"{3}\" stroke-width=\"3\"/>"

@@ -24,6 +24,10 @@ struct ChartAxes {
   double line_at = 0.0;  ///< a dashed horizontal line at this y (with `line_label`), when the label is set
   std::string line_label;
   std::vector<ChartSpan> spans;
+  /// A range of y shaded across the plot (an expert band), when `band_label` is set.
+  double band_low = 0.0, band_high = 0.0;
+  std::string band_label;
+  bool points = false;  ///< mark each data point with a dot (few points: attempts)
 };
 
 /// One chart (about 900 × 260 pixels) with axes, ticks and a legend. The y

@@ -240,14 +240,28 @@ TEST_F(Cli, ReportPageIsSelfContainedAndHoldsNoPatientData) {
             std::string::npos);
   for (const char* url : {"http:", "https:", "=\"//", "='//", "url(", "<script", "<link"})
     EXPECT_EQ(html.find(url), std::string::npos) << url;
+  // The answer first: a plain summary before any chart, the engineering detail last.
+  const std::size_t summary = html.find("<h2>Summary</h2>"), first_chart = html.find("<svg"),
+                    detail = html.find("<h2>Engineering detail</h2>"), health = html.find("<h2>Loop health</h2>");
+  ASSERT_NE(summary, std::string::npos);
+  EXPECT_LT(summary, first_chart);
+  EXPECT_GT(detail, html.rfind("<svg"));
+  EXPECT_GT(health, detail);
+  const std::string summary_text = html.substr(summary, first_chart - summary);
+  EXPECT_NE(summary_text.find("The strongest force: tool 1, "), std::string::npos) << summary_text;
+  EXPECT_NE(summary_text.find("No damage"), std::string::npos) << summary_text;
+  EXPECT_NE(html.find("@media print"), std::string::npos);
   // Force, depth and speed per tool, and the volume: four charts.
   std::size_t charts = 0;
   for (std::size_t at = html.find("<svg"); at != std::string::npos; at = html.find("<svg", at + 1)) ++charts;
   EXPECT_EQ(charts, 4u);
   EXPECT_NE(html.find("<polyline"), std::string::npos);
-  // The organ's three views, each a picture of the organ on a white page.
+  // The organ from the front, the right and the top, and face-on where it was
+  // pressed deepest: each a picture of the organ on a white page, the last
+  // with the pressed place in the indentation's colour (red at the deepest).
   const std::string prefix = "data:image/png;base64,";
   std::size_t pictures = 0;
+  int red_in_last = 0;
   for (std::size_t at = html.find(prefix); at != std::string::npos; at = html.find(prefix, at + 1)) {
     ++pictures;
     const std::size_t begin = at + prefix.size(), end = html.find('"', begin);
@@ -262,8 +276,15 @@ TEST_F(Cli, ReportPageIsSelfContainedAndHoldsNoPatientData) {
     EXPECT_EQ(image.at<cv::Vec3b>(2, 2), cv::Vec3b(255, 255, 255)) << "picture " << pictures;
     const cv::Vec3b middle = image.at<cv::Vec3b>(image.rows / 2, image.cols / 2);
     EXPECT_LT(middle[0] + middle[1] + middle[2], 3 * 250) << "the organ fills the middle: picture " << pictures;
+    red_in_last = 0;
+    for (int r = 0; r < image.rows; ++r)
+      for (int c = 0; c < image.cols; ++c) {
+        const cv::Vec3b bgr = image.at<cv::Vec3b>(r, c);
+        red_in_last += bgr[2] > bgr[0] + 60 && bgr[2] > bgr[1] + 60;
+      }
   }
-  EXPECT_EQ(pictures, 3u);
+  EXPECT_EQ(pictures, 4u);
+  EXPECT_GT(red_in_last, 20) << "the pressed place, seen face-on, in the deepest indentation's colour";
   EXPECT_EQ(html.find("not drawn"), std::string::npos);
   // Nothing of the (file-name) patient anywhere in the report's files.
   for (const auto& entry : fs::directory_iterator(report)) {
@@ -272,6 +293,102 @@ TEST_F(Cli, ReportPageIsSelfContainedAndHoldsNoPatientData) {
     EXPECT_EQ(text.find("JANE"), std::string::npos) << entry.path();
   }
   EXPECT_EQ(read_json(report / "run.json")["model_sha256"].get<std::string>().size(), 64u);
+}
+
+// Two tools that never touch the organ (100 mm above the cylinder's axis), with
+// motions whose measures are worked by hand: tool 1 rests 0.3 s and then
+// moves x = c (t − 0.3)³; tool 2 goes 30 mm out along x and 20 mm back.
+std::string write_known_motion(const fs::path& dir) {
+  const std::string session = (dir / "motion.session").string();
+  std::ofstream out(session);
+  out << "# organsim session 1\n";
+  constexpr double c = 20000.0;  // mm/s³
+  for (int k = 0; k <= 50; ++k) {
+    const double t = 0.01 * k, tau = std::max(0.0, t - 0.3);
+    out << fmt::format("{:.2f},1,{:.9f},100,0\n", t, 40.0 + c * tau * tau * tau);
+  }
+  out << "0,2,40,100,50\n0.25,2,70,100,50\n0.5,2,50,100,50\n";
+  return session;
+}
+
+TEST_F(Cli, ReportSkillMeasuresAreTheHandWorkedOnes) {
+  const std::string model = (dir_ / "cylinder.organ").string();
+  model::write_organ_model_file(testing::make_cylinder_model({}), model);
+  const fs::path report = dir_ / "report";
+  const CommandRun replay =
+      run_organsim("replay " + model + " " + write_known_motion(dir_) + " --fast --report " + report.string(), dir_);
+  ASSERT_EQ(replay.exit_code, 0) << replay.err;
+  const nlohmann::json m = read_json(report / "metrics.json");
+  const nlohmann::json &one = m["tools"][0], &two = m["tools"][1];
+  // Tool 1: 160 mm straight (economy 1). Its tip every 10 ms: 28 windows of
+  // four samples at rest (jerk 0), then c, 5c and 18 of 6c as the cubic
+  // begins: mean squared jerk (1 + 25 + 18 · 36) c² / 48. Idle: the 30
+  // intervals at rest and the cubic's first (0.02 mm in 10 ms, under 5 mm/s).
+  constexpr double c = 20000.0;
+  EXPECT_NEAR(one["path_length_mm"].get<double>(), 160.0, 1e-3);
+  EXPECT_NEAR(one["economy_of_motion"].get<double>(), 1.0, 1e-6);
+  EXPECT_NEAR(one["mean_squared_jerk_mm2_s6"].get<double>(), 674.0 / 48.0 * c * c, 1e-4 * c * c);
+  EXPECT_NEAR(one["idle_time_s"].get<double>(), 0.31, 1e-9);
+  // Tool 2: 50 mm travelled for 10 mm from start to end, no contact between.
+  EXPECT_NEAR(two["path_length_mm"].get<double>(), 50.0, 1e-3);
+  EXPECT_NEAR(two["economy_of_motion"].get<double>(), 10.0 / 50.0, 1e-4);
+  EXPECT_NEAR(two["idle_time_s"].get<double>(), 0.0, 1e-9);
+  // No touch, no strain: nothing damaged.
+  EXPECT_EQ(m["damaged_area_mm2"].get<double>(), 0.0);
+  EXPECT_EQ(m["largest_surface_strain"].get<double>(), 0.0);
+
+  // Expert bands: tool 1's path inside, tool 2's economy below its band.
+  const fs::path bands = dir_ / "bands.json";
+  std::ofstream(bands) << R"({"path_length_mm": [40, 200], "economy_of_motion": [0.6, 1.0], "task_time_s": [0, 1]})";
+  ASSERT_EQ(run_organsim("report " + report.string() + " --expert-bands " + bands.string(), dir_).exit_code, 0);
+  const nlohmann::json judged = read_json(report / "metrics.json")["proficiency"];
+  EXPECT_EQ(judged["measures"], 5);  // the task time, and two measures for each of two tools
+  EXPECT_EQ(judged["within"], 4);
+  const std::string html = read_text(report / "index.html");
+  EXPECT_NE(html.find("Against the expert band: 4 of 5 measures within it (80 %)"), std::string::npos);
+  EXPECT_NE(html.find("tool 2: economy of motion 0.2 (below the band 0.6–1)"), std::string::npos);
+  std::ofstream(dir_ / "bad.json") << R"({"speed": [0, 1]})";
+  const CommandRun bad =
+      run_organsim("report " + report.string() + " --expert-bands " + (dir_ / "bad.json").string(), dir_);
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.err.find("unknown measure 'speed'"), std::string::npos) << bad.err;
+}
+
+// A learning curve of three attempts: three points per measure, the band
+// shaded, a table row per attempt; rebuilt from the raw data alone.
+TEST_F(Cli, ReportHistoryShowsEachMeasureOverTheAttempts) {
+  const KnownPress press = write_known_press(dir_);
+  std::vector<std::string> runs;
+  for (int k = 1; k <= 3; ++k) {
+    const fs::path run = dir_ / "attempts" / fmt::format("attempt_{}", k);
+    ASSERT_EQ(run_organsim("replay " + press.model + " " + press.session + " --fast --report " + run.string(), dir_)
+                  .exit_code,
+              0);
+    fs::remove(run / "index.html");
+    fs::remove(run / "metrics.json");
+    runs.push_back(run.string());
+  }
+  const fs::path bands = dir_ / "bands.json", page = dir_ / "history.html";
+  std::ofstream(bands) << R"({"path_length_mm": [10, 40]})";
+  const CommandRun history = run_organsim(
+      "report --history " + (dir_ / "attempts").string() + " --expert-bands " + bands.string() + " -o " + page.string(),
+      dir_);
+  ASSERT_EQ(history.exit_code, 0) << history.err;
+  EXPECT_NE(history.out.find("(3 attempts)"), std::string::npos) << history.out;
+  const std::string html = read_text(page);
+  EXPECT_NE(html.find("<h1>Learning curve</h1>"), std::string::npos);
+  EXPECT_NE(html.find("default-src 'none'"), std::string::npos);
+  // The path length's chart: three dots, and the expert band.
+  const std::size_t path = html.find("<h2>path length of the tip</h2>");
+  ASSERT_NE(path, std::string::npos);
+  const std::string chart = html.substr(path, html.find("</svg>", path) - path);
+  std::size_t dots = 0;
+  for (std::size_t at = chart.find("<circle"); at != std::string::npos; at = chart.find("<circle", at + 1)) ++dots;
+  EXPECT_EQ(dots, 3u);
+  EXPECT_NE(chart.find("<title>expert band</title>"), std::string::npos);
+  std::size_t rows = 0;
+  for (std::size_t at = html.find("<tr><td>"); at != std::string::npos; at = html.find("<tr><td>", at + 1)) ++rows;
+  EXPECT_EQ(rows, 3u);
 }
 
 TEST_F(Cli, ReportSaysWhenTheLoopsFailedAndComparesWithAReferenceRun) {

@@ -64,5 +64,27 @@ TEST(SvgChart, EventsAreShadedOverTheirTime) {
   EXPECT_NE(svg.find(">grasp</text>"), std::string::npos) << "named in the legend";
 }
 
+// The learning curve's charts: an expert band shaded across the plot (the
+// axis reaching it), a dot per attempt.
+TEST(SvgChart, AnExpertBandIsShadedAndEachAttemptDotted) {
+  const ChartSeries attempts{"tool 1", "#1f77b4", {1.0, 2.0, 3.0}, {300.0, 240.0, 180.0}};
+  ChartAxes axes{"attempt", "path length (mm)", 0.0, "", {}};
+  axes.band_low = 100.0;
+  axes.band_high = 400.0;
+  axes.band_label = "expert band";
+  axes.points = true;
+  const std::string svg = svg_chart({attempts}, axes);
+  EXPECT_NE(svg.find("<title>expert band</title>"), std::string::npos);
+  std::size_t dots = 0;
+  for (std::size_t at = svg.find("<circle"); at != std::string::npos; at = svg.find("<circle", at + 1)) ++dots;
+  EXPECT_EQ(dots, 3u);
+  // The band's top (400) is within the axis: its rectangle starts at or below the plot's top.
+  const std::size_t band = svg.rfind("<rect ", svg.find("<title>expert band</title>"));
+  double band_top = 0, plot_top = 0;
+  std::sscanf(svg.c_str() + svg.find("y=\"", band), "y=\"%lf\"", &band_top);
+  std::sscanf(svg.c_str() + svg.find("y=\"", svg.find("<rect ")), "y=\"%lf\"", &plot_top);
+  EXPECT_GT(band_top, plot_top) << "the axis reaches above the band";
+}
+
 }  // namespace
 }  // namespace organsim::report

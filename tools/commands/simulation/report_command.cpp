@@ -21,6 +21,8 @@ namespace fs = std::filesystem;
 
 struct ReportCommandOptions {
   std::string directory;
+  std::vector<std::string> history;  ///< --history: report directories, one attempt each
+  std::string history_output = "history.html";
   report::ReportOptions report;
   bool limit_given = false;  ///< --force-limit on the command line
 };
@@ -49,6 +51,17 @@ double recorded_limit(const fs::path& directory) {
 }
 
 int run_report(const ReportCommandOptions& o) {
+  if (!o.history.empty()) {
+    if (!o.directory.empty())
+      throw CLI::ValidationError("--history", "takes the report directories itself; give no DIRECTORY beside it");
+    std::vector<std::string> runs;
+    for (const std::string& directory : o.history)
+      for (const fs::path& run : recorded_runs(directory)) runs.push_back(run.string());
+    report::write_history(runs, o.report, o.history_output);
+    std::cout << fmt::format("{:<16}{} ({} attempts)\n", "history", o.history_output, runs.size());
+    return 0;
+  }
+  if (o.directory.empty()) throw CLI::ValidationError("directory", "give a report directory (or --history DIR ...)");
   for (const fs::path& run : recorded_runs(o.directory)) {
     report::ReportOptions options = o.report;
     if (!o.limit_given) options.force_limit_n = recorded_limit(run);
@@ -67,16 +80,28 @@ void add_report_options(CLI::App& app, report::ReportOptions& options) {
                  "model's force, before the device's clamp; docs/report.md)")
       ->check(kPositive)
       ->capture_default_str();
+  app.add_option("--strain-limit", options.strain_limit,
+                 "Training report: the surface strain (a fraction of an edge's rest length) beyond which the "
+                 "organ's surface counts as damaged (docs/report.md#skill-measures)")
+      ->check(kPositive)
+      ->capture_default_str();
   app.add_option("--reference-run", options.reference_run,
                  "Training report: another run's report directory (an expert's) to compare with, metric by metric");
+  app.add_option("--expert-bands", options.expert_bands,
+                 "Training report: a JSON file of expert bands, {\"KEY\": [LOW, HIGH], ...}: each skill measure is "
+                 "judged against its band (docs/report.md#expert-bands)")
+      ->check(CLI::ExistingFile);
 }
 
 Command add_report_command(CLI::App& app) {
   auto o = std::make_shared<ReportCommandOptions>();
   app.add_option("directory", o->directory,
                  "A report directory written by --report (or, after replay --model a,b --report DIR, DIR: each "
-                 "model's report is rebuilt)")
-      ->required();
+                 "model's report is rebuilt)");
+  app.add_option("--history", o->history,
+                 "A learning curve instead: each skill measure over these report directories, one attempt each in "
+                 "the order given (a directory of reports: each report in it, in name order), written to --output");
+  app.add_option("-o,--output", o->history_output, "--history: the page to write")->capture_default_str();
   add_report_options(app, o->report);
   CLI::Option* limit = app.get_option("--force-limit");
   limit->default_str("");
