@@ -157,7 +157,8 @@ void check_options(const BakeOptions& o) {
         fmt::format("--surface-vertices must be at least 100 (got {})", o.surface.target_vertices));
 }
 
-MaskImage::Pointer segment(const CtImage& ct, const BakeOptions& o, BakeReport& report) {
+MaskImage::Pointer segment(const CtImage& ct, const BakeOptions& o, BakeReport& report,
+                           MaskImage::Pointer& explanation) {
   MaskImage::Pointer mask;
   if (!o.label_path.empty()) {
     mask = clean_mask(*read_label_mask(o.label_path, o.label_value, ct), o.label_closing_radius_mm);
@@ -171,6 +172,7 @@ MaskImage::Pointer segment(const CtImage& ct, const BakeOptions& o, BakeReport& 
         fmt::format("seeds ({} in the organ, {} background)", o.seeded.seeds.size(), o.seeded.background_seeds.size());
     report.segmentation_warnings = segmented.report.warnings;
     report.seeded = std::move(segmented.report);
+    explanation = segmented.explanation;
   }
   report.mask_voxels = count_voxels(*mask);
   if (report.mask_voxels < o.minimum_voxels)
@@ -313,7 +315,7 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
 
   Intermediates intermediates(o.intermediates_dir);
   const MaskImage::Pointer mask = clock.run("segment", [&] {
-    MaskImage::Pointer segmented = segment(*ct, o, report);
+    MaskImage::Pointer segmented = segment(*ct, o, report, result.segmentation_explanation);
     if (intermediates.wanted()) write_mask_image(*segmented, intermediates.stage("mask.nii.gz", ".nii.gz"));
     return segmented;
   });

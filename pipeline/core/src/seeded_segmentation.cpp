@@ -497,6 +497,86 @@ std::vector<std::string> liver_plausibility_warnings(double volume_ml, std::size
   return warnings;
 }
 
+/// The voxels of `a` that are not in `b`.
+MaskImage::Pointer without(const MaskImage& a, const MaskImage& b) {
+  auto result = MaskImage::New();
+  result->CopyInformation(&a);
+  result->SetRegions(a.GetLargestPossibleRegion());
+  result->Allocate();
+  const std::uint8_t *x = a.GetBufferPointer(), *y = b.GetBufferPointer();
+  std::uint8_t* to = result->GetBufferPointer();
+  const std::size_t n = a.GetLargestPossibleRegion().GetNumberOfPixels();
+  for (std::size_t i = 0; i < n; ++i) to[i] = x[i] && !y[i];
+  return result;
+}
+
+/// The pieces of `cut` (left out of `organ` for `cause`) of at least
+/// `minimum_ml`, each described for the user: volume, HU, the neck it was
+/// joined by, its box and its deepest point.
+std::vector<CutRegion> describe_cut(const MaskImage& cut, const MaskImage& organ, const FloatImage& image,
+                                    const char* cause, double minimum_ml) {
+  const LabelImage::Pointer labels = components(cut);
+  const FloatImage::Pointer depth = distance_map(cut, 1);  // > 0 inside, mm to the piece's border
+  struct Piece {
+    std::size_t voxels = 0;
+    MaskImage::IndexType low, high, deepest;
+    float deepest_depth = -1.0f;
+    double contact_mm2 = 0.0;
+    std::vector<float> values;
+  };
+  std::vector<Piece> pieces;
+  const auto region = cut.GetLargestPossibleRegion();
+  const auto spacing = cut.GetSpacing();
+  const double face_mm2[3] = {spacing[1] * spacing[2], spacing[0] * spacing[2], spacing[0] * spacing[1]};
+  itk::ImageRegionConstIteratorWithIndex<LabelImage> it(labels, region);
+  for (; !it.IsAtEnd(); ++it) {
+    const std::uint32_t label = it.Get();
+    if (label == 0) continue;
+    if (pieces.size() < label) pieces.resize(label);
+    Piece& p = pieces[label - 1];
+    const MaskImage::IndexType index = it.GetIndex();
+    if (p.voxels++ == 0) p.low = p.high = index;
+    for (unsigned k = 0; k < 3; ++k) p.low[k] = std::min(p.low[k], index[k]), p.high[k] = std::max(p.high[k], index[k]);
+    p.values.push_back(image.GetPixel(index));
+    if (const float d = depth->GetPixel(index); d > p.deepest_depth) p.deepest_depth = d, p.deepest = index;
+    for (unsigned k = 0; k < 3; ++k)
+      for (const long step : {-1L, 1L}) {
+        MaskImage::IndexType next = index;
+        next[k] += step;
+        if (region.IsInside(next) && organ.GetPixel(next)) p.contact_mm2 += face_mm2[k];
+      }
+  }
+  const double voxel_ml = voxel_volume_ml(cut);
+  std::vector<CutRegion> described;
+  for (Piece& p : pieces) {
+    const double ml = static_cast<double>(p.voxels) * voxel_ml;
+    if (p.voxels == 0 || ml < minimum_ml) continue;
+    CutRegion r;
+    r.cause = cause;
+    r.volume_ml = ml;
+    const RobustStatistics hu = robust_statistics(std::move(p.values));
+    r.median_hu = hu.median;
+    r.sigma_hu = hu.sigma;
+    r.neck_width_mm = 2.0 * std::sqrt(p.contact_mm2 / M_PI);
+    r.box_low_mm = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                    std::numeric_limits<double>::infinity()};
+    r.box_high_mm = {-r.box_low_mm[0], -r.box_low_mm[1], -r.box_low_mm[2]};
+    for (int corner = 0; corner < 8; ++corner) {
+      MaskImage::IndexType index;
+      for (unsigned k = 0; k < 3; ++k) index[k] = (corner >> k) & 1 ? p.high[k] : p.low[k];
+      CtImage::PointType point;
+      cut.TransformIndexToPhysicalPoint(index, point);
+      for (unsigned k = 0; k < 3; ++k)
+        r.box_low_mm[k] = std::min(r.box_low_mm[k], point[k]), r.box_high_mm[k] = std::max(r.box_high_mm[k], point[k]);
+    }
+    CtImage::PointType seed;
+    cut.TransformIndexToPhysicalPoint(p.deepest, seed);
+    r.seed_mm = {seed[0], seed[1], seed[2]};
+    described.push_back(r);
+  }
+  return described;
+}
+
 SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentationOptions& o) {
   if (o.seeds.empty()) throw std::runtime_error("no seed: give at least one point inside the organ (--seed X,Y,Z)");
   if (o.hu_window && !(o.hu_window->first < o.hu_window->second))
@@ -639,7 +719,9 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
       for_each_in_ball(*image, b, background_marker_radius_mm,
                        [&](const FloatImage::IndexType& v) { markers.SetPixel(v, kBackgroundSeedMarker); });
   };
+  MaskImage::Pointer joined_before_split;  // the window's region at the seeds before the background took its share
   if (!work_background.empty()) {
+    joined_before_split = components_holding(*window, work_seeds);
     const std::size_t before = count_voxels(*window);
     auto markers = outside_as_background(*window);
     const MaskImage::Pointer grown = components_holding(*window, work_seeds);
@@ -742,13 +824,67 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
     const std::size_t n = organ->GetLargestPossibleRegion().GetNumberOfPixels();
     for (std::size_t i = 0; i < n; ++i) v[i] = v[i] && !c[i];
   }
-  organ = largest_component(*organ);
+  // The pieces holding the seeds (a lobe the user seeded apart from the rest,
+  // cut from it at its neck, is theirs to keep); the largest piece where no
+  // seed lies in the organ.
+  {
+    const MaskImage::Pointer seeded = components_holding(*organ, work_seeds);
+    organ = count_voxels(*seeded) > 0 ? seeded : largest_component(*organ);
+  }
   clock.lap("holes and closing");
+
+  // What was left out of the window's region at the seeds, for the user to
+  // judge (and to take back with a seed where it is organ).
+  const MaskImage::Pointer cut = without(*grown, *organ);
+  const MaskImage::Pointer given =
+      joined_before_split ? without(*without(*joined_before_split, *window), *organ) : MaskImage::Pointer();
+  report.cut_regions = describe_cut(*cut, *organ, *image, "leak control", o.reported_cut_ml);
+  if (given)
+    for (CutRegion& r : describe_cut(*given, *organ, *image, "background seed", o.reported_cut_ml))
+      report.cut_regions.push_back(r);
+  {
+    const bool core_known = report.organ_sigma_hu > 0.0;
+    const double core_median = core_known ? report.organ_median_hu : report.seed_median_hu;
+    const double core_sigma = std::max(core_known ? report.organ_sigma_hu : report.seed_sigma_hu, o.minimum_sigma_hu);
+    for (CutRegion& r : report.cut_regions) r.like_organ = std::abs(r.median_hu - core_median) <= 2.0 * core_sigma;
+  }
+  std::stable_sort(report.cut_regions.begin(), report.cut_regions.end(),
+                   [](const CutRegion& a, const CutRegion& b) { return a.volume_ml > b.volume_ml; });
+  clock.lap("what was cut");
 
   const bool shrunk = image->GetSpacing() != ct.GetSpacing();
   result.mask = shrunk ? onto_ct_grid(*organ, ct) : organ;
   if (!shrunk) result.mask->CopyInformation(&ct);
   clock.lap("CT grid");
+
+  if (o.explain) {
+    // Each class on the CT's grid as the organ is put there; the organ wins.
+    const auto on_ct = [&](const MaskImage::Pointer& mask) {
+      if (!mask) return MaskImage::Pointer();
+      if (count_voxels(*mask) == 0) return MaskImage::Pointer();
+      if (shrunk) return onto_ct_grid(*mask, ct);
+      mask->CopyInformation(&ct);
+      return mask;
+    };
+    const MaskImage::Pointer cut_on_ct = on_ct(cut), given_on_ct = on_ct(given);
+    auto labels = MaskImage::New();
+    labels->CopyInformation(&ct);
+    labels->SetRegions(ct.GetLargestPossibleRegion());
+    labels->Allocate(true);
+    std::uint8_t* to = labels->GetBufferPointer();
+    const std::uint8_t* organ_on_ct = result.mask->GetBufferPointer();
+    const std::size_t n = ct.GetLargestPossibleRegion().GetNumberOfPixels();
+    for (std::size_t i = 0; i < n; ++i) {
+      if (organ_on_ct[i])
+        to[i] = kOrgan;
+      else if (cut_on_ct && cut_on_ct->GetBufferPointer()[i])
+        to[i] = kCutByLeakControl;
+      else if (given_on_ct && given_on_ct->GetBufferPointer()[i])
+        to[i] = kGivenToBackground;
+    }
+    result.explanation = labels;
+    clock.lap("explanation");
+  }
 
   report.voxels = count_voxels(*result.mask);
   report.volume_ml = static_cast<double>(report.voxels) * voxel_volume_ml(ct);

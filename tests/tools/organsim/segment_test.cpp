@@ -51,9 +51,42 @@ TEST_F(Cli, SegmentJsonWithSeveralAndBackgroundSeeds) {
   EXPECT_LT(s["hu_window"][0].get<double>(), s["organ_median_hu"].get<double>());
   EXPECT_GT(s["hu_window"][1].get<double>(), s["organ_median_hu"].get<double>());
   EXPECT_TRUE(s["warnings"].empty());
-  for (const char* step :
-       {"working grid", "smoothing", "window", "background seeds", "leak control", "holes and closing", "CT grid"})
+  for (const char* step : {"working grid", "smoothing", "window", "background seeds", "leak control",
+                           "holes and closing", "what was cut", "CT grid"})
     EXPECT_TRUE(s["seconds"].contains(step)) << step;
+}
+
+// What was cut, in the report and as a label map on the CT's grid: the body
+// wall the window's region reached, cut by leak control, named with its HU
+// (unlike the liver's) and a seed that lies inside it.
+TEST_F(Cli, SegmentSaysWhatWasCutAndExplainsItAsALabelMap) {
+  const fs::path mask = dir_ / "mask.nii.gz", labels = dir_ / "explain.nii.gz";
+  const CommandRun run =
+      run_organsim("segment " + real_ct("example_ct.nii.gz").string() + " --seed-voxel 86,47,108 -o " + mask.string() +
+                       " --explain " + labels.string() + " --json",
+                   dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json j = nlohmann::json::parse(run.out);
+  EXPECT_EQ(j["explanation"], labels.string());
+  const nlohmann::json& regions = j["segmentation"]["cut_regions"];
+  ASSERT_FALSE(regions.empty());
+  const nlohmann::json& largest = regions[0];
+  EXPECT_EQ(largest["cause"], "leak control");
+  EXPECT_GT(largest["volume_ml"].get<double>(), 1000.0) << "the body wall and muscles at the liver's HU";
+  EXPECT_FALSE(largest["like_organ"].get<bool>());
+  for (const char* key : {"median_hu", "sigma_hu", "neck_width_mm", "box_mm", "seed_mm", "seed_option"})
+    EXPECT_TRUE(largest.contains(key)) << key;
+  EXPECT_EQ(largest["seed_option"].get<std::string>().rfind("--seed ", 0), 0u);
+  // The label map on the CT's grid: the mask as label 1, the cut as label 2, and the seed inside the cut.
+  const pipeline::CtImage::Pointer ct = pipeline::read_ct(real_ct("example_ct.nii.gz").string());
+  const pipeline::MaskImage::Pointer organ = pipeline::read_label_mask(labels.string(), 1, *ct);
+  EXPECT_DOUBLE_EQ(pipeline::dice_coefficient(*organ, *pipeline::read_label_mask(mask.string(), 1, *ct)), 1.0);
+  const pipeline::MaskImage::Pointer cut = pipeline::read_label_mask(labels.string(), 2, *ct);
+  pipeline::CtImage::PointType seed;
+  for (unsigned k = 0; k < 3; ++k) seed[k] = largest["seed_mm"][k].get<double>();
+  pipeline::CtImage::IndexType at;
+  ASSERT_TRUE(ct->TransformPhysicalPointToIndex(seed, at));
+  EXPECT_EQ(cut->GetPixel(at), 1) << "the printed seed lies in what was cut";
 }
 
 TEST_F(Cli, SegmentErrorsSayWhatIsWrong) {

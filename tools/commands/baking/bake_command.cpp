@@ -15,6 +15,7 @@
 #include "command_line/command_line.h"
 #include "organsim/model/model_file.h"
 #include "organsim/pipeline/bake.h"
+#include "organsim/pipeline/image_io.h"
 #include "organsim/version.h"
 #include "segmentation_options.h"
 
@@ -202,6 +203,8 @@ int run_bake(BakeCommandOptions& o) {
   if (verbosity() != Verbosity::quiet)
     progress = [&](const std::string& stage, double fraction) { printer(stage, fraction); };
   const pipeline::BakeResult result = bake_model(o, progress);
+  if (result.segmentation_explanation)
+    pipeline::write_mask_image(*result.segmentation_explanation, o.segmentation.explain_path);
   for (const std::string& warning : result.report.segmentation_warnings) warn("bake", warning);
   for (const std::string& warning : result.report.tetrahedra_warnings) warn("bake", warning);
   const std::uintmax_t bytes = std::filesystem::file_size(o.output_path);

@@ -36,12 +36,14 @@ int run_segment(const SegmentCommandOptions& o) {
     dice = pipeline::dice_coefficient(*segmented.mask, *pipeline::read_label_mask(o.segmentation.reference_path,
                                                                                   o.segmentation.reference_value, *ct));
   pipeline::write_mask_image(*segmented.mask, o.output_path);
+  if (segmented.explanation) pipeline::write_mask_image(*segmented.explanation, o.segmentation.explain_path);
 
   const pipeline::SeededSegmentationReport& r = segmented.report;
   for (const std::string& warning : r.warnings) warn("segment", warning);
   if (o.json) {
     nlohmann::ordered_json j;
     j["mask"] = o.output_path;
+    if (segmented.explanation) j["explanation"] = o.segmentation.explain_path;
     j["segmentation"] = seeded_segmentation_report_json(r);
     if (dice) j["dice"] = *dice;
     fmt::print("{}\n", j.dump());

@@ -98,6 +98,9 @@ void add_seeded_segmentation_options(CLI::App& app, SegmentationCommandOptions& 
                  "Segment on blocks of about this size, mm, when the CT is finer (0: full resolution)")
       ->check(kNonNegative)
       ->capture_default_str();
+  app.add_option("--explain", o.explain_path,
+                 "Write a label map on the CT's grid (1 organ, 2 cut by leak control, 3 given to background seeds) "
+                 "that 3D Slicer opens over the CT (.nii.gz, .nrrd, .mha; docs/segmentation.md#what-was-cut)");
   app.add_option("--reference", o.reference_path,
                  "A label map of the same CT (TotalSegmentator, 3D Slicer): print the Dice of the result against it");
   app.add_option("--reference-value", o.reference_value, "The organ's value in the --reference label map")
@@ -110,6 +113,7 @@ pipeline::SeededSegmentationOptions seeded_segmentation_options(const Segmentati
   add_points(m.background_seeds, o.background_seeds, o.background_seed_voxels);
   if (!o.hu_window.empty()) m.hu_window = std::make_pair(o.hu_window[0], o.hu_window[1]);
   if (!o.window_sigmas.empty()) m.window_sigmas_below = o.window_sigmas[0], m.window_sigmas_above = o.window_sigmas[1];
+  m.explain = !o.explain_path.empty();
   return m;
 }
 
@@ -125,6 +129,15 @@ void print_seeded_segmentation_report(const pipeline::SeededSegmentationReport& 
   fmt::print("leak control    window region {:.1f} mL, cut by the opening {:.1f} mL", r.grown_ml, r.cut_by_opening_ml);
   if (r.background_split_ml > 0.0) fmt::print(", {:.1f} mL given to background seeds", r.background_split_ml);
   fmt::print("\n");
+  for (const pipeline::CutRegion& c : r.cut_regions)
+    fmt::print(
+        "cut             {:.1f} mL by {}: {:.0f} HU (robust sigma {:.0f}; organ core {:.0f}: {}), joined by a neck "
+        "{:.0f} mm wide, box {:.0f}..{:.0f}, {:.0f}..{:.0f}, {:.0f}..{:.0f} mm; if it is organ, add --seed "
+        "{:.1f},{:.1f},{:.1f}\n",
+        c.volume_ml, c.cause, c.median_hu, c.sigma_hu, r.window_given ? r.seed_median_hu : r.organ_median_hu,
+        c.like_organ ? "tissue like the organ's" : "unlike the organ, more likely a neighbour", c.neck_width_mm,
+        c.box_low_mm[0], c.box_high_mm[0], c.box_low_mm[1], c.box_high_mm[1], c.box_low_mm[2], c.box_high_mm[2],
+        c.seed_mm[0], c.seed_mm[1], c.seed_mm[2]);
   fmt::print("lesions         {:.1f} mL of enclosed dents (lesions, vessels at the surface) taken in",
              r.enclosed_dents_ml);
   if (r.lesion_seeds > 0) fmt::print("; {} seed(s) in a lesion added {:.1f} mL", r.lesion_seeds, r.lesion_seed_ml);
@@ -156,6 +169,21 @@ nlohmann::ordered_json seeded_segmentation_report_json(const pipeline::SeededSeg
   j["lesion_seeds"] = r.lesion_seeds;
   j["lesion_seed_ml"] = r.lesion_seed_ml;
   j["border_slices"] = r.border_slices;
+  nlohmann::ordered_json cut = nlohmann::ordered_json::array();
+  for (const pipeline::CutRegion& c : r.cut_regions) {
+    nlohmann::ordered_json region;
+    region["cause"] = c.cause;
+    region["volume_ml"] = c.volume_ml;
+    region["median_hu"] = c.median_hu;
+    region["sigma_hu"] = c.sigma_hu;
+    region["neck_width_mm"] = c.neck_width_mm;
+    region["like_organ"] = c.like_organ;
+    region["box_mm"] = {c.box_low_mm, c.box_high_mm};
+    region["seed_mm"] = c.seed_mm;
+    region["seed_option"] = fmt::format("--seed {:.1f},{:.1f},{:.1f}", c.seed_mm[0], c.seed_mm[1], c.seed_mm[2]);
+    cut.push_back(region);
+  }
+  j["cut_regions"] = cut;
   j["warnings"] = r.warnings;
   nlohmann::ordered_json steps;
   for (const auto& [step, seconds] : r.step_seconds) steps[step] = seconds;

@@ -20,11 +20,13 @@ struct SegmentationCommandOptions {
   std::vector<double> window_sigmas;                                  ///< BELOW,ABOVE or empty
   pipeline::SeededSegmentationOptions method;                         ///< the numeric parameters
   std::string reference_path;                                         ///< a label map to compute the Dice against
+  std::string explain_path;  ///< --explain: where to write the label map of what was kept and cut
   int reference_value = 1;
 };
 
 /// Registers --seed, --seed-voxel, --background-seed, --background-seed-voxel
-/// (each repeatable), --hu-window, the method's parameters and --reference.
+/// (each repeatable), --hu-window, the method's parameters, --reference and
+/// --explain.
 void add_seeded_segmentation_options(CLI::App& app, SegmentationCommandOptions& options);
 
 /// The options with the seeds parsed (the validators have checked their form).

@@ -104,6 +104,9 @@ struct BakeReport {
 struct BakeResult {
   model::OrganModel model;
   BakeReport report;
+  /// Seeded segmentation with BakeOptions::seeded.explain: what was kept and
+  /// cut, as SeededSegmentation::explanation.
+  MaskImage::Pointer segmentation_explanation;
 };
 
 /// Called when a stage starts (fraction 0), advances and ends (fraction 1).

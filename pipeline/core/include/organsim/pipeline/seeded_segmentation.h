@@ -31,6 +31,7 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <utility>
@@ -84,7 +85,33 @@ struct SeededSegmentationOptions {
   double lesion_low_hu = -40.0;       ///< below: fat and air, never a lesion's inside
   double vessel_high_hu = 300.0;      ///< above: bone and contrast in the bowel
   std::size_t minimum_voxels = 1000;  ///< smaller results are an error
+  /// Regions of the HU window that leak control or a background seed took
+  /// from the organ are reported from this volume up, mL.
+  double reported_cut_ml = 5.0;
+  /// Also make SeededSegmentation::explanation (a label map on the CT's grid).
+  bool explain = false;
 };
+
+/// A region of the HU window, joined to the organ's seeds, that the
+/// segmentation left out: what it was, where, and where a seed would take it
+/// back (docs/segmentation.md#what-was-cut).
+struct CutRegion {
+  std::string cause;  ///< "leak control" or "background seed"
+  double volume_ml = 0.0;
+  double median_hu = 0.0, sigma_hu = 0.0;  ///< its HU (smoothed; σ robust)
+  /// mm: the equivalent diameter of its contact with the organ kept,
+  /// 2 √(A/π) for the contact area A; 0 where it touches the organ nowhere.
+  double neck_width_mm = 0.0;
+  std::array<double, 3> box_low_mm{}, box_high_mm{};  ///< its bounding box (the CT's physical frame, LPS)
+  std::array<double, 3> seed_mm{};                    ///< its deepest point: --seed X,Y,Z there takes it back
+  /// Its median HU lies within two robust σ of the organ core's (at least
+  /// minimum_sigma_hu): tissue like the organ's, so perhaps organ; otherwise
+  /// more likely a neighbour of similar HU (a muscle, the bowel wall).
+  bool like_organ = false;
+};
+
+/// The labels of SeededSegmentation::explanation.
+enum ExplanationLabel : std::uint8_t { kNotOrgan = 0, kOrgan = 1, kCutByLeakControl = 2, kGivenToBackground = 3 };
 
 /// What the segmentation did, for the user to judge it (and a warning when the
 /// result does not look like a liver).
@@ -96,19 +123,23 @@ struct SeededSegmentationReport {
   double hu_low = 0.0, hu_high = 0.0;                  ///< the window used
   bool window_given = false;                           ///< the user's window rather than the statistics
   std::array<double, 3> working_spacing_mm{};
-  double background_split_ml = 0.0;  ///< given to the background seeds' regions
-  double grown_ml = 0.0;             ///< the window's region connected to the seeds, before leak control
-  double cut_by_opening_ml = 0.0;    ///< of that, what leak control removed
-  double enclosed_dents_ml = 0.0;    ///< lesions and vessels at the surface taken into the organ
-  std::size_t lesion_seeds = 0;      ///< seeds that read as a hypodense lesion (fat-dark, beside an organ seed)
-  double lesion_seed_ml = 0.0;       ///< what their lesions added to the organ
-  std::size_t border_slices = 0;     ///< axial slices where the mask touches the volume's side
+  double background_split_ml = 0.0;    ///< given to the background seeds' regions
+  double grown_ml = 0.0;               ///< the window's region connected to the seeds, before leak control
+  double cut_by_opening_ml = 0.0;      ///< of that, what leak control removed
+  double enclosed_dents_ml = 0.0;      ///< lesions and vessels at the surface taken into the organ
+  std::size_t lesion_seeds = 0;        ///< seeds that read as a hypodense lesion (fat-dark, beside an organ seed)
+  double lesion_seed_ml = 0.0;         ///< what their lesions added to the organ
+  std::size_t border_slices = 0;       ///< axial slices where the mask touches the volume's side
+  std::vector<CutRegion> cut_regions;  ///< largest first; those of at least reported_cut_ml
   std::vector<std::string> warnings;
   std::vector<std::pair<std::string, double>> step_seconds;  ///< in order
 };
 
 struct SeededSegmentation {
   MaskImage::Pointer mask;  ///< on the CT's grid
+  /// With options.explain: on the CT's grid, each voxel's ExplanationLabel (the
+  /// organ, what leak control cut, what the background seeds took).
+  MaskImage::Pointer explanation;
   SeededSegmentationReport report;
 };
 
