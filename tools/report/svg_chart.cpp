@@ -33,7 +33,7 @@ std::string svg_chart(const std::vector<ChartSeries>& series, const ChartAxes& a
       y_high = std::max(y_high, s.y[k]);
     }
   const bool has_band = !axes.band_label.empty();
-  if (has_band) y_high = std::max(y_high, axes.band_high / 1.1), y_low = std::min(y_low, axes.band_low);
+  if (has_band) y_high = std::max(y_high, axes.band_high), y_low = std::min(y_low, axes.band_low);
   const double peak = y_high;
   const bool has_line = !axes.line_label.empty();
   // The data fill the plot; the line joins them where they come near it.

@@ -21,6 +21,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <set>
+#include <tuple>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -577,6 +578,56 @@ std::vector<CutRegion> describe_cut(const MaskImage& cut, const MaskImage& organ
   return described;
 }
 
+/// The voxels of `region` that an organ seed reaches (in 6-connected steps
+/// through the region) in no more steps than every background seed: the
+/// organ's by distance. Voxels the organ's seeds cannot reach are not.
+MaskImage::Pointer nearer_to_organ(const MaskImage& region, const std::vector<MaskImage::IndexType>& organ_seeds,
+                                   const std::vector<MaskImage::IndexType>& background_seeds) {
+  const auto whole = region.GetLargestPossibleRegion();
+  const auto size = whole.GetSize();
+  const std::size_t n = whole.GetNumberOfPixels();
+  const std::uint8_t* inside = region.GetBufferPointer();
+  std::vector<std::uint8_t> owner(n, 0);  // 0 unreached, 1 organ, 2 background
+  const auto offset = [&](const MaskImage::IndexType& i) {
+    return static_cast<std::size_t>(i[0]) +
+           size[0] * (static_cast<std::size_t>(i[1]) + size[1] * static_cast<std::size_t>(i[2]));
+  };
+  std::vector<std::size_t> organ_front, background_front;
+  for (const auto& seed : organ_seeds)
+    if (whole.IsInside(seed) && owner[offset(seed)] == 0) owner[offset(seed)] = 1, organ_front.push_back(offset(seed));
+  for (const auto& seed : background_seeds)
+    if (whole.IsInside(seed) && owner[offset(seed)] == 0)
+      owner[offset(seed)] = 2, background_front.push_back(offset(seed));
+  const long steps[3] = {1, static_cast<long>(size[0]), static_cast<long>(size[0] * size[1])};
+  // Level by level, the organ's front first: a voxel both reach in as many steps is the organ's.
+  while (!organ_front.empty() || !background_front.empty()) {
+    std::vector<std::size_t> next_organ, next_background;
+    for (auto [front, next, mine] : {std::tuple{&organ_front, &next_organ, std::uint8_t{1}},
+                                     std::tuple{&background_front, &next_background, std::uint8_t{2}}})
+      for (const std::size_t at : *front) {
+        const std::size_t x = at % size[0], y = (at / size[0]) % size[1], z = at / (size[0] * size[1]);
+        const std::size_t coordinate[3] = {x, y, z};
+        for (unsigned k = 0; k < 3; ++k)
+          for (const int direction : {-1, 1}) {
+            if ((direction < 0 && coordinate[k] == 0) || (direction > 0 && coordinate[k] + 1 == size[k])) continue;
+            const std::size_t neighbour = at + direction * steps[k];
+            if (owner[neighbour] != 0 || !inside[neighbour]) continue;
+            owner[neighbour] = mine;
+            next->push_back(neighbour);
+          }
+      }
+    organ_front.swap(next_organ);
+    background_front.swap(next_background);
+  }
+  auto nearer = MaskImage::New();
+  nearer->CopyInformation(&region);
+  nearer->SetRegions(whole);
+  nearer->Allocate();
+  std::uint8_t* to = nearer->GetBufferPointer();
+  for (std::size_t i = 0; i < n; ++i) to[i] = owner[i] == 1;
+  return nearer;
+}
+
 SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentationOptions& o) {
   if (o.seeds.empty()) throw std::runtime_error("no seed: give at least one point inside the organ (--seed X,Y,Z)");
   if (o.hu_window && !(o.hu_window->first < o.hu_window->second))
@@ -752,7 +803,21 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
         if (window->GetPixel(v)) markers->SetPixel(v, kOrganMarker);
       });
     mark_background_seeds(*markers);
+    const MaskImage::Pointer whole_window = window;
     window = watershed_organ(*gradient_magnitude(*image), *markers, *claimed_by_background);
+    // The split takes only what lies nearer to a background seed than to the
+    // organ's seeds through the window: its watershed may run along an edge
+    // deep into the organ (a lobe behind a fissure), which stays the organ's
+    // to decide (leak control still does).
+    {
+      const MaskImage::Pointer nearer = nearer_to_organ(*whole_window, work_seeds, work_background);
+      std::uint8_t* claimed = claimed_by_background->GetBufferPointer();
+      std::uint8_t* in_window = window->GetBufferPointer();
+      const std::uint8_t *was_window = whole_window->GetBufferPointer(), *near_organ = nearer->GetBufferPointer();
+      const std::size_t n = window->GetLargestPossibleRegion().GetNumberOfPixels();
+      for (std::size_t i = 0; i < n; ++i)
+        if (was_window[i] && !in_window[i] && near_organ[i]) claimed[i] = 0, in_window[i] = 1;
+    }
     report.background_split_ml = static_cast<double>(before - count_voxels(*window)) * working_voxel_ml;
     clock.lap("background seeds");
   }

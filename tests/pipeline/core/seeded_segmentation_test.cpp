@@ -5,6 +5,7 @@
 
 #include <itkBinShrinkImageFilter.h>
 #include <itkCastImageFilter.h>
+#include <itkImageRegionConstIteratorWithIndex.h>
 #include <itkImageRegionIteratorWithIndex.h>
 
 #include <algorithm>
@@ -243,6 +244,44 @@ TEST(SeededSegmentation, NeckSweepCutsBelowTheOpeningsDiameterAndReportsEveryCut
       EXPECT_GE(dice, 0.95) << neck << " mm";
     }
   }
+}
+
+// A background seed takes only what lies nearer to it than to the organ's
+// seeds through the window: with the organ seeded in the body and a background
+// seed in the lobe (one stretch of tissue, 24 mm neck), no voxel of the body
+// nearer the organ's seed is given to the background.
+TEST(SeededSegmentation, BackgroundSeedsNeverTakeAVoxelNearerToAnOrganSeed) {
+  const NeckedOrgan organ = necked_organ(24.0);
+  SeededSegmentationOptions o;
+  o.seeds = {SeedPoint::at_mm(organ.body_centre_mm)};
+  o.background_seeds = {SeedPoint::at_mm(organ.lobe_centre_mm)};
+  o.explain = true;
+  const SeededSegmentation result = segment_from_seeds(*organ.ct, o);
+  ASSERT_TRUE(result.explanation);
+  // The window's distance is counted in 6-connected steps (an L1 distance);
+  // inside the body, which holds the organ's seed and is convex, it is the
+  // straight one to that seed, and no shorter to the background's.
+  const auto steps = [](const CtImage::PointType& p, const std::array<double, 3>& q) {
+    return std::abs(p[0] - q[0]) + std::abs(p[1] - q[1]) + std::abs(p[2] - q[2]);
+  };
+  std::size_t given = 0, nearer_organ = 0;
+  itk::ImageRegionConstIteratorWithIndex<MaskImage> it(result.explanation,
+                                                       result.explanation->GetLargestPossibleRegion());
+  for (; !it.IsAtEnd(); ++it) {
+    if (it.Get() != kGivenToBackground) continue;
+    ++given;
+    CtImage::PointType p;
+    result.explanation->TransformIndexToPhysicalPoint(it.GetIndex(), p);
+    const bool in_body = p[0] >= 10.0 && p[0] <= 70.0 && std::abs(p[1] - 45.0) <= 25.0 && std::abs(p[2] - 45.0) <= 25.0;
+    if (in_body && steps(p, organ.body_centre_mm) < steps(p, organ.lobe_centre_mm)) ++nearer_organ;
+  }
+  EXPECT_GT(given, 0u) << "the background seed takes the lobe";
+  EXPECT_EQ(nearer_organ, 0u) << "of " << given << " voxels given to the background";
+  CtImage::PointType body;
+  for (unsigned k = 0; k < 3; ++k) body[k] = organ.body_centre_mm[k];
+  CtImage::IndexType at;
+  organ.ct->TransformPhysicalPointToIndex(body, at);
+  EXPECT_EQ(result.mask->GetPixel(at), 1);
 }
 
 // A neighbour of the organ's HU across a gap of fat stays out, down to a gap
