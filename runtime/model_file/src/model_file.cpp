@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <initializer_list>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -269,22 +270,28 @@ void read_metadata(const std::uint8_t* data, std::size_t size, ModelProvenance& 
     fail_section(id, "units are '" + units + "' but only SI is supported; re-bake the model with organsim");
 }
 
-void read_material(const std::uint8_t* data, std::size_t size, Material& mat) {
-  const Section id = Section::Material;
+/// A section of a field count, a zero and that many reals, of which the
+/// reader knows `targets` and needs the first `required`: fields beyond those
+/// known (a newer minor version's) are skipped, and known fields an older
+/// file lacks keep their values.
+void read_reals(Section id, const std::uint8_t* data, std::size_t size, std::uint32_t required,
+                std::initializer_list<double*> targets) {
   PayloadReader r(data, size);
   std::uint32_t fields = 0, reserved = 0;
   if (!r.get(fields) || !r.get(reserved))
     fail_section(id, std::string("payload too short for its field count; ") + kDamagedAdvice);
-  if (fields < format::kMaterialFieldsV1 || fields > r.remaining() / sizeof(double) ||
-      fields * sizeof(double) != r.remaining())
+  if (fields < required || fields > r.remaining() / sizeof(double) || fields * sizeof(double) != r.remaining())
     fail_section(id, "field count " + std::to_string(fields) + " does not match the payload of " +
                          std::to_string(size) + " bytes; " + kDamagedAdvice);
-  double* targets[] = {&mat.young_modulus,         &mat.poisson_ratio,    &mat.density,
-                       &mat.attenuation_alpha,     &mat.attenuation_beta, &mat.beam_stiffness_scale,
-                       &mat.spring_stiffness_scale};
-  // Fields beyond those known (a newer minor version's) are skipped; known
-  // fields a 1.0 file lacks keep their defaults.
-  for (std::uint32_t f = 0; f < std::min<std::uint32_t>(fields, std::size(targets)); ++f) r.get(*targets[f]);
+  std::uint32_t f = 0;
+  for (double* target : targets)
+    if (f++ < fields) r.get(*target);
+}
+
+void read_material(const std::uint8_t* data, std::size_t size, Material& mat) {
+  read_reals(Section::Material, data, size, format::kMaterialFieldsV1,
+             {&mat.young_modulus, &mat.poisson_ratio, &mat.density, &mat.attenuation_alpha, &mat.attenuation_beta,
+              &mat.beam_stiffness_scale, &mat.spring_stiffness_scale});
 }
 
 void read_sites(const std::uint8_t* data, std::size_t size, SiteCompliance& sites) {
@@ -325,19 +332,8 @@ void read_curvature(const std::uint8_t* data, std::size_t size, SiteCompliance& 
 }
 
 void read_meshing(const std::uint8_t* data, std::size_t size, Meshing& meshing) {
-  const Section id = Section::Meshing;
-  PayloadReader r(data, size);
-  std::uint32_t fields = 0, reserved = 0;
-  if (!r.get(fields) || !r.get(reserved))
-    fail_section(id, std::string("payload too short for its header; ") + kDamagedAdvice);
-  // Fields beyond those known (a newer minor version's) are skipped.
-  if (fields < format::kMeshingFieldsV1_4 || r.remaining() != std::size_t{fields} * sizeof(double))
-    fail_section(id, "field count " + std::to_string(fields) + " does not match the payload of " +
-                         std::to_string(size) + " bytes (at least " + std::to_string(format::kMeshingFieldsV1_4) +
-                         " reals); " + kDamagedAdvice);
-  r.get(meshing.tet_size);
-  r.get(meshing.clamp_radius);
-  r.get(meshing.clamp_cell_size);
+  read_reals(Section::Meshing, data, size, format::kMeshingFieldsV1_4,
+             {&meshing.tet_size, &meshing.clamp_radius, &meshing.clamp_cell_size});
 }
 
 // Returns whether every value is plausible (checked chunk by chunk as it is
