@@ -498,6 +498,15 @@ std::vector<std::string> liver_plausibility_warnings(double volume_ml, std::size
   return warnings;
 }
 
+/// A mask of zeros on `grid`'s grid.
+MaskImage::Pointer empty_mask_like(const itk::ImageBase<3>& grid) {
+  auto mask = MaskImage::New();
+  mask->CopyInformation(&grid);
+  mask->SetRegions(grid.GetLargestPossibleRegion());
+  mask->Allocate(true);
+  return mask;
+}
+
 /// The voxels of `a` that are not in `b`.
 MaskImage::Pointer without(const MaskImage& a, const MaskImage& b) {
   auto result = MaskImage::New();
@@ -511,25 +520,34 @@ MaskImage::Pointer without(const MaskImage& a, const MaskImage& b) {
   return result;
 }
 
-/// The pieces of `cut` (left out of `organ` for `cause`) of at least
-/// `minimum_ml`, each described for the user: volume, HU, the neck it was
-/// joined by, its box and its deepest point.
-std::vector<CutRegion> describe_cut(const MaskImage& cut, const MaskImage& organ, const FloatImage& image,
-                                    const char* cause, double minimum_ml) {
-  const LabelImage::Pointer labels = components(cut);
-  const FloatImage::Pointer depth = distance_map(cut, 1);  // > 0 inside, mm to the piece's border
+/// The pieces of `cut` (left out of `organ`), each described for the user:
+/// volume, HU, the neck it was joined by, its box and its deepest point.
+struct CutPieces {
+  LabelImage::Pointer labels;       ///< each piece's voxels, label k + 1 for piece k
+  std::vector<CutRegion> pieces;    ///< by label; empty pieces have volume 0
+  std::vector<bool> holds_claimed;  ///< by label: it holds a voxel of `claimed` (a background seed's)
+};
+
+/// `window_depth`: mm from each voxel to the nearest voxel outside the
+/// window's region (distance_map(grown, 1)): the thickness of the tissue, of
+/// the neck, and each piece's deepest voxel (where a seed takes it back).
+CutPieces cut_pieces(const MaskImage& cut, const MaskImage& organ, const FloatImage& image,
+                     const FloatImage& window_depth, const MaskImage* claimed = nullptr) {
+  CutPieces result;
+  result.labels = components(cut);
   struct Piece {
     std::size_t voxels = 0;
     MaskImage::IndexType low, high, deepest;
-    float deepest_depth = -1.0f;
-    double contact_mm2 = 0.0;
-    std::vector<float> values;
+    float deepest_depth = -1.0f, neck_depth = 0.0f;
+    double contact_mm2 = 0.0, surface_mm2 = 0.0;
+    std::vector<float> values, neck_values;
+    bool holds_claimed = false;
   };
   std::vector<Piece> pieces;
   const auto region = cut.GetLargestPossibleRegion();
   const auto spacing = cut.GetSpacing();
   const double face_mm2[3] = {spacing[1] * spacing[2], spacing[0] * spacing[2], spacing[0] * spacing[1]};
-  itk::ImageRegionConstIteratorWithIndex<LabelImage> it(labels, region);
+  itk::ImageRegionConstIteratorWithIndex<LabelImage> it(result.labels, region);
   for (; !it.IsAtEnd(); ++it) {
     const std::uint32_t label = it.Get();
     if (label == 0) continue;
@@ -538,27 +556,41 @@ std::vector<CutRegion> describe_cut(const MaskImage& cut, const MaskImage& organ
     const MaskImage::IndexType index = it.GetIndex();
     if (p.voxels++ == 0) p.low = p.high = index;
     for (unsigned k = 0; k < 3; ++k) p.low[k] = std::min(p.low[k], index[k]), p.high[k] = std::max(p.high[k], index[k]);
-    p.values.push_back(image.GetPixel(index));
-    if (const float d = depth->GetPixel(index); d > p.deepest_depth) p.deepest_depth = d, p.deepest = index;
+    const float value = image.GetPixel(index);
+    p.values.push_back(value);
+    if (claimed && claimed->GetPixel(index)) p.holds_claimed = true;
+    if (const float d = window_depth.GetPixel(index); d > p.deepest_depth) p.deepest_depth = d, p.deepest = index;
+    bool at_neck = false;
     for (unsigned k = 0; k < 3; ++k)
       for (const long step : {-1L, 1L}) {
         MaskImage::IndexType next = index;
         next[k] += step;
-        if (region.IsInside(next) && organ.GetPixel(next)) p.contact_mm2 += face_mm2[k];
+        if (!region.IsInside(next) || !cut.GetPixel(next)) p.surface_mm2 += face_mm2[k];
+        if (region.IsInside(next) && organ.GetPixel(next)) {
+          p.contact_mm2 += face_mm2[k];
+          p.neck_values.push_back(image.GetPixel(next));
+          at_neck = true;
+        }
       }
+    if (at_neck) p.neck_values.push_back(value), p.neck_depth = std::max(p.neck_depth, window_depth.GetPixel(index));
   }
   const double voxel_ml = voxel_volume_ml(cut);
-  std::vector<CutRegion> described;
   for (Piece& p : pieces) {
-    const double ml = static_cast<double>(p.voxels) * voxel_ml;
-    if (p.voxels == 0 || ml < minimum_ml) continue;
     CutRegion r;
-    r.cause = cause;
-    r.volume_ml = ml;
+    result.holds_claimed.push_back(p.holds_claimed);
+    if (p.voxels == 0) {
+      result.pieces.push_back(r);
+      continue;
+    }
+    r.volume_ml = static_cast<double>(p.voxels) * voxel_ml;
     const RobustStatistics hu = robust_statistics(std::move(p.values));
     r.median_hu = hu.median;
     r.sigma_hu = hu.sigma;
     r.neck_width_mm = 2.0 * std::sqrt(p.contact_mm2 / M_PI);
+    r.neck_thickness_mm = 2.0 * p.neck_depth;
+    r.contact_fraction = p.contact_mm2 / p.surface_mm2;
+    if (!p.neck_values.empty()) r.neck_median_hu = robust_statistics(std::move(p.neck_values)).median;
+    r.depth_mm = p.deepest_depth;
     r.box_low_mm = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
                     std::numeric_limits<double>::infinity()};
     r.box_high_mm = {-r.box_low_mm[0], -r.box_low_mm[1], -r.box_low_mm[2]};
@@ -573,8 +605,20 @@ std::vector<CutRegion> describe_cut(const MaskImage& cut, const MaskImage& organ
     CtImage::PointType seed;
     cut.TransformIndexToPhysicalPoint(p.deepest, seed);
     r.seed_mm = {seed[0], seed[1], seed[2]};
-    described.push_back(r);
+    result.pieces.push_back(r);
   }
+  return result;
+}
+
+/// The pieces of `cut` (left out of `organ` for `cause`) of at least `minimum_ml`.
+std::vector<CutRegion> describe_cut(const MaskImage& cut, const MaskImage& organ, const FloatImage& image,
+                                    const FloatImage& window_depth, const char* cause, double minimum_ml) {
+  std::vector<CutRegion> described;
+  for (CutRegion& r : cut_pieces(cut, organ, image, window_depth).pieces)
+    if (r.volume_ml > 0.0 && r.volume_ml >= minimum_ml) {
+      r.cause = cause;
+      described.push_back(r);
+    }
   return described;
 }
 
@@ -626,6 +670,46 @@ MaskImage::Pointer nearer_to_organ(const MaskImage& region, const std::vector<Ma
   std::uint8_t* to = nearer->GetBufferPointer();
   for (std::size_t i = 0; i < n; ++i) to[i] = owner[i] == 1;
   return nearer;
+}
+
+/// The least HU spread a match is judged against (a CT smoothed flat).
+constexpr double kMatchSigmaFloorHu = 2.0;
+
+std::string why_not_taken_back(const CutRegion& piece, double core_median_hu, double core_sigma_hu, double organ_ml,
+                               const SeededSegmentationOptions& o) {
+  // Within the core's own robust σ (of the smoothed CT, not floored as the
+  // window's is): on a CT without contrast a muscle lies 10 to 15 HU below
+  // the liver, 1.4 σ on the shipped CT, where the window's floor would let it in.
+  const double sigma = std::max(core_sigma_hu, kMatchSigmaFloorHu);
+  if (std::abs(piece.median_hu - core_median_hu) > sigma)
+    return fmt::format("its HU is not the organ core's ({:.0f} against {:.0f} ± {:.0f})", piece.median_hu,
+                       core_median_hu, sigma);
+  if (piece.sigma_hu > 1.5 * sigma)
+    return fmt::format("its HU spreads more than the organ core's (robust sigma {:.0f} against {:.0f})", piece.sigma_hu,
+                       sigma);
+  // A leak runs through a bridge of partial volume one or two voxels across;
+  // a neck as thick as the opening radius is tissue, not a bridge.
+  if (piece.neck_thickness_mm < o.opening_radius_mm)
+    return fmt::format("its neck ({:.1f} mm thick) is thinner than the opening radius ({:.1f} mm): it may be a leak",
+                       piece.neck_thickness_mm, o.opening_radius_mm);
+  // Two organs that touch meet at a fat plane or a partial-volume dip; the
+  // organ's tissue running through a neck has none.
+  if (piece.neck_median_hu < core_median_hu - sigma)
+    return fmt::format("its neck is darker than the organ ({:.0f} HU): an interface between two structures",
+                       piece.neck_median_hu);
+  // A lobe hangs from the organ by its neck; a muscle or an organ that lies
+  // along it touches it over a large part of its surface.
+  if (piece.contact_fraction > 0.1)
+    return fmt::format("it lies along the organ ({:.0f} % of its surface touches it), not behind a neck",
+                       100.0 * piece.contact_fraction);
+  // A lobe survives the opening itself; a wall (the stomach's, the diaphragm)
+  // or a sheet of muscle does not.
+  if (piece.depth_mm <= o.opening_radius_mm)
+    return fmt::format("it is thinner than the opening's diameter ({:.0f} mm thick at most): a wall, not a lobe",
+                       2.0 * piece.depth_mm);
+  if (piece.volume_ml > organ_ml)
+    return fmt::format("it is larger than the organ kept ({:.0f} against {:.0f} mL)", piece.volume_ml, organ_ml);
+  return {};
 }
 
 SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentationOptions& o) {
@@ -759,10 +843,7 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
   // small (a background seed is often put in a thin structure); the organ's
   // markers are its opened region less the reach, less what lies near a
   // background seed (a bridge thicker than the opening can carry the heart into it).
-  auto claimed_by_background = MaskImage::New();
-  claimed_by_background->CopyInformation(image);
-  claimed_by_background->SetRegions(image->GetLargestPossibleRegion());
-  claimed_by_background->Allocate(true);
+  const MaskImage::Pointer claimed_by_background = empty_mask_like(*image);
   const auto spacing = image->GetSpacing();
   const double background_marker_radius_mm = 1.01 * std::max({spacing[0], spacing[1], spacing[2]});
   const auto mark_background_seeds = [&](LabelImage& markers) {
@@ -849,6 +930,39 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
     mark_background_seeds(*markers);
     organ = watershed_organ(*gradient_magnitude(*image), *markers, *claimed_by_background);
   }
+  // The organ core's HU: what a cut piece is compared with.
+  const bool core_known = report.organ_sigma_hu > 0.0;
+  const double core_median = core_known ? report.organ_median_hu : report.seed_median_hu;
+  const double core_sigma = core_known ? report.organ_sigma_hu : report.seed_sigma_hu;
+  // The opening cuts a lobe joined through a neck narrower than its diameter
+  // as it cuts a leak; the neck rule gives back what is the organ's own tissue.
+  MaskImage::Pointer taken_back;
+  const FloatImage::Pointer window_depth = distance_map(*grown, 1);
+  if (o.opening_radius_mm > 0.0 && o.take_back_lobes) {
+    const CutPieces cut =
+        cut_pieces(*without(*grown, *organ), *organ, *image, *window_depth, claimed_by_background.GetPointer());
+    const double organ_ml = static_cast<double>(count_voxels(*organ)) * working_voxel_ml;
+    std::vector<bool> take(cut.pieces.size() + 1, false);
+    for (std::size_t k = 0; k < cut.pieces.size(); ++k) {
+      CutRegion piece = cut.pieces[k];
+      if (piece.volume_ml <= 0.0 || piece.volume_ml < o.reported_cut_ml || cut.holds_claimed[k]) continue;
+      piece.cause = "leak control";
+      piece.like_organ = true;
+      if (!why_not_taken_back(piece, core_median, core_sigma, organ_ml, o).empty()) continue;
+      take[k + 1] = true;
+      report.taken_back.push_back(piece);
+    }
+    if (!report.taken_back.empty()) {
+      taken_back = empty_mask_like(*grown);
+      const std::uint32_t* label = cut.labels->GetBufferPointer();
+      std::uint8_t *into = organ->GetBufferPointer(), *given = taken_back->GetBufferPointer();
+      const std::size_t n = organ->GetLargestPossibleRegion().GetNumberOfPixels();
+      for (std::size_t i = 0; i < n; ++i)
+        if (label[i] && take[label[i]]) into[i] = given[i] = 1;
+      std::stable_sort(report.taken_back.begin(), report.taken_back.end(),
+                       [](const CutRegion& a, const CutRegion& b) { return a.volume_ml > b.volume_ml; });
+    }
+  }
   report.cut_by_opening_ml = static_cast<double>(grown_voxels - count_voxels(*organ)) * working_voxel_ml;
   clock.lap("leak control");
 
@@ -867,10 +981,7 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
   if (!work_lesions.empty()) {
     const std::size_t before = count_voxels(*organ);
     const MaskImage::Pointer dark = threshold(*image, o.lesion_low_hu, report.hu_low);
-    auto near_seed = MaskImage::New();
-    near_seed->CopyInformation(image);
-    near_seed->SetRegions(image->GetLargestPossibleRegion());
-    near_seed->Allocate(true);
+    const MaskImage::Pointer near_seed = empty_mask_like(*image);
     for (const auto& l : work_lesions)
       for_each_in_ball(*image, l, o.lesion_radius_mm,
                        [&](const FloatImage::IndexType& v) { near_seed->SetPixel(v, 1); });
@@ -903,15 +1014,19 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
   const MaskImage::Pointer cut = without(*grown, *organ);
   const MaskImage::Pointer given =
       joined_before_split ? without(*without(*joined_before_split, *window), *organ) : MaskImage::Pointer();
-  report.cut_regions = describe_cut(*cut, *organ, *image, "leak control", o.reported_cut_ml);
+  report.cut_regions = describe_cut(*cut, *organ, *image, *window_depth, "leak control", o.reported_cut_ml);
   if (given)
-    for (CutRegion& r : describe_cut(*given, *organ, *image, "background seed", o.reported_cut_ml))
+    for (CutRegion& r : describe_cut(*given, *organ, *image, *distance_map(*joined_before_split, 1), "background seed",
+                                     o.reported_cut_ml))
       report.cut_regions.push_back(r);
   {
-    const bool core_known = report.organ_sigma_hu > 0.0;
-    const double core_median = core_known ? report.organ_median_hu : report.seed_median_hu;
-    const double core_sigma = std::max(core_known ? report.organ_sigma_hu : report.seed_sigma_hu, o.minimum_sigma_hu);
-    for (CutRegion& r : report.cut_regions) r.like_organ = std::abs(r.median_hu - core_median) <= 2.0 * core_sigma;
+    const double organ_ml = static_cast<double>(count_voxels(*organ)) * working_voxel_ml;
+    for (CutRegion& r : report.cut_regions) {
+      r.like_organ = std::abs(r.median_hu - core_median) <= 2.0 * std::max(core_sigma, o.minimum_sigma_hu);
+      r.kept_out_because = r.cause == "background seed" ? std::string("a background seed is nearer")
+                                                        : why_not_taken_back(r, core_median, core_sigma, organ_ml, o);
+      if (r.kept_out_because.empty()) r.kept_out_because = "it was cut after the neck rule (holes, closing)";
+    }
   }
   std::stable_sort(report.cut_regions.begin(), report.cut_regions.end(),
                    [](const CutRegion& a, const CutRegion& b) { return a.volume_ml > b.volume_ml; });
@@ -931,17 +1046,14 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
       mask->CopyInformation(&ct);
       return mask;
     };
-    const MaskImage::Pointer cut_on_ct = on_ct(cut), given_on_ct = on_ct(given);
-    auto labels = MaskImage::New();
-    labels->CopyInformation(&ct);
-    labels->SetRegions(ct.GetLargestPossibleRegion());
-    labels->Allocate(true);
+    const MaskImage::Pointer cut_on_ct = on_ct(cut), given_on_ct = on_ct(given), taken_back_on_ct = on_ct(taken_back);
+    const MaskImage::Pointer labels = empty_mask_like(ct);
     std::uint8_t* to = labels->GetBufferPointer();
     const std::uint8_t* organ_on_ct = result.mask->GetBufferPointer();
     const std::size_t n = ct.GetLargestPossibleRegion().GetNumberOfPixels();
     for (std::size_t i = 0; i < n; ++i) {
       if (organ_on_ct[i])
-        to[i] = kOrgan;
+        to[i] = taken_back_on_ct && taken_back_on_ct->GetBufferPointer()[i] ? kTakenBack : kOrgan;
       else if (cut_on_ct && cut_on_ct->GetBufferPointer()[i])
         to[i] = kCutByLeakControl;
       else if (given_on_ct && given_on_ct->GetBufferPointer()[i])

@@ -74,8 +74,13 @@ TEST_F(Cli, SegmentSaysWhatWasCutAndExplainsItAsALabelMap) {
   EXPECT_EQ(largest["cause"], "leak control");
   EXPECT_GT(largest["volume_ml"].get<double>(), 1000.0) << "the body wall and muscles at the liver's HU";
   EXPECT_FALSE(largest["like_organ"].get<bool>());
-  for (const char* key : {"median_hu", "sigma_hu", "neck_width_mm", "box_mm", "seed_mm", "seed_option"})
+  for (const char* key : {"median_hu", "sigma_hu", "neck_width_mm", "neck_thickness_mm", "neck_median_hu",
+                          "contact_fraction", "depth_mm", "box_mm", "kept_out_because", "seed_mm", "seed_option"})
     EXPECT_TRUE(largest.contains(key)) << key;
+  EXPECT_NE(largest["kept_out_because"].get<std::string>().find("HU is not the organ core's"), std::string::npos)
+      << largest["kept_out_because"];
+  EXPECT_TRUE(j["segmentation"]["taken_back"].is_array()) << "what the neck rule gave back (here nothing)";
+  EXPECT_TRUE(j["segmentation"]["taken_back"].empty());
   EXPECT_EQ(largest["seed_option"].get<std::string>().rfind("--seed ", 0), 0u);
   // The label map on the CT's grid: the mask as label 1, the cut as label 2, and the seed inside the cut.
   const pipeline::CtImage::Pointer ct = pipeline::read_ct(real_ct("example_ct.nii.gz").string());

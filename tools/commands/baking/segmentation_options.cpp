@@ -85,6 +85,10 @@ void add_seeded_segmentation_options(CLI::App& app, SegmentationCommandOptions& 
                  "Leak control: how far beyond the opened organ its border may lie, mm (restores thin edges)")
       ->check(kNonNegative)
       ->capture_default_str();
+  app.add_flag(
+      "--no-neck-rule", [&m](std::int64_t) { m.take_back_lobes = false; },
+      "Leak control: keep out every piece the opening cut, even one of the organ's own tissue behind a neck "
+      "thicker than the opening radius (docs/segmentation.md#what-leak-control-gives-back)");
   app.add_option("--lesion-radius", m.lesion_radius_mm,
                  "Takes in dents up to this radius, mm, that lesions and vessels at the organ's surface leave, when "
                  "the organ encloses them (0: none)")
@@ -98,9 +102,11 @@ void add_seeded_segmentation_options(CLI::App& app, SegmentationCommandOptions& 
                  "Segment on blocks of about this size, mm, when the CT is finer (0: full resolution)")
       ->check(kNonNegative)
       ->capture_default_str();
-  app.add_option("--explain", o.explain_path,
-                 "Write a label map on the CT's grid (1 organ, 2 cut by leak control, 3 given to background seeds) "
-                 "that 3D Slicer opens over the CT (.nii.gz, .nrrd, .mha; docs/segmentation.md#what-was-cut)");
+  app.add_option(
+      "--explain", o.explain_path,
+      "Write a label map on the CT's grid (1 organ, 2 cut by leak control, 3 given to background seeds, 4 organ "
+      "given back by the neck rule) "
+      "that 3D Slicer opens over the CT (.nii.gz, .nrrd, .mha; docs/segmentation.md#what-was-cut)");
   app.add_option("--reference", o.reference_path,
                  "A label map of the same CT (TotalSegmentator, 3D Slicer): print the Dice of the result against it");
   app.add_option("--reference-value", o.reference_value, "The organ's value in the --reference label map")
@@ -129,15 +135,21 @@ void print_seeded_segmentation_report(const pipeline::SeededSegmentationReport& 
   fmt::print("leak control    window region {:.1f} mL, cut by the opening {:.1f} mL", r.grown_ml, r.cut_by_opening_ml);
   if (r.background_split_ml > 0.0) fmt::print(", {:.1f} mL given to background seeds", r.background_split_ml);
   fmt::print("\n");
+  for (const pipeline::CutRegion& c : r.taken_back)
+    fmt::print(
+        "taken back      {:.1f} mL cut by the opening: {:.0f} HU (robust sigma {:.0f}), joined by a neck {:.0f} mm "
+        "thick at {:.0f} HU, box {:.0f}..{:.0f}, {:.0f}..{:.0f}, {:.0f}..{:.0f} mm: the organ's tissue behind a neck\n",
+        c.volume_ml, c.median_hu, c.sigma_hu, c.neck_thickness_mm, c.neck_median_hu, c.box_low_mm[0], c.box_high_mm[0],
+        c.box_low_mm[1], c.box_high_mm[1], c.box_low_mm[2], c.box_high_mm[2]);
   for (const pipeline::CutRegion& c : r.cut_regions)
     fmt::print(
         "cut             {:.1f} mL by {}: {:.0f} HU (robust sigma {:.0f}; organ core {:.0f}: {}), joined by a neck "
-        "{:.0f} mm wide, box {:.0f}..{:.0f}, {:.0f}..{:.0f}, {:.0f}..{:.0f} mm; if it is organ, add --seed "
-        "{:.1f},{:.1f},{:.1f}\n",
+        "{:.0f} mm wide, box {:.0f}..{:.0f}, {:.0f}..{:.0f}, {:.0f}..{:.0f} mm; left out: {}; if it is organ, add "
+        "--seed {:.1f},{:.1f},{:.1f}\n",
         c.volume_ml, c.cause, c.median_hu, c.sigma_hu, r.window_given ? r.seed_median_hu : r.organ_median_hu,
         c.like_organ ? "tissue like the organ's" : "unlike the organ, more likely a neighbour", c.neck_width_mm,
         c.box_low_mm[0], c.box_high_mm[0], c.box_low_mm[1], c.box_high_mm[1], c.box_low_mm[2], c.box_high_mm[2],
-        c.seed_mm[0], c.seed_mm[1], c.seed_mm[2]);
+        c.kept_out_because, c.seed_mm[0], c.seed_mm[1], c.seed_mm[2]);
   fmt::print("lesions         {:.1f} mL of enclosed dents (lesions, vessels at the surface) taken in",
              r.enclosed_dents_ml);
   if (r.lesion_seeds > 0) fmt::print("; {} seed(s) in a lesion added {:.1f} mL", r.lesion_seeds, r.lesion_seed_ml);
@@ -169,21 +181,32 @@ nlohmann::ordered_json seeded_segmentation_report_json(const pipeline::SeededSeg
   j["lesion_seeds"] = r.lesion_seeds;
   j["lesion_seed_ml"] = r.lesion_seed_ml;
   j["border_slices"] = r.border_slices;
-  nlohmann::ordered_json cut = nlohmann::ordered_json::array();
-  for (const pipeline::CutRegion& c : r.cut_regions) {
-    nlohmann::ordered_json region;
-    region["cause"] = c.cause;
-    region["volume_ml"] = c.volume_ml;
-    region["median_hu"] = c.median_hu;
-    region["sigma_hu"] = c.sigma_hu;
-    region["neck_width_mm"] = c.neck_width_mm;
-    region["like_organ"] = c.like_organ;
-    region["box_mm"] = {c.box_low_mm, c.box_high_mm};
-    region["seed_mm"] = c.seed_mm;
-    region["seed_option"] = fmt::format("--seed {:.1f},{:.1f},{:.1f}", c.seed_mm[0], c.seed_mm[1], c.seed_mm[2]);
-    cut.push_back(region);
-  }
-  j["cut_regions"] = cut;
+  const auto regions = [](const std::vector<pipeline::CutRegion>& list, bool cut) {
+    nlohmann::ordered_json all = nlohmann::ordered_json::array();
+    for (const pipeline::CutRegion& c : list) {
+      nlohmann::ordered_json region;
+      region["cause"] = c.cause;
+      region["volume_ml"] = c.volume_ml;
+      region["median_hu"] = c.median_hu;
+      region["sigma_hu"] = c.sigma_hu;
+      region["neck_width_mm"] = c.neck_width_mm;
+      region["neck_thickness_mm"] = c.neck_thickness_mm;
+      region["neck_median_hu"] = c.neck_median_hu;
+      region["contact_fraction"] = c.contact_fraction;
+      region["depth_mm"] = c.depth_mm;
+      region["like_organ"] = c.like_organ;
+      region["box_mm"] = {c.box_low_mm, c.box_high_mm};
+      if (cut) {
+        region["kept_out_because"] = c.kept_out_because;
+        region["seed_mm"] = c.seed_mm;
+        region["seed_option"] = fmt::format("--seed {:.1f},{:.1f},{:.1f}", c.seed_mm[0], c.seed_mm[1], c.seed_mm[2]);
+      }
+      all.push_back(region);
+    }
+    return all;
+  };
+  j["cut_regions"] = regions(r.cut_regions, true);
+  j["taken_back"] = regions(r.taken_back, false);
   j["warnings"] = r.warnings;
   nlohmann::ordered_json steps;
   for (const auto& [step, seconds] : r.step_seconds) steps[step] = seconds;

@@ -20,7 +20,8 @@
 //     `reach_mm` from it is not, and a marker-controlled watershed on the
 //     gradient magnitude puts the border in between on the strongest edge
 //     (a thin fat plane, a partial-volume dip), which a touching muscle of the
-//     same HU still has;
+//     same HU still has; a cut piece that is the organ's own tissue behind a
+//     neck of it (a lobe) is given back (take_back_lobes);
 //  6. hole filling (3D, then slice by slice for vessels that cross a slice),
 //     closing, the component holding the seeds, and back onto the CT's grid.
 //
@@ -88,6 +89,12 @@ struct SeededSegmentationOptions {
   /// Regions of the HU window that leak control or a background seed took
   /// from the organ are reported from this volume up, mL.
   double reported_cut_ml = 5.0;
+  /// Leak control gives back a piece it cut that is the organ's own tissue
+  /// behind a neck of it (docs/segmentation.md#what-leak-control-gives-back):
+  /// HU and spread like the organ core's, a neck thicker than the opening
+  /// radius and not darker than the organ, thick enough to survive the
+  /// opening itself, smaller than the organ kept, no background seed in it.
+  bool take_back_lobes = true;
   /// Also make SeededSegmentation::explanation (a label map on the CT's grid).
   bool explain = false;
 };
@@ -102,16 +109,45 @@ struct CutRegion {
   /// mm: the equivalent diameter of its contact with the organ kept,
   /// 2 √(A/π) for the contact area A; 0 where it touches the organ nowhere.
   double neck_width_mm = 0.0;
+  /// mm: the neck's thickness, the diameter of the largest ball of the
+  /// window's region centred on the contact (a bridge of partial volume is
+  /// one or two voxels thick however long its contact).
+  double neck_thickness_mm = 0.0;
+  double contact_fraction = 0.0;  ///< of its surface, the part that touches the organ kept
+  /// Median HU (smoothed) of the voxels on both sides of that contact. Below
+  /// both pieces' HU it is an interface (a fat plane, partial volume between
+  /// two organs); near them, one tissue running through.
+  double neck_median_hu = 0.0;
+  /// mm: how deep in the window's region its deepest voxel lies, about half
+  /// the tissue's thickness there (deeper than the opening radius: the piece
+  /// survives the opening).
+  double depth_mm = 0.0;
   std::array<double, 3> box_low_mm{}, box_high_mm{};  ///< its bounding box (the CT's physical frame, LPS)
-  std::array<double, 3> seed_mm{};                    ///< its deepest point: --seed X,Y,Z there takes it back
+  /// Its voxel deepest in the window's region (where its tissue is thickest):
+  /// --seed X,Y,Z there takes it back.
+  std::array<double, 3> seed_mm{};
   /// Its median HU lies within two robust σ of the organ core's (at least
   /// minimum_sigma_hu): tissue like the organ's, so perhaps organ; otherwise
   /// more likely a neighbour of similar HU (a muscle, the bowel wall).
   bool like_organ = false;
+  /// Why the neck rule left it out (why_not_taken_back), in words.
+  std::string kept_out_because;
 };
 
+/// Why leak control keeps a cut piece out (empty: it is taken back), judged
+/// against the organ core's HU median and robust σ on the smoothed CT and the
+/// volume of the organ kept (mL).
+std::string why_not_taken_back(const CutRegion& piece, double core_median_hu, double core_sigma_hu, double organ_ml,
+                               const SeededSegmentationOptions& options);
+
 /// The labels of SeededSegmentation::explanation.
-enum ExplanationLabel : std::uint8_t { kNotOrgan = 0, kOrgan = 1, kCutByLeakControl = 2, kGivenToBackground = 3 };
+enum ExplanationLabel : std::uint8_t {
+  kNotOrgan = 0,
+  kOrgan = 1,
+  kCutByLeakControl = 2,
+  kGivenToBackground = 3,
+  kTakenBack = 4,  ///< organ: cut by the opening, given back by the neck rule
+};
 
 /// What the segmentation did, for the user to judge it (and a warning when the
 /// result does not look like a liver).
@@ -131,6 +167,8 @@ struct SeededSegmentationReport {
   double lesion_seed_ml = 0.0;         ///< what their lesions added to the organ
   std::size_t border_slices = 0;       ///< axial slices where the mask touches the volume's side
   std::vector<CutRegion> cut_regions;  ///< largest first; those of at least reported_cut_ml
+  /// Pieces the opening cut and the neck rule gave back (they are organ), largest first.
+  std::vector<CutRegion> taken_back;
   std::vector<std::string> warnings;
   std::vector<std::pair<std::string, double>> step_seconds;  ///< in order
 };
@@ -138,7 +176,8 @@ struct SeededSegmentationReport {
 struct SeededSegmentation {
   MaskImage::Pointer mask;  ///< on the CT's grid
   /// With options.explain: on the CT's grid, each voxel's ExplanationLabel (the
-  /// organ, what leak control cut, what the background seeds took).
+  /// organ, what leak control cut, what the background seeds took, what the
+  /// neck rule gave back).
   MaskImage::Pointer explanation;
   SeededSegmentationReport report;
 };
