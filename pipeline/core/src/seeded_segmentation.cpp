@@ -179,10 +179,14 @@ FloatImage::Pointer distance_map(const MaskImage& mask, std::uint8_t background)
 
 /// Erosion and dilation by a Euclidean ball of radius r mm through distance
 /// maps: linear time whatever the radius.
-MaskImage::Pointer erode(const MaskImage& mask, double radius_mm) {
+/// `depth`: the mask's distance_map(mask, 1), where it is at hand.
+MaskImage::Pointer erode_at_depth(const FloatImage& depth, double radius_mm) {
   // Strictly farther than the radius from the outside: the dual of dilate's "within".
   const float beyond = std::nextafter(static_cast<float>(radius_mm), std::numeric_limits<float>::max());
-  return threshold(*distance_map(mask, 1), beyond, std::numeric_limits<float>::max());
+  return threshold(depth, beyond, std::numeric_limits<float>::max());
+}
+MaskImage::Pointer erode(const MaskImage& mask, double radius_mm) {
+  return erode_at_depth(*distance_map(mask, 1), radius_mm);
 }
 MaskImage::Pointer dilate(const MaskImage& mask, double radius_mm) {
   return threshold(*distance_map(mask, 0), std::numeric_limits<float>::lowest(), radius_mm);
@@ -238,9 +242,11 @@ std::optional<MaskImage::IndexType> nearest_set_voxel(const MaskImage& mask, con
 
 /// The part of `grown` that is certainly organ: its erosion by the opening
 /// radius, the components at (or nearest to) the seeds.
+/// `depth`: grown's distance_map(grown, 1), where it is at hand.
 MaskImage::Pointer certain_part(const MaskImage& grown, const std::vector<MaskImage::IndexType>& seeds,
-                                const SeededSegmentationOptions& o) {
-  const MaskImage::Pointer eroded = erode(grown, o.opening_radius_mm);
+                                const SeededSegmentationOptions& o, const FloatImage* depth = nullptr) {
+  const MaskImage::Pointer eroded =
+      depth ? erode_at_depth(*depth, o.opening_radius_mm) : erode(grown, o.opening_radius_mm);
   std::vector<MaskImage::IndexType> anchors;
   for (const auto& seed : seeds) {
     const auto anchor = nearest_set_voxel(*eroded, seed, 2.0 * o.opening_radius_mm + o.seed_radius_mm);
@@ -910,12 +916,15 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
     throw std::runtime_error("the seeds are not inside the HU window's region; move them into the organ");
   report.grown_ml = static_cast<double>(grown_voxels) * working_voxel_ml;
   MaskImage::Pointer organ = grown;
+  // How deep each voxel lies in the window's region: the opening's erosion,
+  // and the thickness of what it cuts.
+  const FloatImage::Pointer window_depth = distance_map(*grown, 1);
   if (o.opening_radius_mm > 0.0) {
     // The organ's certain part: the eroded region at the seeds. Everything
     // farther than the opening radius plus the reach from it, or outside the
     // window, is certainly not the organ; the watershed on the gradient puts
     // the border in between on the strongest edge.
-    const MaskImage::Pointer certain = certain_part(*grown, work_seeds, o);
+    const MaskImage::Pointer certain = certain_part(*grown, work_seeds, o, window_depth.GetPointer());
     const MaskImage::Pointer possible = logical_and(*dilate(*certain, o.opening_radius_mm + o.reach_mm), *grown);
     auto markers = outside_as_background(*possible);
     {
@@ -937,7 +946,6 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
   // The opening cuts a lobe joined through a neck narrower than its diameter
   // as it cuts a leak; the neck rule gives back what is the organ's own tissue.
   MaskImage::Pointer taken_back;
-  const FloatImage::Pointer window_depth = distance_map(*grown, 1);
   if (o.opening_radius_mm > 0.0 && o.take_back_lobes) {
     const CutPieces cut =
         cut_pieces(*without(*grown, *organ), *organ, *image, *window_depth, claimed_by_background.GetPointer());
