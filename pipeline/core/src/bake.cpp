@@ -275,6 +275,18 @@ std::map<std::string, std::string> provenance_parameters(const BakeOptions& o, c
                             r.centre[0] * 1e3, r.centre[1] * 1e3, r.centre[2] * 1e3, r.radius_mm, r.size_mm);
     p["tetrahedra_refined"] = places;
   }
+  if (o.supports) {
+    const SupportOptions& s = *o.supports;
+    p["supports"] = fmt::format(
+        "ct: tissue from {} HU at {}-{} mm outside ({} samples), attachments within {} mm of the surface point nearest "
+        "the fixed point, "
+        "modulus {} over {} mm",
+        s.tissue_low_hu, s.near_mm, s.far_mm, s.samples, s.attachment_radius_mm,
+        s.tissue_young_modulus > 0.0 ? fmt::format("E {} Pa", s.tissue_young_modulus) : std::string("the organ's E"),
+        s.yielding_depth_mm);
+  } else {
+    p["supports"] = "none";
+  }
   if (o.beam_tables) {
     p["stations"] = fmt::format("{}", o.beams.stations);
     p["section_samples_per_side"] = fmt::format("{}", o.beams.samples_per_side);
@@ -395,6 +407,13 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
     }
     require_valid(model);
   });
+  if (o.supports)
+    clock.run("supports", [&] {
+      SupportReport found;
+      model.supports = find_supports(*ct, model, *o.supports, &found);
+      report.supports = found;
+      require_valid(model);
+    });
   if (o.site_compliance)
     clock.run("site compliance", [&] {
       try {

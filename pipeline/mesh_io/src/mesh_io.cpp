@@ -78,12 +78,6 @@ void write_atomically(Writer& writer, Data* data, const std::string& path, const
 
 }  // namespace
 
-void write_surface_vtp(const geometry::SurfaceMesh& surface, const std::string& path) {
-  auto writer = Ptr<vtkXMLPolyDataWriter>::New();
-  writer->SetDataModeToBinary();
-  write_atomically(*writer, to_polydata(surface).Get(), path, ".vtp");
-}
-
 void write_surface_stl(const geometry::SurfaceMesh& surface, const std::string& path) {
   auto writer = Ptr<vtkSTLWriter>::New();
   writer->SetFileTypeToBinary();
@@ -124,6 +118,16 @@ Ptr<vtkDoubleArray> to_vtk_array(const DataArray& data, std::size_t count, const
 }
 
 }  // namespace
+
+void write_surface_vtp(const geometry::SurfaceMesh& surface, const std::string& path,
+                       const std::vector<DataArray>& point_data) {
+  const Ptr<vtkPolyData> polydata = to_polydata(surface);
+  for (const DataArray& data : point_data)
+    polydata->GetPointData()->AddArray(to_vtk_array(data, surface.vertices.size(), path));
+  auto writer = Ptr<vtkXMLPolyDataWriter>::New();
+  writer->SetDataModeToBinary();
+  write_atomically(*writer, polydata.Get(), path, ".vtp");
+}
 
 void write_field_vtu(const FieldMesh& mesh, const std::string& path) {
   auto points = Ptr<vtkPoints>::New();

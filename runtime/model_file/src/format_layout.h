@@ -58,6 +58,8 @@ inline constexpr std::uint64_t kMaxDepthCurvePoints = 256;
 inline constexpr std::uint32_t kCurvatureFieldsV1_3 = 2;
 /// Format 1.4's meshing record: reals (tet size, clamp radius, clamp cell size).
 inline constexpr std::uint32_t kMeshingFieldsV1_4 = 3;
+/// Format 1.5's supports: reals per surface vertex (kind, foundation modulus).
+inline constexpr std::uint32_t kSupportFieldsV1_5 = 2;
 
 enum class Section {
   Metadata,
@@ -71,7 +73,8 @@ enum class Section {
   BeamTables,
   SiteCompliance,
   SiteCurvature,
-  Meshing
+  Meshing,
+  Supports
 };
 
 struct SectionDescription {
@@ -95,6 +98,7 @@ inline constexpr SectionDescription kSections[] = {
     {Section::SiteCompliance, "SITE", "site compliance", false},
     {Section::SiteCurvature, "CURV", "site curvature", false},
     {Section::Meshing, "MESH", "meshing", false},
+    {Section::Supports, "SUPP", "supports", false},
 };
 
 inline const SectionDescription& describe(Section id) { return kSections[static_cast<std::size_t>(id)]; }

@@ -135,6 +135,11 @@ std::vector<std::uint8_t> encode_section(Section id, const OrganModel& m) {
       w.put<std::uint32_t>(0);
       for (double v : {m.meshing.tet_size, m.meshing.clamp_radius, m.meshing.clamp_cell_size}) w.put<double>(v);
       break;
+    case Section::Supports:
+      w.put<std::uint32_t>(format::kSupportFieldsV1_5);
+      w.put<std::uint32_t>(0);
+      w.put_array(m.supports.vertices);
+      break;
   }
   return w.take();
 }
@@ -148,6 +153,7 @@ bool section_present(Section id, const OrganModel& m) {
     case Section::SiteCompliance: return !m.sites.empty();
     case Section::SiteCurvature: return !m.sites.curvature.empty();
     case Section::Meshing: return !m.meshing.empty();
+    case Section::Supports: return !m.supports.empty();
     default: return true;
   }
 }
@@ -334,6 +340,18 @@ void read_curvature(const std::uint8_t* data, std::size_t size, SiteCompliance& 
 void read_meshing(const std::uint8_t* data, std::size_t size, Meshing& meshing) {
   read_reals(Section::Meshing, data, size, format::kMeshingFieldsV1_4,
              {&meshing.tet_size, &meshing.clamp_radius, &meshing.clamp_cell_size});
+}
+
+void read_supports(const std::uint8_t* data, std::size_t size, Supports& supports) {
+  const Section id = Section::Supports;
+  PayloadReader r(data, size);
+  std::uint32_t fields = 0, reserved = 0;
+  if (!r.get(fields) || !r.get(reserved))
+    fail_section(id, std::string("payload too short for its header; ") + kDamagedAdvice);
+  if (fields != format::kSupportFieldsV1_5)
+    fail_section(id, "field count " + std::to_string(fields) + " is not " + std::to_string(format::kSupportFieldsV1_5) +
+                         "; " + kDamagedAdvice);
+  supports.vertices = read_array<double, 2>(id, r.here(), r.remaining());
 }
 
 // Returns whether every value is plausible (checked chunk by chunk as it is
@@ -642,6 +660,7 @@ OrganModel read_sections(const std::uint8_t* data, const SectionIndex& index, co
   if (index.has(Section::SiteCurvature))
     read_curvature(payload(Section::SiteCurvature), bytes(Section::SiteCurvature), m.sites);
   if (index.has(Section::Meshing)) read_meshing(payload(Section::Meshing), bytes(Section::Meshing), m.meshing);
+  if (index.has(Section::Supports)) read_supports(payload(Section::Supports), bytes(Section::Supports), m.supports);
   if (const auto issue = find_model_issue(m, beams_plausible))
     fail_section(issue->section, issue->message + "; " + kDamagedAdvice);
   return m;

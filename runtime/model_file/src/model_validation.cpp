@@ -51,6 +51,25 @@ std::string meshing_issue(const OrganModel& m) {
   return {};
 }
 
+/// What is wrong with the supports, or "".
+std::string supports_issue(const OrganModel& m) {
+  const Supports& supports = m.supports;
+  if (supports.empty()) return {};
+  if (supports.vertices.size() != m.surface_vertices.size())
+    return "there are " + std::to_string(supports.vertices.size()) + " support entries for " +
+           std::to_string(m.surface_vertices.size()) + " surface vertices";
+  for (std::size_t v = 0; v < supports.vertices.size(); ++v) {
+    const auto& [kind, modulus] = supports.vertices[v];
+    const bool free = kind == 0.0;
+    if (!(kind == 0.0 || kind == 1.0 || kind == 2.0))
+      return "the support kind of vertex " + std::to_string(v) + " is not 0 (free), 1 (contact) or 2 (attachment)";
+    if (!(free ? modulus == 0.0 : modulus > 0.0 && modulus <= Supports::kMaxModulus))
+      return "the foundation modulus of vertex " + std::to_string(v) +
+             " must be 0 where it is free and a positive number of Pa/m up to 1e12 where it is supported";
+  }
+  return {};
+}
+
 /// What is wrong with the site curvature, or "".
 std::string site_curvature_issue(const OrganModel& m) {
   const SiteCompliance& sites = m.sites;
@@ -195,6 +214,7 @@ std::optional<ModelIssue> find_model_issue(const OrganModel& m, bool beam_values
   if (auto e = site_compliance_issue(m); !e.empty()) return issue(format::Section::SiteCompliance, e);
   if (auto e = site_curvature_issue(m); !e.empty()) return issue(format::Section::SiteCurvature, e);
   if (auto e = meshing_issue(m); !e.empty()) return issue(format::Section::Meshing, e);
+  if (auto e = supports_issue(m); !e.empty()) return issue(format::Section::Supports, e);
 
   const BeamTables& b = m.beams;
   if (b.empty()) {

@@ -102,7 +102,8 @@ bool OrganModel::operator==(const OrganModel& o) const {
   return provenance == o.provenance && surface_vertices == o.surface_vertices &&
          surface_triangles == o.surface_triangles && surface_texcoords == o.surface_texcoords &&
          volume_vertices == o.volume_vertices && tetrahedra == o.tetrahedra && fixed_points == o.fixed_points &&
-         material == o.material && beams == o.beams && sites == o.sites && meshing == o.meshing;
+         material == o.material && beams == o.beams && sites == o.sites && meshing == o.meshing &&
+         supports == o.supports;
 }
 
 std::string validate_organ_model(const OrganModel& model) {

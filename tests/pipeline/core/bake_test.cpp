@@ -99,7 +99,7 @@ TEST_F(Bake, PhantomFromASeedGivesAValidModelWithConsistentVolumes) {
   const BakeReport& r = result.report;
   EXPECT_EQ(model::validate_organ_model(m), "");
   EXPECT_EQ(stages, (std::vector<std::string>{"read CT", "segment", "fixed point", "surface", "beam tables",
-                                              "tetrahedra", "assemble", "site compliance"}));
+                                              "tetrahedra", "assemble", "supports", "site compliance"}));
   EXPECT_EQ(m.sites.compliance.size(), m.surface_vertices.size());  // the portal-vein clamp holds the phantom
   EXPECT_EQ(r.stage_seconds.size(), stages.size());
 

@@ -44,6 +44,9 @@ model::OrganModel small_model() {
   m.sites.curve_tip_radius = 0.0025;
   for (std::size_t v = 0; v < m.surface_vertices.size(); ++v) m.sites.curvature.push_back({40.0 + 1e-2 * v, -5.0});
   m.meshing = {0.004, 0.01, 0.0025};
+  for (std::size_t v = 0; v < m.surface_vertices.size(); ++v)
+    m.supports.vertices.push_back(v % 3 == 0 ? std::array<double, 2>{0.0, 0.0}
+                                             : std::array<double, 2>{static_cast<double>(1 + v % 2), 2.5e5});
   return m;
 }
 
@@ -85,7 +88,7 @@ TEST(ModelFile, RoundTripOfEverySection) {
   std::set<std::string> tags;
   for (const auto& s : r.file.sections) tags.insert(s.tag);
   EXPECT_EQ(tags, (std::set<std::string>{"META", "SVRT", "STRI", "SUVC", "TVRT", "TETS", "FIXP", "MATL", "BEAM", "SITE",
-                                         "CURV", "MESH"}));
+                                         "CURV", "MESH", "SUPP"}));
   EXPECT_EQ(r.file.version.major, 1);
   EXPECT_EQ(r.file.file_bytes, bytes.size());
 }
@@ -98,6 +101,7 @@ TEST(ModelFile, RoundTripWithoutOptionalSections) {
   model.beams = {};
   model.sites = {};
   model.meshing = {};
+  model.supports = {};
   model.provenance.parameters.clear();
   model.provenance.input_sha256.clear();
   const auto bytes = model::serialize_organ_model(model);
@@ -175,7 +179,7 @@ TEST(ModelFile, TruncationInsideHeaderAndTable) {
 TEST(ModelFile, TruncationAtAndInsideEverySection) {
   const auto bytes = encoded();
   const auto sections = list_sections(bytes);
-  ASSERT_EQ(sections.size(), 12u);
+  ASSERT_EQ(sections.size(), 13u);
   for (const auto& s : sections) {
     EXPECT_ERROR(std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + s.offset),
                  "truncated at the start of section '" + s.tag + "'");
@@ -222,7 +226,7 @@ TEST(ModelFile, FutureMajorVersionIsRefusedWithBothVersions) {
   poke<std::uint16_t>(bytes, 8, 2);
   poke<std::uint16_t>(bytes, 10, 3);
   refresh_checksums(bytes);
-  EXPECT_ERROR(bytes, "format version 2.3 but this organsim reads format 1.4");
+  EXPECT_ERROR(bytes, "format version 2.3 but this organsim reads format 1.5");
 }
 
 TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
@@ -230,7 +234,7 @@ TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
   const auto suvc = find_section(bytes, "SUVC");
   std::memcpy(bytes.data() + suvc.table_entry, "XTRA", 4);
   refresh_checksums(bytes);
-  EXPECT_ERROR(bytes, "section 'XTRA' is unknown in a format 1.4 file");
+  EXPECT_ERROR(bytes, "section 'XTRA' is unknown in a format 1.5 file");
 
   poke<std::uint16_t>(bytes, 10, model::kModelFormatVersion.minor + 1);
   refresh_checksums(bytes);
@@ -300,6 +304,49 @@ TEST(ModelFile, FormatOnePointThreeFileWithoutMeshingLoads) {
   EXPECT_EQ(r.file.version.minor, 3);
   EXPECT_TRUE(r.model->meshing.empty());
   EXPECT_TRUE(*r.model == without);
+}
+
+TEST(ModelFile, FormatOnePointFourFileWithoutSupportsLoads) {
+  // A 1.4 writer knew no SUPP section: the organ is held by its clamp alone.
+  model::OrganModel without = small_model();
+  without.supports = {};
+  auto bytes = model::serialize_organ_model(without);
+  EXPECT_THROW(find_section(bytes, "SUPP"), std::exception);
+  poke<std::uint16_t>(bytes, 10, 4);
+  refresh_checksums(bytes);
+  const model::ModelReadResult r = model::parse_organ_model(bytes.data(), bytes.size(), "x");
+  ASSERT_TRUE(r) << r.error;
+  EXPECT_EQ(r.file.version.minor, 4);
+  EXPECT_TRUE(r.model->supports.empty());
+  EXPECT_TRUE(*r.model == without);
+}
+
+TEST(ModelFile, ImplausibleSupportsAreRefused) {
+  const auto original = encoded();
+  const auto supp = find_section(original, "SUPP");
+  // Header: fields, reserved; the vertices (count, 2 reals each). Vertex 1 is a contact.
+  const std::size_t vertex_one = supp.offset + 8 + 8 + 16;
+  auto check = [&](std::size_t at, double value, const char* what) {
+    auto bytes = original;
+    poke<double>(bytes, at, value);
+    refresh_checksums(bytes);
+    EXPECT_ERROR(bytes, "section 'SUPP' (supports): ");
+    EXPECT_ERROR(bytes, what);
+  };
+  check(vertex_one, 3.0, "support kind of vertex 1 is not 0 (free), 1 (contact) or 2 (attachment)");
+  check(vertex_one, 0.5, "support kind of vertex 1");
+  check(vertex_one, std::nan(""), "support kind of vertex 1");
+  check(vertex_one + 8, 0.0, "foundation modulus of vertex 1");
+  check(vertex_one + 8, -1.0, "foundation modulus of vertex 1");
+  check(vertex_one + 8, std::numeric_limits<double>::infinity(), "foundation modulus of vertex 1");
+  check(supp.offset + 8 + 8 + 8, 1.0, "foundation modulus of vertex 0");  // free with a modulus
+  auto fields = original;
+  poke<std::uint32_t>(fields, supp.offset, 3u);
+  refresh_checksums(fields);
+  EXPECT_ERROR(fields, "section 'SUPP' (supports): field count 3 is not 2");
+  model::OrganModel short_list = small_model();
+  short_list.supports.vertices.pop_back();
+  EXPECT_NE(model::validate_organ_model(short_list).find("support entries for"), std::string::npos);
 }
 
 TEST(ModelFile, ImplausibleMeshingIsRefused) {

@@ -50,6 +50,43 @@ TEST_F(Cli, BakeJsonReportHasTheDocumentedKeysAndTheModelLoads) {
   EXPECT_EQ(nlohmann::json::parse(info.out)["counts"]["beam_stations"], 8);
 }
 
+// Supports (docs/supports.md): the phantom CT's liver lies against its
+// neighbours in places; the bake stores them, info and export show them, and
+// --supports none leaves only them out.
+TEST_F(Cli, BakeFindsTheSupportsInTheCtAndInfoAndExportShowThem) {
+  const fs::path model = dir_ / "liver.organ", bare = dir_ / "bare.organ", surface = dir_ / "surface.vtp";
+  const CommandRun run = run_organsim("bake " + quick_phantom_bake(model) + " --json", dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json s = nlohmann::json::parse(run.out)["supports"];
+  EXPECT_TRUE(s["found"].get<bool>());
+  EXPECT_GT(s["contact_area_cm2"].get<double>() + s["attachment_area_cm2"].get<double>(), 0.0);
+  EXPECT_LT(s["contact_area_cm2"].get<double>() + s["attachment_area_cm2"].get<double>(),
+            s["surface_area_cm2"].get<double>());
+  EXPECT_DOUBLE_EQ(s["foundation_modulus_pa_per_m"].get<double>(), 5000.0 / 0.020);
+  const model::ModelReadResult with = model::read_organ_model_file(model.string());
+  ASSERT_TRUE(with) << with.error;
+  EXPECT_EQ(with.model->supports.vertices.size(), with.model->surface_vertices.size());
+  const CommandRun info = run_organsim("info " + model.string() + " --json", dir_);
+  ASSERT_EQ(info.exit_code, 0) << info.err;
+  const nlohmann::json i = nlohmann::json::parse(info.out)["supports"];
+  EXPECT_EQ(i["contact_vertices"].get<std::size_t>() + i["attachment_vertices"].get<std::size_t>(),
+            s["contact_vertices"].get<std::size_t>() + s["attachment_vertices"].get<std::size_t>());
+  EXPECT_NE(run_organsim("info " + model.string(), dir_).out.find("supports        contact"), std::string::npos);
+  const CommandRun exported = run_organsim("export " + model.string() + " --surface " + surface.string(), dir_);
+  ASSERT_EQ(exported.exit_code, 0) << exported.err;
+  EXPECT_NE(read_bytes(surface).find("Name=\"support_kind\""), std::string::npos);
+
+  const CommandRun none = run_organsim("bake " + quick_phantom_bake(bare) + " --supports none --json", dir_);
+  ASSERT_EQ(none.exit_code, 0) << none.err;
+  EXPECT_FALSE(nlohmann::json::parse(none.out)["supports"]["found"].get<bool>());
+  const model::ModelReadResult without = model::read_organ_model_file(bare.string());
+  ASSERT_TRUE(without) << without.error;
+  EXPECT_TRUE(without.model->supports.empty());
+  EXPECT_EQ(without.model->surface_vertices, with.model->surface_vertices);
+  EXPECT_EQ(without.model->tetrahedra, with.model->tetrahedra);
+  EXPECT_EQ(run_organsim("bake " + quick_phantom_bake(dir_ / "x.organ") + " --supports body", dir_).exit_code, 2);
+}
+
 TEST_F(Cli, BakeIsByteIdenticalAcrossRuns) {
   ASSERT_EQ(run_organsim("bake " + quick_phantom_bake(dir_ / "a.organ"), dir_).exit_code, 0);
   ASSERT_EQ(run_organsim("bake " + quick_phantom_bake(dir_ / "b.organ") + " --threads 1", dir_).exit_code, 0);

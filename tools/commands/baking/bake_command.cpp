@@ -33,6 +33,8 @@ struct BakeCommandOptions {
   bool no_beam_tables = false;
   bool no_site_compliance = false;
   double site_patch_mm = 0.0;
+  std::string supports = "ct";
+  pipeline::SupportOptions support;
   bool json = false;
 };
 
@@ -117,6 +119,18 @@ nlohmann::ordered_json report_json(const pipeline::BakeReport& r, const model::O
                             {"factor_entries", r.sites.factor_entries},
                             {"factorization_seconds", r.sites.factorization_seconds},
                             {"solve_seconds", r.sites.solve_seconds}};
+  if (r.supports)
+    j["supports"] = {{"found", true},
+                     {"contact_vertices", r.supports->contact_vertices},
+                     {"attachment_vertices", r.supports->attachment_vertices},
+                     {"free_vertices", r.supports->free_vertices},
+                     {"unseen_vertices", r.supports->unseen_vertices},
+                     {"contact_area_cm2", r.supports->contact_area_cm2},
+                     {"attachment_area_cm2", r.supports->attachment_area_cm2},
+                     {"surface_area_cm2", r.supports->surface_area_cm2},
+                     {"foundation_modulus_pa_per_m", r.supports->modulus}};
+  else
+    j["supports"] = {{"found", false}};
   nlohmann::ordered_json stages;
   for (const auto& [stage, seconds] : r.stage_seconds) stages[stage] = seconds;
   j["seconds"] = {{"stages", stages}, {"total", r.total_seconds}};
@@ -165,6 +179,15 @@ void print_report(const pipeline::BakeReport& r, const model::OrganModel& model,
     fmt::print("site compliance none: {}; the fast models give their own forces\n", r.sites_skipped);
   else
     fmt::print("site compliance none (--no-site-compliance): the fast models give their own forces\n");
+  if (r.supports)
+    fmt::print(
+        "supports        contact {:.0f} cm² ({} vertices), attachment {:.0f} cm² ({}), free {} vertices ({} beyond the "
+        "CT's field of view), of {:.0f} cm²; foundation modulus {:.3g} Pa/m\n",
+        r.supports->contact_area_cm2, r.supports->contact_vertices, r.supports->attachment_area_cm2,
+        r.supports->attachment_vertices, r.supports->free_vertices, r.supports->unseen_vertices,
+        r.supports->surface_area_cm2, r.supports->modulus);
+  else
+    fmt::print("supports        none (--supports none): the organ is held by its clamp alone\n");
   fmt::print("material        E {} Pa, nu {}, rho {} kg/m³, alpha {:.4g}, beta {} 1/m\n", model.material.young_modulus,
              model.material.poisson_ratio, model.material.density, model.material.attenuation_alpha,
              model.material.attenuation_beta);
@@ -190,6 +213,7 @@ pipeline::BakeResult bake_model(BakeCommandOptions& o, const pipeline::BakeProgr
   if (o.closing_radius_mm >= 0.0) b.label_closing_radius_mm = b.seeded.closing_radius_mm = o.closing_radius_mm;
   b.beam_tables = !o.no_beam_tables;
   b.site_compliance = !o.no_site_compliance;
+  b.supports = o.supports == "ct" ? std::optional<pipeline::SupportOptions>(o.support) : std::nullopt;
   b.sites.threads = b.beams.threads;
   b.sites.patch_radius = o.site_patch_mm * 1e-3;
   b.program_version = kProgramVersion;
@@ -265,6 +289,21 @@ void add_bake_options(CLI::App& app, const std::shared_ptr<BakeCommandOptions>& 
                  "Site compliances: the radius of the surface patch each site's load is spread over, mm (0: twice the "
                  "median boundary edge; docs/matching.md)")
       ->check(kNonNegative)
+      ->capture_default_str();
+  app.add_option("--supports", o->supports,
+                 "What the organ rests on and is attached to in the body: ct (found in the CT, the surface against "
+                 "tissue rather than air or fat) or none (held by its clamp alone; docs/supports.md)")
+      ->check(CLI::IsMember({"ct", "none"}))
+      ->capture_default_str();
+  app.add_option("--attachment-radius", o->support.attachment_radius_mm,
+                 "Supports: the surface against tissue within this distance of the fixed point is attached (bare "
+                 "area, ligaments), mm")
+      ->check(kNonNegative)
+      ->capture_default_str();
+  app.add_option("--support-depth", o->support.yielding_depth_mm,
+                 "Supports: the depth of neighbouring tissue that yields under the organ, mm; the foundation modulus "
+                 "is E over it")
+      ->check(kPositive)
       ->capture_default_str();
   app.add_option("--section-samples", b.beams.samples_per_side, "Section sampling grid per side")
       ->capture_default_str();

@@ -29,6 +29,15 @@ std::string lower_extension(const std::string& path) {
 }
 
 /// One row per station: where it sits along the beam and its cross-section (SI).
+/// The supports per surface vertex (docs/supports.md), for ParaView and 3D
+/// Slicer to colour: empty when the model has none.
+std::vector<mesh_io::DataArray> support_arrays(const model::OrganModel& m) {
+  if (m.supports.empty()) return {};
+  mesh_io::DataArray kind{"support_kind", 1, {}}, modulus{"foundation_modulus_pa_per_m", 1, {}};
+  for (const auto& [k, stiffness] : m.supports.vertices) kind.values.push_back(k), modulus.values.push_back(stiffness);
+  return {kind, modulus};
+}
+
 std::string beam_table_csv(const model::OrganModel& m, std::uint32_t vertex) {
   std::ostringstream csv;
   csv.precision(17);
@@ -82,13 +91,17 @@ int run_export(const ExportOptions& o) {
   if (!o.surface_path.empty()) {
     const geometry::SurfaceMesh surface{m.surface_vertices, m.surface_triangles};
     if (surface_kind == ".vtp")
-      mesh_io::write_surface_vtp(surface, o.surface_path);
+      mesh_io::write_surface_vtp(surface, o.surface_path, support_arrays(m));
     else if (surface_kind == ".stl")
       mesh_io::write_surface_stl(surface, o.surface_path);
     else
       mesh_io::write_surface_obj(surface, o.surface_path);
-    std::cout << fmt::format("{:<14}{} ({} vertices, {} triangles, mm, LPS)\n", "surface", o.surface_path,
-                             m.surface_vertices.size(), m.surface_triangles.size());
+    std::cout << fmt::format("{:<14}{} ({} vertices, {} triangles, mm, LPS{})\n", "surface", o.surface_path,
+                             m.surface_vertices.size(), m.surface_triangles.size(),
+                             surface_kind == ".vtp" && !m.supports.empty()
+                                 ? "; point data support_kind (0 free, 1 contact, 2 attachment), "
+                                   "foundation_modulus_pa_per_m"
+                                 : "");
   }
   if (!o.tetrahedra_path.empty()) {
     mesh_io::write_tetrahedra_vtu({m.volume_vertices, m.tetrahedra}, o.tetrahedra_path);

@@ -153,6 +153,28 @@ nlohmann::json summary_json(const InfoOptions& o, const model::ModelReadResult& 
                                    : nlohmann::json{{"tet_size_m", m.meshing.tet_size},
                                                     {"clamp_radius_m", m.meshing.clamp_radius},
                                                     {"clamp_cell_size_m", m.meshing.clamp_cell_size}};
+  if (m.supports.empty()) {
+    j["supports"] = nullptr;
+  } else {
+    std::size_t counts[3] = {0, 0, 0};
+    double areas[3] = {0.0, 0.0, 0.0}, modulus = 0.0;
+    std::vector<double> vertex_area(m.surface_vertices.size(), 0.0);
+    for (const model::Triangle& t : m.surface_triangles) {
+      const auto p = [&](std::uint32_t v) {
+        return Eigen::Vector3d(m.surface_vertices[v][0], m.surface_vertices[v][1], m.surface_vertices[v][2]);
+      };
+      const double third = (p(t[1]) - p(t[0])).cross(p(t[2]) - p(t[0])).norm() / 6.0;
+      for (const std::uint32_t v : t) vertex_area[v] += third;
+    }
+    for (std::size_t v = 0; v < m.surface_vertices.size(); ++v) {
+      const int kind = static_cast<int>(m.supports.kind(v));
+      ++counts[kind], areas[kind] += vertex_area[v];
+      modulus = std::max(modulus, m.supports.modulus(v));
+    }
+    j["supports"] = {{"contact_vertices", counts[1]},    {"contact_area_m2", areas[1]},
+                     {"attachment_vertices", counts[2]}, {"attachment_area_m2", areas[2]},
+                     {"free_vertices", counts[0]},       {"largest_foundation_modulus_pa_per_m", modulus}};
+  }
   j["provenance"] = {{"program_version", m.provenance.program_version},
                      {"input_sha256", m.provenance.input_sha256},
                      {"parameters", m.provenance.parameters}};
@@ -186,6 +208,17 @@ void print_text(const nlohmann::json& j) {
       fmt::print(", {:g} mm within {:g} mm of the fixed point", mesh["clamp_cell_size_m"].get<double>() * 1e3,
                  mesh["clamp_radius_m"].get<double>() * 1e3);
     fmt::print("\n");
+  }
+  if (!j["supports"].is_null()) {
+    const auto& s = j["supports"];
+    fmt::print(
+        "supports        contact {:.0f} cm² ({} vertices), attachment {:.0f} cm² ({}), free {} vertices; foundation "
+        "modulus up to {:.3g} Pa/m\n",
+        s["contact_area_m2"].get<double>() * 1e4, s["contact_vertices"].get<std::size_t>(),
+        s["attachment_area_m2"].get<double>() * 1e4, s["attachment_vertices"].get<std::size_t>(),
+        s["free_vertices"].get<std::size_t>(), s["largest_foundation_modulus_pa_per_m"].get<double>());
+  } else {
+    fmt::print("supports        none: the organ is held by its clamp alone\n");
   }
   fmt::print("bounding box    min ({}) mm, max ({}) mm, size ({}) mm\n", vec_mm(j["bounding_box_m"]["min"]),
              vec_mm(j["bounding_box_m"]["max"]), vec_mm(j["bounding_box_m"]["size"]));

@@ -20,6 +20,7 @@
 #include "organsim/pipeline/ct_image.h"
 #include "organsim/pipeline/seeded_segmentation.h"
 #include "organsim/pipeline/site_compliance.h"
+#include "organsim/pipeline/supports.h"
 #include "organsim/pipeline/surface.h"
 #include "organsim/tetrahedra/tetrahedra.h"
 
@@ -61,6 +62,9 @@ struct BakeOptions {
   /// (docs/matching.md).
   bool site_compliance = true;
   SiteComplianceOptions sites;
+  /// What the organ rests on and is attached to, from the CT (--supports ct);
+  /// empty (--supports none): the model holds no supports.
+  std::optional<SupportOptions> supports = SupportOptions{};
   model::Material material = model::liver_default_material();
 
   std::string program_version;    ///< written into the model's provenance
@@ -91,8 +95,9 @@ struct BakeReport {
   double tetrahedra_volume_ml = 0.0;
   std::uint32_t stations = 0;  ///< 0: baked without beam tables
   std::size_t beam_sections = 0;
-  SiteComplianceReport sites;  ///< when the model has site compliances (sites.unknowns > 0)
-  std::string sites_skipped;   ///< why the site compliances were not computed (the FEM clamp cannot hold the organ)
+  SiteComplianceReport sites;             ///< when the model has site compliances (sites.unknowns > 0)
+  std::optional<SupportReport> supports;  ///< when the bake looked for supports
+  std::string sites_skipped;  ///< why the site compliances were not computed (the FEM clamp cannot hold the organ)
   /// Each stage's own time, in the order they start. The fixed point (the
   /// deepest interior point) runs beside the surface, and the beam tables
   /// beside the tetrahedra, assemble and the site compliances, so the times

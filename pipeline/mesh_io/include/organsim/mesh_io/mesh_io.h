@@ -23,8 +23,16 @@
 
 namespace organsim::mesh_io {
 
-/// VTK XML PolyData (.vtp). Throws std::runtime_error naming the path on failure.
-void write_surface_vtp(const geometry::SurfaceMesh& surface, const std::string& path);
+/// A named array of `components` values per point or per cell.
+struct DataArray {
+  std::string name;
+  int components = 1;
+  std::vector<double> values;  ///< (count × components), row-major
+};
+/// VTK XML PolyData (.vtp), with `point_data` (one tuple per vertex) where
+/// given. Throws std::runtime_error naming the path on failure.
+void write_surface_vtp(const geometry::SurfaceMesh& surface, const std::string& path,
+                       const std::vector<DataArray>& point_data = {});
 /// Binary STL (.stl).
 void write_surface_stl(const geometry::SurfaceMesh& surface, const std::string& path);
 /// Wavefront OBJ (.obj), for Blender and most 3-D tools (mm, LPS; OBJ has no
@@ -33,12 +41,6 @@ void write_surface_obj(const geometry::SurfaceMesh& surface, const std::string& 
 /// VTK XML UnstructuredGrid (.vtu) of VTK_TETRA cells.
 void write_tetrahedra_vtu(const geometry::TetrahedralMesh& mesh, const std::string& path);
 
-/// A named array of `components` values per point or per cell.
-struct DataArray {
-  std::string name;
-  int components = 1;
-  std::vector<double> values;  ///< (count × components), row-major
-};
 /// A mesh of tetrahedra and triangles (cells in that order) with point and
 /// cell data: the coordinates are written as given, field data `UNITS` says
 /// `units` (a `fem` problem file's metres) and, when `space` is not empty,

@@ -191,6 +191,24 @@ struct Meshing {
   bool operator==(const Meshing& other) const;
 };
 
+/// Where the organ rests on, or is attached to, what surrounds it in the body
+/// (format 1.5): found by the bake in the patient's CT (docs/supports.md).
+/// Empty: the organ is held by its clamp alone (older files, `--supports none`).
+struct Supports {
+  enum class Kind { kFree = 0, kContact = 1, kAttachment = 2 };
+  /// Per surface vertex: {kind, foundation modulus k (Pa/m: the pressure
+  /// per metre the support gives when the surface moves into it)}. A
+  /// contact pushes back only when pressed (unilateral); an attachment
+  /// holds both ways (bilateral). k is 0 exactly where the kind is free.
+  std::vector<std::array<double, 2>> vertices;
+  static constexpr double kMaxModulus = 1e12;  ///< Pa/m: steel on a 0.2 mm layer; far above any tissue's
+
+  bool empty() const { return vertices.empty(); }
+  Kind kind(std::size_t vertex) const { return static_cast<Kind>(static_cast<int>(vertices[vertex][0])); }
+  double modulus(std::size_t vertex) const { return vertices[vertex][1]; }
+  bool operator==(const Supports& other) const { return vertices == other.vertices; }
+};
+
 /// Where the model came from. Never holds patient-identifying information: the
 /// input image is identified only by the SHA-256 of its voxel values.
 struct ModelProvenance {
@@ -215,6 +233,7 @@ struct OrganModel {
   BeamTables beams;
   SiteCompliance sites;  ///< per-site contact law of the FEM reference (format 1.2; curvatures 1.3), or empty
   Meshing meshing;       ///< how the tetrahedra were meshed (format 1.4), or empty
+  Supports supports;     ///< what the organ rests on and is attached to (format 1.5), or empty
 
   bool operator==(const OrganModel& other) const;
 };
