@@ -33,7 +33,8 @@ SEED_MM = "-65,5,0"  # in the phantom's right lobe at this field of view (docs/c
 BAKE_SIZES = "128,128,100;256,256,200;512,512,200;512,512,600;512,512,1000;512,512,1500"
 # The stages a bake reports (bake --json's "seconds"."stages"), in order: the
 # first four work on voxels, the others on the surface and the tetrahedra.
-STAGES = ("read CT", "segment", "fixed point", "surface", "tetrahedra", "beam tables", "site compliance", "assemble")
+STAGES = ("read CT", "segment", "fixed point", "surface", "tetrahedra", "beam tables", "site compliance", "assemble",
+          "supports")
 VOXEL_STAGES = STAGES[:4]
 SURFACE_SIZES = "3000,30000,100000,300000,1000000"
 

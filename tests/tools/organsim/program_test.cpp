@@ -237,11 +237,12 @@ TEST_F(CliConventions, BakeQuietPrintsNothingOnStderrAndAPlainBakePrintsProgress
   ASSERT_EQ(plain.exit_code, 0) << plain.err;
   // Not a terminal: one line as each stage starts and one as it ends.
   for (const char* stage :
-       {"read CT", "segment", "fixed point", "surface", "tetrahedra", "beam tables", "assemble", "site compliance"}) {
+       {"read CT", "segment", "fixed point", "surface", "tetrahedra", "beam tables", "assemble", "supports",
+        "site compliance"}) {
     EXPECT_NE(plain.err.find(std::string("organsim bake: ") + stage + " ...\n"), std::string::npos) << plain.err;
     EXPECT_NE(plain.err.find(std::string("organsim bake: ") + stage + " done in "), std::string::npos) << plain.err;
   }
-  EXPECT_EQ(std::count(plain.err.begin(), plain.err.end(), '\n'), 16) << plain.err;
+  EXPECT_EQ(std::count(plain.err.begin(), plain.err.end(), '\n'), 18) << plain.err;
   const CommandRun quiet = run_organsim("bake " + quick_phantom_bake(model) + " --quiet", dir_);
   ASSERT_EQ(quiet.exit_code, 0) << quiet.err;
   EXPECT_TRUE(quiet.err.empty()) << quiet.err;
