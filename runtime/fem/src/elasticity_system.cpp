@@ -175,7 +175,78 @@ std::int64_t ElasticitySystem::first_inverted(const Eigen::VectorXd& x) const no
   return -1;
 }
 
+void ElasticitySystem::set_foundation(std::vector<FoundationSpring> springs) {
+  std::vector<std::array<std::int32_t, 9>> offsets;
+  for (std::size_t i = 0; i < springs.size(); ++i) {
+    const FoundationSpring& s = springs[i];
+    if (s.node < 0 || static_cast<std::size_t>(s.node) >= mesh_.nodes.size())
+      throw std::invalid_argument("foundation[" + std::to_string(i) + "]: node out of range");
+    if (!(std::isfinite(s.stiffness) && s.stiffness > 0))
+      throw std::invalid_argument("foundation[" + std::to_string(i) + "]: the stiffness must be finite and > 0 (N/m)");
+    if (s.unilateral && !(s.normal.allFinite() && std::abs(s.normal.norm() - 1.0) < 1e-9))
+      throw std::invalid_argument("foundation[" + std::to_string(i) + "]: the normal must be a unit vector");
+    std::array<std::int32_t, 9> block{};
+    for (int column = 0; column < 3; ++column)
+      for (int row = 0; row < 3; ++row) {
+        const std::int32_t r = free_of_[static_cast<std::size_t>(3 * s.node + row)];
+        const std::int32_t c = free_of_[static_cast<std::size_t>(3 * s.node + column)];
+        std::int32_t offset = kNoEntry;
+        if (r >= 0 && c >= 0) {
+          const int* begin = free_free_.innerIndexPtr() + free_free_.outerIndexPtr()[c];
+          const int* end = free_free_.innerIndexPtr() + free_free_.outerIndexPtr()[c + 1];
+          offset = static_cast<std::int32_t>(std::lower_bound(begin, end, r) - free_free_.innerIndexPtr());
+        } else if (r >= 0) {
+          const int column_c = -1 - c;
+          const int* begin = free_constrained_.innerIndexPtr() + free_constrained_.outerIndexPtr()[column_c];
+          const int* end = free_constrained_.innerIndexPtr() + free_constrained_.outerIndexPtr()[column_c + 1];
+          offset = -1 - static_cast<std::int32_t>(std::lower_bound(begin, end, r) - free_constrained_.innerIndexPtr());
+        }
+        block[static_cast<std::size_t>(3 * column + row)] = offset;
+      }
+    offsets.push_back(block);
+  }
+  foundation_ = std::move(springs);
+  foundation_offsets_ = std::move(offsets);
+}
+
 std::int64_t ElasticitySystem::assemble(const Eigen::VectorXd& x, Eigen::VectorXd& gradient, bool tangent) noexcept {
+  const std::int64_t inverted = assemble_body(x, gradient, tangent);
+  if (inverted < 0) add_foundation(x, gradient, tangent);
+  return inverted;
+}
+
+void ElasticitySystem::add_foundation(const Eigen::VectorXd& x, Eigen::VectorXd& gradient, bool tangent) noexcept {
+  double* const free_values = free_free_.valuePtr();
+  double* const coupling_values = free_constrained_.valuePtr();
+  for (std::size_t i = 0; i < foundation_.size(); ++i) {
+    const FoundationSpring& s = foundation_[i];
+    const Eigen::Vector3d u = x.segment<3>(3 * s.node);
+    Eigen::Matrix3d stiffness;
+    if (s.unilateral) {
+      // Pressed into the support (u·n > 0) it pushes back; at rest and
+      // moving away it does not. The tangent keeps the spring at rest, so
+      // that a tangent made there holds the body where it lies.
+      const double into = u.dot(s.normal);
+      if (into > 0) gradient.segment<3>(3 * s.node) += s.stiffness * into * s.normal;
+      stiffness = into >= 0 ? Eigen::Matrix3d(s.stiffness * s.normal * s.normal.transpose()) : Eigen::Matrix3d::Zero();
+    } else {
+      gradient.segment<3>(3 * s.node) += s.stiffness * u;
+      stiffness = s.stiffness * Eigen::Matrix3d::Identity();
+    }
+    if (!tangent) continue;
+    for (int k = 0; k < 9; ++k) {
+      const std::int32_t offset = foundation_offsets_[i][static_cast<std::size_t>(k)];
+      const double value = stiffness(k % 3, k / 3);
+      if (offset >= 0)
+        free_values[offset] += value;
+      else if (offset != kNoEntry)
+        coupling_values[-1 - offset] += value;
+    }
+  }
+}
+
+std::int64_t ElasticitySystem::assemble_body(const Eigen::VectorXd& x, Eigen::VectorXd& gradient,
+                                             bool tangent) noexcept {
   const Constitutive constitutive(material_);
   const bool nonlinear = material_.model != MaterialModel::linear;
   const std::size_t nodes = mesh_.nodes.size(), tets = mesh_.tetrahedra.size();
@@ -300,6 +371,11 @@ double ElasticitySystem::energy(const Eigen::VectorXd& x) const noexcept {
   for (const JumpFace& f : jump_faces_) {
     const double jump = x[pressure0 + f.first] - x[pressure0 + f.second];
     total -= 0.5 * f.weight * jump * jump;
+  }
+  for (const FoundationSpring& s : foundation_) {
+    const Eigen::Vector3d u = x.segment<3>(3 * s.node);
+    const double stretch = s.unilateral ? std::max(u.dot(s.normal), 0.0) : u.norm();
+    total += 0.5 * s.stiffness * stretch * stretch;
   }
   return total;
 }

@@ -40,6 +40,7 @@ class NewtonSolver {
                                SolveUse::preconditioner),
             options.tangent) {
     out_.linear_solver = tangent_solver_.name();
+    system_.set_foundation(problem.foundation);
     const Eigen::Index dofs = system_.dof_count(),
                        displacement_dofs = static_cast<Eigen::Index>(3 * problem.mesh.nodes.size());
     x_ = Eigen::VectorXd::Zero(dofs);
@@ -278,6 +279,14 @@ void validate(const StaticProblem& problem) {
   }
   for (std::size_t i = 0; i < problem.loads.size(); ++i)
     check_component("loads", i, problem.loads[i].node, problem.loads[i].component, problem.loads[i].value);
+  for (std::size_t i = 0; i < problem.foundation.size(); ++i) {
+    const FoundationSpring& s = problem.foundation[i];
+    const std::string where = "foundation[" + std::to_string(i) + "]: ";
+    require(s.node >= 0 && static_cast<std::size_t>(s.node) < nodes, where + "node out of range");
+    require(std::isfinite(s.stiffness) && s.stiffness > 0, where + "the stiffness must be finite and > 0 (N/m)");
+    require(!s.unilateral || (s.normal.allFinite() && std::abs(s.normal.norm() - 1.0) < 1e-9),
+            where + "the normal must be a unit vector");
+  }
   require(problem.load_steps >= 1 && problem.load_steps <= 100000, "load_steps: must be between 1 and 100000");
   require(std::isfinite(problem.tolerance) && problem.tolerance > 0 && problem.tolerance < 1,
           "tolerance: must be in (0, 1)");

@@ -324,5 +324,49 @@ TEST(OrganFem, RejectsModelsItCannotSolve) {
   }
 }
 
+/// The cylinder lying on supports (docs/supports.md) along its lower half
+/// (z < −10 mm): contacts (unilateral) or attachments, of 2.5 × 10⁵ Pa/m.
+model::OrganModel cylinder_on_supports(model::Supports::Kind kind) {
+  model::OrganModel m = cylinder();
+  for (const model::Point3& v : m.surface_vertices)
+    m.supports.vertices.push_back(v[2] < -0.010
+                                      ? std::array<double, 2>{static_cast<double>(static_cast<int>(kind)), 2.5e5}
+                                      : std::array<double, 2>{0.0, 0.0});
+  return m;
+}
+
+/// The force on a tool that holds the far cap's top node displaced by
+/// `displacement`, after enough frames for the contacts to settle.
+Eigen::Vector3d held_force(const model::OrganModel& m, const OrganFemOptions& o, const Eigen::Vector3d& displacement) {
+  OrganFem fem(m, MaterialModel::linear, o, 1);
+  const std::int32_t node = top_far_node(m);
+  EXPECT_TRUE(fem.attach(0, point(m.volume_vertices[static_cast<std::size_t>(node)])));
+  for (int frame = 0; frame < 200; ++frame) EXPECT_EQ(fem.step(&displacement), FrameStatus::ok);
+  return fem.contact_force(0);
+}
+
+// A cantilever resting on its supports: pressed down into them it is much
+// stiffer than clamped alone; lifted, its contacts let go and it is the
+// clamped cantilever again; attached, it is held both ways.
+TEST(OrganFem, SupportsPushBackWhenPressedLetGoWhenLiftedAndAttachmentsHoldBothWays) {
+  const Eigen::Vector3d down(0.0, 0.0, -0.004), up(0.0, 0.0, 0.004);
+  OrganFemOptions with = cap_clamp();
+  with.supports = true;
+  const model::OrganModel contacts = cylinder_on_supports(model::Supports::Kind::kContact);
+  EXPECT_GT(OrganFem(contacts, MaterialModel::linear, with, 1).supported_node_count(), 20u);
+  EXPECT_EQ(OrganFem(contacts, MaterialModel::linear, cap_clamp(), 1).supported_node_count(), 0u);
+  const double clamped_down = held_force(cylinder(), cap_clamp(), down).norm();
+  const double clamped_up = held_force(cylinder(), cap_clamp(), up).norm();
+  const double resting_down = held_force(contacts, with, down).norm();
+  const double resting_up = held_force(contacts, with, up).norm();
+  RecordProperty("force_ratio_pressed", std::to_string(resting_down / clamped_down));
+  EXPECT_GT(resting_down, 2.0 * clamped_down) << "the supports carry the press";
+  EXPECT_NEAR(resting_up, clamped_up, 1e-4 * clamped_up) << "lifted off its contacts";
+  EXPECT_NEAR(held_force(contacts, cap_clamp(), down).norm(), clamped_down, 1e-9 * clamped_down)
+      << "supports off: the clamp alone";
+  const model::OrganModel attached = cylinder_on_supports(model::Supports::Kind::kAttachment);
+  EXPECT_GT(held_force(attached, with, up).norm(), 2.0 * clamped_up) << "attachments hold when lifted";
+}
+
 }  // namespace
 }  // namespace organsim::fem

@@ -236,9 +236,8 @@ TEST_F(CliConventions, BakeQuietPrintsNothingOnStderrAndAPlainBakePrintsProgress
   const CommandRun plain = run_organsim("bake " + quick_phantom_bake(model), dir_);
   ASSERT_EQ(plain.exit_code, 0) << plain.err;
   // Not a terminal: one line as each stage starts and one as it ends.
-  for (const char* stage :
-       {"read CT", "segment", "fixed point", "surface", "tetrahedra", "beam tables", "assemble", "supports",
-        "site compliance"}) {
+  for (const char* stage : {"read CT", "segment", "fixed point", "surface", "tetrahedra", "beam tables", "assemble",
+                            "supports", "site compliance"}) {
     EXPECT_NE(plain.err.find(std::string("organsim bake: ") + stage + " ...\n"), std::string::npos) << plain.err;
     EXPECT_NE(plain.err.find(std::string("organsim bake: ") + stage + " done in "), std::string::npos) << plain.err;
   }

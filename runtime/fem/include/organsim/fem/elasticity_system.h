@@ -17,6 +17,7 @@
 // what a Newton step with prescribed displacements needs.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -28,6 +29,17 @@
 #include "organsim/fem/tet_mesh.h"
 
 namespace organsim::fem {
+
+/// A node held elastically by what surrounds the body (a Winkler foundation:
+/// docs/supports.md). Bilateral, its energy is ½ K |u|² (the force −K u in
+/// every direction); unilateral, ½ K ⟨u·n⟩₊²: it pushes back only while the
+/// node moves into the support, along the body's outward normal n there.
+struct FoundationSpring {
+  std::int32_t node = 0;
+  double stiffness = 0.0;                             ///< K = k A: the foundation modulus times the node's area, N/m
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< unit, outward (unilateral springs)
+  bool unilateral = false;
+};
 
 class ElasticitySystem {
  public:
@@ -44,6 +56,12 @@ class ElasticitySystem {
   Eigen::Index constrained_count() const noexcept { return constrained_count_; }
   /// For every dof: its index among the free dofs, or −1 − its index among the constrained ones.
   const std::vector<std::int32_t>& free_index() const noexcept { return free_of_; }
+
+  /// Adds the foundation's springs to Π (replacing any given before).
+  /// Throws std::invalid_argument for a node out of range, a stiffness that
+  /// is not finite and > 0, or a unilateral spring whose normal is not a unit vector.
+  void set_foundation(std::vector<FoundationSpring> springs);
+  const std::vector<FoundationSpring>& foundation() const noexcept { return foundation_; }
 
   /// Evaluates Π's gradient at x (all dofs) into `gradient` (all dofs: N at
   /// displacement dofs, m³ at pressure dofs) and, with `tangent`, the Hessian's
@@ -95,6 +113,10 @@ class ElasticitySystem {
   /// assemble()'s gradient for the co-rotational material, its stresses in
   /// SIMD lanes (gradient zeroed by the caller).
   std::int64_t corotational_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& gradient) const noexcept;
+  /// The material's and the stabilization's part of assemble().
+  std::int64_t assemble_body(const Eigen::VectorXd& x, Eigen::VectorXd& gradient, bool tangent) noexcept;
+  /// The foundation's part: its forces into `gradient`, its stiffness into the tangent's blocks.
+  void add_foundation(const Eigen::VectorXd& x, Eigen::VectorXd& gradient, bool tangent) noexcept;
   void build_pattern();
 
   TetMesh mesh_;
@@ -112,6 +134,10 @@ class ElasticitySystem {
   /// its 2 × 2 pressure entries.
   std::vector<std::int32_t> element_offsets_;
   std::vector<std::int32_t> face_offsets_;
+  std::vector<FoundationSpring> foundation_;
+  /// Per foundation spring, the offsets of its node's 3 × 3 diagonal block
+  /// (column-major), as element_offsets_.
+  std::vector<std::array<std::int32_t, 9>> foundation_offsets_;
   int local_size_ = 12;
   bool definite_tangent_ = false;
 };

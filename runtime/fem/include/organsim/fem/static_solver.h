@@ -28,6 +28,7 @@
 
 #include <Eigen/Core>
 
+#include "organsim/fem/elasticity_system.h"
 #include "organsim/fem/factorization.h"
 #include "organsim/fem/material.h"
 #include "organsim/fem/tangent_solver.h"
@@ -55,6 +56,8 @@ struct StaticProblem {
   std::vector<std::int32_t> fixed;                    ///< nodes held in all three components
   std::vector<PrescribedDisplacement> prescribed;
   std::vector<NodalLoad> loads;
+  /// Nodes held elastically by what surrounds the body (docs/supports.md).
+  std::vector<FoundationSpring> foundation;
   int load_steps = 1;
   double tolerance = 1e-8;  ///< on ‖F − Q‖ / ‖F − Q‖_first
   /// Pa: where Newton's iteration starts every tetrahedron's pressure

@@ -4,7 +4,8 @@
 // - Mesh: the model file's tetrahedra (P1); material E, ν from the model file
 //   (psh: Mooney–Rivlin from E with its own ν and β, see OrganFemOptions).
 // - Clamp: every tetrahedral node within `fixed_radius` of the model's first
-//   fixed point is held in all three components.
+//   fixed point is held in all three components; with `supports`, the
+//   boundary also rests on the model's supports (an elastic foundation).
 // - Tools (docs/realtime.md#contact-rule): what a tool's tip touches sticks to it.
 //   A tool holds material points of the tetrahedral mesh's boundary (each a
 //   barycentric combination of one boundary face's nodes), each made to follow
@@ -77,6 +78,12 @@ struct OrganFemOptions {
   /// itself (a point clamp that still resists rotation); a clamped ball of
   /// nodes is the FEM's nearest equivalent.
   double fixed_radius = 0.010;
+  /// Also hold the organ where the model file's supports say it rests or is
+  /// attached (docs/supports.md): each boundary node on a Winkler foundation
+  /// of its nearest surface vertex's modulus, bilateral at attachments,
+  /// unilateral (pushing back only when pressed) at contacts. Off: the clamp
+  /// alone. A model without supports is held by its clamp either way.
+  bool supports = false;
   /// mooney-rivlin: ν of κ = E / (3 (1 − 2ν)) (the paper's nearly
   /// incompressible liver: 0.49) and β of the pressure-jump stabilization (the
   /// paper's 100).
@@ -180,6 +187,8 @@ class OrganFem {
   /// Frames whose iteration was cut short because the whole of it would have
   /// inverted a tetrahedron (the organ then lags the tools).
   std::uint64_t step_cuts() const noexcept { return step_cuts_; }
+  /// Boundary nodes on the supports' foundation (0 without supports).
+  std::size_t supported_node_count() const noexcept { return supported_nodes_; }
   /// Boundary points the tool holds (1 for a point tool, the first touch and
   /// those a finite tip took in).
   std::size_t held_points(std::uint32_t tool) const noexcept;
@@ -357,6 +366,7 @@ class OrganFem {
   FactorizationFactory factorization_ = nullptr;
   bool realtime_solves_ = true;
   std::size_t clamped_nodes_ = 0;
+  std::size_t supported_nodes_ = 0;
   double factorization_seconds_ = 0;
   double estimated_frame_seconds_ = 0;
   std::vector<std::int32_t> free_dofs_;  ///< per free index, its dof

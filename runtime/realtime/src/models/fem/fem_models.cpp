@@ -93,6 +93,18 @@ const ModelParameter kFemParameters[] = {
      [](const ModelOptions& o) {
        return ParameterValue{o.of<fem::OrganFemOptions>().fixed_radius, {}};
      }},
+    {"supports", ModelParameter::Kind::choice,
+     "FEM models: also hold the organ on the supports the bake found in the CT (baked), or by the clamp alone (none; "
+     "docs/supports.md)",
+     "none|baked",
+     [](ModelOptions& o, const ParameterValue& v) -> std::string {
+       if (v.text != "none" && v.text != "baked") return "supports are none or baked";
+       o.edit<fem::OrganFemOptions>().supports = v.text == "baked";
+       return "";
+     },
+     [](const ModelOptions& o) {
+       return ParameterValue{0.0, o.of<fem::OrganFemOptions>().supports ? "baked" : "none"};
+     }},
 };
 
 }  // namespace
