@@ -6,6 +6,7 @@
 
 #include <itkImageRegionIteratorWithIndex.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <functional>
@@ -17,6 +18,7 @@
 #include <fmt/format.h>
 
 #include "organsim/model/organ_model.h"
+#include "organsim/pipeline/phantom.h"
 #include "organsim/pipeline/supports.h"
 #include "organsim/pipeline/surface.h"
 #include "synthetic_volumes.h"
@@ -156,6 +158,39 @@ TEST(Supports, AFaceBeyondTheFieldOfViewIsFreeAndCountedUnseen) {
   ASSERT_GT(top, 20u);
   EXPECT_GE(report.unseen_vertices, top);
   EXPECT_GT(report.contact_area_cm2 + report.attachment_area_cm2, 30.0) << "the lower face is still supported";
+}
+
+// The phantom (pipeline/phantom.h) lays its liver in visceral fat, clear of
+// the abdominal wall, the kidney, the spine and the aorta (its surface lies
+// within hypot(x / 158, y / 113) ≤ 0.83, the muscle from 0.93 on); only the
+// portal vein (a capsule of radius 7 mm from (−20, 20, −110) to (−45, 10, −10)
+// mm, 180 HU) enters it, at the fixed point. So its supports are where the
+// vein meets it, attached there, and nowhere else.
+double distance_to_vein_mm(const Eigen::Vector3d& p) {
+  const Eigen::Vector3d a(-20.0, 20.0, -110.0), b(-45.0, 10.0, -10.0);
+  const double t = std::clamp((p - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+  return (p - (a + t * (b - a))).norm() - 7.0;
+}
+
+TEST(Supports, ThePhantomsLiverRestsOnlyWhereTheGeneratorPutThePortalVein) {
+  const Phantom phantom = make_phantom({});
+  const model::OrganModel m = model_of(*phantom.liver_mask, phantom.fixed_point_mm);
+  SupportReport report;
+  const model::Supports supports = find_supports(*phantom.ct, m, {}, &report);
+  double farthest_supported_mm = 0.0;
+  for (std::size_t v = 0; v < m.surface_vertices.size(); ++v)
+    if (supports.kind(v) != model::Supports::Kind::kFree) {
+      const Eigen::Vector3d p =
+          Eigen::Vector3d(m.surface_vertices[v][0], m.surface_vertices[v][1], m.surface_vertices[v][2]) * 1e3;
+      farthest_supported_mm = std::max(farthest_supported_mm, distance_to_vein_mm(p));
+      EXPECT_EQ(supports.kind(v), model::Supports::Kind::kAttachment) << "about the clamp at the vein's entry";
+    }
+  RecordProperty("supported", fmt::format("{} vertices, {:.1f} cm2, all within {:.1f} mm of the vein",
+                                          report.contact_vertices + report.attachment_vertices,
+                                          report.contact_area_cm2 + report.attachment_area_cm2, farthest_supported_mm));
+  EXPECT_GT(report.attachment_vertices, 3u) << "the vein's entry";
+  EXPECT_LT(farthest_supported_mm, 8.0) << "the band reaches 5 mm out, and the surface lies within a voxel";
+  EXPECT_EQ(report.unseen_vertices, 0u);
 }
 
 TEST(Supports, OptionsOutOfRangeAreOneLineErrors) {
