@@ -325,33 +325,23 @@ void read_sites(const std::uint8_t* data, std::size_t size, SiteCompliance& site
   if (vertices > 0) std::memcpy(sites.compliance.data(), r.here(), static_cast<std::size_t>(vertices) * kVertexBytes);
 }
 
-void read_curvature(const std::uint8_t* data, std::size_t size, SiteCompliance& sites) {
-  const Section id = Section::SiteCurvature;
+/// A section of a field count (`fields`), a reserved word and a pair of
+/// reals per surface vertex (CURV, SUPP).
+std::vector<std::array<double, 2>> read_vertex_pairs(Section id, std::uint32_t fields, const std::uint8_t* data,
+                                                     std::size_t size) {
   PayloadReader r(data, size);
-  std::uint32_t fields = 0, reserved = 0;
-  if (!r.get(fields) || !r.get(reserved))
+  std::uint32_t found = 0, reserved = 0;
+  if (!r.get(found) || !r.get(reserved))
     fail_section(id, std::string("payload too short for its header; ") + kDamagedAdvice);
-  if (fields != format::kCurvatureFieldsV1_3)
-    fail_section(id, "field count " + std::to_string(fields) + " is not " +
-                         std::to_string(format::kCurvatureFieldsV1_3) + "; " + kDamagedAdvice);
-  sites.curvature = read_array<double, 2>(id, r.here(), r.remaining());
+  if (found != fields)
+    fail_section(id,
+                 "field count " + std::to_string(found) + " is not " + std::to_string(fields) + "; " + kDamagedAdvice);
+  return read_array<double, 2>(id, r.here(), r.remaining());
 }
 
 void read_meshing(const std::uint8_t* data, std::size_t size, Meshing& meshing) {
   read_reals(Section::Meshing, data, size, format::kMeshingFieldsV1_4,
              {&meshing.tet_size, &meshing.clamp_radius, &meshing.clamp_cell_size});
-}
-
-void read_supports(const std::uint8_t* data, std::size_t size, Supports& supports) {
-  const Section id = Section::Supports;
-  PayloadReader r(data, size);
-  std::uint32_t fields = 0, reserved = 0;
-  if (!r.get(fields) || !r.get(reserved))
-    fail_section(id, std::string("payload too short for its header; ") + kDamagedAdvice);
-  if (fields != format::kSupportFieldsV1_5)
-    fail_section(id, "field count " + std::to_string(fields) + " is not " + std::to_string(format::kSupportFieldsV1_5) +
-                         "; " + kDamagedAdvice);
-  supports.vertices = read_array<double, 2>(id, r.here(), r.remaining());
 }
 
 // Returns whether every value is plausible (checked chunk by chunk as it is
@@ -658,9 +648,12 @@ OrganModel read_sections(const std::uint8_t* data, const SectionIndex& index, co
   if (index.has(Section::SiteCompliance))
     read_sites(payload(Section::SiteCompliance), bytes(Section::SiteCompliance), m.sites);
   if (index.has(Section::SiteCurvature))
-    read_curvature(payload(Section::SiteCurvature), bytes(Section::SiteCurvature), m.sites);
+    m.sites.curvature = read_vertex_pairs(Section::SiteCurvature, format::kCurvatureFieldsV1_3,
+                                          payload(Section::SiteCurvature), bytes(Section::SiteCurvature));
   if (index.has(Section::Meshing)) read_meshing(payload(Section::Meshing), bytes(Section::Meshing), m.meshing);
-  if (index.has(Section::Supports)) read_supports(payload(Section::Supports), bytes(Section::Supports), m.supports);
+  if (index.has(Section::Supports))
+    m.supports.vertices = read_vertex_pairs(Section::Supports, format::kSupportFieldsV1_5, payload(Section::Supports),
+                                            bytes(Section::Supports));
   if (const auto issue = find_model_issue(m, beams_plausible))
     fail_section(issue->section, issue->message + "; " + kDamagedAdvice);
   return m;
