@@ -1,5 +1,6 @@
 #include "scene.h"
 
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -90,6 +91,11 @@ struct OrganScene::Parts {
   vtkNew<vtkPoints> held_points;
   vtkNew<vtkActor> held_actor;
   std::vector<std::size_t> held_counts;
+  /// The supports' vertices by kind (contact, attachment), drawn as points.
+  std::array<std::vector<std::size_t>, 2> supported;
+  std::array<vtkNew<vtkPolyData>, 2> support_marks;
+  std::array<vtkNew<vtkPoints>, 2> support_points;
+  std::array<vtkNew<vtkActor>, 2> support_actors;
 };
 
 OrganScene::OrganScene(const organ::Organ& organ, std::size_t tools, SceneOptions options)
@@ -197,6 +203,26 @@ OrganScene::OrganScene(const organ::Organ& organ, std::size_t tools, SceneOption
   p.held_actor->VisibilityOff();
   p.renderer->AddActor(p.held_actor);
 
+  // The supports: blue where the organ rests on a neighbour, orange where it is attached.
+  if (p.options.show_supports && !model.supports.empty()) {
+    for (std::size_t v = 0; v < model.supports.vertices.size(); ++v)
+      if (const auto kind = model.supports.kind(v); kind != model::Supports::Kind::kFree)
+        p.supported[kind == model::Supports::Kind::kContact ? 0 : 1].push_back(v);
+    const double colours[2][3] = {{0.2, 0.45, 1.0}, {1.0, 0.55, 0.1}};
+    for (int k = 0; k < 2; ++k) {
+      p.support_points[k]->SetDataTypeToDouble();
+      p.support_marks[k]->SetPoints(p.support_points[k]);
+      vtkNew<vtkPolyDataMapper> mapper;
+      mapper->SetInputData(p.support_marks[k]);
+      p.support_actors[k]->SetMapper(mapper);
+      p.support_actors[k]->GetProperty()->SetColor(colours[k][0], colours[k][1], colours[k][2]);
+      p.support_actors[k]->GetProperty()->SetPointSize(5.0);
+      p.support_actors[k]->GetProperty()->RenderPointsAsSpheresOn();
+      p.support_actors[k]->GetProperty()->LightingOff();
+      p.renderer->AddActor(p.support_actors[k]);
+    }
+  }
+
   realtime::SurfaceFrame rest;
   rest.positions = model.surface_vertices;
   rest.normals.resize(rest.positions.size());
@@ -250,7 +276,24 @@ void OrganScene::show_surface(const realtime::SurfaceFrame& frame) {
   p.held_points->Modified();
   p.held->Modified();
   p.held_actor->SetVisibility(p.held_points->GetNumberOfPoints() > 0);
+
+  for (int k = 0; k < 2; ++k) {
+    if (p.supported[k].empty() || frame.positions.size() != p.rest.size()) continue;
+    p.support_points[k]->Reset();
+    vtkNew<vtkCellArray> marks;
+    for (const std::size_t v : p.supported[k]) {
+      const Eigen::Vector3d x =
+          Eigen::Vector3d(frame.positions[v].data()) + kLift * Eigen::Vector3d(frame.normals[v].data());
+      const vtkIdType id = p.support_points[k]->InsertNextPoint(x.data());
+      marks->InsertNextCell(1, &id);
+    }
+    p.support_marks[k]->SetVerts(marks);
+    p.support_points[k]->Modified();
+    p.support_marks[k]->Modified();
+  }
 }
+
+std::size_t OrganScene::supported_vertices() const { return parts_->supported[0].size() + parts_->supported[1].size(); }
 
 std::size_t OrganScene::held_vertices(std::size_t i) const {
   return i < parts_->held_counts.size() ? parts_->held_counts[i] : 0;

@@ -28,6 +28,9 @@ struct SceneOptions {
   std::unique_ptr<Background> background;  ///< may be null: a dark abdominal backdrop
   double shaft_length = 0.30;              ///< m
   double force_arrow_scale = 0.03;         ///< m of arrow per newton
+  /// Mark the model's supports (docs/supports.md) on the organ: blue points
+  /// where it rests on a neighbour, orange where it is attached.
+  bool show_supports = false;
 };
 
 class OrganScene {
@@ -41,6 +44,8 @@ class OrganScene {
   void show_surface(const realtime::SurfaceFrame& frame);
   /// The vertices marked as tool `i`'s held patch in the last surface shown.
   std::size_t held_vertices(std::size_t i) const;
+  /// The supported vertices marked (SceneOptions::show_supports; 0 without).
+  std::size_t supported_vertices() const;
   /// Tool `i`: its pose, the force it feels (N) and whether it touches.
   void show_tool(std::size_t i, bool present, const devices::ToolPose& pose, const Eigen::Vector3d& force,
                  bool in_contact);

@@ -91,6 +91,39 @@ TEST_F(Cli, ViewScreenshotShowsTheOrganMovedWhereTheToolsPushed) {
 // probe presses beside it: the viewer draws the grasper's tip green (closed
 // jaws holding the organ; the liver texture has no green), and its JSON says
 // which jaws are closed.
+// --show-supports marks where the organ rests (blue) and is attached
+// (orange): on a cylinder resting on its lower half, the marks are counted,
+// and the picture holds blue pixels that the same view without them lacks.
+TEST_F(Cli, ViewShowsTheSupportsWhereTheOrganRests) {
+  model::OrganModel resting = testing::make_cylinder_model({});
+  std::size_t supported = 0;
+  for (const model::Point3& v : resting.surface_vertices) {
+    const bool below = v[2] < -0.01;
+    resting.supports.vertices.push_back(below ? std::array<double, 2>{1.0, 2.5e5} : std::array<double, 2>{0.0, 0.0});
+    supported += below;
+  }
+  const std::string model = (dir_ / "resting.organ").string();
+  model::write_organ_model_file(resting, model);
+  const fs::path with = dir_ / "supports.png", without = dir_ / "plain.png";
+  const CommandRun run = run_viewer(
+      "view " + model + " --offscreen --frames 1 --show-supports --json --screenshot " + with.string(), dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(nlohmann::json::parse(run.out)["supported_vertices"].get<std::size_t>(), supported);
+  ASSERT_EQ(run_viewer("view " + model + " --offscreen --frames 1 --screenshot " + without.string(), dir_).exit_code,
+            0);
+  const auto blue_pixels = [](const cv::Mat& image) {
+    int count = 0;
+    for (int r = 0; r < image.rows; ++r)
+      for (int c = 0; c < image.cols; ++c) {
+        const cv::Vec3b bgr = image.at<cv::Vec3b>(r, c);
+        count += bgr[0] > 150 && bgr[0] > bgr[2] + 80 && bgr[0] > bgr[1] + 40;
+      }
+    return count;
+  };
+  const int marked = blue_pixels(cv::imread(with.string())), plain = blue_pixels(cv::imread(without.string()));
+  EXPECT_GT(marked, plain + 50) << marked << " blue pixels with the supports, " << plain << " without";
+}
+
 TEST_F(Cli, ViewShowsClosedJawsHoldingTheOrgan) {
   const std::string model = (dir_ / "cylinder.organ").string();
   model::write_organ_model_file(testing::make_cylinder_model({}), model);

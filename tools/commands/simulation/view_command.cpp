@@ -54,6 +54,7 @@ struct ViewOptions {
   bool offscreen = false;
   bool realtime = false;  // --realtime: a session on the engine's real-time loops, drawn as frames arrive
   bool hide_tools = false;
+  bool show_supports = false;
   bool json = false;
   long frames = 0;  // 0: the whole session, or until the window closes
   double seconds = 600.0;
@@ -361,6 +362,7 @@ void print_summary(const ViewRun& run, const std::vector<std::string>& warnings)
     if (!o.record_path.empty()) j["record"] = {{"path", o.record_path}, {"frames", run.recorder.count()}};
     if (run.report) j["report"] = o.report_dir + "/index.html";
     if (!run.timing.is_null()) j["timing"] = run.timing;
+    if (o.show_supports) j["supported_vertices"] = run.scene.supported_vertices();
     std::cout << j.dump() << '\n';
   } else {
     std::cout << fmt::format(
@@ -405,6 +407,7 @@ int run_view(const ViewOptions& o) {
   scene_options.width = o.size[0];
   scene_options.height = o.size[1];
   scene_options.offscreen = o.offscreen;
+  scene_options.show_supports = o.show_supports;
   if (!o.texture_path.empty()) scene_options.texture = viewer::read_image(o.texture_path);
   if (!o.background_path.empty()) {
     try {
@@ -479,6 +482,9 @@ Command add_view_command(CLI::App& app) {
       ->expected(2)
       ->capture_default_str();
   app.add_flag("--hide-tools", o->hide_tools, "Draw the organ alone: no instruments, arrows or text");
+  app.add_flag("--show-supports", o->show_supports,
+               "Mark the supports the bake found: blue where the organ rests on a neighbour, orange where it is "
+               "attached (docs/supports.md)");
   app.add_flag("--json", o->json, "Print a summary as one JSON object on stdout");
   app.add_flag("--phantom", o->phantom, "Tools are PHANToM / Touch devices (OpenHaptics, loaded at run time)");
   add_deformation_model_option(app, o->deformation);
