@@ -617,14 +617,20 @@ CutPieces cut_pieces(const MaskImage& cut, const MaskImage& organ, const FloatIm
 }
 
 /// The pieces of `cut` (left out of `organ` for `cause`) of at least `minimum_ml`.
+/// A piece that holds a voxel of `claimed` (a background seed's) says so as
+/// why it was kept out.
 std::vector<CutRegion> describe_cut(const MaskImage& cut, const MaskImage& organ, const FloatImage& image,
-                                    const FloatImage& window_depth, const char* cause, double minimum_ml) {
+                                    const FloatImage& window_depth, const char* cause, double minimum_ml,
+                                    const MaskImage* claimed = nullptr) {
   std::vector<CutRegion> described;
-  for (CutRegion& r : cut_pieces(cut, organ, image, window_depth).pieces)
-    if (r.volume_ml > 0.0 && r.volume_ml >= minimum_ml) {
-      r.cause = cause;
-      described.push_back(r);
-    }
+  CutPieces pieces = cut_pieces(cut, organ, image, window_depth, claimed);
+  for (std::size_t k = 0; k < pieces.pieces.size(); ++k) {
+    CutRegion& r = pieces.pieces[k];
+    if (!(r.volume_ml > 0.0 && r.volume_ml >= minimum_ml)) continue;
+    r.cause = cause;
+    if (pieces.holds_claimed[k]) r.kept_out_because = "a background seed lies in it";
+    described.push_back(r);
+  }
   return described;
 }
 
@@ -1022,7 +1028,8 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
   const MaskImage::Pointer cut = without(*grown, *organ);
   const MaskImage::Pointer given =
       joined_before_split ? without(*without(*joined_before_split, *window), *organ) : MaskImage::Pointer();
-  report.cut_regions = describe_cut(*cut, *organ, *image, *window_depth, "leak control", o.reported_cut_ml);
+  report.cut_regions = describe_cut(*cut, *organ, *image, *window_depth, "leak control", o.reported_cut_ml,
+                                    claimed_by_background.GetPointer());
   if (given)
     for (CutRegion& r : describe_cut(*given, *organ, *image, *distance_map(*joined_before_split, 1), "background seed",
                                      o.reported_cut_ml))
@@ -1031,9 +1038,12 @@ SeededSegmentation segment_from_seeds(const CtImage& ct, const SeededSegmentatio
     const double organ_ml = static_cast<double>(count_voxels(*organ)) * working_voxel_ml;
     for (CutRegion& r : report.cut_regions) {
       r.like_organ = std::abs(r.median_hu - core_median) <= 2.0 * std::max(core_sigma, o.minimum_sigma_hu);
-      r.kept_out_because = r.cause == "background seed" ? std::string("a background seed is nearer")
-                                                        : why_not_taken_back(r, core_median, core_sigma, organ_ml, o);
-      if (r.kept_out_because.empty()) r.kept_out_because = "it was cut after the neck rule (holes, closing)";
+      if (r.cause == "background seed") r.kept_out_because = "a background seed is nearer";
+      if (r.kept_out_because.empty()) r.kept_out_because = why_not_taken_back(r, core_median, core_sigma, organ_ml, o);
+      // It passes the tests now, on the organ's final shape (holes filled), not
+      // on the shape leak control judged it on.
+      if (r.kept_out_because.empty())
+        r.kept_out_because = "it failed the neck rule on the organ before its holes were filled";
     }
   }
   std::stable_sort(report.cut_regions.begin(), report.cut_regions.end(),
