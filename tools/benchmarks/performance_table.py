@@ -162,6 +162,15 @@ def read_end_to_end(output):
             f"{floor[2]} gaps over 2 ms in 5 s, largest {float(floor[3]):.2f} ms)")
 
 
+def read_report_cost(output):
+    c = json.loads(output)
+    return (f"replay --fast {c['fast_plain_s']:.2f} s, with --report {c['fast_report_s']:.2f} s: "
+            f"**+{c['fast_report_s'] - c['fast_plain_s']:.2f} s**; real time {c['realtime_plain_s']:.2f} s, with "
+            f"--report {c['realtime_report_s']:.2f} s (+{c['realtime_report_s'] - c['realtime_plain_s']:.2f} s, the "
+            f"machine-floor probe as long as the session included); `organsim report` rebuilding the page "
+            f"{c['rebuild_s']:.2f} s")
+
+
 FIGURES = [
     Figure("bake_phantom", "bake a 512 × 512 × 200 phantom CT to a 5k-vertex surface (both cores)",
            "build/tests/bake_bench --benchmark_format=json", read_bake_bench),
@@ -202,6 +211,9 @@ FIGURES = [
            f"--facet-distance 0.6 -o ushiki.organ > /dev/null && build/tests/cpu_stalls 5 && xvfb-run -a "
            f"build/tools/organsim view ushiki.organ --session {SESSION} --model beam --realtime --offscreen --json",
            read_end_to_end),
+    Figure("report_cost", "the training report: what `--report` adds to a replay of the shipped two-tool session "
+           "(multi-beam), and rebuilding the page with its four pictures",
+           f"python3 tools/benchmarks/report_cost.py --build build MODEL {SESSION}", read_report_cost),
     Figure("psh_newton", "PSH static press on the baked liver, one Newton iteration",
            "ORGANSIM_BENCH_MODEL=MODEL build/tests/fem_bench --benchmark_filter=PshPress --benchmark_format=json",
            read_psh_press),
@@ -240,6 +252,7 @@ def measure(figure, build, model):
     with tempfile.TemporaryDirectory(prefix="organsim-perf-") as scratch:
         (pathlib.Path(scratch) / "build").symlink_to(build, target_is_directory=True)
         (pathlib.Path(scratch) / "data_samples").symlink_to(REPO / "data_samples", target_is_directory=True)
+        (pathlib.Path(scratch) / "tools").symlink_to(REPO / "tools", target_is_directory=True)
         result = subprocess.run(["bash", "-c", command], cwd=scratch, capture_output=True, text=True)
     if result.returncode != 0:
         raise RuntimeError(f"{figure.name}: `{figure.command}` exited {result.returncode}:\n{result.stderr[-2000:]}")

@@ -46,39 +46,69 @@ void check(const SurfacePicture& in) {
   if (in.width < 64 || in.height < 64) throw std::invalid_argument("a surface picture is at least 64 x 64 pixels");
 }
 
+/// The parallel projection of a picture: its eye's frame and how the surface
+/// is fitted between the title and the colour bar, in supersampled pixels.
+struct Projection {
+  Eigen::Vector3d forward, up, right;
+  int width = 0, height = 0, top = 0, bottom = 0;
+  double scale = 1.0;
+  Eigen::Vector2d centre;
+
+  explicit Projection(const SurfacePicture& in) {
+    // The eye's frame: x to the right, y up, depth away from the eye.
+    forward = vec(in.view_direction);
+    if (!(forward.norm() > 0.0) || !forward.allFinite())
+      throw std::invalid_argument("a surface picture's view direction must be non-zero and not along its up");
+    forward.normalize();
+    up = vec(in.view_up) - vec(in.view_up).dot(forward) * forward;
+    if (!(up.norm() > 1e-9))
+      throw std::invalid_argument("a surface picture's view direction must be non-zero and not along its up");
+    up.normalize();
+    right = forward.cross(up);
+    width = in.width * kSupersampling;
+    height = in.height * kSupersampling;
+    top = kTitleBand * kSupersampling;
+    bottom = height - kScaleBand * kSupersampling;
+    Eigen::Vector2d low(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity());
+    Eigen::Vector2d high = -low;
+    for (const auto& point : in.points) {
+      const Eigen::Vector2d e = eye(vec(point)).head<2>();
+      low = low.cwiseMin(e);
+      high = high.cwiseMax(e);
+    }
+    // Fit the surface into the space between the title and the colour bar, 5 % margin.
+    const double margin = 0.05;
+    const double box_width = width * (1 - 2 * margin), box_height = (bottom - top) * (1 - 2 * margin);
+    const Eigen::Vector2d extent = (high - low).cwiseMax(1e-12);
+    scale = std::min(box_width / extent.x(), box_height / extent.y());
+    centre = 0.5 * (low + high);
+  }
+  /// x, y and depth in the eye's frame.
+  Eigen::Vector3d eye(const Eigen::Vector3d& p) const { return {p.dot(right), p.dot(up), p.dot(forward)}; }
+  Eigen::Vector2d to_pixel(const Eigen::Vector3d& e) const {
+    return Eigen::Vector2d(0.5 * width + (e.x() - centre.x()) * scale,
+                           0.5 * (top + bottom) - (e.y() - centre.y()) * scale);
+  }
+};
+
 }  // namespace
+
+std::array<double, 2> picture_pixel(const SurfacePicture& picture, const std::array<double, 3>& point) {
+  check(picture);
+  const Projection projection(picture);
+  const Eigen::Vector2d at = projection.to_pixel(projection.eye(vec(point))) / kSupersampling;
+  return {at.x(), at.y()};
+}
 
 std::vector<unsigned char> draw_surface_png(const SurfacePicture& in) {
   check(in);
-  // The eye's frame: x to the right, y up, depth away from the eye.
-  const Eigen::Vector3d forward = vec(in.view_direction).normalized();
-  Eigen::Vector3d up = vec(in.view_up) - vec(in.view_up).dot(forward) * forward;
-  if (!forward.allFinite() || !(up.norm() > 1e-9))
-    throw std::invalid_argument("a surface picture's view direction must be non-zero and not along its up");
-  up.normalize();
-  const Eigen::Vector3d right = forward.cross(up);
-
-  const int width = in.width * kSupersampling, height = in.height * kSupersampling;
-  const int top = kTitleBand * kSupersampling, bottom = height - kScaleBand * kSupersampling;
+  const Projection projection(in);
+  const Eigen::Vector3d forward = projection.forward;
+  const int width = projection.width, height = projection.height;
   std::vector<Eigen::Vector3d> eye(in.points.size());  // x, y, depth
-  Eigen::Vector2d low(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity());
-  Eigen::Vector2d high = -low;
-  for (std::size_t i = 0; i < in.points.size(); ++i) {
-    const Eigen::Vector3d p = vec(in.points[i]);
-    eye[i] = {p.dot(right), p.dot(up), p.dot(forward)};
-    low = low.cwiseMin(eye[i].head<2>());
-    high = high.cwiseMax(eye[i].head<2>());
-  }
-  // Fit the surface into the space between the title and the colour bar, 5 % margin.
-  const double margin = 0.05;
-  const double box_width = width * (1 - 2 * margin), box_height = (bottom - top) * (1 - 2 * margin);
-  const Eigen::Vector2d extent = (high - low).cwiseMax(1e-12);
-  const double scale = std::min(box_width / extent.x(), box_height / extent.y());
-  const Eigen::Vector2d centre = 0.5 * (low + high);
-  const auto to_pixel = [&](const Eigen::Vector3d& e) {
-    return Eigen::Vector2d(0.5 * width + (e.x() - centre.x()) * scale,
-                           0.5 * (top + bottom) - (e.y() - centre.y()) * scale);
-  };
+  for (std::size_t i = 0; i < in.points.size(); ++i) eye[i] = projection.eye(vec(in.points[i]));
+  const double scale = projection.scale;
+  const auto to_pixel = [&](const Eigen::Vector3d& e) { return projection.to_pixel(e); };
 
   cv::Mat image(height, width, CV_8UC3, cv::Scalar(255, 255, 255));
   std::vector<float> depth(static_cast<std::size_t>(width) * height, std::numeric_limits<float>::infinity());
@@ -114,8 +144,7 @@ std::vector<unsigned char> draw_surface_png(const SurfacePicture& in) {
       }
   }
   for (const auto& m : in.markers) {
-    const Eigen::Vector3d p = vec(m);
-    const Eigen::Vector2d at = to_pixel({p.dot(right), p.dot(up), p.dot(forward)});
+    const Eigen::Vector2d at = to_pixel(projection.eye(vec(m)));
     const int radius = std::max(3 * kSupersampling, static_cast<int>(std::lround(in.marker_radius * scale)));
     const cv::Point centre_px(static_cast<int>(std::lround(at.x())), static_cast<int>(std::lround(at.y())));
     cv::circle(image, centre_px, radius + kSupersampling, cv::Scalar(255, 255, 255), cv::FILLED, cv::LINE_AA);

@@ -37,4 +37,9 @@ struct SurfacePicture {
 /// size under 64 × 64 pixels.
 std::vector<unsigned char> draw_surface_png(const SurfacePicture& picture);
 
+/// Where `point` (the points' unit) lands in the drawn picture: pixels from
+/// its top-left corner, x to the right and y down (pixel (i, j) covers
+/// [i, i + 1) × [j, j + 1)). Throws as draw_surface_png does.
+std::array<double, 2> picture_pixel(const SurfacePicture& picture, const std::array<double, 3>& point);
+
 }  // namespace organsim::report

@@ -20,6 +20,45 @@ double tick_step(double low, double high) {
   return 10.0 * power;
 }
 
+/// What the chart shows, in words: its text alternative for a reader who
+/// cannot see it (each series' range, the line, the shaded events).
+std::string text_alternative(const std::vector<ChartSeries>& series, const ChartAxes& axes, bool line_in_view) {
+  std::string text = fmt::format("Chart of {} against {}", axes.y_label, axes.x_label);
+  for (const ChartSeries& s : series) {
+    double low = std::numeric_limits<double>::infinity(), high = -low;
+    std::size_t points = 0;
+    for (std::size_t k = 0; k < s.x.size() && k < s.y.size(); ++k)
+      if (std::isfinite(s.y[k])) low = std::min(low, s.y[k]), high = std::max(high, s.y[k]), ++points;
+    text += points == 0 ? fmt::format("; {}: no data", s.name)
+                        : fmt::format("; {}: {} point{} from {:.3g} to {:.3g}", s.name, points, points == 1 ? "" : "s",
+                                      low, high);
+  }
+  if (!axes.line_label.empty())
+    text += fmt::format("; {} at {:g}{}", axes.line_label, axes.line_at, line_in_view ? "" : ", above the scale");
+  if (!axes.band_label.empty())
+    text += fmt::format("; {} shaded from {:.3g} to {:.3g}", axes.band_label, axes.band_low, axes.band_high);
+  std::vector<std::string> named;  // each span label once, with how often it is shaded
+  for (const ChartSpan& span : axes.spans) {
+    if (std::find(named.begin(), named.end(), span.label) != named.end()) continue;
+    named.push_back(span.label);
+    const auto count = std::count_if(axes.spans.begin(), axes.spans.end(),
+                                     [&](const ChartSpan& other) { return other.label == span.label; });
+    text += fmt::format("; {} shaded {} time{}", span.label, count, count == 1 ? "" : "s");
+  }
+  text += ".";
+  std::string escaped;  // for an attribute and a title
+  for (const char c : text) {
+    switch (c) {
+      case '&': escaped += "&amp;"; break;
+      case '<': escaped += "&lt;"; break;
+      case '>': escaped += "&gt;"; break;
+      case '"': escaped += "&quot;"; break;
+      default: escaped += c;
+    }
+  }
+  return escaped;
+}
+
 }  // namespace
 
 std::string svg_chart(const std::vector<ChartSeries>& series, const ChartAxes& axes) {
@@ -46,10 +85,11 @@ std::string svg_chart(const std::vector<ChartSeries>& series, const ChartAxes& a
   const auto px = [&](double x) { return kLeft + (x - x_low) / (x_high - x_low) * plot_w; };
   const auto py = [&](double y) { return kTop + (1.0 - (y - y_low) / (y_high - y_low)) * plot_h; };
 
+  const std::string description = text_alternative(series, axes, line_in_view);
   std::string svg = fmt::format(
       "<svg width=\"{0}\" height=\"{1}\" viewBox=\"0 0 {0} {1}\" "
-      "font-family=\"sans-serif\" font-size=\"12\" role=\"img\">\n",
-      kWidth, kHeight);
+      "font-family=\"sans-serif\" font-size=\"12\" role=\"img\" aria-label=\"{2}\">\n<title>{2}</title>\n",
+      kWidth, kHeight, description);
   svg += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"#888\"/>\n", kLeft,
                      kTop, plot_w, plot_h);
   for (const ChartSpan& span : axes.spans) {
@@ -66,7 +106,9 @@ std::string svg_chart(const std::vector<ChartSeries>& series, const ChartAxes& a
         "<title>{}</title></rect>\n",
         kLeft, top, plot_w, std::max(bottom - top, 1.0), axes.band_label);
   }
-  const double xs = tick_step(x_low, x_high), ys = tick_step(y_low, y_high);
+  // Attempts (dots) are counted: whole numbers on the x axis.
+  const double xs = axes.points ? std::max(1.0, tick_step(x_low, x_high)) : tick_step(x_low, x_high),
+               ys = tick_step(y_low, y_high);
   for (double x = std::ceil(x_low / xs) * xs; x <= x_high + 1e-9 * xs; x += xs)
     svg += fmt::format(
         "<line x1=\"{0:.1f}\" y1=\"{1}\" x2=\"{0:.1f}\" y2=\"{2}\" stroke=\"#eee\"/>"
@@ -83,12 +125,12 @@ std::string svg_chart(const std::vector<ChartSeries>& series, const ChartAxes& a
                      kTop + plot_h / 2, axes.y_label);
   if (has_line && !line_in_view)
     svg += fmt::format(
-        "<text x=\"{}\" y=\"{}\" fill=\"#d00\">{} {:g} is above this scale: the peak is {:.1f} % of it</text>\n",
+        "<text x=\"{}\" y=\"{}\" fill=\"#c00\">{} {:g} is above this scale: the peak is {:.1f} % of it</text>\n",
         kLeft + 6, kTop + 14, axes.line_label, axes.line_at, 100.0 * peak / axes.line_at);
   if (line_in_view)
     svg += fmt::format(
-        "<line x1=\"{0}\" y1=\"{1:.1f}\" x2=\"{2}\" y2=\"{1:.1f}\" stroke=\"#d00\" stroke-dasharray=\"6 4\"/>"
-        "<text x=\"{3}\" y=\"{4:.1f}\" fill=\"#d00\">{5} {6:g}</text>\n",
+        "<line x1=\"{0}\" y1=\"{1:.1f}\" x2=\"{2}\" y2=\"{1:.1f}\" stroke=\"#c00\" stroke-dasharray=\"6 4\"/>"
+        "<text x=\"{3}\" y=\"{4:.1f}\" fill=\"#c00\">{5} {6:g}</text>\n",
         kLeft, py(axes.line_at), kLeft + plot_w, kLeft + 6, py(axes.line_at) - 4, axes.line_label, axes.line_at);
   std::vector<const ChartSpan*> span_legend;  // one entry per label, after the series
   for (const ChartSpan& span : axes.spans)

@@ -27,7 +27,7 @@ struct ChartAxes {
   /// A range of y shaded across the plot (an expert band), when `band_label` is set.
   double band_low = 0.0, band_high = 0.0;
   std::string band_label;
-  bool points = false;  ///< mark each data point with a dot (few points: attempts)
+  bool points = false;  ///< mark each data point with a dot (few points: attempts, whole numbers on x)
 };
 
 /// One chart (about 900 × 260 pixels) with axes, ticks and a legend. The y

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <memory>
 #include <sstream>
 #include <utility>
@@ -130,6 +131,9 @@ std::string number_or_dash(const nlohmann::json& value, const char* format) {
 struct Pictures {
   struct View {
     std::string title, description, uri;  // the caption, its text alternative, a PNG data URI
+    /// Where the point pressed deepest lands in the picture (pixels from the
+    /// top-left corner), or none when nothing was pressed.
+    std::optional<std::array<double, 2>> deepest_pixel;
   };
   std::vector<View> views;
   std::vector<std::string> problems;
@@ -170,9 +174,10 @@ Pictures render_organ(const fs::path& directory, const RunMetrics& metrics) {
                              {"seen from above (superior)", {0, 0, -1}, {0, -1, 0}}};
   // And face-on where the organ was pressed deepest: the eye outside the
   // surface on its normal there, whichever side that is.
+  const std::size_t deepest_point =
+      static_cast<std::size_t>(std::max_element(picture.values.begin(), picture.values.end()) - picture.values.begin());
   if (deepest > 0.0) {
-    const std::size_t at = static_cast<std::size_t>(std::max_element(picture.values.begin(), picture.values.end()) -
-                                                    picture.values.begin());
+    const std::size_t at = deepest_point;
     std::array<double, 3> normal{0, 0, 0};  // area-weighted, outward
     for (const auto& t : picture.triangles) {
       if (t[0] != static_cast<std::int32_t>(at) && t[1] != static_cast<std::int32_t>(at) &&
@@ -212,7 +217,9 @@ Pictures render_organ(const fs::path& directory, const RunMetrics& metrics) {
           picture.markers.empty() ? std::string()
                                   : fmt::format("; {} event{} marked with black discs", picture.markers.size(),
                                                 picture.markers.size() == 1 ? "" : "s"));
-      pictures.views.push_back({side.title, description, "data:image/png;base64," + encoded});
+      std::optional<std::array<double, 2>> deepest_pixel;
+      if (deepest > 0.0) deepest_pixel = picture_pixel(picture, picture.points[deepest_point]);
+      pictures.views.push_back({side.title, description, "data:image/png;base64," + encoded, deepest_pixel});
     } catch (const std::exception& e) {
       pictures.problems.push_back(fmt::format("{}: not drawn: {}", side.title, e.what()));
     }
@@ -476,15 +483,18 @@ std::string page(const RunMetrics& m, const RunMetrics* reference, const Profici
 
   const std::vector<double> t = bucket_times(m);
   if (m.tools.size() > 1) {
-    // Both hands on one timeline: each tool's force, every tool's events shaded.
+    // Both hands on one timeline: each tool's force, its contacts shaded in its
+    // colour, every tool's grasps and stretches above the limit.
     static const char* const kToolColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd",
                                                "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22"};
     std::vector<ChartSeries> hands;
     ChartAxes axes{"time (s)", "force sent (N)", m.force_limit_n, "limit", {}};
     for (std::size_t i = 0; i < m.tools.size(); ++i) {
       const ToolMetrics& tool = m.tools[i];
-      hands.push_back(
-          {fmt::format("tool {}", tool.tool), kToolColours[i % std::size(kToolColours)], t, tool.force.values});
+      const char* colour = kToolColours[i % std::size(kToolColours)];
+      hands.push_back({fmt::format("tool {}", tool.tool), colour, t, tool.force.values});
+      for (const auto& [from, to] : tool.contacts)
+        axes.spans.push_back({from, to, colour, fmt::format("tool {} in contact", tool.tool)});
       for (const GraspEvent& g : tool.grasps)
         axes.spans.push_back({g.start_s, g.start_s + g.duration_s, g.slipped ? "#d62728" : "#2ca02c",
                               g.slipped ? "grasp that slipped" : "grasp"});
@@ -859,6 +869,13 @@ std::vector<std::string> write_report(const std::string& directory, const Report
     document["proficiency"] = {
         {"within", proficiency->within}, {"measures", proficiency->checks.size()}, {"checks", checks}};
   }
+  nlohmann::json views = nlohmann::json::array();
+  for (const Pictures::View& view : pictures.views) {
+    nlohmann::json entry = {{"title", view.title}};
+    if (view.deepest_pixel) entry["deepest_point_pixel"] = {(*view.deepest_pixel)[0], (*view.deepest_pixel)[1]};
+    views.push_back(entry);
+  }
+  document["pictures"] = views;
   io::write_file_atomically((fs::path(directory) / "metrics.json").string(), document.dump(2) + "\n");
   io::write_file_atomically((fs::path(directory) / "index.html").string(),
                             page(metrics, reference.get(), proficiency.get(), pictures));

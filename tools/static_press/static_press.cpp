@@ -652,7 +652,10 @@ void add_press_options(CLI::App& app, std::vector<std::string>& tools, PressOpti
                  "and then moves to its displacement (outward: a pull), the organ held both ways "
                  "(docs/realtime.md#grasping)")
       ->check(kPositive);
-  app.add_option("--settle", o.settle_seconds, "Mass-spring model: seconds the press is held before the force is read")
+  app.add_option(
+         "--settle", o.settle_seconds,
+         "Models without a static solver (the mass-spring model): seconds the press is held before the force is "
+         "read")
       ->check(kPositive)
       ->capture_default_str();
 }

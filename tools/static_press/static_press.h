@@ -38,7 +38,7 @@ ToolSpec parse_tool(const std::string& text);
 struct PressOptions {
   std::string command = "poke";    ///< for warnings
   double snap_distance_mm = 10.0;  ///< farthest a tool point may be from the surface
-  double settle_seconds = 2.0;     ///< mass-spring: how long the press is held before the force is read
+  double settle_seconds = 2.0;     ///< a model settled in time: how long the press is held before the force is read
   /// > 0: a grasp (docs/realtime.md#grasping). Each tool first presses this
   /// far in along the inward normal at its point (mm), closes its jaws on what
   /// it holds, then moves to its displacement (outward: a pull), the organ

@@ -262,6 +262,7 @@ TEST_F(Cli, ReportPageIsSelfContainedAndHoldsNoPatientData) {
   const std::string prefix = "data:image/png;base64,";
   std::size_t pictures = 0;
   int red_in_last = 0;
+  cv::Vec3b at_deepest_point;
   for (std::size_t at = html.find(prefix); at != std::string::npos; at = html.find(prefix, at + 1)) {
     ++pictures;
     const std::size_t begin = at + prefix.size(), end = html.find('"', begin);
@@ -276,6 +277,13 @@ TEST_F(Cli, ReportPageIsSelfContainedAndHoldsNoPatientData) {
     EXPECT_EQ(image.at<cv::Vec3b>(2, 2), cv::Vec3b(255, 255, 255)) << "picture " << pictures;
     const cv::Vec3b middle = image.at<cv::Vec3b>(image.rows / 2, image.cols / 2);
     EXPECT_LT(middle[0] + middle[1] + middle[2], 3 * 250) << "the organ fills the middle: picture " << pictures;
+    // metrics.json says where the point pressed deepest lands in each picture.
+    const nlohmann::json view = read_json(report / "metrics.json")["pictures"][pictures - 1];
+    ASSERT_TRUE(view.contains("deepest_point_pixel")) << view.dump();
+    const int x = static_cast<int>(view["deepest_point_pixel"][0].get<double>()),
+              y = static_cast<int>(view["deepest_point_pixel"][1].get<double>());
+    ASSERT_TRUE(x >= 0 && x < image.cols && y >= 0 && y < image.rows) << view.dump();
+    at_deepest_point = image.at<cv::Vec3b>(y, x);
     red_in_last = 0;
     for (int r = 0; r < image.rows; ++r)
       for (int c = 0; c < image.cols; ++c) {
@@ -285,6 +293,8 @@ TEST_F(Cli, ReportPageIsSelfContainedAndHoldsNoPatientData) {
   }
   EXPECT_EQ(pictures, 4u);
   EXPECT_GT(red_in_last, 20) << "the pressed place, seen face-on, in the deepest indentation's colour";
+  EXPECT_GT(at_deepest_point[2], at_deepest_point[0] + 60) << "face-on, the deepest point's pixel is red";
+  EXPECT_GT(at_deepest_point[2], at_deepest_point[1] + 60) << "face-on, the deepest point's pixel is red";
   EXPECT_EQ(html.find("not drawn"), std::string::npos);
   // Nothing of the (file-name) patient anywhere in the report's files.
   for (const auto& entry : fs::directory_iterator(report)) {
@@ -389,6 +399,19 @@ TEST_F(Cli, ReportHistoryShowsEachMeasureOverTheAttempts) {
   std::size_t rows = 0;
   for (std::size_t at = html.find("<tr><td>"); at != std::string::npos; at = html.find("<tr><td>", at + 1)) ++rows;
   EXPECT_EQ(rows, 3u);
+  // Every measure: three dots on each of its lines (one line per tool, or one for the run).
+  std::size_t measures = 0;
+  for (std::size_t at = html.find("<svg"); at != std::string::npos; at = html.find("<svg", at + 1)) {
+    const std::string measure = html.substr(at, html.find("</svg>", at) - at);
+    std::size_t lines = 0, points = 0;
+    for (std::size_t k = measure.find("<polyline"); k != std::string::npos; k = measure.find("<polyline", k + 1))
+      ++lines;
+    for (std::size_t k = measure.find("<circle"); k != std::string::npos; k = measure.find("<circle", k + 1)) ++points;
+    EXPECT_GE(lines, 1u) << measure.substr(0, 300);
+    EXPECT_EQ(points, 3 * lines) << measure.substr(0, 300);
+    ++measures;
+  }
+  EXPECT_GE(measures, 10u) << "task time, path, economy, jerk, idle, force, time above the limit, damage, ...";
 }
 
 TEST_F(Cli, ReportSaysWhenTheLoopsFailedAndComparesWithAReferenceRun) {

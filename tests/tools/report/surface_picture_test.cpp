@@ -39,6 +39,31 @@ cv::Mat decoded(const SurfacePicture& p) {
   return cv::imdecode(png, cv::IMREAD_COLOR);
 }
 
+// Where a point lands: the sphere's centre in the middle of the space between
+// the title and the colour bar, its top and bottom symmetric about it, and the
+// drawn colour there the point's own.
+TEST(SurfacePicture, SaysWhereAPointOfTheSurfaceLandsInThePicture) {
+  const SurfacePicture p = sphere(10.0, {5, -3, 2});
+  const cv::Mat image = decoded(p);
+  const std::array<double, 2> centre = picture_pixel(p, {5, -3, 2}), top = picture_pixel(p, {5, -3 - 10, 12}),
+                              bottom = picture_pixel(p, {5, -3 - 10, -8});
+  EXPECT_NEAR(centre[0], 210.0, 1e-9);
+  EXPECT_NEAR(centre[1], 0.5 * (28 + 380 - 46), 1e-9);  // between the title band and the scale band
+  EXPECT_NEAR(top[0], centre[0], 1e-9);
+  EXPECT_NEAR(centre[1] - top[1], bottom[1] - centre[1], 1e-9);
+  EXPECT_NEAR(bottom[1] - top[1], 0.9 * (380 - 28 - 46), 1e-9) << "the sphere fills 90 % of the height";
+  // Seen from the front, the sphere's point 45° up faces the eye and is red, 45° down blue.
+  const double h = 10.0 * std::sqrt(0.5);
+  const std::array<double, 2> up = picture_pixel(p, {5, -3 - h, 2 + h}), down = picture_pixel(p, {5, -3 - h, 2 - h});
+  const cv::Vec3b red = image.at<cv::Vec3b>(static_cast<int>(up[1]), static_cast<int>(up[0]));
+  const cv::Vec3b blue = image.at<cv::Vec3b>(static_cast<int>(down[1]), static_cast<int>(down[0]));
+  EXPECT_GT(red[2], red[0] + 60);
+  EXPECT_GT(blue[0], blue[2] + 40);
+  SurfacePicture flat = p;
+  flat.view_direction = {0, 0, 0};
+  EXPECT_THROW(picture_pixel(flat, {0, 0, 0}), std::invalid_argument);
+}
+
 TEST(SurfacePicture, ColoursTheSurfaceByItsValuesOnAWhitePage) {
   SurfacePicture p = sphere(10.0);
   p.title = "front";

@@ -17,7 +17,7 @@ void add_simulation_commands(CLI::App& app, CommandTable& table) {
   add_command(app, table, "plot", "Plot columns of a CSV file (forces, a springs trace) as a PNG line chart",
               add_plot_command);
   add_command(app, table, "poke",
-              "Press the organ with tools: the force each tool feels and the deformed organ (multi-beam model)",
+              "Press the organ with tools: the force each tool feels and the deformed organ (any model; --model)",
               add_poke_command);
   add_command(app, table, "replay",
               "Replay a recorded multi-tool session through the real-time engine: forces, contacts, loop timings",
