@@ -276,9 +276,10 @@ void ContactResponse(benchmark::State& state) {
   for (std::size_t n = 0; n < s.mesh.nodes.size(); ++n)
     if (s.system->free_index()[3 * n] >= 0 && (s.mesh.nodes[n] - origin).norm() > (s.mesh.nodes[node] - origin).norm())
       node = n;
-  PointLoad load;
-  load.weights[0] = 1.0;
-  for (std::size_t k = 0; k < 3; ++k) load.dofs[0][k] = s.system->free_index()[3 * node + k];
+  std::array<std::int32_t, 3> dofs{};
+  const double weight = 1.0;
+  for (std::size_t k = 0; k < 3; ++k) dofs[k] = s.system->free_index()[3 * node + k];
+  const PointLoad load{&dofs, &weight, 1};
   for (std::size_t slot = 1; slot < 24; ++slot) responses->respond(slot, load);  // others to couple with, as a tip's
   for (auto _ : state) responses->respond(0, load);
   state.SetLabel(factorization->supernodal_factor() ? "sparse forward solve" : "full three-column solve");

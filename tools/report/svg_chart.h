@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace organsim::report {
@@ -29,6 +30,14 @@ struct ChartAxes {
   std::string band_label;
   bool points = false;  ///< mark each data point with a dot (few points: attempts, whole numbers on x)
 };
+
+/// Axes with their labels only; the other fields are set by name.
+inline ChartAxes labelled_axes(std::string x_label, std::string y_label) {
+  ChartAxes axes;
+  axes.x_label = std::move(x_label);
+  axes.y_label = std::move(y_label);
+  return axes;
+}
 
 /// One chart (about 900 × 260 pixels) with axes, ticks and a legend. The y
 /// axis fits the data, so that a small force fills the plot: a line whose y

@@ -488,7 +488,9 @@ std::string page(const RunMetrics& m, const RunMetrics* reference, const Profici
     static const char* const kToolColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd",
                                                "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22"};
     std::vector<ChartSeries> hands;
-    ChartAxes axes{"time (s)", "force sent (N)", m.force_limit_n, "limit", {}};
+    ChartAxes axes = labelled_axes("time (s)", "force sent (N)");
+    axes.line_at = m.force_limit_n;
+    axes.line_label = "limit";
     for (std::size_t i = 0; i < m.tools.size(); ++i) {
       const ToolMetrics& tool = m.tools[i];
       const char* colour = kToolColours[i % std::size(kToolColours)];
@@ -511,7 +513,9 @@ std::string page(const RunMetrics& m, const RunMetrics* reference, const Profici
     if (reference && i < reference->tools.size())
       force.push_back({"reference: force sent", "#2ca02c", bucket_times(*reference), reference->tools[i].force.values});
     // The contacts, the grasps and the stretches above the limit, shaded on the force chart.
-    ChartAxes force_axes{"time (s)", "force (N)", m.force_limit_n, "limit", {}};
+    ChartAxes force_axes = labelled_axes("time (s)", "force (N)");
+    force_axes.line_at = m.force_limit_n;
+    force_axes.line_label = "limit";
     for (const auto& [from, to] : tool.contacts) force_axes.spans.push_back({from, to, "#7f7f7f", "in contact"});
     for (const GraspEvent& g : tool.grasps)
       force_axes.spans.push_back({g.start_s, g.start_s + g.duration_s, g.slipped ? "#d62728" : "#2ca02c",
@@ -519,8 +523,9 @@ std::string page(const RunMetrics& m, const RunMetrics* reference, const Profici
     for (const LimitEvent& e : tool.events)
       force_axes.spans.push_back({e.start_s, e.start_s + e.duration_s, "#ff0000", "above the limit"});
     html += svg_chart(force, force_axes);
-    html += svg_chart({{"indentation depth", "#9467bd", t, tool.depth.values}}, {"time (s)", "depth (mm)", 0.0, ""});
-    html += svg_chart({{"tip speed", "#d62728", t, tool.speed.values}}, {"time (s)", "speed (mm/s)", 0.0, ""});
+    html +=
+        svg_chart({{"indentation depth", "#9467bd", t, tool.depth.values}}, labelled_axes("time (s)", "depth (mm)"));
+    html += svg_chart({{"tip speed", "#d62728", t, tool.speed.values}}, labelled_axes("time (s)", "speed (mm/s)"));
     if (tool.events.empty()) {
       html += "<p>No force above the limit.</p>\n";
     } else {
@@ -559,7 +564,7 @@ std::string page(const RunMetrics& m, const RunMetrics* reference, const Profici
                         escape(view.description), view.uri, escape(view.title));
   for (const std::string& problem : pictures.problems) html += "<p class=\"warn\">" + escape(problem) + "</p>\n";
   html += svg_chart({{"volume change", "#17becf", t, m.volume_change_percent.values}},
-                    {"time (s)", "volume change (%)", 0.0, ""});
+                    labelled_axes("time (s)", "volume change (%)"));
   html += "<h2>Engineering detail</h2>\n<p>What the run was, and whether the simulation kept up.</p>\n<table>\n";
   const auto info = [&](const std::string& key, const std::string& value) {
     html += fmt::format("<tr><th>{}</th><td>{}</td></tr>\n", escape(key), escape(value));
@@ -954,7 +959,7 @@ void write_history(const std::vector<std::string>& directories, const ReportOpti
       }
     std::vector<ChartSeries> series;
     for (auto& [tool, s] : by_tool) series.push_back(std::move(s));
-    ChartAxes axes{"attempt", unit.empty() ? label : fmt::format("{} ({})", label, unit), 0.0, "", {}};
+    ChartAxes axes = labelled_axes("attempt", unit.empty() ? label : fmt::format("{} ({})", label, unit));
     axes.points = true;
     if (const auto band = bands.find(key); band != bands.end()) {
       axes.band_low = band->second.low;

@@ -9,13 +9,27 @@ namespace {
 /// Calls `term(unknown, direction, weight)` for each unit load of `load`.
 template <typename Term>
 void for_each_load(const PointLoad& load, Term term) noexcept {
-  for (std::size_t i = 0; i < 3; ++i) {
-    const double weight = load.weights[static_cast<Eigen::Index>(i)];
+  for (std::size_t i = 0; i < load.count; ++i) {
+    const double weight = load.weights[i];
     if (weight == 0.0) continue;
     for (int k = 0; k < 3; ++k)
       if (load.dofs[i][static_cast<std::size_t>(k)] >= 0) term(load.dofs[i][static_cast<std::size_t>(k)], k, weight);
   }
 }
+
+/// A load kept for its slot: its arrays copied into storage of the largest size.
+struct KeptLoad {
+  std::vector<std::array<std::int32_t, 3>> dofs = std::vector<std::array<std::int32_t, 3>>(PointLoad::kMaxNodes);
+  std::vector<double> weights = std::vector<double>(PointLoad::kMaxNodes, 0.0);
+  std::size_t count = 0;
+
+  void keep(const PointLoad& load) noexcept {
+    count = std::min(load.count, PointLoad::kMaxNodes);
+    std::copy(load.dofs, load.dofs + count, dofs.begin());
+    std::copy(load.weights, load.weights + count, weights.begin());
+  }
+  PointLoad view() const noexcept { return {dofs.data(), weights.data(), count}; }
+};
 
 /// Responses solved in full (A⁻¹ e, three columns) with any factorization.
 class FullResponses final : public ContactResponses {
@@ -33,12 +47,12 @@ class FullResponses final : public ContactResponses {
     for_each_load(load, [&](std::int32_t unknown, int k, double weight) { unit_(unknown, k) += weight; });
     factorization_.solve3(unit_, responses_[slot]);
     for_each_load(load, [&](std::int32_t unknown, int k, double) { unit_(unknown, k) = 0.0; });
-    loads_[slot] = load;
+    loads_[slot].keep(load);
   }
 
   Eigen::Matrix3d coupling(std::size_t s, std::size_t t) const noexcept override {
     Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
-    for_each_load(loads_[s],
+    for_each_load(loads_[s].view(),
                   [&](std::int32_t unknown, int i, double weight) { m.row(i) += weight * responses_[t].row(unknown); });
     return m;
   }
@@ -47,7 +61,8 @@ class FullResponses final : public ContactResponses {
 
   Eigen::Vector3d projected(std::size_t s) const noexcept override {
     Eigen::Vector3d v = Eigen::Vector3d::Zero();
-    for_each_load(loads_[s], [&](std::int32_t unknown, int i, double weight) { v[i] += weight * step_[unknown]; });
+    for_each_load(loads_[s].view(),
+                  [&](std::int32_t unknown, int i, double weight) { v[i] += weight * step_[unknown]; });
     return v;
   }
 
@@ -58,7 +73,7 @@ class FullResponses final : public ContactResponses {
  private:
   Factorization& factorization_;
   std::vector<Eigen::MatrixX3d> responses_;  ///< per slot: A⁻¹ e, rows × 3
-  std::vector<PointLoad> loads_;
+  std::vector<KeptLoad> loads_;
   Eigen::MatrixX3d unit_;  ///< the loads of the response being solved (zero between solves)
   Eigen::VectorXd step_;
 };

@@ -26,6 +26,10 @@ constexpr std::size_t kMaxTools = 16;
 // (128 KiB): W of at most 120 rows (120 sliding points, 40 point tools).
 constexpr std::size_t kMaxConstraintRows = 3 * OrganFem::kMaxHolds;
 constexpr std::size_t kMaxContactNodes = 256;
+static_assert(OrganFem::kMaxPatchNodes <= PointLoad::kMaxNodes, "a patch's load spreads over its nodes");
+// A grasped patch's area: each boundary face cut into this many sub-triangles
+// per edge, each counted inside the tip's radius by its centroid.
+constexpr int kPatchSubdivisions = 8;
 // Candidate contact points per frame before the deepest are kept.
 constexpr std::size_t kMaxCandidates = 512;
 constexpr int kMaxStepCuts = 4;  // the smallest step tried: 1/16 of the iteration's
@@ -147,6 +151,7 @@ class OrganFem::Worker {
         snapshot_(Eigen::VectorXd::Zero(system.dof_count())),
         gradient_(system.dof_count()),
         slots_(owner.node_slots_.size()),
+        patches_(owner.patches_.size()),
         spare_(std::move(spare)),
         thread_([this] { run(); }) {
     // PSH keeps its exact tangent here: its saddle-point form factorizes
@@ -160,9 +165,11 @@ class OrganFem::Worker {
   }
 
   /// Owner: starts a refresh at `state` for the nodes in `slots`.
-  void request(const Eigen::VectorXd& state, const std::vector<NodeSlot>& slots) noexcept {
+  void request(const Eigen::VectorXd& state, const std::vector<NodeSlot>& slots,
+               const std::vector<Patch>& patches) noexcept {
     snapshot_ = state;  // same sizes: copies, no allocation
     std::copy(slots.begin(), slots.end(), slots_.begin());
+    std::copy(patches.begin(), patches.end(), patches_.begin());
     phase_.store(kRequested, std::memory_order_release);
   }
   /// Owner: waits for the requested refresh; true with `spare()` holding the
@@ -202,7 +209,7 @@ class OrganFem::Worker {
                 spare_->factorize(system_.tangent_free(), owner_.pressure_count());
       if (ok)
         for (std::size_t slot = 0; slot < slots_.size(); ++slot)
-          if (slots_[slot].node >= 0 && slots_[slot].held) owner_.respond(*spare_, slot, slots_[slot]);
+          if (slots_[slot].node >= 0 && slots_[slot].held) owner_.respond(*spare_, slot, slots_[slot], patches_);
       phase_.store(ok ? kReady : kFailed, std::memory_order_release);
     }
   }
@@ -211,6 +218,7 @@ class OrganFem::Worker {
   ElasticitySystem system_;  // its own: assembling the tangent writes the system's matrices
   Eigen::VectorXd snapshot_, gradient_;
   std::vector<NodeSlot> slots_;
+  std::vector<Patch> patches_;
   std::unique_ptr<Tangent> spare_;
   std::atomic<int> phase_{kIdle};
   std::atomic<bool> stop_{false};
@@ -310,6 +318,8 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
   slot_of_node_.assign(mesh.nodes.size(), -1);
   holds_.resize(kMaxHolds);
   candidates_.resize(kMaxCandidates);
+  patches_.resize(tools);
+  patch_weight_.assign(mesh.nodes.size(), 0.0);
   node_tool_.assign(mesh.nodes.size(), -1);
   node_holds_.assign(mesh.nodes.size(), 0);
   tangent_ = make_tangent(true);
@@ -351,7 +361,7 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
     tangent_ = make_tangent(true);
     tangent_->factorize(system_->tangent_free(), pressure_count());
     worker_ = std::make_unique<Worker>(*this, *system_, make_tangent(true));
-    worker_->request(state_, node_slots_);
+    worker_->request(state_, node_slots_, patches_);
     worker_->wait();
     worker_->release();
   }
@@ -395,7 +405,9 @@ const char* OrganFem::linear_solver() const noexcept {
 bool OrganFem::attached(std::uint32_t tool) const noexcept { return tool < contacts_.size() && contacts_[tool].active; }
 
 void OrganFem::grasp(std::uint32_t tool, bool grasped) noexcept {
-  if (attached(tool)) contacts_[tool].grasped = grasped;
+  if (!attached(tool)) return;
+  contacts_[tool].grasped = grasped;
+  if (!grasped) contacts_[tool].patch_refused = false;
 }
 
 std::size_t OrganFem::held_points(std::uint32_t tool) const noexcept {
@@ -409,8 +421,15 @@ std::vector<OrganFem::HeldPoint> OrganFem::held_point_displacements(std::uint32_
   std::vector<HeldPoint> points;
   if (attached(tool))
     for (std::size_t k = 0; k < hold_count_; ++k)
-      if (const Hold& h = holds_[k]; h.tool == tool)
-        points.push_back({h.nodes, h.weights, contacts_[tool].target + h.offset});
+      if (const Hold& h = holds_[k]; h.tool == tool) {
+        HeldPoint p;
+        for_each_node(h, [&](std::int32_t node, double weight) {
+          p.nodes.push_back(node);
+          p.weights.push_back(weight);
+        });
+        p.displacement = contacts_[tool].target + h.offset;
+        points.push_back(std::move(p));
+      }
   return points;
 }
 
@@ -430,16 +449,43 @@ Eigen::Vector3d OrganFem::rest_at(const std::array<std::int32_t, 3>& nodes,
   return sum;
 }
 
-void OrganFem::respond(Tangent& tangent, std::size_t slot, const NodeSlot& node) const noexcept {
-  PointLoad load;
-  for (std::size_t i = 0; i < 3; ++i) {
-    const double weight = node.point ? node.point_weights[static_cast<Eigen::Index>(i)] : (i == 0 ? 1.0 : 0.0);
-    if (weight == 0.0) continue;
-    const std::int32_t at = node.point ? node.point_nodes[i] : node.node;
-    load.weights[static_cast<Eigen::Index>(i)] = weight;
-    for (std::size_t k = 0; k < 3; ++k) load.dofs[i][k] = system_->free_index()[static_cast<std::size_t>(3 * at) + k];
+Eigen::Vector3d OrganFem::hold_displacement(const Hold& hold) const noexcept {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for_each_node(hold, [&](std::int32_t node, double weight) {
+    sum += weight * state_.segment<3>(3 * static_cast<Eigen::Index>(node));
+  });
+  return sum;
+}
+
+Eigen::Vector3d OrganFem::hold_rest(const Hold& hold) const noexcept {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for_each_node(hold, [&](std::int32_t node, double weight) {
+    sum += weight * point(node_points_[static_cast<std::size_t>(node)]);
+  });
+  return sum;
+}
+
+void OrganFem::respond(Tangent& tangent, std::size_t slot, const NodeSlot& node,
+                       const std::vector<Patch>& patches) const noexcept {
+  // On the stack: the worker solves responses while the frames go on.
+  std::array<std::array<std::int32_t, 3>, kMaxPatchNodes> dofs;
+  std::array<double, kMaxPatchNodes> weights;
+  std::size_t count = 0;
+  auto load = [&](std::int32_t at, double weight) {
+    if (weight == 0.0) return;
+    weights[count] = weight;
+    for (std::size_t k = 0; k < 3; ++k) dofs[count][k] = system_->free_index()[static_cast<std::size_t>(3 * at) + k];
+    ++count;
+  };
+  if (node.patch >= 0) {
+    const Patch& patch = patches[static_cast<std::size_t>(node.patch)];
+    for (std::size_t i = 0; i < patch.count; ++i) load(patch.nodes[i], patch.weights[i]);
+  } else if (node.point) {
+    for (std::size_t i = 0; i < 3; ++i) load(node.point_nodes[i], node.point_weights[static_cast<Eigen::Index>(i)]);
+  } else {
+    load(node.node, 1.0);
   }
-  tangent.responses->respond(slot, load);
+  tangent.responses->respond(slot, PointLoad{dofs.data(), weights.data(), count});
   tangent.keys[slot] = node.generation;
 }
 
@@ -449,7 +495,7 @@ void OrganFem::respond_all(Tangent& tangent) const noexcept {
   for (std::size_t slot = 0; slot < node_slots_.size(); ++slot) {
     const NodeSlot& n = node_slots_[slot];
     if (n.node >= 0 && node_holds_[static_cast<std::size_t>(n.node)] > 0 && tangent.keys[slot] != n.generation)
-      respond(tangent, slot, n);
+      respond(tangent, slot, n, patches_);
   }
 }
 
@@ -460,7 +506,7 @@ std::int32_t OrganFem::node_slot(std::int32_t node, std::size_t& solves) noexcep
     if (kept().keys[static_cast<std::size_t>(slot)] != n.generation) {
       // Kept from an earlier hold, its response is the tangent's before.
       if (realtime_solves_ && solves >= kJoinsPerFrame) return -1;
-      respond(kept(), static_cast<std::size_t>(slot), n);
+      respond(kept(), static_cast<std::size_t>(slot), n, patches_);
       solved_this_frame_ = true;
       ++solves;
     }
@@ -476,7 +522,7 @@ std::int32_t OrganFem::node_slot(std::int32_t node, std::size_t& solves) noexcep
   n.generation = ++generations_;
   n.used_frame = frame_ + 1;
   slot_of_node_[static_cast<std::size_t>(node)] = static_cast<std::int32_t>(chosen);
-  respond(kept(), chosen, n);
+  respond(kept(), chosen, n, patches_);
   solved_this_frame_ = true;
   ++solves;
   return static_cast<std::int32_t>(chosen);
@@ -511,12 +557,16 @@ bool OrganFem::add_hold(Hold hold, std::size_t& solves, bool as_point) noexcept 
     NodeSlot& n = node_slots_[chosen];
     if (n.node >= 0) slot_of_node_[static_cast<std::size_t>(n.node)] = -1;
     n.point = true;
+    n.patch = hold.patch;
     n.point_nodes = hold.nodes;
     n.point_weights = hold.weights;
-    n.node = hold.nodes[hold.weights[0] != 0.0 ? 0 : hold.weights[1] != 0.0 ? 1 : 2];
+    n.node = hold.patch >= 0 ? patches_[static_cast<std::size_t>(hold.patch)].nodes[0]
+                             : hold.nodes[hold.weights[0] != 0.0   ? 0
+                                          : hold.weights[1] != 0.0 ? 1
+                                                                   : 2];
     n.generation = ++generations_;
     n.used_frame = frame_ + 1;
-    respond(kept(), chosen, n);
+    respond(kept(), chosen, n, patches_);
     solved_this_frame_ = true;
     ++solves;
     hold.point_slot = static_cast<std::int32_t>(chosen);
@@ -529,11 +579,10 @@ bool OrganFem::add_hold(Hold hold, std::size_t& solves, bool as_point) noexcept 
       return false;
     }
   }
-  for (std::size_t i = 0; i < 3; ++i)
-    if (hold.weights[static_cast<Eigen::Index>(i)] != 0.0) {
-      node_tool_[static_cast<std::size_t>(hold.nodes[i])] = static_cast<std::int16_t>(hold.tool);
-      ++node_holds_[static_cast<std::size_t>(hold.nodes[i])];
-    }
+  for_each_node(hold, [&](std::int32_t node, double) {
+    node_tool_[static_cast<std::size_t>(node)] = static_cast<std::int16_t>(hold.tool);
+    ++node_holds_[static_cast<std::size_t>(node)];
+  });
   holds_[hold_count_++] = hold;
   return true;
 }
@@ -541,11 +590,10 @@ bool OrganFem::add_hold(Hold hold, std::size_t& solves, bool as_point) noexcept 
 void OrganFem::release(std::size_t index) noexcept {
   const Hold& h = holds_[index];
   if (h.point_slot >= 0) node_slots_[static_cast<std::size_t>(h.point_slot)] = NodeSlot{};
-  for (std::size_t i = 0; i < 3; ++i)
-    if (h.weights[static_cast<Eigen::Index>(i)] != 0.0) {
-      const auto node = static_cast<std::size_t>(h.nodes[i]);
-      if (--node_holds_[node] == 0) node_tool_[node] = -1;
-    }
+  for_each_node(h, [&](std::int32_t at, double) {
+    const auto node = static_cast<std::size_t>(at);
+    if (--node_holds_[node] == 0) node_tool_[node] = -1;
+  });
   holds_[index] = holds_[--hold_count_];
 }
 
@@ -576,6 +624,10 @@ bool OrganFem::attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, con
   Contact& c = contacts_[tool];
   c.active = true;
   c.grasped = false;
+  c.patch_held = false;
+  c.patch_refused = false;
+  c.first_nodes = h.nodes;
+  c.first_weights = h.weights;
   c.tip = tip;
   c.origin = rest_point + tip.seat;
   c.rest_point = nearest.position;
@@ -590,6 +642,8 @@ void OrganFem::detach(std::uint32_t tool) noexcept {
   if (!attached(tool)) return;
   contacts_[tool].active = false;
   contacts_[tool].grasped = false;
+  contacts_[tool].patch_held = false;
+  contacts_[tool].patch_refused = false;
   contacts_[tool].stiffness.setZero();
   for (std::size_t k = hold_count_; k-- > 0;)
     if (holds_[k].tool == tool) release(k);
@@ -597,12 +651,115 @@ void OrganFem::detach(std::uint32_t tool) noexcept {
   update_stiffness();
 }
 
+bool OrganFem::build_patch(std::uint32_t tool) noexcept {
+  const Contact& c = contacts_[tool];
+  Patch& patch = patches_[tool];
+  patch.count = 0;
+  const double radius = c.tip.radius;
+  const Eigen::Vector3d centre =
+      rest_at(c.first_nodes, c.first_weights) + displacement_at(c.first_nodes, c.first_weights);
+  constexpr double n = kPatchSubdivisions;
+  double total = 0.0;
+  bool overflow = false;
+  for (std::int32_t f : boundary_faces_) {
+    const model::Triangle& face = boundary_.faces[static_cast<std::size_t>(f)];
+    std::array<Eigen::Vector3d, 3> x;
+    bool near = false;
+    for (std::size_t i = 0; i < 3; ++i) {
+      x[i] = point(node_points_[face[i]]) + state_.segment<3>(3 * static_cast<Eigen::Index>(face[i]));
+      near = near || (x[i] - centre).norm() < radius + longest_boundary_edge_;
+    }
+    if (!near) continue;
+    // The face's area within the radius, on its nodes: each sub-triangle's
+    // (upward and downward ones) by the barycentric weights of its centroid.
+    const double sub_area = 0.5 * (x[1] - x[0]).cross(x[2] - x[0]).norm() / (n * n);
+    Eigen::Vector3d weights = Eigen::Vector3d::Zero();
+    auto count_in = [&](double b1, double b2) {
+      const Eigen::Vector3d b(1.0 - b1 - b2, b1, b2);
+      if ((b[0] * x[0] + b[1] * x[1] + b[2] * x[2] - centre).squaredNorm() <= radius * radius) weights += sub_area * b;
+    };
+    for (int i = 0; i < kPatchSubdivisions; ++i)
+      for (int j = 0; i + j < kPatchSubdivisions; ++j) {
+        count_in((i + 1.0 / 3.0) / n, (j + 1.0 / 3.0) / n);
+        if (i + j + 1 < kPatchSubdivisions) count_in((i + 2.0 / 3.0) / n, (j + 2.0 / 3.0) / n);
+      }
+    for (std::size_t i = 0; i < 3; ++i) {
+      const double weight = weights[static_cast<Eigen::Index>(i)];
+      const std::size_t node = face[i];
+      // A clamped node does not move; one another tool holds is not ours.
+      if (weight == 0.0 || system_->free_index()[3 * node] < 0 ||
+          (node_tool_[node] >= 0 && node_tool_[node] != static_cast<std::int16_t>(tool)))
+        continue;
+      if (patch_weight_[node] == 0.0) {
+        if (patch.count == kMaxPatchNodes) {
+          overflow = true;
+          continue;
+        }
+        patch.nodes[patch.count++] = static_cast<std::int32_t>(node);
+      }
+      patch_weight_[node] += weight;
+      total += weight;
+    }
+  }
+  for (std::size_t i = 0; i < patch.count; ++i) {
+    double& weight = patch_weight_[static_cast<std::size_t>(patch.nodes[i])];
+    patch.weights[i] = weight / total;
+    weight = 0.0;
+  }
+  if (overflow) ++hold_overflows_;
+  if (overflow || patch.count == 0) {
+    patch.count = 0;
+    return false;
+  }
+  return true;
+}
+
+bool OrganFem::update_jaws() noexcept {
+  bool changed = false;
+  for (std::uint32_t tool = 0; tool < contacts_.size(); ++tool) {
+    Contact& c = contacts_[tool];
+    if (!c.active || c.tip.is_point()) continue;
+    const bool close = c.grasped && !c.patch_held && !c.patch_refused;
+    const bool open = !c.grasped && c.patch_held;
+    if (!close && !open) continue;
+    Hold h;
+    h.tool = tool;
+    h.bilateral = true;
+    h.outward = -c.tip.axis;
+    if (close) {
+      if (!build_patch(tool)) {
+        c.patch_refused = true;
+        continue;
+      }
+      h.patch = static_cast<std::int32_t>(tool);
+    } else {
+      h.nodes = c.first_nodes;
+      h.weights = c.first_weights;
+    }
+    // Held where it lies, with the force of what it replaces: the frame
+    // starts from the state and the forces the last one ended with.
+    h.offset = hold_displacement(h) - c.target;
+    for (std::size_t k = hold_count_; k-- > 0;)
+      if (holds_[k].tool == tool) {
+        h.force += holds_[k].force;
+        release(k);
+      }
+    std::size_t solves = 0;
+    // The tool's holds are gone: a hold and a response slot are free.
+    add_hold(h, solves, true);
+    c.patch_held = close;
+    changed = true;
+  }
+  return changed;
+}
+
 bool OrganFem::take_points() noexcept {
   bool taken = false;
   std::size_t solves = 0;
   for (std::uint32_t tool = 0; tool < contacts_.size(); ++tool) {
     const Contact& c = contacts_[tool];
-    if (!c.active || c.tip.is_point()) continue;
+    // Closed jaws hold the patch: nothing more enters the tip.
+    if (!c.active || c.tip.is_point() || c.patch_held) continue;
     // The point of each boundary face nearest the capsule's axis, where it
     // lies inside the capsule; one per node, edge or face interior.
     const Eigen::Vector3d tip_point = c.origin + c.target;
@@ -695,8 +852,8 @@ bool OrganFem::crowds_a_hold(const Hold& candidate) const noexcept {
   for (std::size_t a = 0; a < hold_count_; ++a) {
     const Hold& h = holds_[a];
     if (h.tool != candidate.tool) continue;
-    const Eigen::Vector3d held_rest = rest_at(h.nodes, h.weights);
-    const Eigen::Vector3d held_now = held_rest + displacement_at(h.nodes, h.weights);
+    const Eigen::Vector3d held_rest = hold_rest(h);
+    const Eigen::Vector3d held_now = held_rest + hold_displacement(h);
     const Eigen::Vector3d held_target = held_rest + tool_target + h.offset;
     if ((target - held_target).norm() < kMaxTakeCompression * (now - held_now).norm()) return true;
   }
@@ -766,7 +923,7 @@ void OrganFem::end_refresh(bool adopt_it) noexcept {
 
 void OrganFem::request_refresh() noexcept {
   for (NodeSlot& n : node_slots_) n.held = n.node >= 0 && node_holds_[static_cast<std::size_t>(n.node)] > 0;
-  worker_->request(state_, node_slots_);
+  worker_->request(state_, node_slots_, patches_);
   refresh_due_ = frame_ + refresh_frames_;
 }
 
@@ -813,7 +970,7 @@ double OrganFem::iterate(bool& released, bool& unbalanced) noexcept {
       Eigen::Vector3d moved = Eigen::Vector3d::Zero();
       for_each_response(h, [&](std::size_t slot, double weight) { moved += weight * responses.projected(slot); });
       w.gap.segment<3>(static_cast<Eigen::Index>(3 * a)) =
-          contacts_[h.tool].target + h.offset - displacement_at(h.nodes, h.weights) - moved;
+          contacts_[h.tool].target + h.offset - hold_displacement(h) - moved;
     }
     if (w.rows > 0) w.multipliers = w.ldlt.solve(w.gap);
     std::ptrdiff_t worst = -1;
@@ -892,13 +1049,12 @@ double OrganFem::out_of_balance(double fraction) noexcept {
         fraction == 0.0 ? h.force
                         : Eigen::Vector3d((1.0 - fraction) * h.force +
                                           fraction * w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a)));
-    for (std::size_t i = 0; i < 3; ++i) {
-      if (h.weights[static_cast<Eigen::Index>(i)] == 0.0) continue;
+    for_each_node(h, [&](std::int32_t node, double weight) {
       for (int c = 0; c < 3; ++c) {
-        const std::int32_t f = system_->free_index()[static_cast<std::size_t>(3 * h.nodes[i] + c)];
-        if (f >= 0) rhs_[f] -= h.weights[static_cast<Eigen::Index>(i)] * force[c];
+        const std::int32_t f = system_->free_index()[static_cast<std::size_t>(3 * node + c)];
+        if (f >= 0) rhs_[f] -= weight * force[c];
       }
-    }
+    });
   }
   return free > 0 ? rhs_.cwiseAbs().maxCoeff() : 0.0;
 }
@@ -916,7 +1072,7 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
     for (std::size_t slot = 0; slot < node_slots_.size(); ++slot) {
       const NodeSlot& n = node_slots_[slot];
       if (n.node >= 0 && node_holds_[static_cast<std::size_t>(n.node)] > 0 && fresh.keys[slot] != n.generation) {
-        respond(fresh, slot, n);
+        respond(fresh, slot, n, patches_);
         break;
       }
     }
@@ -957,7 +1113,8 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
   }
   for (std::uint32_t t = 0; t < contacts_.size(); ++t)
     if (contacts_[t].active) contacts_[t].target = displacements[t];
-  const bool took = take_points();
+  const bool jaws_changed = update_jaws();
+  const bool took = take_points() || jaws_changed;
   if (took) assemble_capacitance();
 
   saved_ = state_;
@@ -1017,7 +1174,7 @@ Eigen::Vector3d OrganFem::contact_displacement(std::uint32_t tool) const noexcep
   if (tool >= contacts_.size()) return Eigen::Vector3d::Zero();
   if (contacts_[tool].tip.is_point())
     for (std::size_t k = 0; k < hold_count_; ++k)
-      if (holds_[k].tool == tool) return displacement_at(holds_[k].nodes, holds_[k].weights);
+      if (holds_[k].tool == tool) return hold_displacement(holds_[k]);
   return contacts_[tool].target;
 }
 

@@ -7,6 +7,9 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+#include <vector>
+
 #include <Eigen/Dense>
 
 #include "organsim/fem/elasticity_system.h"
@@ -74,13 +77,22 @@ TEST(ContactResponses, CouplingsProjectionsAndStepsAreThoseOfTheInverse) {
     // Single precision: solves to about 1e-7 relative.
     const double tolerance = c.single_precision ? 1e-5 : 1e-9;
 
-    // Three slots: a node, a point of a face (three nodes), and a node of the
-    // far end; slot 0 is first solved for another node, then replaced.
-    auto node_load = [&](std::int32_t node, Eigen::Index unknowns_per_node = 3) {
-      PointLoad load;
-      load.weights[0] = 1.0;
-      for (std::size_t k = 0; k < 3; ++k)
-        load.dofs[0][k] = system->free_index()[static_cast<std::size_t>(unknowns_per_node * node) + k];
+    // Three slots: a node, a patch (twelve nodes with unequal weights), and a
+    // node of the far end; slot 0 is first solved for another node, then
+    // replaced.
+    struct Load {
+      std::vector<std::array<std::int32_t, 3>> dofs;
+      std::vector<double> weights;
+      PointLoad view() const { return {dofs.data(), weights.data(), dofs.size()}; }
+    };
+    auto add_node = [&](Load& load, std::size_t node, double weight) {
+      load.weights.push_back(weight);
+      load.dofs.push_back({});
+      for (std::size_t k = 0; k < 3; ++k) load.dofs.back()[k] = system->free_index()[3 * node + k];
+    };
+    auto node_load = [&](std::int32_t node) {
+      Load load;
+      add_node(load, static_cast<std::size_t>(node), 1.0);
       return load;
     };
     // Nodes by their place: the free end's corner and one halfway along.
@@ -91,22 +103,19 @@ TEST(ContactResponses, CouplingsProjectionsAndStepsAreThoseOfTheInverse) {
       if (std::abs(at[n].x() - 0.02) < 1e-9) halfway = static_cast<std::int32_t>(n);
     ASSERT_GE(system->free_index()[3 * static_cast<std::size_t>(halfway)], 0);
     ASSERT_GT(at[nodes - 1].x(), 0.049);
-    std::array<PointLoad, 3> loads{node_load(static_cast<std::int32_t>(nodes - 1)), PointLoad{}, node_load(halfway)};
-    loads[1].weights = Eigen::Vector3d(0.2, 0.3, 0.5);
-    for (std::size_t i = 0; i < 3; ++i)
-      for (std::size_t k = 0; k < 3; ++k) loads[1].dofs[i][k] = system->free_index()[3 * (nodes - 2 - i) + k];
-    auto columns = [&](const PointLoad& load) {
+    std::array<Load, 3> loads{node_load(static_cast<std::int32_t>(nodes - 1)), Load{}, node_load(halfway)};
+    for (std::size_t i = 0; i < 12; ++i) add_node(loads[1], nodes - 2 - i, (1.0 + static_cast<double>(i)) / 78.0);
+    auto columns = [&](const Load& load) {
       Eigen::MatrixX3d e = Eigen::MatrixX3d::Zero(a.rows(), 3);
-      for (std::size_t i = 0; i < 3; ++i)
+      for (std::size_t i = 0; i < load.dofs.size(); ++i)
         for (std::size_t k = 0; k < 3; ++k)
-          if (load.dofs[i][k] >= 0)
-            e(load.dofs[i][k], static_cast<Eigen::Index>(k)) += load.weights[static_cast<Eigen::Index>(i)];
+          if (load.dofs[i][k] >= 0) e(load.dofs[i][k], static_cast<Eigen::Index>(k)) += load.weights[i];
       return e;
     };
 
     auto responses = ContactResponses::make(*f, a.rows(), 3);
-    responses->respond(0, node_load(static_cast<std::int32_t>(nodes - 3)));
-    for (std::size_t s = 0; s < 3; ++s) responses->respond(s, loads[s]);
+    responses->respond(0, node_load(static_cast<std::int32_t>(nodes - 3)).view());
+    for (std::size_t s = 0; s < 3; ++s) responses->respond(s, loads[s].view());
     for (std::size_t s = 0; s < 3; ++s)
       for (std::size_t t = 0; t < 3; ++t) {
         const Eigen::Matrix3d expected = columns(loads[s]).transpose() * inverse * columns(loads[t]);

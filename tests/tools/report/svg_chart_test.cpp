@@ -11,6 +11,14 @@
 namespace organsim::report {
 namespace {
 
+/// Force axes with a 2 N limit line.
+ChartAxes limit_axes() {
+  ChartAxes axes = labelled_axes("time (s)", "force (N)");
+  axes.line_at = 2.0;
+  axes.line_label = "limit";
+  return axes;
+}
+
 /// The polyline's highest point as a fraction of the plot's height above its bottom.
 double highest_fraction(const std::string& svg) {
   const std::size_t rect = svg.find("<rect ");
@@ -26,7 +34,7 @@ double highest_fraction(const std::string& svg) {
 
 TEST(SvgChart, ASmallForceFillsItsPlotAndAFarLimitIsStatedInWords) {
   const ChartSeries push{"force sent", "#1f77b4", {0.0, 1.0, 2.0, 3.0}, {0.0, 0.02, 0.01, 0.0}};
-  const std::string svg = svg_chart({push}, {"time (s)", "force (N)", 2.0, "limit"});
+  const std::string svg = svg_chart({push}, limit_axes());
   EXPECT_GE(highest_fraction(svg), 0.2) << "a 20 mN push against a 2 N limit";
   EXPECT_EQ(svg.find("stroke-dasharray"), std::string::npos) << "the limit is not drawn far above the data";
   EXPECT_NE(svg.find("limit 2 is above this scale: the peak is 1.0 % of it"), std::string::npos) << svg;
@@ -34,7 +42,7 @@ TEST(SvgChart, ASmallForceFillsItsPlotAndAFarLimitIsStatedInWords) {
 
 TEST(SvgChart, ALimitTheDataComeNearIsDrawn) {
   const ChartSeries push{"force sent", "#1f77b4", {0.0, 1.0, 2.0}, {0.0, 1.5, 0.0}};
-  const std::string svg = svg_chart({push}, {"time (s)", "force (N)", 2.0, "limit"});
+  const std::string svg = svg_chart({push}, limit_axes());
   EXPECT_NE(svg.find("stroke-dasharray"), std::string::npos);
   EXPECT_EQ(svg.find("above this scale"), std::string::npos);
   EXPECT_GE(highest_fraction(svg), 0.6);
@@ -44,7 +52,7 @@ TEST(SvgChart, ALimitTheDataComeNearIsDrawn) {
 // named once in the legend and every span by its tooltip.
 TEST(SvgChart, EventsAreShadedOverTheirTime) {
   const ChartSeries push{"force sent", "#1f77b4", {0.0, 1.0, 2.0, 3.0, 4.0}, {0.0, 0.5, 0.5, 0.5, 0.0}};
-  ChartAxes axes{"time (s)", "force (N)", 2.0, "limit", {}};
+  ChartAxes axes = limit_axes();
   axes.spans = {{1.0, 2.0, "#2ca02c", "grasp"}, {2.5, 3.0, "#2ca02c", "grasp"}};
   const std::string svg = svg_chart({push}, axes);
   std::size_t shaded = 0;
@@ -68,7 +76,7 @@ TEST(SvgChart, EventsAreShadedOverTheirTime) {
 // axis reaching it), a dot per attempt.
 TEST(SvgChart, AnExpertBandIsShadedAndEachAttemptDotted) {
   const ChartSeries attempts{"tool 1", "#1f77b4", {1.0, 2.0, 3.0}, {300.0, 240.0, 180.0}};
-  ChartAxes axes{"attempt", "path length (mm)", 0.0, "", {}};
+  ChartAxes axes = labelled_axes("attempt", "path length (mm)");
   axes.band_low = 100.0;
   axes.band_high = 400.0;
   axes.band_label = "expert band";

@@ -7,7 +7,9 @@
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+#include <string>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 namespace organsim::calculix {
@@ -19,6 +21,7 @@ namespace {
 /// The equations that tie each point's node of its own (numbered after the
 /// mesh's) to the point: per component, Σ wᵢ uᵢ − u = 0, its first term a
 /// DOF no other equation and no boundary condition takes (ccx eliminates it).
+/// ccx reads at most four terms (12 entries) per line.
 void write_point_equations(const fem::StaticProblem& problem, const std::vector<PointDisplacement>& points,
                            std::ostream& out) {
   std::vector<std::array<bool, 3>> taken(problem.mesh.nodes.size(), {false, false, false});
@@ -28,23 +31,32 @@ void write_point_equations(const fem::StaticProblem& problem, const std::vector<
   out << "*EQUATION\n";
   for (std::size_t k = 0; k < points.size(); ++k) {
     const PointDisplacement& point = points[k];
+    if (point.nodes.size() != point.weights.size())
+      throw std::invalid_argument("a held point has " + std::to_string(point.nodes.size()) + " nodes and " +
+                                  std::to_string(point.weights.size()) + " weights");
     const std::size_t own = problem.mesh.nodes.size() + k + 1;
     for (int c = 0; c < 3; ++c) {
-      int first = -1;
-      for (int i = 0; i < 3; ++i)
-        if (point.weights[i] > 1e-12 && !taken[static_cast<std::size_t>(point.nodes[i])][c] &&
-            (first < 0 || point.weights[i] > point.weights[first]))
-          first = i;
+      std::ptrdiff_t first = -1;
+      for (std::size_t i = 0; i < point.nodes.size(); ++i)
+        if (point.weights[i] > 1e-12 && !taken[static_cast<std::size_t>(point.nodes[i])][static_cast<std::size_t>(c)] &&
+            (first < 0 || point.weights[i] > point.weights[static_cast<std::size_t>(first)]))
+          first = static_cast<std::ptrdiff_t>(i);
       if (first < 0)
         throw std::invalid_argument("a held point's nodes are all clamped or tied to other points already");
-      taken[static_cast<std::size_t>(point.nodes[first])][c] = true;
-      int terms = 1;
-      for (int i = 0; i < 3; ++i) terms += point.weights[i] > 1e-12;
-      out << terms << "\n" << point.nodes[first] + 1 << ", " << c + 1 << ", " << point.weights[first];
-      for (int i = 0; i < 3; ++i)
-        if (i != first && point.weights[i] > 1e-12)
-          out << ", " << point.nodes[i] + 1 << ", " << c + 1 << ", " << point.weights[i];
-      out << ", " << own << ", " << c + 1 << ", -1.\n";
+      const auto lead = static_cast<std::size_t>(first);
+      taken[static_cast<std::size_t>(point.nodes[lead])][static_cast<std::size_t>(c)] = true;
+      std::vector<std::pair<std::size_t, double>> terms{
+          {static_cast<std::size_t>(point.nodes[lead]) + 1, point.weights[lead]}};
+      for (std::size_t i = 0; i < point.nodes.size(); ++i)
+        if (i != lead && point.weights[i] > 1e-12)
+          terms.emplace_back(static_cast<std::size_t>(point.nodes[i]) + 1, point.weights[i]);
+      terms.emplace_back(own, -1.0);
+      out << terms.size() << "\n";
+      for (std::size_t t = 0; t < terms.size(); ++t)
+        out << terms[t].first << ", " << c + 1 << ", " << terms[t].second
+            << (t + 1 == terms.size() ? "\n"
+                : t % 4 == 3          ? ",\n"
+                                      : ", ");
     }
   }
 }
@@ -66,8 +78,9 @@ void write_deck(const fem::StaticProblem& problem, const std::filesystem::path& 
     out << "*NODE, NSET=NHELD\n";
     for (std::size_t k = 0; k < points.size(); ++k) {
       Eigen::Vector3d at = Eigen::Vector3d::Zero();
-      for (int i = 0; i < 3; ++i)
-        if (points[k].weights[i] > 1e-12) at += points[k].weights[i] * problem.mesh.nodes[points[k].nodes[i]];
+      for (std::size_t i = 0; i < points[k].nodes.size(); ++i)
+        if (points[k].weights[i] > 1e-12)
+          at += points[k].weights[i] * problem.mesh.nodes[static_cast<std::size_t>(points[k].nodes[i])];
       out << problem.mesh.nodes.size() + k + 1 << ", " << at.x() << ", " << at.y() << ", " << at.z() << "\n";
     }
   }
@@ -155,7 +168,7 @@ Solution solve(const fem::StaticProblem& problem, const std::string& job_name,
   Solution solution{u, Eigen::Vector3d::Zero()};
   std::vector<bool> tied(problem.mesh.nodes.size(), false);
   for (const PointDisplacement& point : points)
-    for (int i = 0; i < 3; ++i)
+    for (std::size_t i = 0; i < point.nodes.size(); ++i)
       if (point.weights[i] > 1e-12) tied[static_cast<std::size_t>(point.nodes[i])] = true;
   for (std::int32_t n : problem.fixed) tied[static_cast<std::size_t>(n)] = false;
   for (const std::string& row : forces) {

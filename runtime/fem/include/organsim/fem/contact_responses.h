@@ -31,12 +31,16 @@
 
 namespace organsim::fem {
 
-/// Unit loads at a material point: weight `weights[i]` on node i's three
-/// free unknowns `dofs[i]` (-1 for a clamped one, and for a node of weight 0),
-/// one load per direction.
+/// Unit loads spread over a few nodes (a material point of a boundary face:
+/// its barycentric weights; or a grasped patch: its area weights): weight
+/// `weights[i]` on node i's three free unknowns `dofs[i]` (-1 for a clamped
+/// one), one load per direction. The arrays are the caller's.
 struct PointLoad {
-  std::array<std::array<std::int32_t, 3>, 3> dofs{{{-1, -1, -1}, {-1, -1, -1}, {-1, -1, -1}}};
-  Eigen::Vector3d weights = Eigen::Vector3d::Zero();
+  /// Most nodes a load spreads over.
+  static constexpr std::size_t kMaxNodes = 256;
+  const std::array<std::int32_t, 3>* dofs = nullptr;
+  const double* weights = nullptr;
+  std::size_t count = 0;
 };
 
 class ContactResponses {

@@ -19,6 +19,15 @@
 //   (unilateral contact). One 3-vector constraint per
 //   held point, enforced exactly through its Lagrange multiplier — the force
 //   the tool applies there; the tool's force is their sum.
+// - Grasp (docs/realtime.md#grasping): jaws that close hold the tip's
+//   footprint, the boundary within the tip's radius of the first touch, as one
+//   patch: its area-weighted mean displacement follows the tool (a
+//   distributing coupling: one 3-vector constraint whose force spreads over
+//   the patch as a uniform traction), in place of the points the tip held.
+//   Held points alone would make a pull's force depend on the mesh (a point
+//   held in an elastic body carries a force that vanishes as the mesh is
+//   refined); a patch of the tip's size converges. Opening holds the first
+//   touch again, where it is.
 // - Frame: one warm-started Newton iteration with a kept tangent (modified
 //   Newton): the internal forces of the current state are evaluated with the
 //   material's full nonlinearity, the correction is solved with the LDLᵀ
@@ -157,9 +166,11 @@ class OrganFem {
   bool attach(std::uint32_t tool, const Eigen::Vector3d& rest_point, const geometry::ToolTip& tip = {}) noexcept;
   void detach(std::uint32_t tool) noexcept;
   bool attached(std::uint32_t tool) const noexcept;
-  /// An attached tool's jaws close on (true) or open from (false) what its
-  /// tip holds: while closed, every point the tip holds is held both ways,
-  /// as the first touch always is (docs/realtime.md#grasping).
+  /// An attached tool's jaws close on (true) or open from (false) the organ.
+  /// The next step makes the change: closed, a finite tip holds its
+  /// footprint's patch (the boundary within its radius of the first touch,
+  /// where it lies then) both ways, a point tip its first touch; open, the
+  /// first touch again (docs/realtime.md#grasping).
   void grasp(std::uint32_t tool, bool grasped) noexcept;
 
   /// One frame: `displacements[tool]` (m) is where each attached tool's
@@ -192,12 +203,13 @@ class OrganFem {
   /// Boundary points the tool holds (1 for a point tool, the first touch and
   /// those a finite tip took in).
   std::size_t held_points(std::uint32_t tool) const noexcept;
-  /// One held point as a prescribed displacement: a boundary face's nodes,
-  /// the point's barycentric weights on them (a weight 0 leaves a node out)
-  /// and the displacement the tool holds it at (m).
+  /// One held point or patch as a prescribed displacement: its nodes, its
+  /// weights on them (a point's barycentric weights on a boundary face's
+  /// nodes; a patch's area weights, summing to 1) and the displacement the
+  /// tool holds Σ wᵢ uᵢ at (m).
   struct HeldPoint {
-    std::array<std::int32_t, 3> nodes{};
-    Eigen::Vector3d weights = Eigen::Vector3d::Zero();
+    std::vector<std::int32_t> nodes;
+    std::vector<double> weights;
     Eigen::Vector3d displacement = Eigen::Vector3d::Zero();
   };
   /// The points `tool` holds now, as prescribed displacements: what an
@@ -214,6 +226,9 @@ class OrganFem {
   static constexpr std::size_t kJoinsPerFrame = 4;
   /// Most points the tools hold together (W has three rows per point).
   static constexpr std::size_t kMaxHolds = 40;
+  /// Most nodes a grasped patch spreads over (beyond them the jaws hold the
+  /// points the tip holds, and hold_overflows() counts it).
+  static constexpr std::size_t kMaxPatchNodes = 256;
 
   /// The contact's first-touch point on the tetrahedral boundary (m).
   Eigen::Vector3d contact_point(std::uint32_t tool) const noexcept;
@@ -257,8 +272,9 @@ class OrganFem {
   /// Or, for a first touch, the response A⁻¹ Σ wᵢ eᵢ of its hold's point as a
   /// whole (`point`): one solve where its three nodes' would take three.
   struct NodeSlot {
-    std::int32_t node = -1;  ///< the node; for a point, its first weighted node (-1: free)
-    bool point = false;      ///< the load is the point's, not the node's
+    std::int32_t node = -1;   ///< the node; for a point or patch, its first weighted node (-1: free)
+    bool point = false;       ///< the load is the point's or the patch's, not the node's
+    std::int32_t patch = -1;  ///< the tool whose grasped patch (patches_) the load is, or -1
     std::array<std::int32_t, 3> point_nodes{};
     Eigen::Vector3d point_weights = Eigen::Vector3d::Zero();
     std::uint64_t generation = 0;  ///< keys its responses in a tangent
@@ -270,7 +286,8 @@ class OrganFem {
   /// or a node).
   struct Hold {
     std::uint32_t tool = 0;
-    bool bilateral = false;  ///< the first touch: held both ways
+    bool bilateral = false;   ///< the first touch or a grasped patch: held both ways
+    std::int32_t patch = -1;  ///< the tool whose grasped patch this is (its nodes in patches_; `nodes` unused), or -1
     std::array<std::int32_t, 3> nodes{};
     std::array<std::int32_t, 3> slots{};  ///< their NodeSlots (-1 for a weight 0, and with `point_slot`)
     std::int32_t point_slot = -1;         ///< the NodeSlot of the point's own response (first touch), or -1
@@ -287,7 +304,17 @@ class OrganFem {
     Eigen::Vector3d rest_point = Eigen::Vector3d::Zero();  ///< m: the first-touch point on the boundary
     Eigen::Vector3d target = Eigen::Vector3d::Zero();      ///< the tool displacement of the last step
     Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();
-    bool grasped = false;  ///< the jaws hold every point the tip holds both ways
+    bool grasped = false;                       ///< the jaws are closed
+    bool patch_held = false;                    ///< a hold of its footprint's patch replaces its points
+    bool patch_refused = false;                 ///< closed, but the patch found no room: the points are held both ways
+    std::array<std::int32_t, 3> first_nodes{};  ///< the first touch's face
+    Eigen::Vector3d first_weights = Eigen::Vector3d::Zero();  ///< and its place on it
+  };
+  /// A grasped patch: nodes and their area weights (summing to 1).
+  struct Patch {
+    std::array<std::int32_t, kMaxPatchNodes> nodes{};
+    std::array<double, kMaxPatchNodes> weights{};
+    std::size_t count = 0;
   };
   struct Tangent;
   struct Capacitance;
@@ -300,8 +327,10 @@ class OrganFem {
   Eigen::Vector3d rest_at(const std::array<std::int32_t, 3>& nodes, const Eigen::Vector3d& weights) const noexcept;
   /// An empty tangent with the options' factorization, analyzed.
   std::unique_ptr<Tangent> make_tangent(bool realtime_solve) const;
-  /// A⁻¹ e of `node` (held in `slot`) with `tangent` (contact_responses.h).
-  void respond(Tangent& tangent, std::size_t slot, const NodeSlot& node) const noexcept;
+  /// A⁻¹ e of `node` (held in `slot`) with `tangent` (contact_responses.h);
+  /// a patch's nodes are read from `patches`.
+  void respond(Tangent& tangent, std::size_t slot, const NodeSlot& node,
+               const std::vector<Patch>& patches) const noexcept;
   /// Solves the responses `tangent` lacks for the used node slots.
   void respond_all(Tangent& tangent) const noexcept;
   /// The slot of `node`'s responses, solving them when it has none and the
@@ -324,6 +353,31 @@ class OrganFem {
       if (hold.slots[j] >= 0) term(static_cast<std::size_t>(hold.slots[j]), hold.weights[static_cast<Eigen::Index>(j)]);
   }
   void release(std::size_t index) noexcept;
+  /// Calls `visit(node, weight)` for each node a hold weighs.
+  template <typename Visit>
+  void for_each_node(const Hold& hold, Visit visit) const noexcept {
+    if (hold.patch >= 0) {
+      const Patch& patch = patches_[static_cast<std::size_t>(hold.patch)];
+      for (std::size_t i = 0; i < patch.count; ++i) visit(patch.nodes[i], patch.weights[i]);
+      return;
+    }
+    for (std::size_t i = 0; i < 3; ++i)
+      if (hold.weights[static_cast<Eigen::Index>(i)] != 0.0)
+        visit(hold.nodes[i], hold.weights[static_cast<Eigen::Index>(i)]);
+  }
+  /// A hold's point (or patch mean) displaced now, and at rest (m).
+  Eigen::Vector3d hold_displacement(const Hold& hold) const noexcept;
+  Eigen::Vector3d hold_rest(const Hold& hold) const noexcept;
+  /// Fills patches_[tool] with the boundary within the tool's tip radius of
+  /// its first touch (where both lie now): each face's area there, found by
+  /// 8 × 8 sub-triangles, spread on its nodes by their barycentric weights,
+  /// less clamped nodes and other tools' nodes. False when empty or too large.
+  bool build_patch(std::uint32_t tool) noexcept;
+  /// The jaws' changes since the last step (grasp()): closed, the patch's hold
+  /// replaces the tool's points; opened, the first touch's replaces the
+  /// patch's. Each held where it lies, with the force of what it replaces.
+  /// True when the holds changed.
+  bool update_jaws() noexcept;
   /// Finite tips: takes the boundary points inside them that weigh a node
   /// the tool does not hold yet, deepest first. True when it took one.
   bool take_points() noexcept;
@@ -386,6 +440,8 @@ class OrganFem {
   std::vector<Hold> holds_;                   ///< capacity kMaxHolds
   std::size_t hold_count_ = 0;
   std::vector<Hold> candidates_;           ///< scratch for take_points
+  std::vector<Patch> patches_;             ///< per tool: its grasped patch
+  std::vector<double> patch_weight_;       ///< per node: scratch for build_patch (zero between calls)
   std::vector<std::int16_t> node_tool_;    ///< per node: the tool whose holds weigh it, or -1
   std::vector<std::uint16_t> node_holds_;  ///< per node: how many holds weigh it
   std::uint64_t generations_ = 0;

@@ -74,17 +74,21 @@ class SpringModel final : public DeformationModel {
     tools_[tool].grasp.open();
   }
 
-  /// Held in the jaws, a finite tip keeps every node it holds, also those it
-  /// pulls; a matched contact goes on past the rest surface with the site's
-  /// bonded stiffness.
+  /// Closing, a finite tip takes hold of its footprint, the free surface
+  /// nodes within its radius of the first touch, each where it lies (the FEM
+  /// models' patch, node by node); held, it keeps every node it holds, also
+  /// those it pulls. A matched contact goes on past the rest surface with the
+  /// site's bonded stiffness.
   void set_grasp(std::uint32_t tool, bool grasped) noexcept override {
     if (tool >= tools_.size() || !tools_[tool].attached) return;
     Tool& t = tools_[tool];
+    const bool closing = grasped && !t.grasped;
     t.grasped = grasped;
     if (!grasped)
       t.grasp.open();
     else if (t.matched && !t.grasp.held)
       t.grasp.close(t.law, t.displacement);
+    if (closing && !t.tip.is_point()) hold_footprint(tool);
   }
 
   bool step(double dt, const Eigen::Vector3d* displacements, model::Point3* positions, model::Point3* normals,
@@ -190,6 +194,24 @@ class SpringModel final : public DeformationModel {
     std::size_t count = 0;
     for (const Hold& h : holds_) count += h.used && h.tool == tool;
     return count;
+  }
+
+  void hold_footprint(std::uint32_t tool) noexcept {
+    const Tool& t = tools_[tool];
+    const Hold* first = nullptr;
+    for (const Hold& h : holds_)
+      if (h.used && h.first && h.tool == tool) first = &h;
+    if (!first) return;
+    const Eigen::Vector3d centre = simulation_.position(first->node);
+    const auto& rest = simulation_.network().rest;
+    std::size_t held = holds_of(tool);
+    for (std::uint32_t node = 0; node < organ_.vertex_count() && held < kHoldsPerTool; ++node) {
+      if (holder_[node] != kFree || simulation_.network().fixed[node]) continue;
+      const Eigen::Vector3d& x = simulation_.position(node);
+      if ((x - centre).norm() > t.tip.radius) continue;
+      hold(tool, node, x - rest[node] - t.displacement, -t.tip.axis);
+      ++held;
+    }
   }
 
   /// Finite tips: let go of the nodes they pull on, take in the free surface

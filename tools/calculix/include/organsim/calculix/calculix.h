@@ -22,14 +22,15 @@
 
 namespace organsim::calculix {
 
-/// A material point of the mesh moved by a prescribed displacement: the
-/// barycentric combination `weights` of `nodes` (a weight 0 leaves a node out)
-/// is held at `displacement` (m), as a grasp holds the points of its patch. In
-/// the deck: a node of its own held at the displacement (*BOUNDARY) and tied to
-/// the point, Σ wᵢ uᵢ − u = 0 per component (*EQUATION).
+/// A material point or patch of the mesh moved by a prescribed displacement:
+/// the combination Σ wᵢ uᵢ of `nodes` with `weights` (a point's barycentric
+/// weights on a face's nodes, or a grasped patch's area weights; a weight 0
+/// leaves a node out) is held at `displacement` (m), as a grasp holds its
+/// patch. In the deck: a node of its own held at the displacement (*BOUNDARY)
+/// and tied to the point, Σ wᵢ uᵢ − u = 0 per component (*EQUATION).
 struct PointDisplacement {
-  std::array<std::int32_t, 3> nodes{};
-  Eigen::Vector3d weights = Eigen::Vector3d::Zero();
+  std::vector<std::int32_t> nodes;
+  std::vector<double> weights;
   Eigen::Vector3d displacement = Eigen::Vector3d::Zero();
 };
 
