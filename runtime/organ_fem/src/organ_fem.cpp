@@ -1111,9 +1111,10 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
       ++late_refreshes_;
     }
   }
+  // The jaws close (or open) where the tool was: what they take moves with it from there.
+  const bool jaws_changed = update_jaws();
   for (std::uint32_t t = 0; t < contacts_.size(); ++t)
     if (contacts_[t].active) contacts_[t].target = displacements[t];
-  const bool jaws_changed = update_jaws();
   const bool took = take_points() || jaws_changed;
   if (took) assemble_capacitance();
 
