@@ -449,6 +449,13 @@ Eigen::Vector3d OrganFem::rest_at(const std::array<std::int32_t, 3>& nodes,
   return sum;
 }
 
+std::array<Eigen::Vector3d, 3> OrganFem::face_now(const model::Triangle& face) const noexcept {
+  std::array<Eigen::Vector3d, 3> x;
+  for (std::size_t i = 0; i < 3; ++i)
+    x[i] = point(node_points_[face[i]]) + state_.segment<3>(3 * static_cast<Eigen::Index>(face[i]));
+  return x;
+}
+
 Eigen::Vector3d OrganFem::hold_displacement(const Hold& hold) const noexcept {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   for_each_node(hold, [&](std::int32_t node, double weight) {
@@ -663,13 +670,11 @@ bool OrganFem::build_patch(std::uint32_t tool) noexcept {
   bool overflow = false;
   for (std::int32_t f : boundary_faces_) {
     const model::Triangle& face = boundary_.faces[static_cast<std::size_t>(f)];
-    std::array<Eigen::Vector3d, 3> x;
-    bool near = false;
-    for (std::size_t i = 0; i < 3; ++i) {
-      x[i] = point(node_points_[face[i]]) + state_.segment<3>(3 * static_cast<Eigen::Index>(face[i]));
-      near = near || (x[i] - centre).norm() < radius + longest_boundary_edge_;
-    }
-    if (!near) continue;
+    const std::array<Eigen::Vector3d, 3> x = face_now(face);
+    if (std::none_of(x.begin(), x.end(), [&](const Eigen::Vector3d& corner) {
+          return (corner - centre).norm() < radius + longest_boundary_edge_;
+        }))
+      continue;
     // The face's area within the radius, on its nodes: each sub-triangle's
     // (upward and downward ones) by the barycentric weights of its centroid.
     const double sub_area = 0.5 * (x[1] - x[0]).cross(x[2] - x[0]).norm() / (n * n);
@@ -768,10 +773,9 @@ bool OrganFem::take_points() noexcept {
     std::size_t found = 0;
     for (std::int32_t f : boundary_faces_) {
       const model::Triangle& face = boundary_.faces[static_cast<std::size_t>(f)];
-      std::array<Eigen::Vector3d, 3> x;
+      const std::array<Eigen::Vector3d, 3> x = face_now(face);
       bool near = false;
       for (std::size_t i = 0; i < 3; ++i) {
-        x[i] = point(node_points_[face[i]]) + state_.segment<3>(3 * static_cast<Eigen::Index>(face[i]));
         const double along = std::clamp((x[i] - centre).dot(c.tip.axis), 0.0, c.tip.shaft_length);
         near = near || (x[i] - centre - along * c.tip.axis).norm() < reach;
       }

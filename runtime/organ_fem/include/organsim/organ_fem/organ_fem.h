@@ -365,6 +365,8 @@ class OrganFem {
       if (hold.weights[static_cast<Eigen::Index>(i)] != 0.0)
         visit(hold.nodes[i], hold.weights[static_cast<Eigen::Index>(i)]);
   }
+  /// A boundary face's corners where they are now (m).
+  std::array<Eigen::Vector3d, 3> face_now(const model::Triangle& face) const noexcept;
   /// A hold's point (or patch mean) displaced now, and at rest (m).
   Eigen::Vector3d hold_displacement(const Hold& hold) const noexcept;
   Eigen::Vector3d hold_rest(const Hold& hold) const noexcept;
