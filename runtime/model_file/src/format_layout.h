@@ -51,7 +51,7 @@ inline constexpr std::uint32_t kMaterialFieldsV1 = 5;
 inline constexpr std::uint32_t kMaterialFieldsV1_1 = 7;
 inline constexpr std::uint32_t kBeamFieldsV1 = 7;
 /// Format 1.2's site compliance: reals per vertex (a symmetric 3×3 matrix),
-/// and the most depth-curve points a file may hold.
+/// and the most points a depth curve (or, format 1.6, a pull curve) may hold.
 inline constexpr std::uint32_t kSiteFieldsV1_2 = 6;
 inline constexpr std::uint64_t kMaxDepthCurvePoints = 256;
 /// Format 1.3's site curvature: reals per vertex (κ₁, κ₂).
@@ -60,6 +60,8 @@ inline constexpr std::uint32_t kCurvatureFieldsV1_3 = 2;
 inline constexpr std::uint32_t kMeshingFieldsV1_4 = 3;
 /// Format 1.5's supports: reals per surface vertex (kind, foundation modulus).
 inline constexpr std::uint32_t kSupportFieldsV1_5 = 2;
+/// Format 1.6's pull curve: reals per point (distance, softening).
+inline constexpr std::uint32_t kPullFieldsV1_6 = 2;
 
 enum class Section {
   Metadata,
@@ -74,7 +76,8 @@ enum class Section {
   SiteCompliance,
   SiteCurvature,
   Meshing,
-  Supports
+  Supports,
+  PullCurve
 };
 
 struct SectionDescription {
@@ -99,6 +102,7 @@ inline constexpr SectionDescription kSections[] = {
     {Section::SiteCurvature, "CURV", "site curvature", false},
     {Section::Meshing, "MESH", "meshing", false},
     {Section::Supports, "SUPP", "supports", false},
+    {Section::PullCurve, "PULL", "pull curve", false},
 };
 
 inline const SectionDescription& describe(Section id) { return kSections[static_cast<std::size_t>(id)]; }

@@ -140,6 +140,12 @@ std::vector<std::uint8_t> encode_section(Section id, const OrganModel& m) {
       w.put<std::uint32_t>(0);
       w.put_array(m.supports.vertices);
       break;
+    case Section::PullCurve:
+      w.put<std::uint32_t>(format::kPullFieldsV1_6);
+      w.put<std::uint32_t>(0);
+      w.put<double>(m.sites.pull_tip_radius);
+      w.put_array(m.sites.pull_curve);
+      break;
   }
   return w.take();
 }
@@ -154,6 +160,7 @@ bool section_present(Section id, const OrganModel& m) {
     case Section::SiteCurvature: return !m.sites.curvature.empty();
     case Section::Meshing: return !m.meshing.empty();
     case Section::Supports: return !m.supports.empty();
+    case Section::PullCurve: return !m.sites.pull_curve.empty();
     default: return true;
   }
 }
@@ -323,6 +330,21 @@ void read_sites(const std::uint8_t* data, std::size_t size, SiteCompliance& site
         id, "the vertex count does not match the payload of " + std::to_string(size) + " bytes; " + kDamagedAdvice);
   sites.compliance.resize(static_cast<std::size_t>(vertices));
   if (vertices > 0) std::memcpy(sites.compliance.data(), r.here(), static_cast<std::size_t>(vertices) * kVertexBytes);
+}
+
+void read_pull_curve(const std::uint8_t* data, std::size_t size, SiteCompliance& sites) {
+  const Section id = Section::PullCurve;
+  PayloadReader r(data, size);
+  std::uint32_t fields = 0, reserved = 0;
+  if (!r.get(fields) || !r.get(reserved) || !r.get(sites.pull_tip_radius))
+    fail_section(id, std::string("payload too short for its header; ") + kDamagedAdvice);
+  if (fields != format::kPullFieldsV1_6)
+    fail_section(id, "field count " + std::to_string(fields) + " is not " + std::to_string(format::kPullFieldsV1_6) +
+                         "; " + kDamagedAdvice);
+  sites.pull_curve = read_array<double, 2>(id, r.here(), r.remaining());
+  if (sites.pull_curve.size() > format::kMaxDepthCurvePoints)
+    fail_section(id, "the pull curve has more than " + std::to_string(format::kMaxDepthCurvePoints) + " points; " +
+                         kDamagedAdvice);
 }
 
 /// A section of a field count (`fields`), a reserved word and a pair of
@@ -654,6 +676,7 @@ OrganModel read_sections(const std::uint8_t* data, const SectionIndex& index, co
   if (index.has(Section::Supports))
     m.supports.vertices = read_vertex_pairs(Section::Supports, format::kSupportFieldsV1_5, payload(Section::Supports),
                                             bytes(Section::Supports));
+  if (index.has(Section::PullCurve)) read_pull_curve(payload(Section::PullCurve), bytes(Section::PullCurve), m.sites);
   if (const auto issue = find_model_issue(m, beams_plausible))
     fail_section(issue->section, issue->message + "; " + kDamagedAdvice);
   return m;

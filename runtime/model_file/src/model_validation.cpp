@@ -126,6 +126,26 @@ std::string site_compliance_issue(const OrganModel& m) {
   return {};
 }
 
+/// What is wrong with the pull curve, or "".
+std::string pull_curve_issue(const OrganModel& m) {
+  const SiteCompliance& sites = m.sites;
+  if (!sites.pull_curve.empty() && sites.empty()) return "a pull curve without site compliances";
+  if (!(std::isfinite(sites.pull_tip_radius) && sites.pull_tip_radius >= 0))
+    return "the pull curve's tip radius must be a length >= 0";
+  if (!sites.pull_curve.empty() && !(sites.pull_tip_radius > 0))
+    return "a pull curve needs the tip radius it was fitted with";
+  double last = -1.0;
+  for (const auto& [distance, softening] : sites.pull_curve) {
+    if (!(std::isfinite(distance) && distance > last && distance >= 0))
+      return "the pull curve's distances must be finite, >= 0 and increasing";
+    if (!(std::isfinite(softening) && softening > 0 && softening <= SiteCompliance::kMaxSoftening))
+      return "the pull curve's softenings must be positive numbers up to " +
+             std::to_string(static_cast<int>(SiteCompliance::kMaxSoftening));
+    last = distance;
+  }
+  return {};
+}
+
 }  // namespace
 
 // One pass with no chain of dependent additions (a running sum of x - x, the
@@ -212,6 +232,7 @@ std::optional<ModelIssue> find_model_issue(const OrganModel& m, bool beam_values
     return issue(format::Section::Material, "the beam and spring stiffness scales must be positive");
 
   if (auto e = site_compliance_issue(m); !e.empty()) return issue(format::Section::SiteCompliance, e);
+  if (auto e = pull_curve_issue(m); !e.empty()) return issue(format::Section::PullCurve, e);
   if (auto e = site_curvature_issue(m); !e.empty()) return issue(format::Section::SiteCurvature, e);
   if (auto e = meshing_issue(m); !e.empty()) return issue(format::Section::Meshing, e);
   if (auto e = supports_issue(m); !e.empty()) return issue(format::Section::Supports, e);

@@ -24,6 +24,25 @@ Eigen::Matrix3d unpacked(const std::array<double, 6>& c) {
 constexpr int kIndentationIterations = 60;
 constexpr double kIndentationTolerance = 1e-12;  // of the normal depth
 
+/// A curve of pairs (x, value), x increasing: linear between the pairs, held
+/// beyond the ends.
+double curve_value(const std::vector<std::array<double, 2>>& c, double x) noexcept {
+  if (x <= c.front()[0]) return c.front()[1];
+  for (std::size_t i = 1; i < c.size(); ++i)
+    if (x <= c[i][0]) {
+      const double w = (x - c[i - 1][0]) / (c[i][0] - c[i - 1][0]);
+      return (1.0 - w) * c[i - 1][1] + w * c[i][1];
+    }
+  return c.back()[1];
+}
+
+/// d value / dx of `curve_value` (0 beyond the ends).
+double curve_slope(const std::vector<std::array<double, 2>>& c, double x) noexcept {
+  for (std::size_t i = 1; i < c.size(); ++i)
+    if (x >= c[i - 1][0] && x < c[i][0]) return (c[i][1] - c[i - 1][1]) / (c[i][0] - c[i - 1][0]);
+  return 0.0;
+}
+
 }  // namespace
 
 Eigen::Matrix3d punch_compliance(double young, double poisson, double radius, const Eigen::Vector3d& normal) noexcept {
@@ -57,11 +76,12 @@ bool SiteLaw::set(const Organ& organ, const geometry::SurfacePoint& at, double t
   Eigen::Matrix3d stiffness;
   bool invertible = false;
   double determinant = 0.0;
-  (compliance + punch_compliance(sites.young_modulus, sites.poisson_ratio, tip_radius, normal))
-      .computeInverseAndDetWithCheck(stiffness, determinant, invertible);
+  const Eigen::Matrix3d punch = punch_compliance(sites.young_modulus, sites.poisson_ratio, tip_radius, normal);
+  (compliance + punch).computeInverseAndDetWithCheck(stiffness, determinant, invertible);
   if (!invertible || !stiffness.allFinite()) return false;
   stiffness_ = 0.5 * (stiffness + stiffness.transpose());
   organ_compliance_ = compliance;
+  punch_compliance_ = punch;
   normal_ = normal;
   organ_normal_compliance_ = std::max(0.0, normal.dot(compliance * normal));
   radius_ = tip_radius;
@@ -78,6 +98,8 @@ bool SiteLaw::set(const Organ& organ, const geometry::SurfacePoint& at, double t
   shear_ = sites.young_modulus / (2.0 * (1.0 + poisson_));
   curve_ = sites.depth_curve.empty() ? nullptr : &sites.depth_curve;
   curve_depth_scale_ = curve_ ? sites.curve_tip_radius / tip_radius : 1.0;
+  pull_curve_ = sites.pull_curve.empty() ? nullptr : &sites.pull_curve;
+  pull_distance_scale_ = pull_curve_ ? sites.pull_tip_radius / tip_radius : 1.0;
   return true;
 }
 
@@ -135,25 +157,28 @@ SiteLaw::Secant SiteLaw::secant(double normal_depth, bool with_derivative) const
 }
 
 double SiteLaw::depth_factor(double depth) const noexcept {
-  if (!curve_) return 1.0;
-  const std::vector<std::array<double, 2>>& c = *curve_;
-  const double x = depth * curve_depth_scale_;
-  if (x <= c.front()[0]) return c.front()[1];
-  for (std::size_t i = 1; i < c.size(); ++i)
-    if (x <= c[i][0]) {
-      const double w = (x - c[i - 1][0]) / (c[i][0] - c[i - 1][0]);
-      return (1.0 - w) * c[i - 1][1] + w * c[i][1];
-    }
-  return c.back()[1];
+  return curve_ ? curve_value(*curve_, depth * curve_depth_scale_) : 1.0;
 }
 
 double SiteLaw::depth_slope(double depth) const noexcept {
-  if (!curve_) return 0.0;
-  const std::vector<std::array<double, 2>>& c = *curve_;
-  const double x = depth * curve_depth_scale_;
-  for (std::size_t i = 1; i < c.size(); ++i)
-    if (x >= c[i - 1][0] && x < c[i][0]) return (c[i][1] - c[i - 1][1]) / (c[i][0] - c[i - 1][0]) * curve_depth_scale_;
-  return 0.0;
+  return curve_ ? curve_slope(*curve_, depth * curve_depth_scale_) * curve_depth_scale_ : 0.0;
+}
+
+double SiteLaw::pull_softening(double pulled) const noexcept {
+  return pull_curve_ ? curve_value(*pull_curve_, pulled * pull_distance_scale_) : 1.0;
+}
+
+double SiteLaw::pull_softening_slope(double pulled) const noexcept {
+  return pull_curve_ ? curve_slope(*pull_curve_, pulled * pull_distance_scale_) * pull_distance_scale_ : 0.0;
+}
+
+Eigen::Matrix3d SiteLaw::held_stiffness(double softening) const noexcept {
+  Eigen::Matrix3d stiffness;
+  bool invertible = false;
+  double determinant = 0.0;
+  (organ_compliance_ + softening * punch_compliance_).computeInverseAndDetWithCheck(stiffness, determinant, invertible);
+  if (!invertible || !stiffness.allFinite()) return Eigen::Matrix3d::Zero();
+  return 0.5 * (stiffness + stiffness.transpose());
 }
 
 Eigen::Vector3d SiteLaw::force(const Eigen::Vector3d& d) const noexcept {
@@ -166,6 +191,23 @@ Eigen::Matrix3d SiteLaw::tangent(const Eigen::Vector3d& d) const noexcept {
   const Secant s = secant(-normal_.dot(d), true);
   Eigen::Matrix3d t = depth_factor(depth) * (s.stiffness - (s.derivative * d) * normal_.transpose());
   if (depth > 0.0) t += depth_slope(depth) * (s.stiffness * d) * (d / depth).transpose();
+  return 0.5 * (t + t.transpose());
+}
+
+Eigen::Vector3d SiteGrasp::force(const SiteLaw& law, const Eigen::Vector3d& displacement) const noexcept {
+  const Eigen::Vector3d drawn = displacement - closed_at;
+  return closing_force - law.held_stiffness(law.pull_softening(drawn.norm())) * drawn;
+}
+
+Eigen::Matrix3d SiteGrasp::tangent(const SiteLaw& law, const Eigen::Vector3d& displacement) const noexcept {
+  // F = F_g − K(s(u)) w, w = d − d_g, u = |w|; dK/ds = −K C_punch K.
+  const Eigen::Vector3d drawn = displacement - closed_at;
+  const double pulled = drawn.norm();
+  const Eigen::Matrix3d stiffness = law.held_stiffness(law.pull_softening(pulled));
+  Eigen::Matrix3d t = stiffness;
+  if (pulled > 0.0)
+    t -= law.pull_softening_slope(pulled) * (stiffness * law.tip_compliance() * stiffness * drawn) *
+         (drawn / pulled).transpose();
   return 0.5 * (t + t.transpose());
 }
 

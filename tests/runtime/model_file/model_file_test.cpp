@@ -43,6 +43,8 @@ model::OrganModel small_model() {
   m.sites.depth_curve = {{{0.0, 1.0}}, {{0.005, 1.4}}, {{0.010, 2.1}}};
   m.sites.curve_tip_radius = 0.0025;
   for (std::size_t v = 0; v < m.surface_vertices.size(); ++v) m.sites.curvature.push_back({40.0 + 1e-2 * v, -5.0});
+  m.sites.pull_curve = {{{0.0, 1.0}}, {{0.007, 2.2}}, {{0.012, 3.1}}};
+  m.sites.pull_tip_radius = 0.0025;
   m.meshing = {0.004, 0.01, 0.0025};
   for (std::size_t v = 0; v < m.surface_vertices.size(); ++v)
     m.supports.vertices.push_back(v % 3 == 0 ? std::array<double, 2>{0.0, 0.0}
@@ -88,7 +90,7 @@ TEST(ModelFile, RoundTripOfEverySection) {
   std::set<std::string> tags;
   for (const auto& s : r.file.sections) tags.insert(s.tag);
   EXPECT_EQ(tags, (std::set<std::string>{"META", "SVRT", "STRI", "SUVC", "TVRT", "TETS", "FIXP", "MATL", "BEAM", "SITE",
-                                         "CURV", "MESH", "SUPP"}));
+                                         "CURV", "MESH", "SUPP", "PULL"}));
   EXPECT_EQ(r.file.version.major, 1);
   EXPECT_EQ(r.file.file_bytes, bytes.size());
 }
@@ -179,7 +181,7 @@ TEST(ModelFile, TruncationInsideHeaderAndTable) {
 TEST(ModelFile, TruncationAtAndInsideEverySection) {
   const auto bytes = encoded();
   const auto sections = list_sections(bytes);
-  ASSERT_EQ(sections.size(), 13u);
+  ASSERT_EQ(sections.size(), 14u);
   for (const auto& s : sections) {
     EXPECT_ERROR(std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + s.offset),
                  "truncated at the start of section '" + s.tag + "'");
@@ -226,7 +228,7 @@ TEST(ModelFile, FutureMajorVersionIsRefusedWithBothVersions) {
   poke<std::uint16_t>(bytes, 8, 2);
   poke<std::uint16_t>(bytes, 10, 3);
   refresh_checksums(bytes);
-  EXPECT_ERROR(bytes, "format version 2.3 but this organsim reads format 1.5");
+  EXPECT_ERROR(bytes, "format version 2.3 but this organsim reads format 1.6");
 }
 
 TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
@@ -234,7 +236,7 @@ TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
   const auto suvc = find_section(bytes, "SUVC");
   std::memcpy(bytes.data() + suvc.table_entry, "XTRA", 4);
   refresh_checksums(bytes);
-  EXPECT_ERROR(bytes, "section 'XTRA' is unknown in a format 1.5 file");
+  EXPECT_ERROR(bytes, "section 'XTRA' is unknown in a format 1.6 file");
 
   poke<std::uint16_t>(bytes, 10, model::kModelFormatVersion.minor + 1);
   refresh_checksums(bytes);
@@ -321,6 +323,55 @@ TEST(ModelFile, FormatOnePointFourFileWithoutSupportsLoads) {
   EXPECT_TRUE(*r.model == without);
 }
 
+TEST(ModelFile, FormatOnePointFiveFileWithoutAPullCurveLoads) {
+  // A 1.5 writer knew no PULL section: a grasp holds as the bonded punch.
+  model::OrganModel without = small_model();
+  without.sites.pull_curve.clear();
+  without.sites.pull_tip_radius = 0.0;
+  auto bytes = model::serialize_organ_model(without);
+  EXPECT_THROW(find_section(bytes, "PULL"), std::exception);
+  poke<std::uint16_t>(bytes, 10, 5);
+  refresh_checksums(bytes);
+  const model::ModelReadResult r = model::parse_organ_model(bytes.data(), bytes.size(), "x");
+  ASSERT_TRUE(r) << r.error;
+  EXPECT_EQ(r.file.version.minor, 5);
+  EXPECT_TRUE(r.model->sites.pull_curve.empty());
+  EXPECT_TRUE(*r.model == without);
+}
+
+TEST(ModelFile, ImplausiblePullCurvesAreRefused) {
+  const auto original = encoded();
+  const auto pull = find_section(original, "PULL");
+  // Header: fields, reserved, tip radius; the curve (count, pairs).
+  const std::size_t first_point = pull.offset + 8 + 8 + 8;
+  auto check = [&](std::size_t at, double value, const char* what) {
+    auto bytes = original;
+    poke<double>(bytes, at, value);
+    refresh_checksums(bytes);
+    EXPECT_ERROR(bytes, "section 'PULL' (pull curve): ");
+    EXPECT_ERROR(bytes, what);
+  };
+  check(pull.offset + 8, 0.0, "needs the tip radius");
+  check(pull.offset + 8, -1.0, "tip radius must be a length");
+  check(first_point + 16, 0.0, "increasing");  // the second distance equals the first
+  check(first_point + 8, 0.0, "softenings must be positive");
+  check(first_point + 8, 1e4, "softenings must be positive numbers up to 1000");
+  check(first_point + 24, std::nan(""), "softenings");
+  auto fields = original;
+  poke<std::uint32_t>(fields, pull.offset, 3u);
+  refresh_checksums(fields);
+  EXPECT_ERROR(fields, "section 'PULL' (pull curve): field count 3 is not 2");
+  auto count = original;
+  poke<std::uint64_t>(count, first_point - 8, 1000);
+  refresh_checksums(count);
+  EXPECT_ERROR(count, "item count 1000 does not match");
+  model::OrganModel orphan = small_model();
+  orphan.sites = {};
+  orphan.sites.pull_curve = {{{0.0, 1.0}}};
+  orphan.sites.pull_tip_radius = 0.0025;
+  EXPECT_NE(model::validate_organ_model(orphan).find("a pull curve without site compliances"), std::string::npos);
+}
+
 TEST(ModelFile, ImplausibleSupportsAreRefused) {
   const auto original = encoded();
   const auto supp = find_section(original, "SUPP");
@@ -402,6 +453,7 @@ TEST(ModelFile, ImplausibleSiteCurvaturesAreRefused) {
   model::OrganModel orphan = small_model();
   orphan.sites.compliance.clear();
   orphan.sites.depth_curve.clear();
+  orphan.sites.pull_curve.clear();
   EXPECT_NE(model::validate_organ_model(orphan).find("curvatures without site compliances"), std::string::npos);
 }
 

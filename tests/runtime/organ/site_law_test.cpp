@@ -136,6 +136,54 @@ TEST(SiteLaw, TheDepthCurveScalesTheForceAndItsTangentFollows) {
   EXPECT_DOUBLE_EQ(larger.depth_factor(0.004), 1.25);
 }
 
+// A patch held in the jaws: without a pull curve the bonded punch in series
+// with the organ, F = F(d_g) − (C_organ + C_punch)⁻¹ (d − d_g); with one, the
+// punch's compliance scaled by s(u) at the distance drawn since closing (read
+// at u R_fit / R), and the tangent is the force's derivative.
+TEST(SiteLaw, AHeldPatchSoftensAlongThePullCurve) {
+  const Organ plain(cylinder_with_sites());
+  const geometry::SurfacePoint plain_at = plain.surface_tree().closest_point({0.1, 0.0, 0.05});
+  SiteLaw bonded;
+  ASSERT_TRUE(bonded.set(plain, plain_at, kRadius));
+  const Eigen::Vector3d normal = plain.rest_normal_at(plain_at);
+  SiteGrasp grasp;
+  grasp.close(bonded, -0.002 * normal);
+  const Eigen::Vector3d pulled = 0.008 * normal + Eigen::Vector3d(0.002, -0.001, 0.0);
+  EXPECT_DOUBLE_EQ(bonded.pull_softening(0.01), 1.0);
+  EXPECT_LT(
+      (grasp.force(bonded, pulled) - (grasp.closing_force - bonded.stiffness() * (pulled - grasp.closed_at))).norm(),
+      1e-12);
+
+  model::OrganModel m = cylinder_with_sites();
+  m.sites.pull_curve = {{{0.0, 1.0}}, {{0.006, 2.0}}, {{0.012, 3.5}}};
+  m.sites.pull_tip_radius = kRadius;
+  const Organ organ(std::move(m));
+  const geometry::SurfacePoint at = organ.surface_tree().closest_point({0.1, 0.0, 0.05});
+  SiteLaw law;
+  ASSERT_TRUE(law.set(organ, at, kRadius));
+  EXPECT_DOUBLE_EQ(law.pull_softening(0.003), 1.5);
+  EXPECT_DOUBLE_EQ(law.pull_softening(0.009), 2.75);
+  EXPECT_DOUBLE_EQ(law.pull_softening(0.05), 3.5);  // held beyond the last distance
+  grasp.close(law, -0.002 * normal);
+  const Eigen::Vector3d drawn = pulled - grasp.closed_at;
+  const double s = law.pull_softening(drawn.norm());
+  const Eigen::Matrix3d held = (law.held_stiffness(1.0).inverse() + (s - 1.0) * law.tip_compliance()).inverse();
+  EXPECT_LT((grasp.force(law, pulled) - (grasp.closing_force - held * drawn)).norm(),
+            1e-9 * grasp.force(law, pulled).norm());
+  EXPECT_LT(grasp.force(law, pulled).norm(), grasp.force(bonded, pulled).norm()) << "softer than the bonded punch";
+  const double h = 1e-8;
+  Eigen::Matrix3d numeric;
+  for (int k = 0; k < 3; ++k)
+    numeric.col(k) = -(grasp.force(law, pulled + h * Eigen::Vector3d::Unit(k)) -
+                       grasp.force(law, pulled - h * Eigen::Vector3d::Unit(k))) /
+                     (2 * h);
+  EXPECT_LT((grasp.tangent(law, pulled) - 0.5 * (numeric + numeric.transpose())).norm(), 1e-5 * numeric.norm());
+  // A tip twice the size reads the curve at half the distance.
+  SiteLaw larger;
+  ASSERT_TRUE(larger.set(organ, at, 2 * kRadius));
+  EXPECT_DOUBLE_EQ(larger.pull_softening(0.006), 1.5);
+}
+
 // Where the organ does not give (C_organ = 0), pressed straight in, the law
 // is the sphere on a half-space: Hertz's force until the tip is buried, then
 // the flat punch's slope, joined with the same value and slope; a tool that

@@ -358,11 +358,15 @@ TEST_F(Cli, AReferenceCacheResumesAndMeasuresChangedFastModelsAgain) {
 }
 
 // A model with site compliances: calibrate fits the site law's depth curve
-// to the reference's presses at other sites than --evaluate's with the same
-// seed; pressed again at the curve's own sites, the fast models (which give
-// the site law's force) are off by exactly the curve's scatter, their mean
-// log error being zero at each depth.
-TEST_F(Cli, CalibrateFitsTheSiteLawsDepthCurve) {
+// to the reference's presses, and with --pull the grasp's pull curve to its
+// pulls, at other sites than --evaluate's with the same seed. The pull curve
+// starts at (0, 1), then per distance the mean distance drawn since the jaws
+// closed (the bite's 2 mm and more) and the softening. Pressed and pulled
+// again at the curves' own sites, the fast models (which give the site law's
+// force, and the held patch's) are off by exactly what the fit reports: the
+// depth curve's scatter (their mean log error being zero at each depth) and
+// the pull curve's force factor.
+TEST_F(Cli, CalibrateFitsTheSiteLawsDepthCurveAndTheGraspsPullCurve) {
   model::OrganModel cylinder = testing::make_cylinder_model({});
   pipeline::SiteComplianceOptions sites;
   sites.fixed_radius = 0.031;
@@ -372,35 +376,54 @@ TEST_F(Cli, CalibrateFitsTheSiteLawsDepthCurve) {
   // Held (--friction inf): where the organ slips, the law's g(|d|) is read at
   // the slipped depth, and the fast models' error at the curve's sites is the
   // scatter only nearly.
-  const std::string curve = " --curve-sites 1 --depths 2,3 --reference-cells 0 --friction inf";
-  const CommandRun run = run_organsim("calibrate " + model + " -o " + fitted + kCalibration + curve + " --json", dir_);
+  const std::string curves =
+      " --curve-sites 1 --depths 2,3 --pull 2 --pull-sites 1 --pull-depths 3,5 "
+      "--reference-cells 0 --friction inf";
+  const CommandRun run = run_organsim("calibrate " + model + " -o " + fitted + kCalibration + curves + " --json", dir_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const nlohmann::json j = nlohmann::json::parse(run.out);
   ASSERT_EQ(j["depth_curve"].size(), 2u) << run.out;
   EXPECT_EQ(j["depth_curve_presses"]["pressed"], 4);  // one site, straight and tilted, two depths
   EXPECT_EQ(j["depth_curve_presses"]["solved"], 4);
+  EXPECT_EQ(j["pull_curve_pulls"]["pulled"], 4);  // the same site, straight and tilted, two distances
+  EXPECT_EQ(j["pull_curve_pulls"]["solved"], 4);
+  ASSERT_EQ(j["pull_curve"].size(), 3u) << run.out;
+  EXPECT_EQ(j["pull_curve"][0]["drawn_mm"], 0.0);
+  EXPECT_EQ(j["pull_curve"][0]["softening"], 1.0);
+  EXPECT_GT(j["pull_curve"][1]["drawn_mm"].get<double>(), 3.0);
+  EXPECT_GT(j["pull_curve"][2]["drawn_mm"].get<double>(), j["pull_curve"][1]["drawn_mm"].get<double>() + 1.0);
   const model::ModelReadResult read = model::read_organ_model_file(fitted);
   ASSERT_TRUE(read) << read.error;
   const model::SiteCompliance& written = read.model->sites;
+  EXPECT_EQ(written.compliance, cylinder.sites.compliance);
   ASSERT_EQ(written.depth_curve.size(), 2u);
   EXPECT_EQ(written.curve_tip_radius, 2.5e-3);
-  EXPECT_EQ(written.compliance, cylinder.sites.compliance);
   for (std::size_t i = 0; i < 2; ++i) {
     EXPECT_DOUBLE_EQ(written.depth_curve[i][0] * 1e3, j["depth_curve"][i]["depth_mm"].get<double>());
     EXPECT_DOUBLE_EQ(written.depth_curve[i][1], j["depth_curve"][i]["factor"].get<double>());
   }
-  const CommandRun evaluated = run_organsim("calibrate " + fitted +
-                                                " --evaluate --sites 1 --seed 1001 --depths 2,3 --fixed-radius 31 "
-                                                "--reference-cells 0 --friction inf --json",
-                                            dir_);
-  ASSERT_EQ(evaluated.exit_code, 0) << evaluated.err;
-  const nlohmann::json e = nlohmann::json::parse(evaluated.out);
-  for (std::size_t i = 0; i < 2; ++i) {
-    const std::string depth = i == 0 ? "2" : "3";
-    for (const char* fast : {"beam", "springs"})
-      EXPECT_NEAR(e["summary"][fast]["by_depth_mm"][depth]["all"]["force_factor"].get<double>(),
-                  j["depth_curve"][i]["scatter"].get<double>(), 1e-6)
-          << fast << " at " << depth << " mm";
+  ASSERT_EQ(written.pull_curve.size(), 3u);
+  EXPECT_EQ(written.pull_tip_radius, 2.5e-3);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_DOUBLE_EQ(written.pull_curve[i][0] * 1e3, j["pull_curve"][i]["drawn_mm"].get<double>());
+    EXPECT_DOUBLE_EQ(written.pull_curve[i][1], j["pull_curve"][i]["softening"].get<double>());
+  }
+  const std::string at_the_curves_site = " --sites 1 --seed 1001 --fixed-radius 31 --reference-cells 0 --friction inf";
+  for (const bool pulls : {false, true}) {
+    const CommandRun evaluated =
+        run_organsim("calibrate " + fitted + " --evaluate" + (pulls ? " --pull 2 --depths 3,5" : " --depths 2,3") +
+                         at_the_curves_site + " --json",
+                     dir_);
+    ASSERT_EQ(evaluated.exit_code, 0) << evaluated.err;
+    const nlohmann::json e = nlohmann::json::parse(evaluated.out);
+    for (std::size_t i = 0; i < 2; ++i) {
+      const std::string depth = pulls ? (i == 0 ? "3" : "5") : (i == 0 ? "2" : "3");
+      const double reported =
+          pulls ? j["pull_curve"][i + 1]["force_factor"].get<double>() : j["depth_curve"][i]["scatter"].get<double>();
+      for (const char* fast : {"beam", "springs"})
+        EXPECT_NEAR(e["summary"][fast]["by_depth_mm"][depth]["all"]["force_factor"].get<double>(), reported, 1e-6)
+            << fast << (pulls ? " pulled " : " pressed ") << depth << " mm";
+    }
   }
 }
 

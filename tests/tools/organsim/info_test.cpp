@@ -27,7 +27,7 @@ TEST_F(Cli, InfoJsonIsOneParsableObjectWithTheDocumentedKeys) {
   const nlohmann::json j = nlohmann::json::parse(run.out);
   EXPECT_EQ(j["units"], "SI");
   EXPECT_EQ(j["coordinate_frame"], "LPS");
-  EXPECT_EQ(j["format_version"], "1.5");
+  EXPECT_EQ(j["format_version"], "1.6");
   EXPECT_EQ(j["counts"]["surface_vertices"], (spec.rings + 1) * spec.segments + 2);
   EXPECT_EQ(j["counts"]["beam_stations"], 20);
   const double polygon = 0.5 * spec.segments * spec.radius * spec.radius * std::sin(2 * M_PI / spec.segments);
@@ -46,6 +46,8 @@ TEST_F(Cli, InfoJsonIsOneParsableObjectWithTheDocumentedKeys) {
   model::OrganModel with_sites = testing::make_cylinder_model(spec);
   testing::add_uniform_site_compliance(with_sites, 0.02);
   with_sites.sites.curvature.assign(with_sites.surface_vertices.size(), {1 / spec.radius, 0.0});
+  with_sites.sites.pull_curve = {{{0.0, 1.0}}, {{0.012, 3.25}}};
+  with_sites.sites.pull_tip_radius = 0.0025;
   model::write_organ_model_file(with_sites, model);
   const CommandRun sites = run_organsim("info " + model + " --json", dir_);
   ASSERT_EQ(sites.exit_code, 0) << sites.err;
@@ -53,7 +55,16 @@ TEST_F(Cli, InfoJsonIsOneParsableObjectWithTheDocumentedKeys) {
   EXPECT_NEAR(s["hertz_radius_m_at_2_5_mm_tip"]["median"].get<double>(), 0.0025 / std::sqrt(1 + 0.0025 / spec.radius),
               1e-15);
   EXPECT_GT(s["normal_stiffness_n_per_m_at_2_5_mm_tip"]["median"].get<double>(), 0.0);
-  EXPECT_NE(run_organsim("info " + model, dir_).out.find("a 2.5 mm tip's Hertz radius 2.40 (p10)"), std::string::npos);
+  ASSERT_EQ(s["pull_curve"].size(), 2u);
+  EXPECT_DOUBLE_EQ(s["pull_curve"][1]["drawn_m"].get<double>(), 0.012);
+  EXPECT_DOUBLE_EQ(s["pull_curve"][1]["softening"].get<double>(), 3.25);
+  EXPECT_DOUBLE_EQ(s["pull_curve_tip_radius_m"].get<double>(), 0.0025);
+  const std::string text = run_organsim("info " + model, dir_).out;
+  EXPECT_NE(text.find("a 2.5 mm tip's Hertz radius 2.40 (p10)"), std::string::npos) << text;
+  EXPECT_NE(
+      text.find("pull curve      a held patch's softening by the distance drawn: 0 mm x 1, 12 mm x 3.25 (tip 2.5 mm)"),
+      std::string::npos)
+      << text;
 }
 
 TEST_F(Cli, InfoTextNamesUnitsAndVolume) {

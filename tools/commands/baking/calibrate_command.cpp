@@ -29,6 +29,7 @@
 #include "organsim/realtime/model_registry.h"
 #include "organsim/model/model_file.h"
 #include "depth_curve_fit.h"
+#include "pull_curve_fit.h"
 #include "held_out_evaluation.h"
 #include "press_plan.h"
 #include "static_press/static_press.h"
@@ -46,6 +47,8 @@ struct CalibrateOptions {
   bool evaluate = false;
   EvaluationOptions evaluation;  ///< also the depth curve's depths and reference cells
   int curve_sites = 6;
+  int pull_sites = 6;                                   ///< with --pull: the pull curve's sites
+  std::vector<double> pull_depths_mm{5.0, 10.0, 20.0};  ///< with --pull: how far the pull curve's grasps are drawn
   PressOptions press = settled_long_enough();
   /// The mass-spring presses held 6 s (the engine's 2 s settle a unit-scale
   /// network; a fitted softer one rings longer, and an unsettled press would
@@ -59,8 +62,22 @@ struct CalibrateOptions {
 
 Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 
-/// The depth curve's sites start from --seed plus this.
+/// The depth and pull curves' sites start from --seed plus this.
 constexpr std::uint32_t kCurveSeedOffset = 1000;
+
+/// Where a curve's `count` sites are pressed: other sites than `calibrate
+/// --evaluate --seed N` presses (those the evaluation measures are held out
+/// from the curves), the reference on the evaluation's cells.
+CurveSiteOptions curve_sites(const CalibrateOptions& o, int count) {
+  CurveSiteOptions sites;
+  sites.sites = count;
+  sites.seed = o.seed + kCurveSeedOffset;
+  sites.refine_size_mm = o.evaluation.refine_size_mm;
+  sites.reference = o.reference;
+  sites.jobs = o.evaluation.jobs;
+  sites.press = o.press;
+  return sites;
+}
 
 /// The fast models calibrate fits (their registry entries' calibration), in
 /// the registry's order; at most the first with an attenuation has it fitted.
@@ -310,6 +327,7 @@ struct CalibrationOutcome {
   std::vector<std::string> kept;
   HeldOutError error_before, error_after;
   DepthCurveFit curve;  ///< empty without site compliances
+  PullCurveFit pulls;   ///< empty without --pull
 };
 
 void print_json(const CalibrateOptions& o, const CalibrationOutcome& c) {
@@ -343,6 +361,17 @@ void print_json(const CalibrateOptions& o, const CalibrationOutcome& c) {
   j["depth_curve"] = curve;
   j["depth_curve_presses"] = {
       {"pressed", c.curve.presses}, {"solved", c.curve.solved}, {"reference_cells_mm", c.curve.refine_size_mm}};
+  nlohmann::json pull = nlohmann::json::array();
+  for (std::size_t i = 0; i < c.pulls.curve.size(); ++i) {
+    pull.push_back({{"drawn_mm", c.pulls.curve[i][0] * 1e3}, {"softening", c.pulls.curve[i][1]}});
+    if (i > 0) {
+      pull.back()["scatter"] = c.pulls.scatter[i - 1];
+      pull.back()["force_factor"] = c.pulls.force_factor[i - 1];
+    }
+  }
+  j["pull_curve"] = pull;
+  j["pull_curve_pulls"] = {
+      {"pulled", c.pulls.pulls}, {"solved", c.pulls.solved}, {"reference_cells_mm", c.pulls.refine_size_mm}};
   std::cout << j.dump() << '\n';
 }
 
@@ -373,6 +402,17 @@ void print_table(const CalibrateOptions& o, const CalibrationOutcome& c) {
         "{:<14}the reference's force over the site law's linear one: {}; {} of {} presses solved "
         "on {:g} mm cells\n",
         "depth curve", points, c.curve.solved, c.curve.presses, c.curve.refine_size_mm);
+  }
+  if (!c.pulls.curve.empty()) {
+    std::string points;
+    for (std::size_t i = 1; i < c.pulls.curve.size(); ++i)
+      points += fmt::format("{}{:.3g} mm x {:.3g} (scatter x {:.3g}; forces then off by x {:.3g})",
+                            points.empty() ? "" : ", ", c.pulls.curve[i][0] * 1e3, c.pulls.curve[i][1],
+                            c.pulls.scatter[i - 1], c.pulls.force_factor[i - 1]);
+    std::cout << fmt::format(
+        "{:<14}the held patch's softening against the bonded punch, by the distance drawn since the jaws "
+        "closed: {}; {} of {} pulls solved on {:g} mm cells\n",
+        "pull curve", points, c.pulls.solved, c.pulls.pulls, c.pulls.refine_size_mm);
   }
   std::cout << fmt::format(
       "\nheld-out presses against {}: mean nodal displacement difference (% of the bounding box "
@@ -433,21 +473,30 @@ int run_calibrate(CalibrateOptions o) {
   model::OrganModel calibrated = with_material(original, c.after);
   if (!original.sites.empty() && o.curve_sites > 0 && o.press.tuning.tip_radius > 0.0) {
     DepthCurveOptions curve;
-    curve.sites = o.curve_sites;
+    static_cast<CurveSiteOptions&>(curve) = curve_sites(o, o.curve_sites);
     curve.depths_mm = o.evaluation.depths_mm;
-    // Other sites than `calibrate --evaluate --seed N` presses: those the
-    // evaluation measures are held out from the curve.
-    curve.seed = o.seed + kCurveSeedOffset;
-    curve.refine_size_mm = o.evaluation.refine_size_mm;
-    curve.reference = o.reference;
-    curve.jobs = o.evaluation.jobs;
-    curve.press = o.press;
     c.curve = fit_depth_curve(original, curve);
     calibrated.sites.depth_curve = c.curve.curve;
     calibrated.sites.curve_tip_radius = o.press.tuning.tip_radius;
     calibrated.provenance.parameters["calibration_depth_curve"] = fmt::format(
         "{} on {:g} mm cells, {} sites, {} of {} presses solved, tip {:g} mm", o.reference, c.curve.refine_size_mm,
         o.curve_sites, c.curve.solved, c.curve.presses, o.press.tuning.tip_radius * 1e3);
+  }
+  if (!original.sites.empty() && o.evaluation.pull_bite_mm > 0.0 && o.pull_sites > 0 &&
+      o.press.tuning.tip_radius > 0.0) {
+    PullCurveOptions pull;
+    static_cast<CurveSiteOptions&>(pull) = curve_sites(o, o.pull_sites);
+    pull.distances_mm = o.pull_depths_mm;
+    pull.bite_mm = o.evaluation.pull_bite_mm;
+    // On the model as written so far: the law's force where the jaws close
+    // is the depth curve's.
+    c.pulls = fit_pull_curve(calibrated, pull);
+    calibrated.sites.pull_curve = c.pulls.curve;
+    calibrated.sites.pull_tip_radius = o.press.tuning.tip_radius;
+    calibrated.provenance.parameters["calibration_pull_curve"] =
+        fmt::format("{} on {:g} mm cells, {} sites, bite {:g} mm, {} of {} pulls solved, tip {:g} mm", o.reference,
+                    c.pulls.refine_size_mm, o.pull_sites, pull.bite_mm, c.pulls.solved, c.pulls.pulls,
+                    o.press.tuning.tip_radius * 1e3);
   }
   note("calibrate", "measuring the held-out presses before and after");
   c.error_before = measure_held_out(organ, c.models, held_out, o.press, extent);
@@ -523,10 +572,20 @@ Command add_calibrate_command(CLI::App& app) {
                  "changed (its convergence)")
       ->check(kNonNegative);
   app.add_option("--pull", o->evaluation.pull_bite_mm,
-                 "--evaluate: pulls instead of presses: each site grasped after a bite this deep, mm, and drawn out by "
-                 "each depth, straight along the normal and tilted 45 degrees (docs/realtime.md#grasping)")
+                 "Grasps: each site grasped after a bite this deep, mm, and drawn out straight along the normal and "
+                 "tilted 45 degrees. --evaluate: pulls instead of presses, drawn out by each of --depths; otherwise "
+                 "also fit the grasp's pull curve at --pull-sites sites drawn out by each of --pull-depths "
+                 "(docs/matching.md#pulls)")
+      ->check(kPositive);
+  app.add_option("--pull-sites", o->pull_sites,
+                 "--pull: sites spread over the surface (other than --evaluate's) whose pulls fit the pull curve")
+      ->check(CLI::Range(1, 256))
+      ->capture_default_str();
+  app.add_option("--pull-depths", o->pull_depths_mm,
+                 "--pull: how far the pull curve's grasps are drawn out, mm, comma-separated")
+      ->delimiter(',')
       ->check(kPositive)
-      ->needs("--evaluate");
+      ->capture_default_str();
   app.add_flag("--json", o->json,
                "Print the fitted values and the held-out errors (or the evaluation) as one JSON object");
   return [o] { return run_calibrate(*o); };

@@ -10,7 +10,6 @@
 #include "command_line/command_line.h"
 #include "organsim/organ/site_law.h"
 #include "press_plan.h"
-#include "refined_reference.h"
 #include "site_jobs.h"
 
 namespace organsim::cli {
@@ -22,7 +21,7 @@ DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOp
   const organ::Organ organ(model);
   const std::vector<Eigen::Vector3d> normals = rest_normals(organ);
   const std::vector<std::uint32_t> sites = press_sites(organ, o.sites, o.seed, o.press);
-  fit.refine_size_mm = o.refine_size_mm < 0.0 ? 0.5 * radius_mm : o.refine_size_mm;
+  fit.refine_size_mm = o.cells_mm();
   const double refine_radius_mm = *std::max_element(o.depths_mm.begin(), o.depths_mm.end()) + 2.0 * radius_mm;
   // The fast models' force with the law alone (no curve, g = 1), pressed by
   // the same contact rule as the reference (a tool that slips under the law
@@ -41,8 +40,7 @@ DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOp
   // Per site: its presses and, for each that solved, (depth mm, ln |F_ref| / |F_law|).
   auto press_site = [&](std::size_t k) {
     const Eigen::Vector3d at = site_point(organ, sites[k]);
-    const organ::Organ reference(fit.refine_size_mm > 0.0 ? refined_at(model, at, fit.refine_size_mm, refine_radius_mm)
-                                                          : model);
+    const std::unique_ptr<organ::Organ> reference = reference_at(model, at, fit.refine_size_mm, refine_radius_mm);
     nlohmann::json ratios = nlohmann::json::array();
     std::size_t presses = 0;
     for (const PressTilt tilt : {PressTilt::straight, static_cast<PressTilt>(1 + k % 2)})
@@ -51,10 +49,10 @@ DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOp
         ++presses;
         note("calibrate",
              fmt::format("depth curve: site {} of {}, {:g} mm: {} with {} ({} tetrahedra)", k + 1, sites.size(), depth,
-                         tool.text, o.reference, reference.model().tetrahedra.size()));
+                         tool.text, o.reference, reference->model().tetrahedra.size()));
         Eigen::Vector3d force;
         try {
-          force = press(o.reference, reference, {tool}, o.press).tools[0].force;
+          force = press(o.reference, *reference, {tool}, o.press).tools[0].force;
         } catch (const std::runtime_error& e) {
           warn("calibrate", fmt::format("depth curve: site {} {:g} mm left out: {}", k + 1, depth, e.what()));
           continue;

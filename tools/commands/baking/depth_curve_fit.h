@@ -13,23 +13,13 @@
 #include <string>
 #include <vector>
 
-#include "organsim/realtime/model_registry.h"
 #include "organsim/model/organ_model.h"
-#include "static_press/static_press.h"
+#include "press_plan.h"
 
 namespace organsim::cli {
 
-struct DepthCurveOptions {
-  int sites = 6;                                  ///< 0: no curve
+struct DepthCurveOptions : CurveSiteOptions {
   std::vector<double> depths_mm{2.0, 5.0, 10.0};  ///< the curve's depths
-  std::uint32_t seed = 1;
-  double refine_size_mm =
-      -1.0;  ///< the reference's cells under each press: < 0 half the tip's radius; 0 the model's own
-  std::string reference = realtime::reference_model().name;
-  /// Processes the sites are shared among (site_jobs.h; the curve is the
-  /// same whatever the number); 0: one per CPU.
-  int jobs = 0;
-  PressOptions press;
 };
 
 struct DepthCurveFit {

@@ -15,7 +15,6 @@
 #include "organsim/realtime/model_registry.h"
 #include "power_law/power_law.h"
 #include "press_plan.h"
-#include "refined_reference.h"
 #include "reference_cache.h"
 #include "site_jobs.h"
 
@@ -61,14 +60,6 @@ struct PressRecord {
 
 double angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::atan2(a.cross(b).norm(), a.dot(b)) * kDegreesPerRadian;
-}
-
-/// The reference organ for the presses at one site: re-meshed around it, or
-/// the model's own.
-std::unique_ptr<organ::Organ> reference_organ(const model::OrganModel& model, const Eigen::Vector3d& site,
-                                              double size_mm, double radius_mm) {
-  if (size_mm <= 0.0) return std::make_unique<organ::Organ>(model);
-  return std::make_unique<organ::Organ>(refined_at(model, site, size_mm, radius_mm));
 }
 
 FastAnswer answer(const std::string& name, const organ::Organ& organ, const PressRecord& r,
@@ -353,9 +344,9 @@ void press_reference(const Plan& plan, std::size_t k, std::vector<PressRecord>& 
   const EvaluationOptions& o = plan.o;
   const Eigen::Vector3d at = site_point(plan.organ, plan.sites[k]);
   const std::unique_ptr<organ::Organ> reference =
-      reference_organ(plan.model, at, plan.refine_size_mm, plan.refine_radius_mm);
+      reference_at(plan.model, at, plan.refine_size_mm, plan.refine_radius_mm);
   const std::unique_ptr<organ::Organ> check =
-      o.check_size_mm > 0.0 ? reference_organ(plan.model, at, o.check_size_mm, plan.refine_radius_mm) : nullptr;
+      o.check_size_mm > 0.0 ? reference_at(plan.model, at, o.check_size_mm, plan.refine_radius_mm) : nullptr;
   for (std::size_t i = 0; i < records.size(); ++i) {
     PressRecord& r = records[i];
     r.reference_tetrahedra = reference->model().tetrahedra.size();
@@ -436,14 +427,6 @@ bool read_reference(const nlohmann::json& kept, std::vector<PressRecord>& record
   records = std::move(read);
   surfaces = std::move(read_surfaces);
   return true;
-}
-
-/// The press `tool` mirrored in the tangent plane: drawn out by its depth,
-/// straight along the outward `normal` or tilted as the press was.
-ToolSpec pulled_out(const ToolSpec& tool, const Eigen::Vector3d& normal) {
-  const Eigen::Vector3d by = tool.displacement_mm - 2.0 * tool.displacement_mm.dot(normal) * normal;
-  const Eigen::Vector3d& at = tool.point_mm;
-  return {fmt::format("{:.2f},{:.2f},{:.2f}/{:.3f},{:.3f},{:.3f}", at[0], at[1], at[2], by[0], by[1], by[2]), at, by};
 }
 
 /// Site k's presses: straight in and tilted, at every depth, the reference on

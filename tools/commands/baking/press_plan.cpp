@@ -10,6 +10,8 @@
 #include <Eigen/Geometry>
 #include <fmt/format.h>
 
+#include "refined_reference.h"
+
 namespace organsim::cli {
 namespace {
 
@@ -23,12 +25,17 @@ Eigen::Vector3d first_tangent(const Eigen::Vector3d& normal) {
   return normal.cross(Eigen::Vector3d::Unit(least)).normalized();
 }
 
+/// A tool that touches at `at` (mm) and is moved by `by` (mm), with its
+/// command-line spelling.
+ToolSpec tool_spec(const Eigen::Vector3d& at, const Eigen::Vector3d& by) {
+  return {fmt::format("{:.2f},{:.2f},{:.2f}/{:.3f},{:.3f},{:.3f}", at[0], at[1], at[2], by[0], by[1], by[2]), at, by};
+}
+
 /// A press of `depth_mm` at surface vertex `site` along `toward` (a unit
 /// tangent, or zero for straight in) less the outward unit `normal`.
 ToolSpec press_along(const organ::Organ& organ, std::uint32_t site, const Eigen::Vector3d& normal,
                      const Eigen::Vector3d& toward, double depth_mm) {
-  const Eigen::Vector3d at = site_point(organ, site) * 1e3, by = depth_mm * (toward - normal).normalized();
-  return {fmt::format("{:.2f},{:.2f},{:.2f}/{:.3f},{:.3f},{:.3f}", at[0], at[1], at[2], by[0], by[1], by[2]), at, by};
+  return tool_spec(site_point(organ, site) * 1e3, depth_mm * (toward - normal).normalized());
 }
 
 /// A press 45° from the inward normal, turned about it from the side
@@ -104,6 +111,16 @@ ToolSpec site_press(const organ::Organ& organ, std::uint32_t site, const Eigen::
       clear_tilt(organ, site, normal, kFirstSide[tilt == PressTilt::tangent_a ? 0 : 1], depth_mm, o);
   // No side is clear (a site press_sites does not pick): the press reports where the shaft enters.
   return tool ? *tool : press_along(organ, site, normal, first_tangent(normal), depth_mm);
+}
+
+std::unique_ptr<organ::Organ> reference_at(const model::OrganModel& model, const Eigen::Vector3d& site, double cells_mm,
+                                           double radius_mm) {
+  if (cells_mm <= 0.0) return std::make_unique<organ::Organ>(model);
+  return std::make_unique<organ::Organ>(refined_at(model, site, cells_mm, radius_mm));
+}
+
+ToolSpec pulled_out(const ToolSpec& tool, const Eigen::Vector3d& normal) {
+  return tool_spec(tool.point_mm, tool.displacement_mm - 2.0 * tool.displacement_mm.dot(normal) * normal);
 }
 
 Eigen::Vector3d site_point(const organ::Organ& organ, std::uint32_t site) {

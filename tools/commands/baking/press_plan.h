@@ -3,12 +3,38 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
+#include <string>
 #include <vector>
 
 #include "organsim/organ/organ.h"
+#include "organsim/realtime/model_registry.h"
 #include "static_press/static_press.h"
 
 namespace organsim::cli {
+
+/// Where a curve `calibrate` fits (the site law's depth curve, the grasp's
+/// pull curve) has the reference pressed: its sites, and the reference's cells
+/// there.
+struct CurveSiteOptions {
+  int sites = 6;  ///< 0: no curve
+  std::uint32_t seed = 1;
+  double refine_size_mm = -1.0;  ///< the reference's cells at each site: < 0 half the tip's radius; 0 the model's own
+  std::string reference = realtime::reference_model().name;
+  /// Processes the sites are shared among (site_jobs.h; the curve is the
+  /// same whatever the number); 0: one per CPU.
+  int jobs = 0;
+  PressOptions press;
+
+  /// mm: the reference's cells as used (`refine_size_mm`, its default resolved).
+  double cells_mm() const { return refine_size_mm < 0.0 ? 0.5 * press.tuning.tip_radius * 1e3 : refine_size_mm; }
+};
+
+/// The model the reference presses at `site` (m) with: re-meshed with cells of
+/// `cells_mm` within `radius_mm` of it (refined_reference.h), or the model
+/// itself for cells of 0.
+std::unique_ptr<organ::Organ> reference_at(const model::OrganModel& model, const Eigen::Vector3d& site, double cells_mm,
+                                           double radius_mm);
 
 /// `count` surface vertices (runtime numbering) spread by farthest-point
 /// sampling from a start `seed` picks, among the vertices far enough from the
@@ -33,6 +59,10 @@ enum class PressTilt : int {
 /// normal, 45° at a time, to the first side the shaft is clear of it.
 ToolSpec site_press(const organ::Organ& organ, std::uint32_t site, const Eigen::Vector3d& normal, PressTilt tilt,
                     double depth_mm, const PressOptions& o);
+
+/// The press `tool` mirrored in the tangent plane: drawn out by its depth,
+/// straight along the outward `normal` or tilted as the press was.
+ToolSpec pulled_out(const ToolSpec& tool, const Eigen::Vector3d& normal);
 
 /// Where surface vertex `site` (runtime numbering, as press_sites gives it)
 /// lies at rest, m. The runtime numbers the surface in its own order

@@ -84,6 +84,9 @@ nlohmann::json sites_json(const model::OrganModel& m) {
   };
   nlohmann::json curve = nlohmann::json::array();
   for (const auto& [depth, factor] : sites.depth_curve) curve.push_back({{"depth_m", depth}, {"factor", factor}});
+  nlohmann::json pull = nlohmann::json::array();
+  for (const auto& [drawn, softening] : sites.pull_curve)
+    pull.push_back({{"drawn_m", drawn}, {"softening", softening}});
   nlohmann::json hertz = nullptr;
   if (!sites.curvature.empty()) {
     std::vector<double> radii;
@@ -108,7 +111,9 @@ nlohmann::json sites_json(const model::OrganModel& m) {
             {"max", quantile(1.0)}}},
           {"hertz_radius_m_at_2_5_mm_tip", hertz},
           {"depth_curve", curve},
-          {"depth_curve_tip_radius_m", sites.curve_tip_radius}};
+          {"depth_curve_tip_radius_m", sites.curve_tip_radius},
+          {"pull_curve", pull},
+          {"pull_curve_tip_radius_m", sites.pull_tip_radius}};
 }
 
 nlohmann::json summary_json(const InfoOptions& o, const model::ModelReadResult& read) {
@@ -268,6 +273,16 @@ void print_text(const nlohmann::json& j) {
         curve += fmt::format("{}{:g} mm x {:.3g}", curve.empty() ? "" : ", ", point["depth_m"].get<double>() * 1e3,
                              point["factor"].get<double>());
       fmt::print("depth curve {} (tip {:g} mm)\n", curve, sites["depth_curve_tip_radius_m"].get<double>() * 1e3);
+    }
+    if (sites["pull_curve"].empty()) {
+      fmt::print("{:<16}none (a grasp holds as the bonded punch; organsim calibrate --pull fits one)\n", "pull curve");
+    } else {
+      std::string curve;
+      for (const auto& point : sites["pull_curve"])
+        curve += fmt::format("{}{:.3g} mm x {:.3g}", curve.empty() ? "" : ", ", point["drawn_m"].get<double>() * 1e3,
+                             point["softening"].get<double>());
+      fmt::print("{:<16}a held patch's softening by the distance drawn: {} (tip {:g} mm)\n", "pull curve", curve,
+                 sites["pull_curve_tip_radius_m"].get<double>() * 1e3);
     }
   }
   const auto& prov = j["provenance"];

@@ -164,6 +164,16 @@ struct SiteCompliance {
   /// Fitted by `organsim calibrate` for a tip of radius `curve_tip_radius`.
   std::vector<std::array<double, 2>> depth_curve;
   double curve_tip_radius = 0.0;  ///< m; 0 when there is no depth curve
+  /// How much softer a patch held in a grasper's jaws is than a bonded punch
+  /// of the tip's radius, as pairs (distance u in m the jaws have drawn the
+  /// patch since they closed, softening s > 0), distances increasing from 0:
+  /// the held patch's compliance is C_organ + s(u) C_punch, s linear between
+  /// the pairs and held beyond the last (format 1.6). Empty: s = 1. Fitted by
+  /// `organsim calibrate --pull` for a tip of radius `pull_tip_radius`.
+  std::vector<std::array<double, 2>> pull_curve;
+  double pull_tip_radius = 0.0;  ///< m; 0 when there is no pull curve
+  /// The largest softening a file may hold.
+  static constexpr double kMaxSoftening = 1e3;
   /// Per surface vertex, the surface's principal curvatures κ₁ ≥ κ₂ (1/m),
   /// positive where the surface curves away from its outward normal (a
   /// sphere's outside is convex: +1/radius): fitted at bake time over the

@@ -83,6 +83,17 @@ class SiteLaw {
   Eigen::Matrix3d tangent(const Eigen::Vector3d& d) const noexcept;
   /// g(|d|) (1 without a depth curve).
   double depth_factor(double depth) const noexcept;
+  /// The softening s(u) of a patch held in the jaws and drawn `pulled` (m)
+  /// since they closed: the model's pull curve read at u R_fit / R (1
+  /// without a pull curve: the bonded punch).
+  double pull_softening(double pulled) const noexcept;
+  /// ds/du at `pulled` (1/m).
+  double pull_softening_slope(double pulled) const noexcept;
+  /// N/m: the held patch's stiffness (C_organ + s C_punch)⁻¹ for a softening
+  /// `softening` of the tip's punch (zero where that is singular).
+  Eigen::Matrix3d held_stiffness(double softening) const noexcept;
+  /// m/N: the bonded punch of the tip's radius, C_punch.
+  const Eigen::Matrix3d& tip_compliance() const noexcept { return punch_compliance_; }
   /// m: the tip's own indentation δ when the press's depth along the inward
   /// normal is `normal_depth` (m): d_n = δ + c_n F_tip(δ).
   double tip_indentation(double normal_depth) const noexcept;
@@ -98,6 +109,7 @@ class SiteLaw {
   double tip_force_slope(double indentation) const noexcept;    // dF_tip/dδ, N/m
   double depth_slope(double depth) const noexcept;              // g'(|d|), 1/m
   Eigen::Matrix3d organ_compliance_ = Eigen::Matrix3d::Zero();  // m/N
+  Eigen::Matrix3d punch_compliance_ = Eigen::Matrix3d::Zero();  // m/N
   Eigen::Vector3d normal_ = Eigen::Vector3d::UnitZ();           // outward, unit
   double organ_normal_compliance_ = 0.0;                        // nᵀ C_organ n, m/N
   double radius_ = 0.0, contact_modulus_ = 0.0, shear_ = 0.0, poisson_ = 0.0;
@@ -106,14 +118,18 @@ class SiteLaw {
   Eigen::Matrix3d stiffness_ = Eigen::Matrix3d::Zero();
   const std::vector<std::array<double, 2>>* curve_ = nullptr;
   double curve_depth_scale_ = 1.0;  // R_fit / R: the curve is read at d R_fit / R
+  const std::vector<std::array<double, 2>>* pull_curve_ = nullptr;
+  double pull_distance_scale_ = 1.0;  // R_fit / R of the pull curve
 };
 
 /// A matched site held in a grasper's jaws (docs/realtime.md#grasping). The
 /// jaws close where the tool had displaced the site by `closed_at`; from then
 /// on they hold the patch under the tip both ways: the force goes on from the
-/// law's force there, F = F(d_g) − K_b (d − d_g), with K_b the bonded punch's
-/// stiffness (SiteLaw::stiffness(): a held patch of the tip's radius neither
-/// grows as a press's contact disk does nor lets go when pulled).
+/// law's force there, F = F(d_g) − K_h(u) (d − d_g), u = |d − d_g|, with K_h
+/// the held patch's stiffness (C_organ + s(u) C_punch)⁻¹: a held patch of the
+/// tip's radius neither grows as a press's contact disk does nor lets go
+/// when pulled, and softens as the jaws draw it out (the model's pull curve s,
+/// fitted by `organsim calibrate --pull`; the bonded punch, s = 1, without).
 struct SiteGrasp {
   bool held = false;
   Eigen::Vector3d closed_at = Eigen::Vector3d::Zero();      ///< m: d_g
@@ -126,9 +142,9 @@ struct SiteGrasp {
   }
   void open() noexcept { held = false; }
   /// N on the tool at `displacement` (m).
-  Eigen::Vector3d force(const SiteLaw& law, const Eigen::Vector3d& displacement) const noexcept {
-    return closing_force - law.stiffness() * (displacement - closed_at);
-  }
+  Eigen::Vector3d force(const SiteLaw& law, const Eigen::Vector3d& displacement) const noexcept;
+  /// −∂F/∂d at `displacement` (N/m), symmetrized: what the 1 kHz loop renders.
+  Eigen::Matrix3d tangent(const SiteLaw& law, const Eigen::Vector3d& displacement) const noexcept;
 };
 
 }  // namespace organsim::organ

@@ -51,7 +51,7 @@ class BeamModel final : public DeformationModel {
   }
 
   /// The beam's own force, −K d, holds both ways already; a matched contact
-  /// goes on past the rest surface with the site's bonded stiffness.
+  /// goes on past the rest surface with the held patch's law (organ::SiteGrasp).
   void set_grasp(std::uint32_t tool, bool grasped) noexcept override {
     if (tool >= grasps_.size() || !beams_.beam(tool).attached) return;
     if (!grasped)
@@ -70,9 +70,10 @@ class BeamModel final : public DeformationModel {
       last_displacements_[tool] = displacements[tool];
       if (!beam.matched) continue;
       const organ::SiteGrasp& grasp = grasps_[tool];
-      contacts[tool].displacement = grasp.held ? grasp.closed_at : displacements[tool];
-      contacts[tool].force = grasp.held ? grasp.closing_force : beam.law.force(displacements[tool]);
-      contacts[tool].stiffness = grasp.held ? beam.law.stiffness() : beam.law.tangent(displacements[tool]);
+      const Eigen::Vector3d& d = displacements[tool];
+      contacts[tool].displacement = d;
+      contacts[tool].force = grasp.held ? grasp.force(beam.law, d) : beam.law.force(d);
+      contacts[tool].stiffness = grasp.held ? grasp.tangent(beam.law, d) : beam.law.tangent(d);
     }
     bool laid = false;
     for (std::uint32_t tool = 0; tool < tips_.size(); ++tool)

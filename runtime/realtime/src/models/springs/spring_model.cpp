@@ -288,9 +288,9 @@ class SpringModel final : public DeformationModel {
   /// agree with.
   void linearize(std::uint32_t tool, ContactLinearization& contact) const noexcept {
     if (const Tool& t = tools_[tool]; t.matched) {
-      contact.displacement = t.grasp.held ? t.grasp.closed_at : t.displacement;
-      contact.force = t.grasp.held ? t.grasp.closing_force : t.law.force(t.displacement);
-      contact.stiffness = t.grasp.held ? t.law.stiffness() : t.law.tangent(t.displacement);
+      contact.displacement = t.displacement;
+      contact.force = t.grasp.held ? t.grasp.force(t.law, t.displacement) : t.law.force(t.displacement);
+      contact.stiffness = t.grasp.held ? t.grasp.tangent(t.law, t.displacement) : t.law.tangent(t.displacement);
       return;
     }
     Eigen::Vector3d force = Eigen::Vector3d::Zero(), displacement = Eigen::Vector3d::Zero();
