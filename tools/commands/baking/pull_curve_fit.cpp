@@ -61,8 +61,9 @@ PullCurveFit fit_pull_curve(const model::OrganModel& model, const PullCurveOptio
   const std::vector<Eigen::Vector3d> normals = rest_normals(organ);
   const std::vector<std::uint32_t> sites = press_sites(organ, o.sites, o.seed, o.press);
   fit.refine_size_mm = o.cells_mm();
-  const double refine_radius_mm =
-      *std::max_element(o.distances_mm.begin(), o.distances_mm.end()) + o.bite_mm + 2.0 * radius_mm;
+  // As `calibrate --evaluate --pull` refines: its pulls at the curve's sites
+  // meet the same reference.
+  const double refine_radius_mm = *std::max_element(o.distances_mm.begin(), o.distances_mm.end()) + 2.0 * radius_mm;
   PressOptions grasped = o.press;
   grasped.grasp_bite_mm = o.bite_mm;  // press(): a bite, the jaws closed, the move
   // Per site: its pulls and, for each that solved, (distance mm, u m, softening).
