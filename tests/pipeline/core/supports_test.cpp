@@ -123,7 +123,9 @@ TEST(Supports, TheFaceOnTheMuscleIsSupportedAndTheFacesInFatAreFree) {
       const bool off_it = z_mm(m, v) > -15.0;
       if (on_lower_face) ++lower, lower_supported += supported;
       if (off_it) ++other, other_supported += supported;
-      if (supported) EXPECT_EQ(supports.modulus(v), report.modulus);
+      if (supported) {
+        EXPECT_EQ(supports.modulus(v), report.modulus);
+      }
       if (supports.kind(v) == model::Supports::Kind::kAttachment) {
         EXPECT_LT(z_mm(m, v), -20.0) << "attached on the lower face";
       }

@@ -434,7 +434,8 @@ int run_view(const ViewOptions& o) {
               o,
               0,
               nlohmann::json::array(),
-              o.report_dir.empty() ? nullptr : std::make_unique<report::RunRecorder>(o.report_dir, organ, tool_count)};
+              o.report_dir.empty() ? nullptr : std::make_unique<report::RunRecorder>(o.report_dir, organ, tool_count),
+              nlohmann::json()};
   if (!o.session_path.empty() && o.realtime)
     view_session_realtime(organ, session, run);
   else if (!o.session_path.empty())
