@@ -38,6 +38,11 @@ constexpr int kMaxStepCuts = 4;  // the smallest step tried: 1/16 of the iterati
 // 0.1 mN, under what a haptic device renders, an imbalance counts as 0.1 mN.
 constexpr double kMaxImbalanceGrowth = 2.0;
 constexpr double kNegligibleImbalance = 1e-4;  // N
+// Frames that shrank the imbalance before a shortened step doubles back:
+// half a second at 60 Hz, so that a step that still diverges is retried (one
+// more assembly in that frame) at most twice a second.
+constexpr std::uint32_t kSteadyFrames = 30;
+constexpr double kRestTangentImbalanceShare = 0.25;  // of the frame's force scale: see iterate()
 using SmallMatrix =
     Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxConstraintRows, kMaxConstraintRows>;
 using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxConstraintRows, 1>;
@@ -348,6 +353,7 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
   refresh_frames_ =
       material == MaterialModel::corotational || material == MaterialModel::stvk ? options.refresh_frames : 0;
   relaxation_ = material == MaterialModel::linear ? 1.0 : options.relaxation;
+  step_fraction_ = relaxation_;
   if (refresh_frames_ > 0) {
     // The rest factorization stays as the fallback; the frames use it until
     // the worker's first tangent takes the place of the empty one.
@@ -1006,12 +1012,22 @@ double OrganFem::iterate(bool& released, bool& unbalanced) noexcept {
   // forces before and after, and a force too small to feel). One that does
   // not is not cut: its direction is wrong, not its length (shorter steps of
   // it crawl the same wrong way), and the frame gives up this tangent.
-  // Without a worker (psh, linear, static presses) there is no better
-  // tangent to wait for: the step is taken.
+  // Without a worker there is no better tangent to wait for. Static presses
+  // (Newton, a fresh tangent per iteration) take the step. psh's frames keep
+  // the rest tangent, which a state far from rest can make diverge (see
+  // step_fraction_): a step that would more than double the organ's
+  // imbalance is cut like one that inverts, since a shorter one does
+  // contract there. Doubled from at least a quarter of the frame's force
+  // scale: a tool that moves leaves an imbalance of its own (the damped
+  // iteration closes a part of each frame's gap), which grows from nothing
+  // as it first presses without any divergence.
   for (std::size_t a = 0; a < hold_count_; ++a)
     force_scale =
         std::max(force_scale, w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a)).cwiseAbs().maxCoeff());
   const double tolerated = kMaxImbalanceGrowth * force_scale;
+  const bool damped = keeps_rest_tangent();
+  const double tolerated_growth =
+      kMaxImbalanceGrowth * std::max(unbalanced_at_start, kRestTangentImbalanceShare * force_scale);
   // A step that would invert a tetrahedron (a tool pushed deeper than the
   // mesh can follow in one frame) is cut in halves; the organ then goes as far
   // toward the targets as it can, with the multipliers interpolated as the
@@ -1020,17 +1036,20 @@ double OrganFem::iterate(bool& released, bool& unbalanced) noexcept {
   // tenth of an assembly), so that a frame that cuts its step or fails
   // assembles once, not once per try; a frame that fails gets back the
   // gradient at its start.
-  double fraction = relaxation_;
+  const double smallest = relaxation_ / static_cast<double>(1 << kMaxStepCuts);
   saved_gradient_ = gradient_;
-  for (int cut = 0; cut <= kMaxStepCuts; ++cut, fraction *= 0.5) {
+  for (double fraction = damped ? step_fraction_ : relaxation_; fraction >= smallest; fraction *= 0.5) {
     for (Eigen::Index j = 0; j < free; ++j)
       state_[free_dofs_[static_cast<std::size_t>(j)]] =
           saved_[free_dofs_[static_cast<std::size_t>(j)]] + fraction * step_[j];
     if (system_->first_inverted(state_) >= 0) continue;
     if (system_->assemble(state_, gradient_, false) >= 0 || !gradient_.allFinite()) continue;
-    if (!worker_ || out_of_balance(fraction) <= tolerated) return fraction;
-    unbalanced = true;
-    break;
+    if (worker_) {
+      if (out_of_balance(fraction) <= tolerated) return fraction;
+      unbalanced = true;
+      break;
+    }
+    if (!damped || out_of_balance(fraction) <= tolerated_growth) return fraction;
   }
   state_ = saved_;
   gradient_ = saved_gradient_;
@@ -1143,6 +1162,7 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
   contact_settled_ = !took && !released;
   update_stiffness();
   if (fraction == 0.0) {
+    if (keeps_rest_tangent()) adapt_step_fraction(0.0, 0.0, 0.0);
     ++frame_;
     if (worker_ && refresh_due_ == 0) request_refresh();
     // Out of balance: the kept tangents do not fit this state. The refresh
@@ -1158,10 +1178,26 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
   }
 
   step_cuts_ += fraction < relaxation_;
+  const double before = unbalanced_;
   unbalanced_ = out_of_balance(0.0);
+  if (keeps_rest_tangent()) adapt_step_fraction(fraction, before, unbalanced_);
   ++frame_;
   if (worker_ && refresh_due_ == 0) request_refresh();
   return FrameStatus::ok;
+}
+
+void OrganFem::adapt_step_fraction(double fraction, double before, double after) noexcept {
+  const double smallest = relaxation_ / static_cast<double>(1 << kMaxStepCuts);
+  if (fraction < step_fraction_) {
+    step_fraction_ = std::max(fraction, smallest);  // 0: nothing contracted; begin with the shortest
+    steady_frames_ = 0;
+  } else if (step_fraction_ < relaxation_) {
+    steady_frames_ = after < before ? steady_frames_ + 1 : 0;
+    if (steady_frames_ >= kSteadyFrames) {
+      step_fraction_ = std::min(2.0 * step_fraction_, relaxation_);
+      steady_frames_ = 0;
+    }
+  }
 }
 
 void OrganFem::reset() noexcept {
@@ -1169,6 +1205,8 @@ void OrganFem::reset() noexcept {
   gradient_.setZero();
   for (std::size_t k = 0; k < hold_count_; ++k) holds_[k].force.setZero();
   unbalanced_ = 0;
+  step_fraction_ = relaxation_;
+  steady_frames_ = 0;
 }
 
 Eigen::Vector3d OrganFem::contact_point(std::uint32_t tool) const noexcept {

@@ -196,7 +196,8 @@ class OrganFem {
   /// Frames that found the worker's tangent late and went on without it.
   std::uint64_t late_refreshes() const noexcept { return late_refreshes_; }
   /// Frames whose iteration was cut short because the whole of it would have
-  /// inverted a tetrahedron (the organ then lags the tools).
+  /// inverted a tetrahedron or, in psh's frames, more than doubled the
+  /// organ's imbalance (the organ then lags the tools).
   std::uint64_t step_cuts() const noexcept { return step_cuts_; }
   /// Boundary nodes on the supports' foundation (0 without supports).
   std::size_t supported_node_count() const noexcept { return supported_nodes_; }
@@ -404,11 +405,20 @@ class OrganFem {
   void end_refresh(bool adopt_it) noexcept;
   void request_refresh() noexcept;
   /// One iteration from saved_ with the kept tangent: the fraction of it taken
-  /// (ω, ω/2 … ω/16), or 0 (state restored) when even ω/16 would invert a
-  /// tetrahedron, or, with a worker, when the step would more than double the
-  /// frame's out-of-balance force scale (`unbalanced`; such a step is not cut).
+  /// (ω, ω/2 … ω/16; psh's frames begin at step_fraction_), or 0 (state
+  /// restored) when even ω/16 would invert a tetrahedron, or, with a worker,
+  /// when the step would more than double the frame's out-of-balance force
+  /// scale (`unbalanced`; such a step is not cut), or, in psh's frames, when
+  /// every step would more than double the organ's imbalance.
   /// `released`: a finite tip let go of a point it would pull.
   double iterate(bool& released, bool& unbalanced) noexcept;
+  /// Real-time frames that solve with the rest tangent throughout (psh; no
+  /// worker and no Newton refresh): the iteration's length adapts to the state.
+  bool keeps_rest_tangent() const noexcept { return realtime_solves_ && !worker_ && refreshes_ == 0; }
+  /// Real-time frames with the rest tangent: a frame that took `fraction` and
+  /// left the organ `after` out of balance (N) from `before` sets where the
+  /// next one begins (step_fraction_).
+  void adapt_step_fraction(double fraction, double before, double after) noexcept;
   /// The largest out-of-balance force component (N; pressure rows in
   /// newtons) at the current gradient, the holds' forces taken a `fraction`
   /// of the way from theirs to the multipliers; writes the rows into rhs_.
@@ -464,6 +474,15 @@ class OrganFem {
   bool reproducible_ = true;
   double unbalanced_ = 0;
   double relaxation_ = 1;
+  /// Real-time frames without a worker (psh): the fraction of the iteration
+  /// a frame tries first, in [ω/16, ω]. The kept rest tangent can be many
+  /// times softer than the organ held far out of its rest shape (a lobe
+  /// lifted 20 mm by a small patch): there the damped iteration grows the
+  /// imbalance by |1 − f λ| per frame for the stiffening's λ, and only a
+  /// shorter step f contracts. It halves when a frame had to cut its step and
+  /// doubles back after kSteadyFrames frames that shrank the imbalance.
+  double step_fraction_ = 1;
+  std::uint32_t steady_frames_ = 0;
   double pressure_scale_ = 1;  ///< κ / h̄: pressure rows (m³) to newtons in unbalanced_force()
 };
 
