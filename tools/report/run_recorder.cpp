@@ -14,6 +14,7 @@
 
 #include <fmt/format.h>
 
+#include "organsim/geometry/model_measures.h"
 #include "organsim/realtime/cpu_stalls.h"
 
 namespace organsim::report {
@@ -115,13 +116,9 @@ void RunRecorder::take_frame(const realtime::SurfaceFrame& frame) {
   if (frame.positions.size() == rest.size())
     for (std::size_t f = 0; f < triangles.size(); ++f)
       for (int e = 0; e < 3; ++e) {
-        const std::uint32_t a = triangles[f][e], b = triangles[f][(e + 1) % 3];
-        double now = 0.0, before = 0.0;
-        for (int k = 0; k < 3; ++k) {
-          now += (frame.positions[a][k] - frame.positions[b][k]) * (frame.positions[a][k] - frame.positions[b][k]);
-          before += (rest[a][k] - rest[b][k]) * (rest[a][k] - rest[b][k]);
-        }
-        if (before > 0.0) peak_strain_[f] = std::max(peak_strain_[f], std::abs(std::sqrt(now / before) - 1.0));
+        const double stretch =
+            geometry::edge_stretch(rest, frame.positions, triangles[f][e], triangles[f][(e + 1) % 3]);
+        peak_strain_[f] = std::max(peak_strain_[f], std::abs(stretch - 1.0));
       }
   const int length =
       std::snprintf(line_, sizeof line_, "%.6f,%.6f\n", frame.time, enclosed_volume(organ_, frame.positions) * 1e6);

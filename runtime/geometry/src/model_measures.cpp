@@ -1,5 +1,7 @@
 #include "organsim/geometry/model_measures.h"
 
+#include <algorithm>
+#include <cmath>
 #include <limits>
 
 namespace organsim::geometry {
@@ -28,6 +30,20 @@ double enclosed_volume(const std::vector<model::Point3>& vertices, const std::ve
   for (const model::Triangle& t : triangles)
     volume += as_vector(vertices[t[0]]).dot(as_vector(vertices[t[1]]).cross(as_vector(vertices[t[2]]))) / 6.0;
   return volume;
+}
+
+double edge_stretch(const std::vector<model::Point3>& rest, const std::vector<model::Point3>& now, std::uint32_t a,
+                    std::uint32_t b) {
+  const double before = (as_vector(rest[a]) - as_vector(rest[b])).squaredNorm();
+  return before > 0.0 ? std::sqrt((as_vector(now[a]) - as_vector(now[b])).squaredNorm() / before) : 1.0;
+}
+
+double largest_edge_stretch(const std::vector<model::Point3>& rest, const std::vector<model::Point3>& now,
+                            const std::vector<model::Triangle>& triangles) {
+  double largest = 1.0;
+  for (const model::Triangle& t : triangles)
+    for (int e = 0; e < 3; ++e) largest = std::max(largest, edge_stretch(rest, now, t[e], t[(e + 1) % 3]));
+  return largest;
 }
 
 Eigen::Vector3d triangle_normal(const model::OrganModel& model, std::uint32_t triangle) {

@@ -211,10 +211,22 @@ TEST_F(Cli, EvaluateMeasuresTheFastModelsOnPulls) {
         << p.dump();
     const std::vector<double> f = p["reference_force_n"];
     EXPECT_LT(Eigen::Vector3d(f[0], f[1], f[2]).dot(normal), 0.0) << "the organ pulls the tool back in: " << p.dump();
+    // The pull draws the surface out around the held patch, in the reference and in the fast models.
+    EXPECT_GT(p["reference_largest_stretch"].get<double>(), 1.0) << p.dump();
     for (const char* fast : {"beam", "springs"}) {
       ASSERT_TRUE(p[fast].contains("force_ratio")) << p.dump();
       EXPECT_LT(p[fast]["direction_error_deg"].get<double>(), 45.0) << fast << ": " << p.dump();
+      EXPECT_GT(p[fast]["largest_stretch"].get<double>(), 1.0) << fast << ": " << p.dump();
     }
+  }
+  for (const char* fast : {"beam", "springs"}) {
+    const nlohmann::json& all = j["summary"][fast]["by_depth_mm"]["5"]["all"];
+    EXPECT_GE(all["stretch_factor_max"].get<double>(), 1.0) << all.dump();
+    double worst = 1.0;
+    for (const nlohmann::json& p : j["presses"])
+      worst = std::max(worst, std::exp(std::abs(std::log(p[fast]["largest_stretch"].get<double>() /
+                                                         p["reference_largest_stretch"].get<double>()))));
+    EXPECT_DOUBLE_EQ(all["stretch_factor_max"].get<double>(), worst) << fast;
   }
 }
 

@@ -15,6 +15,7 @@
 #include "organsim/realtime/model_registry.h"
 #include "power_law/power_law.h"
 #include "press_plan.h"
+#include "organsim/geometry/model_measures.h"
 #include "reference_cache.h"
 #include "site_jobs.h"
 
@@ -38,6 +39,7 @@ struct FastAnswer {
   double log_ratio = 0.0;                           ///< ln(|F| / |F_ref|)
   double direction_error_deg = 0.0;                 ///< angle between F and F_ref
   double surface_difference = 0.0;                  ///< mean over the surface vertices, of the bounding box diagonal
+  double largest_stretch = 1.0;                     ///< the surface's largest edge stretch, length / rest length
 };
 
 struct PressRecord {
@@ -55,6 +57,7 @@ struct PressRecord {
   std::optional<Eigen::Vector3d> check_force;  ///< N, the reference on the --check-refinement cells
   double thickness_mm = 0.0;                   ///< the organ's thickness along the straight press at the site
   double clamp_distance_mm = 0.0;              ///< from the site to the clamp's centre
+  double reference_stretch = 1.0;              ///< the reference surface's largest edge stretch
   std::map<std::string, FastAnswer> fast;
 };
 
@@ -76,6 +79,8 @@ FastAnswer answer(const std::string& name, const organ::Organ& organ, const Pres
     a.log_ratio = std::log(a.force.norm() / r.reference_force.norm());
     a.direction_error_deg = angle_deg(a.force, r.reference_force);
     a.surface_difference = compare_presses(fast, reference, extent).surface.mean;
+    const model::OrganModel& m = organ.model();
+    a.largest_stretch = geometry::largest_edge_stretch(m.surface_vertices, fast.positions, m.surface_triangles);
   } catch (const std::runtime_error& e) {
     a.error = e.what();
   }
@@ -83,11 +88,13 @@ FastAnswer answer(const std::string& name, const organ::Organ& organ, const Pres
 }
 
 /// A group of presses' figures for one model: the force factor
-/// exp(√mean ln²(|F|/|F_ref|)), the direction error and the surface
-/// displacement difference.
+/// exp(√mean ln²(|F|/|F_ref|)), the direction error, the surface
+/// displacement difference and the worst stretch factor: over the presses, the
+/// surface's largest edge stretch against the reference's, exp(max |ln(λ/λ_ref)|).
 struct Summary {
   std::size_t presses = 0, unsolved = 0;
   double factor = 0.0, direction_mean_deg = 0.0, direction_max_deg = 0.0, difference_mean = 0.0;
+  double stretch_factor_max = 1.0;
 };
 
 template <typename Keep>
@@ -106,6 +113,8 @@ Summary summarize(const std::vector<PressRecord>& records, const std::string& mo
     s.direction_mean_deg += a.direction_error_deg;
     s.direction_max_deg = std::max(s.direction_max_deg, a.direction_error_deg);
     s.difference_mean += a.surface_difference;
+    s.stretch_factor_max =
+        std::max(s.stretch_factor_max, std::exp(std::abs(std::log(a.largest_stretch / r.reference_stretch))));
   }
   if (s.presses == 0) return s;
   const double n = static_cast<double>(s.presses);
@@ -165,7 +174,8 @@ nlohmann::json summary_json(const Summary& s) {
           {"force_factor", s.factor},
           {"direction_error_mean_deg", s.direction_mean_deg},
           {"direction_error_max_deg", s.direction_max_deg},
-          {"mean_difference", s.difference_mean}};
+          {"mean_difference", s.difference_mean},
+          {"stretch_factor_max", s.stretch_factor_max}};
 }
 
 nlohmann::json vector_json(const Eigen::Vector3d& v) { return nlohmann::json::array({v.x(), v.y(), v.z()}); }
@@ -190,6 +200,7 @@ void print_json(const EvaluationOptions& o, double refine_size_mm, std::size_t s
       p["reference_force_n"] = vector_json(r.reference_force);
       p["reference_tetrahedra"] = r.reference_tetrahedra;
       p["reference_cell_at_site_mm"] = r.reference_cell_mm;
+      p["reference_largest_stretch"] = r.reference_stretch;
       if (r.check_force) p["check_force_n"] = vector_json(*r.check_force);
       for (const auto& [name, a] : r.fast) {
         if (!a.solved) {
@@ -199,7 +210,8 @@ void print_json(const EvaluationOptions& o, double refine_size_mm, std::size_t s
         p[name] = {{"force_n", vector_json(a.force)},
                    {"force_ratio", std::exp(a.log_ratio)},
                    {"direction_error_deg", a.direction_error_deg},
-                   {"mean_difference", a.surface_difference}};
+                   {"mean_difference", a.surface_difference},
+                   {"largest_stretch", a.largest_stretch}};
       }
     }
     presses.push_back(std::move(p));
@@ -266,9 +278,11 @@ void print_table(const EvaluationOptions& o, double refine_size_mm, std::size_t 
   std::cout << fmt::format(
       "\nforce factor exp(sqrt(mean ln^2(|F| / |F_ref|))), the factor the forces are typically off by; direction: "
       "angle between F and F_ref (mean / max); displacement: mean surface vertex difference, % of the bounding box "
-      "diagonal ({} of {} presses solved by the reference)\n\n",
+      "diagonal; stretch: the surface's largest edge stretch against the reference's, the worst press's factor "
+      "({} of {} presses solved by the reference)\n\n",
       records.size() - failed, records.size());
-  std::cout << "| model   | depth | direction | presses | force factor | direction mean / max | displacement |\n";
+  std::cout << "| model   | depth | direction | presses | force factor | direction mean / max | displacement | "
+               "stretch |\n";
   for (const std::string& model : fast_models())
     for (const double depth : o.depths_mm)
       for (const char* direction : {"straight", "tilted", "all"}) {
@@ -277,8 +291,9 @@ void print_table(const EvaluationOptions& o, double refine_size_mm, std::size_t 
           return r.depth_mm == depth && (std::string(direction) == "all" || name == direction);
         });
         std::cout << fmt::format(
-            "| {:<7} | {:>3g} mm | {:<9} | {:>7} | {:>11.2f}x | {:>8.1f} / {:>5.1f} deg | {:>11.2f}% |\n", model, depth,
-            direction, s.presses, s.factor, s.direction_mean_deg, s.direction_max_deg, 100 * s.difference_mean);
+            "| {:<7} | {:>3g} mm | {:<9} | {:>7} | {:>11.2f}x | {:>8.1f} / {:>5.1f} deg | {:>11.2f}% | {:>6.2f}x |\n",
+            model, depth, direction, s.presses, s.factor, s.direction_mean_deg, s.direction_max_deg,
+            100 * s.difference_mean, s.stretch_factor_max);
       }
   bool any_check = false;
   for (const PressRecord& r : records)
@@ -476,6 +491,8 @@ std::vector<PressRecord> press_site(const Plan& plan, std::size_t k) {
     if (!r.reference_solved) continue;
     PressResult reference;
     reference.positions = std::move(surfaces[i]);
+    r.reference_stretch = geometry::largest_edge_stretch(organ.model().surface_vertices, reference.positions,
+                                                         organ.model().surface_triangles);
     std::string forces;
     for (const std::string& name : fast_models()) {
       const bool settles = realtime::find_model(name)->static_press == realtime::StaticPress::settled;
@@ -495,7 +512,8 @@ nlohmann::json record_json(const PressRecord& r) {
                   {"force", exact_vector_json(a.force)},
                   {"log_ratio", exact_json(a.log_ratio)},
                   {"direction", exact_json(a.direction_error_deg)},
-                  {"difference", exact_json(a.surface_difference)}};
+                  {"difference", exact_json(a.surface_difference)},
+                  {"stretch", exact_json(a.largest_stretch)}};
   return {{"site", r.site},
           {"vertex", r.vertex},
           {"tilt", static_cast<int>(r.tilt)},
@@ -512,6 +530,7 @@ nlohmann::json record_json(const PressRecord& r) {
           {"check_force", r.check_force ? exact_vector_json(*r.check_force) : nlohmann::json(nullptr)},
           {"thickness_mm", exact_json(r.thickness_mm)},
           {"clamp_distance_mm", exact_json(r.clamp_distance_mm)},
+          {"reference_stretch", exact_json(r.reference_stretch)},
           {"fast", fast}};
 }
 
@@ -532,10 +551,11 @@ PressRecord record_from(const nlohmann::json& j) {
   if (!j.at("check_force").is_null()) r.check_force = exact_vector(j.at("check_force"));
   r.thickness_mm = exact_double(j.at("thickness_mm"));
   r.clamp_distance_mm = exact_double(j.at("clamp_distance_mm"));
+  r.reference_stretch = exact_double(j.at("reference_stretch"));
   for (const auto& [name, a] : j.at("fast").items())
-    r.fast[name] = {a.at("solved").get<bool>(),      a.at("error").get<std::string>(),
-                    exact_vector(a.at("force")),     exact_double(a.at("log_ratio")),
-                    exact_double(a.at("direction")), exact_double(a.at("difference"))};
+    r.fast[name] = {a.at("solved").get<bool>(),      a.at("error").get<std::string>(), exact_vector(a.at("force")),
+                    exact_double(a.at("log_ratio")), exact_double(a.at("direction")),  exact_double(a.at("difference")),
+                    exact_double(a.at("stretch"))};
   return r;
 }
 

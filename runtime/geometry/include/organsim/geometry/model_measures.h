@@ -30,6 +30,17 @@ double signed_tetrahedron_volume(const Eigen::Vector3d& a, const Eigen::Vector3d
 /// > 0 for outward triangles), m³.
 double enclosed_volume(const std::vector<model::Point3>& vertices, const std::vector<model::Triangle>& triangles);
 
+/// The stretch of the edge from vertex `a` to vertex `b` of a surface moved
+/// from `rest` to `now` (the same vertices): its length now over its length at
+/// rest; 1 for an edge of no length at rest, which has no stretch to measure.
+double edge_stretch(const std::vector<model::Point3>& rest, const std::vector<model::Point3>& now, std::uint32_t a,
+                    std::uint32_t b);
+
+/// The largest edge_stretch over the edges of `triangles` (1: no edge longer
+/// than at rest).
+double largest_edge_stretch(const std::vector<model::Point3>& rest, const std::vector<model::Point3>& now,
+                            const std::vector<model::Triangle>& triangles);
+
 /// Unit outward normal of a surface triangle of the model (rest state).
 Eigen::Vector3d triangle_normal(const model::OrganModel& model, std::uint32_t triangle);
 
