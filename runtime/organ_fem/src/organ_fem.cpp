@@ -1110,19 +1110,8 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
     // apart). At rest the rest tangent is exact; a refresh on its way, made
     // at the pressed state, is dropped: now where the frames may wait for
     // it (so that the next press begins as the first did), else when done.
-    reset();
-    if (worker_ && refresh_due_ > 0) {
-      if (reproducible_ || worker_->finished()) {
-        end_refresh(false);
-      } else {
-        stale_refresh_ = true;
-      }
-    }
-    if (rest_tangent_ && !using_rest_) {
-      using_rest_ = true;
-      respond_all(*rest_tangent_);
-      assemble_capacitance();
-    }
+    return_to_rest();
+    kept_in_a_row_ = 0;
     contact_settled_ = true;
     ++frame_;
     return FrameStatus::ok;
@@ -1163,6 +1152,17 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
   update_stiffness();
   if (fraction == 0.0) {
     if (keeps_rest_tangent()) adapt_step_fraction(0.0, 0.0, 0.0);
+    if (++kept_in_a_row_ >= kKeptFramesBeforeRestart) {
+      // Every step from this state inverts a tetrahedron, even with a
+      // tangent made here: an iteration that diverged before its steps were
+      // refused left the organ where no step leads out (seen in real-time
+      // replays of a held lobe once the probe beside it let go, on a 2-vCPU
+      // machine whose worker refreshed late). The organ starts again from
+      // rest, and the frames bring it back to the tools.
+      return_to_rest();
+      kept_in_a_row_ = 0;
+      ++restarts_;
+    }
     ++frame_;
     if (worker_ && refresh_due_ == 0) request_refresh();
     // Out of balance: the kept tangents do not fit this state. The refresh
@@ -1177,6 +1177,7 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
     h.force = (1.0 - fraction) * h.force + fraction * w.multipliers.segment<3>(static_cast<Eigen::Index>(3 * a));
   }
 
+  kept_in_a_row_ = 0;
   step_cuts_ += fraction < relaxation_;
   const double before = unbalanced_;
   unbalanced_ = out_of_balance(0.0);
@@ -1184,6 +1185,22 @@ FrameStatus OrganFem::step(const Eigen::Vector3d* displacements) noexcept {
   ++frame_;
   if (worker_ && refresh_due_ == 0) request_refresh();
   return FrameStatus::ok;
+}
+
+void OrganFem::return_to_rest() noexcept {
+  reset();
+  if (worker_ && refresh_due_ > 0) {
+    if (reproducible_ || worker_->finished()) {
+      end_refresh(false);
+    } else {
+      stale_refresh_ = true;
+    }
+  }
+  if (rest_tangent_ && !using_rest_) {
+    using_rest_ = true;
+    respond_all(*rest_tangent_);
+    assemble_capacitance();
+  }
 }
 
 void OrganFem::adapt_step_fraction(double fraction, double before, double after) noexcept {

@@ -306,6 +306,38 @@ TEST(OrganFem, AStepThatWouldInvertATetrahedronIsCutOrUndone) {
   EXPECT_EQ(fem.displacements(), before);
 }
 
+// A state no step leads out of (every fraction of every step inverts a
+// tetrahedron) is left after a second of kept frames: the organ starts again
+// from rest, and the frames bring it back to the tool.
+TEST(OrganFem, AnOrganThatKeepsItsShapeForASecondStartsAgainFromRest) {
+  const model::OrganModel m = cylinder();
+  OrganFem fem(m, MaterialModel::corotational, cap_clamp(), 1);
+  ASSERT_TRUE(fem.attach(0, Eigen::Vector3d(0.05, 0.0, 0.03)));
+  const Eigen::Vector3d press(0, 0, -0.004);
+  for (int frame = 0; frame < 10; ++frame) ASSERT_EQ(fem.step(&press), FrameStatus::ok);
+  const Eigen::VectorXd pressed = fem.displacements();
+  ASSERT_GT(pressed.cwiseAbs().maxCoeff(), 1e-3);
+  const Eigen::Vector3d absurd(-3.0, 0, -1.0);  // metres through the organ
+  for (std::uint32_t frame = 1; frame < OrganFem::kKeptFramesBeforeRestart; ++frame) {
+    ASSERT_EQ(fem.step(&absurd), FrameStatus::kept_shape) << frame;
+    EXPECT_EQ(fem.displacements(), pressed) << frame;
+  }
+  EXPECT_EQ(fem.restarts(), 0u);
+  EXPECT_EQ(fem.step(&absurd), FrameStatus::kept_shape);
+  EXPECT_EQ(fem.restarts(), 1u);
+  EXPECT_EQ(fem.displacements().cwiseAbs().maxCoeff(), 0.0);
+  // Back at the tool, the organ settles where an organ pressed all along does.
+  OrganFem undisturbed(m, MaterialModel::corotational, cap_clamp(), 1);
+  ASSERT_TRUE(undisturbed.attach(0, Eigen::Vector3d(0.05, 0.0, 0.03)));
+  for (int frame = 0; frame < 300; ++frame) {
+    ASSERT_EQ(fem.step(&press), FrameStatus::ok) << frame;
+    ASSERT_EQ(undisturbed.step(&press), FrameStatus::ok) << frame;
+  }
+  EXPECT_LT((fem.contact_displacement(0) - press).norm(), 1e-9);
+  EXPECT_LT((fem.displacements() - undisturbed.displacements()).cwiseAbs().maxCoeff(),
+            1e-6 * undisturbed.displacements().cwiseAbs().maxCoeff());
+}
+
 TEST(OrganFem, RejectsModelsItCannotSolve) {
   model::OrganModel m = cylinder();
   EXPECT_THROW(OrganFem(m, MaterialModel::linear, OrganFemOptions{}, 1),

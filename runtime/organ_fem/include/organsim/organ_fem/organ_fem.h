@@ -195,6 +195,12 @@ class OrganFem {
   void set_reproducible(bool reproducible) noexcept { reproducible_ = reproducible; }
   /// Frames that found the worker's tangent late and went on without it.
   std::uint64_t late_refreshes() const noexcept { return late_refreshes_; }
+  /// Times the organ started again from rest because kKeptFramesBeforeRestart
+  /// frames in a row kept its shape (see step()).
+  std::uint64_t restarts() const noexcept { return restarts_; }
+  /// Frames in a row that keep the organ's shape before it starts again from
+  /// rest: one second at 60 Hz.
+  static constexpr std::uint32_t kKeptFramesBeforeRestart = 60;
   /// Frames whose iteration was cut short because the whole of it would have
   /// inverted a tetrahedron or, in psh's frames, more than doubled the
   /// organ's imbalance (the organ then lags the tools).
@@ -401,6 +407,9 @@ class OrganFem {
   double time_frame_work();
   /// Adopts `fresh` as the kept tangent: responses of nodes it lacks solved.
   void adopt(std::unique_ptr<Tangent>& fresh) noexcept;
+  /// Back to the rest state and the rest tangent; a refresh on its way, made
+  /// away from rest, is dropped (now where the frames wait for it, else when done).
+  void return_to_rest() noexcept;
   /// Waits for the worker's refresh, adopts it when `adopt_it` and it succeeded, and frees the worker.
   void end_refresh(bool adopt_it) noexcept;
   void request_refresh() noexcept;
@@ -470,7 +479,8 @@ class OrganFem {
   std::uint64_t frame_ = 0, refresh_due_ = 0;
   bool solved_this_frame_ = false;  // a contact's response was solved since the last step
   bool stale_refresh_ = false;      // the refresh on its way was asked for before the organ came to rest
-  std::uint64_t refreshes_ = 0, step_cuts_ = 0, late_refreshes_ = 0;
+  std::uint64_t refreshes_ = 0, step_cuts_ = 0, late_refreshes_ = 0, restarts_ = 0;
+  std::uint32_t kept_in_a_row_ = 0;  ///< frames in a row that kept the organ's shape
   bool reproducible_ = true;
   double unbalanced_ = 0;
   double relaxation_ = 1;
