@@ -347,6 +347,15 @@ TEST_F(Cli, ReplayRefusesSessionsLongerThanADayOrFarFromTheOrgan) {
   EXPECT_EQ(nlohmann::json::parse(allowed.out)["force_loop"]["ticks"], 501);
 }
 
+/// Bakes the shipped CT's liver from its label map into `out` with `options`
+/// (the tests' bakes leave out what they do not need).
+CommandRun bake_shipped_liver(const fs::path& dir, const fs::path& out, const std::string& options) {
+  const fs::path samples = kSamples / "real_ct_totalseg";
+  return run_organsim("bake " + (samples / "example_ct.nii.gz").string() + " --label " +
+                          (samples / "liver_mask_ct.nii.gz").string() + " " + options + " --quiet -o " + out.string(),
+                      dir);
+}
+
 // The shipped liver pressed by the sample session's two tools, then left
 // alone for 1.5 s: the co-rotational and St. VK organs never go beyond the
 // press's deformation, and once both tools have let go (by 3.0 s) the organ
@@ -355,11 +364,7 @@ TEST_F(Cli, ReplayRefusesSessionsLongerThanADayOrFarFromTheOrgan) {
 // frames of 3.0 s (and the DICOM sample's liver 121 mm); iterated with the
 // balance rule, it came back over seconds.
 TEST_F(Cli, ALiverLetGoComesBackToRestWithoutFlyingApart) {
-  const fs::path samples = kSamples / "real_ct_totalseg";
-  const CommandRun bake = run_organsim("bake " + (samples / "example_ct.nii.gz").string() + " --label " +
-                                           (samples / "liver_mask_ct.nii.gz").string() +
-                                           " --no-site-compliance --quiet -o " + (dir_ / "liver.organ").string(),
-                                       dir_);
+  const CommandRun bake = bake_shipped_liver(dir_, dir_ / "liver.organ", "--no-site-compliance");
   ASSERT_EQ(bake.exit_code, 0) << bake.err;
   {  // The sample session with its last samples (both tools away) at 4.5 s instead of 3.0 s.
     std::ifstream in(kSamples / "liver_two_tools.session");
@@ -408,11 +413,7 @@ TEST_F(Cli, ALiverLetGoComesBackToRestWithoutFlyingApart) {
 // froze for 1.2 s and the probe felt nothing. Every frame now moves the organ
 // and the probe feels the lifted lobe.
 TEST_F(Cli, PshHoldsALiftedLobeAndFeelsTheProbeInEveryFrame) {
-  const fs::path samples = kSamples / "real_ct_totalseg";
-  const CommandRun bake = run_organsim("bake " + (samples / "example_ct.nii.gz").string() + " --label " +
-                                           (samples / "liver_mask_ct.nii.gz").string() +
-                                           " --no-site-compliance --quiet -o " + (dir_ / "liver.organ").string(),
-                                       dir_);
+  const CommandRun bake = bake_shipped_liver(dir_, dir_ / "liver.organ", "--no-site-compliance");
   ASSERT_EQ(bake.exit_code, 0) << bake.err;
   const CommandRun replay =
       run_organsim(fmt::format("replay {} {} --model psh --fast --json", (dir_ / "liver.organ").string(),
@@ -435,11 +436,8 @@ TEST_F(Cli, PshHoldsALiftedLobeAndFeelsTheProbeInEveryFrame) {
 // the second tool felt 0.35 N where the organ gives 0.09 N (the other FEM
 // models alike: checked by hand, PSH's replay alone takes 25 s).
 TEST_F(Cli, AFineLiverFollowsBothPressesInEveryFrame) {
-  const fs::path samples = kSamples / "real_ct_totalseg";
-  const CommandRun bake = run_organsim(
-      "bake " + (samples / "example_ct.nii.gz").string() + " --label " + (samples / "liver_mask_ct.nii.gz").string() +
-          " --tet-size 4.4 --no-site-compliance --no-beam-tables --quiet -o " + (dir_ / "fine.organ").string(),
-      dir_);
+  const CommandRun bake =
+      bake_shipped_liver(dir_, dir_ / "fine.organ", "--tet-size 4.4 --no-site-compliance --no-beam-tables");
   ASSERT_EQ(bake.exit_code, 0) << bake.err;
   const CommandRun replay =
       run_organsim(fmt::format("replay {} {} --model corotational --fast --json", (dir_ / "fine.organ").string(),
