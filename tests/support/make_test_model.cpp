@@ -29,6 +29,10 @@ int main(int argc, char** argv) {
   app.add_flag("--site-curvature", curvature,
                "With --site-compliance: the cylinder side's curvatures (1/radius, 0) at every vertex (format 1.3's "
                "CURV section)");
+  bool supports = false;
+  app.add_flag("--supports", supports,
+               "Every vertex below the axis (z < 0) on a contact (format 1.5's SUPP section); with --site-compliance "
+               "also the compliances on the supports, a quarter of the others (format 1.7's SSUP section)");
   CLI11_PARSE(app, argc, argv);
   try {
     organsim::model::OrganModel model;
@@ -42,6 +46,14 @@ int main(int argc, char** argv) {
     }
     if (sites) organsim::testing::add_uniform_site_compliance(model, 0.02);
     if (sites && curvature) model.sites.curvature.assign(model.surface_vertices.size(), {1.0 / cylinder.radius, 0.0});
+    if (supports) {
+      for (const organsim::model::Point3& p : model.surface_vertices)
+        model.supports.vertices.push_back(p[2] < 0.0 ? std::array<double, 2>{1.0, 2.5e5}
+                                                     : std::array<double, 2>{0.0, 0.0});
+      if (sites)
+        for (const auto& c : model.sites.compliance)
+          model.sites.supported.push_back({c[0] / 4, c[1] / 4, c[2] / 4, c[3] / 4, c[4] / 4, c[5] / 4});
+    }
     organsim::model::write_organ_model_file(model, output);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "organsim-test-model: error: %s\n", e.what());

@@ -271,57 +271,19 @@ std::array<double, 6> packed(const Eigen::Matrix3d& c) {
   return {c(0, 0), c(1, 1), c(2, 2), c(0, 1), c(0, 2), c(1, 2)};
 }
 
-}  // namespace
-
-std::vector<std::array<double, 2>> site_curvatures(const model::OrganModel& model, double radius) {
-  if (!(radius > 0) || !std::isfinite(radius))
-    throw std::invalid_argument("the curvature's fit radius must be a length > 0");
-  std::vector<Eigen::Vector3d> places;
-  places.reserve(model.surface_vertices.size());
-  for (const model::Point3& p : model.surface_vertices) places.push_back(point(p));
-  const PointGrid grid(places, radius);
-  const std::vector<Eigen::Vector3d> normals = vertex_normals(model);
-  std::vector<std::array<double, 2>> curvature(places.size(), {0.0, 0.0});
-  std::vector<Eigen::Vector3d> near;
-  for (std::size_t v = 0; v < places.size(); ++v) {
-    near.clear();
-    // Only the surface facing the same side: across a thin lobe the ball
-    // reaches the far face, which is no part of this one's shape.
-    for (std::uint32_t p : grid.within(places[v], radius))
-      if (p != v && normals[p].dot(normals[v]) > 0.0) near.push_back(places[p]);
-    // Five unknowns: with fewer points the quadric is undetermined, and the
-    // site is taken as flat (the tip alone sets the Hertz radius).
-    if (near.size() >= 5) curvature[v] = fitted_curvatures(places[v], normals[v], near);
-  }
-  return curvature;
-}
-
-model::SiteCompliance compute_site_compliance(const model::OrganModel& model, const SiteComplianceOptions& o,
-                                              SiteComplianceReport* report) {
-  if (model.tetrahedra.empty() || model.volume_vertices.empty())
-    throw std::invalid_argument("site compliances need the model's tetrahedra");
-  if (!(o.poisson_ratio > 0 && o.poisson_ratio < 0.5))
-    throw std::invalid_argument("the reference's Poisson's ratio must lie in (0, 0.5)");
-  if (!(o.stabilization >= 0) || !std::isfinite(o.stabilization))
-    throw std::invalid_argument("the reference's stabilization must be a finite number >= 0");
-  if (!(o.patch_radius >= 0) || !std::isfinite(o.patch_radius))
-    throw std::invalid_argument("the patch radius must be a length >= 0");
-  if (!(o.curvature_radius >= 0) || !std::isfinite(o.curvature_radius))
-    throw std::invalid_argument("the curvature's fit radius must be a length >= 0");
-  if (!(o.fixed_radius > 0) || !std::isfinite(o.fixed_radius))
-    throw std::invalid_argument("the clamp radius must be a length > 0");
-
-  // The PSH stiffness at rest, clamped as the FEM models clamp it.
-  const fem::TetMesh mesh = fem::tet_mesh_of(model);
-  const std::vector<bool> clamped = fem::clamped_dofs(model, o.fixed_radius);
-  const double young = model.material.young_modulus;
-  fem::ElasticitySystem system(mesh, fem::Material::mooney_rivlin_from_young(young, o.poisson_ratio, o.stabilization),
-                               clamped);
-  Eigen::VectorXd state = Eigen::VectorXd::Zero(system.dof_count()), gradient(system.dof_count());
-  system.assemble(state, gradient, true);
+/// Per surface vertex of `model`, the organ's compliance under a tool there
+/// (packed; model::SiteCompliance::compliance) for the stiffness `tangent` of
+/// `system`'s free unknowns: one factorization, the boundary's Green's
+/// function between nearby free boundary nodes, each site's patch mean less
+/// the patch's own indentation. Adds its sizes and times to `report`.
+std::vector<std::array<double, 6>> organ_compliances(const model::OrganModel& model,
+                                                     const fem::ElasticitySystem& system,
+                                                     const fem::SparseMatrix& tangent, const std::vector<bool>& clamped,
+                                                     const SiteComplianceOptions& o, SiteComplianceReport& report) {
+  const fem::TetMesh& mesh = system.mesh();
   const auto factorization_start = std::chrono::steady_clock::now();
   // Quasi-definite: an LDLᵀ without pivoting exists for every symmetric ordering.
-  const LdltFactor factor(system.tangent_free());
+  const LdltFactor factor(tangent);
   if (factor.info() != Eigen::Success)
     throw std::invalid_argument(
         "the FEM stiffness at rest is singular: the clamp does not hold the organ (raise the clamp radius)");
@@ -430,16 +392,14 @@ model::SiteCompliance compute_site_compliance(const model::OrganModel& model, co
   // Each site: the patch's mean displacement per unit force, less the
   // patch's own indentation.
   const std::vector<Eigen::Vector3d> normals = vertex_normals(model);
-  model::SiteCompliance sites;
-  sites.young_modulus = young;
-  sites.poisson_ratio = o.poisson_ratio;
-  sites.compliance.resize(vertices);
+  const double young = model.material.young_modulus;
+  std::vector<std::array<double, 6>> compliance(vertices);
   std::vector<double> weight(nodes.size(), 0.0);
   for (std::size_t v = 0; v < vertices; ++v) {
     double total = 0.0;
     for (std::uint32_t p : patches[v]) total += area[nodes[p]];
     if (!(total > 0.0)) {
-      sites.compliance[v] = {};  // at the clamp: the organ does not give
+      compliance[v] = {};  // at the clamp: the organ does not give
       continue;
     }
     for (std::uint32_t p : patches[v]) weight[p] = area[nodes[p]] / total;
@@ -450,8 +410,96 @@ model::SiteCompliance compute_site_compliance(const model::OrganModel& model, co
     c = 0.5 * (c + c.transpose()) - organ::disk_compliance(young, o.poisson_ratio, std::sqrt(total / M_PI), normals[v]);
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(c);
     c = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() * eigen.eigenvectors().transpose();
-    sites.compliance[v] = packed(c);
+    compliance[v] = packed(c);
   }
+  report.patch_radius = patch;
+  report.boundary_nodes = solved.size();
+  report.unknowns = static_cast<std::size_t>(system.free_count());
+  report.factor_entries = solver.factor_entries();
+  report.factorization_seconds += factorization_seconds;
+  report.solve_seconds += solve_seconds;
+  return compliance;
+}
+
+/// `tangent` with the supports of `model` as a press finds them: every
+/// contact pushed into (K n nᵀ, its spring along the normal) and every
+/// attachment (K I) — fem::foundation_springs' springs, linear about rest.
+fem::SparseMatrix on_supports(const model::OrganModel& model, const fem::ElasticitySystem& system,
+                              const fem::SparseMatrix& tangent, const std::vector<bool>& clamped) {
+  const std::vector<fem::FoundationSpring> springs =
+      fem::foundation_springs(model, clamped, geometry::tetrahedral_boundary(model.tetrahedra));
+  std::vector<Eigen::Triplet<double>> entries;
+  const std::vector<std::int32_t>& free_index = system.free_index();
+  for (const fem::FoundationSpring& spring : springs) {
+    const Eigen::Matrix3d block = spring.unilateral
+                                      ? Eigen::Matrix3d(spring.stiffness * spring.normal * spring.normal.transpose())
+                                      : Eigen::Matrix3d(spring.stiffness * Eigen::Matrix3d::Identity());
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c)
+        entries.emplace_back(free_index[3 * static_cast<std::size_t>(spring.node) + r],
+                             free_index[3 * static_cast<std::size_t>(spring.node) + c], block(r, c));
+  }
+  fem::SparseMatrix foundation(tangent.rows(), tangent.cols());
+  foundation.setFromTriplets(entries.begin(), entries.end());
+  return tangent + foundation;
+}
+
+}  // namespace
+
+std::vector<std::array<double, 2>> site_curvatures(const model::OrganModel& model, double radius) {
+  if (!(radius > 0) || !std::isfinite(radius))
+    throw std::invalid_argument("the curvature's fit radius must be a length > 0");
+  std::vector<Eigen::Vector3d> places;
+  places.reserve(model.surface_vertices.size());
+  for (const model::Point3& p : model.surface_vertices) places.push_back(point(p));
+  const PointGrid grid(places, radius);
+  const std::vector<Eigen::Vector3d> normals = vertex_normals(model);
+  std::vector<std::array<double, 2>> curvature(places.size(), {0.0, 0.0});
+  std::vector<Eigen::Vector3d> near;
+  for (std::size_t v = 0; v < places.size(); ++v) {
+    near.clear();
+    // Only the surface facing the same side: across a thin lobe the ball
+    // reaches the far face, which is no part of this one's shape.
+    for (std::uint32_t p : grid.within(places[v], radius))
+      if (p != v && normals[p].dot(normals[v]) > 0.0) near.push_back(places[p]);
+    // Five unknowns: with fewer points the quadric is undetermined, and the
+    // site is taken as flat (the tip alone sets the Hertz radius).
+    if (near.size() >= 5) curvature[v] = fitted_curvatures(places[v], normals[v], near);
+  }
+  return curvature;
+}
+
+model::SiteCompliance compute_site_compliance(const model::OrganModel& model, const SiteComplianceOptions& o,
+                                              SiteComplianceReport* report) {
+  if (model.tetrahedra.empty() || model.volume_vertices.empty())
+    throw std::invalid_argument("site compliances need the model's tetrahedra");
+  if (!(o.poisson_ratio > 0 && o.poisson_ratio < 0.5))
+    throw std::invalid_argument("the reference's Poisson's ratio must lie in (0, 0.5)");
+  if (!(o.stabilization >= 0) || !std::isfinite(o.stabilization))
+    throw std::invalid_argument("the reference's stabilization must be a finite number >= 0");
+  if (!(o.patch_radius >= 0) || !std::isfinite(o.patch_radius))
+    throw std::invalid_argument("the patch radius must be a length >= 0");
+  if (!(o.curvature_radius >= 0) || !std::isfinite(o.curvature_radius))
+    throw std::invalid_argument("the curvature's fit radius must be a length >= 0");
+  if (!(o.fixed_radius > 0) || !std::isfinite(o.fixed_radius))
+    throw std::invalid_argument("the clamp radius must be a length > 0");
+
+  // The PSH stiffness at rest, clamped as the FEM models clamp it.
+  const fem::TetMesh mesh = fem::tet_mesh_of(model);
+  const std::vector<bool> clamped = fem::clamped_dofs(model, o.fixed_radius);
+  const double young = model.material.young_modulus;
+  fem::ElasticitySystem system(mesh, fem::Material::mooney_rivlin_from_young(young, o.poisson_ratio, o.stabilization),
+                               clamped);
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(system.dof_count()), gradient(system.dof_count());
+  system.assemble(state, gradient, true);
+  SiteComplianceReport measured;
+  model::SiteCompliance sites;
+  sites.young_modulus = young;
+  sites.poisson_ratio = o.poisson_ratio;
+  sites.compliance = organ_compliances(model, system, system.tangent_free(), clamped, o, measured);
+  if (o.supports && !model.supports.empty())
+    sites.supported = organ_compliances(model, system, on_supports(model, system, system.tangent_free(), clamped),
+                                        clamped, o, measured);
   std::vector<double> surface_edges;
   for (const model::Triangle& t : model.surface_triangles)
     surface_edges.push_back((point(model.surface_vertices[t[1]]) - point(model.surface_vertices[t[0]])).norm());
@@ -465,15 +513,8 @@ model::SiteCompliance compute_site_compliance(const model::OrganModel& model, co
     }
   }
   sites.curvature = site_curvatures(model, curvature_radius);
-  if (report) {
-    report->patch_radius = patch;
-    report->curvature_radius = curvature_radius;
-    report->boundary_nodes = solved.size();
-    report->unknowns = static_cast<std::size_t>(system.free_count());
-    report->factor_entries = solver.factor_entries();
-    report->factorization_seconds = factorization_seconds;
-    report->solve_seconds = solve_seconds;
-  }
+  measured.curvature_radius = curvature_radius;
+  if (report) *report = measured;
   return sites;
 }
 

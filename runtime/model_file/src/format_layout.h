@@ -62,6 +62,8 @@ inline constexpr std::uint32_t kMeshingFieldsV1_4 = 3;
 inline constexpr std::uint32_t kSupportFieldsV1_5 = 2;
 /// Format 1.6's pull curve: reals per point (distance, softening).
 inline constexpr std::uint32_t kPullFieldsV1_6 = 2;
+/// Format 1.7's site compliance on the supports: reals per vertex (as SITE's).
+inline constexpr std::uint32_t kSupportedSiteFieldsV1_7 = 6;
 
 enum class Section {
   Metadata,
@@ -77,7 +79,8 @@ enum class Section {
   SiteCurvature,
   Meshing,
   Supports,
-  PullCurve
+  PullCurve,
+  SupportedSiteCompliance
 };
 
 struct SectionDescription {
@@ -103,6 +106,7 @@ inline constexpr SectionDescription kSections[] = {
     {Section::Meshing, "MESH", "meshing", false},
     {Section::Supports, "SUPP", "supports", false},
     {Section::PullCurve, "PULL", "pull curve", false},
+    {Section::SupportedSiteCompliance, "SSUP", "site compliance on the supports", false},
 };
 
 inline const SectionDescription& describe(Section id) { return kSections[static_cast<std::size_t>(id)]; }

@@ -140,6 +140,11 @@ std::vector<std::uint8_t> encode_section(Section id, const OrganModel& m) {
       w.put<std::uint32_t>(0);
       w.put_array(m.supports.vertices);
       break;
+    case Section::SupportedSiteCompliance:
+      w.put<std::uint32_t>(format::kSupportedSiteFieldsV1_7);
+      w.put<std::uint32_t>(0);
+      w.put_array(m.sites.supported);
+      break;
     case Section::PullCurve:
       w.put<std::uint32_t>(format::kPullFieldsV1_6);
       w.put<std::uint32_t>(0);
@@ -161,6 +166,7 @@ bool section_present(Section id, const OrganModel& m) {
     case Section::Meshing: return !m.meshing.empty();
     case Section::Supports: return !m.supports.empty();
     case Section::PullCurve: return !m.sites.pull_curve.empty();
+    case Section::SupportedSiteCompliance: return !m.sites.supported.empty();
     default: return true;
   }
 }
@@ -359,6 +365,19 @@ std::vector<std::array<double, 2>> read_vertex_pairs(Section id, std::uint32_t f
     fail_section(id,
                  "field count " + std::to_string(found) + " is not " + std::to_string(fields) + "; " + kDamagedAdvice);
   return read_array<double, 2>(id, r.here(), r.remaining());
+}
+
+/// SSUP: a field count (6), a reserved word and a compliance per surface vertex.
+std::vector<std::array<double, 6>> read_supported_sites(const std::uint8_t* data, std::size_t size) {
+  const Section id = Section::SupportedSiteCompliance;
+  PayloadReader r(data, size);
+  std::uint32_t fields = 0, reserved = 0;
+  if (!r.get(fields) || !r.get(reserved))
+    fail_section(id, std::string("payload too short for its header; ") + kDamagedAdvice);
+  if (fields != format::kSupportedSiteFieldsV1_7)
+    fail_section(id, "field count " + std::to_string(fields) + " is not " +
+                         std::to_string(format::kSupportedSiteFieldsV1_7) + "; " + kDamagedAdvice);
+  return read_array<double, 6>(id, r.here(), r.remaining());
 }
 
 void read_meshing(const std::uint8_t* data, std::size_t size, Meshing& meshing) {
@@ -677,6 +696,9 @@ OrganModel read_sections(const std::uint8_t* data, const SectionIndex& index, co
     m.supports.vertices = read_vertex_pairs(Section::Supports, format::kSupportFieldsV1_5, payload(Section::Supports),
                                             bytes(Section::Supports));
   if (index.has(Section::PullCurve)) read_pull_curve(payload(Section::PullCurve), bytes(Section::PullCurve), m.sites);
+  if (index.has(Section::SupportedSiteCompliance))
+    m.sites.supported =
+        read_supported_sites(payload(Section::SupportedSiteCompliance), bytes(Section::SupportedSiteCompliance));
   if (const auto issue = find_model_issue(m, beams_plausible))
     fail_section(issue->section, issue->message + "; " + kDamagedAdvice);
   return m;

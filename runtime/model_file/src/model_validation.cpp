@@ -88,6 +88,31 @@ std::string site_curvature_issue(const OrganModel& m) {
   return {};
 }
 
+/// Whether `c` is finite and passes a loose positive semi-definite test: no
+/// negative diagonal entry, no 2×2 principal minor below zero (catches garbage).
+bool plausible_compliance(const std::array<double, 6>& c) {
+  bool finite = true;
+  for (double x : c) finite &= std::isfinite(x);
+  return finite && c[0] >= 0 && c[1] >= 0 && c[2] >= 0 && c[3] * c[3] <= c[0] * c[1] * (1 + 1e-9) + 1e-300 &&
+         c[4] * c[4] <= c[0] * c[2] * (1 + 1e-9) + 1e-300 && c[5] * c[5] <= c[1] * c[2] * (1 + 1e-9) + 1e-300;
+}
+
+/// What is wrong with the site compliance on the supports, or "".
+std::string supported_sites_issue(const OrganModel& m) {
+  const SiteCompliance& sites = m.sites;
+  if (sites.supported.empty()) return {};
+  if (sites.empty()) return "site compliances on the supports without site compliances";
+  if (m.supports.empty()) return "site compliances on the supports without supports";
+  if (sites.supported.size() != m.surface_vertices.size())
+    return "there are " + std::to_string(sites.supported.size()) + " site compliances on the supports for " +
+           std::to_string(m.surface_vertices.size()) + " surface vertices";
+  for (std::size_t v = 0; v < sites.supported.size(); ++v)
+    if (!plausible_compliance(sites.supported[v]))
+      return "the compliance on the supports of vertex " + std::to_string(v) +
+             " is not finite or not positive semi-definite";
+  return {};
+}
+
 /// What is wrong with the site compliance, or "".
 std::string site_compliance_issue(const OrganModel& m) {
   const SiteCompliance& sites = m.sites;
@@ -103,13 +128,7 @@ std::string site_compliance_issue(const OrganModel& m) {
   if (!(std::isfinite(sites.poisson_ratio) && sites.poisson_ratio > 0 && sites.poisson_ratio < 0.5))
     return "the reference's Poisson's ratio must lie in (0, 0.5)";
   for (std::size_t v = 0; v < sites.compliance.size(); ++v) {
-    const std::array<double, 6>& c = sites.compliance[v];
-    bool finite = true;
-    for (double x : c) finite &= std::isfinite(x);
-    // A positive semi-definite matrix has no negative diagonal entry and no
-    // 2×2 principal minor below zero (a loose test that catches garbage).
-    if (!finite || c[0] < 0 || c[1] < 0 || c[2] < 0 || c[3] * c[3] > c[0] * c[1] * (1 + 1e-9) + 1e-300 ||
-        c[4] * c[4] > c[0] * c[2] * (1 + 1e-9) + 1e-300 || c[5] * c[5] > c[1] * c[2] * (1 + 1e-9) + 1e-300)
+    if (!plausible_compliance(sites.compliance[v]))
       return "the compliance of vertex " + std::to_string(v) + " is not finite or not positive semi-definite";
   }
   if (!(std::isfinite(sites.curve_tip_radius) && sites.curve_tip_radius >= 0))
@@ -236,6 +255,7 @@ std::optional<ModelIssue> find_model_issue(const OrganModel& m, bool beam_values
   if (auto e = site_curvature_issue(m); !e.empty()) return issue(format::Section::SiteCurvature, e);
   if (auto e = meshing_issue(m); !e.empty()) return issue(format::Section::Meshing, e);
   if (auto e = supports_issue(m); !e.empty()) return issue(format::Section::Supports, e);
+  if (auto e = supported_sites_issue(m); !e.empty()) return issue(format::Section::SupportedSiteCompliance, e);
 
   const BeamTables& b = m.beams;
   if (b.empty()) {

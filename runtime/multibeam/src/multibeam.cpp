@@ -178,7 +178,7 @@ Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point, doubl
   beam.frame.col(0) = x;
   beam.frame.col(1) = y;
   beam.frame.col(2) = z;
-  beam.matched = options_.match_sites && beam.law.set(organ_, action, tip_radius);
+  beam.matched = options_.match_sites && beam.law.set(organ_, action, tip_radius, options_.supports);
   beam.stiffness = beam.matched ? beam.law.stiffness()
                                 : Eigen::Matrix3d(beam.frame * solvers_[tool].tip_stiffness() * beam.frame.transpose());
   beam.attached = true;

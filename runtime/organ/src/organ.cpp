@@ -47,6 +47,8 @@ model::OrganModel surface_in_morton_order(model::OrganModel model, std::vector<s
     model.beams.sections = model::SectionTable(gathered(std::as_const(model.beams.sections), stations));
   if (model.sites.compliance.size() == n) model.sites.compliance = gathered(model.sites.compliance, 1);
   if (model.sites.curvature.size() == n) model.sites.curvature = gathered(model.sites.curvature, 1);
+  if (model.sites.supported.size() == n) model.sites.supported = gathered(model.sites.supported, 1);
+  if (model.supports.vertices.size() == n) model.supports.vertices = gathered(model.supports.vertices, 1);
   for (model::Triangle& t : model.surface_triangles)
     for (std::uint32_t& v : t) v = new_index[v];
   return model;

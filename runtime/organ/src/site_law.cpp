@@ -62,7 +62,7 @@ double hertz_radius(double tip_radius, double first, double second) noexcept {
                                 (1.0 + tip_radius * std::max(second, concave_limit)));
 }
 
-bool SiteLaw::set(const Organ& organ, const geometry::SurfacePoint& at, double tip_radius) noexcept {
+bool SiteLaw::set(const Organ& organ, const geometry::SurfacePoint& at, double tip_radius, bool on_supports) noexcept {
   const model::OrganModel& m = organ.model();
   const model::SiteCompliance& sites = m.sites;
   if (sites.empty() || !(tip_radius > 0.0) || !std::isfinite(tip_radius) || at.triangle >= m.surface_triangles.size())
@@ -72,6 +72,11 @@ bool SiteLaw::set(const Organ& organ, const geometry::SurfacePoint& at, double t
   const model::Triangle& t = m.surface_triangles[at.triangle];
   Eigen::Matrix3d compliance = Eigen::Matrix3d::Zero();
   for (int k = 0; k < 3; ++k) compliance += at.barycentric[k] * unpacked(sites.compliance[t[k]]);
+  Eigen::Matrix3d lifted = compliance;
+  if (on_supports && sites.supported.size() == m.surface_vertices.size()) {
+    compliance.setZero();
+    for (int k = 0; k < 3; ++k) compliance += at.barycentric[k] * unpacked(sites.supported[t[k]]);
+  }
   const Eigen::Vector3d normal = organ.rest_normal_at(at);
   Eigen::Matrix3d stiffness;
   bool invertible = false;
@@ -81,6 +86,7 @@ bool SiteLaw::set(const Organ& organ, const geometry::SurfacePoint& at, double t
   if (!invertible || !stiffness.allFinite()) return false;
   stiffness_ = 0.5 * (stiffness + stiffness.transpose());
   organ_compliance_ = compliance;
+  lifted_compliance_ = lifted;
   punch_compliance_ = punch;
   normal_ = normal;
   organ_normal_compliance_ = std::max(0.0, normal.dot(compliance * normal));
@@ -176,7 +182,8 @@ Eigen::Matrix3d SiteLaw::held_stiffness(double softening) const noexcept {
   Eigen::Matrix3d stiffness;
   bool invertible = false;
   double determinant = 0.0;
-  (organ_compliance_ + softening * punch_compliance_).computeInverseAndDetWithCheck(stiffness, determinant, invertible);
+  (lifted_compliance_ + softening * punch_compliance_)
+      .computeInverseAndDetWithCheck(stiffness, determinant, invertible);
   if (!invertible || !stiffness.allFinite()) return Eigen::Matrix3d::Zero();
   return 0.5 * (stiffness + stiffness.transpose());
 }

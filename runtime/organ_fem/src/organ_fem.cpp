@@ -63,44 +63,6 @@ constexpr double kMaxTakeCompression = 0.5;
 
 Eigen::Vector3d point(const model::Point3& p) { return {p[0], p[1], p[2]}; }
 
-/// The model's supports as springs on the tetrahedral boundary's free nodes:
-/// each node takes the kind and modulus of the surface vertex nearest it
-/// (the baked boundary lies within the mesher's facet distance of the
-/// surface), its stiffness that modulus times a third of its boundary faces'
-/// area, its normal their area-weighted outward normal.
-std::vector<FoundationSpring> foundation_of(const model::OrganModel& model, const std::vector<bool>& constrained,
-                                            const geometry::TetrahedralBoundary& boundary) {
-  const std::size_t nodes = model.volume_vertices.size();
-  std::vector<double> area(nodes, 0.0);
-  std::vector<Eigen::Vector3d> normal(nodes, Eigen::Vector3d::Zero());
-  for (std::size_t f = 0; f < boundary.faces.size(); ++f) {
-    const model::Triangle& face = boundary.faces[f];
-    const Eigen::Vector3d a = point(model.volume_vertices[face[0]]), b = point(model.volume_vertices[face[1]]),
-                          c = point(model.volume_vertices[face[2]]);
-    Eigen::Vector3d twice_area = (b - a).cross(c - a);
-    // Outward: away from the owner's fourth node.
-    for (const std::uint32_t corner : model.tetrahedra[boundary.owners[f]])
-      if (corner != face[0] && corner != face[1] && corner != face[2] &&
-          twice_area.dot(point(model.volume_vertices[corner]) - a) > 0)
-        twice_area = -twice_area;
-    for (const std::uint32_t v : face) area[v] += twice_area.norm() / 6.0, normal[v] += twice_area;
-  }
-  std::vector<FoundationSpring> springs;
-  for (std::size_t n = 0; n < nodes; ++n) {
-    if (!(area[n] > 0.0) || constrained[3 * n] || !(normal[n].norm() > 0.0)) continue;
-    const Eigen::Vector3d at = point(model.volume_vertices[n]);
-    std::size_t nearest = 0;
-    double best = std::numeric_limits<double>::infinity();
-    for (std::size_t v = 0; v < model.surface_vertices.size(); ++v)
-      if (const double d = (point(model.surface_vertices[v]) - at).squaredNorm(); d < best) best = d, nearest = v;
-    const model::Supports::Kind kind = model.supports.kind(nearest);
-    if (kind == model::Supports::Kind::kFree) continue;
-    springs.push_back({static_cast<std::int32_t>(n), model.supports.modulus(nearest) * area[n], normal[n].normalized(),
-                       kind == model::Supports::Kind::kContact});
-  }
-  return springs;
-}
-
 }  // namespace
 
 /// A factorized tangent and, per node slot, the response A⁻¹ e of the node
@@ -241,6 +203,40 @@ TetMesh tet_mesh_of(const model::OrganModel& model) {
   return mesh;
 }
 
+std::vector<FoundationSpring> foundation_springs(const model::OrganModel& model, const std::vector<bool>& constrained,
+                                                 const geometry::TetrahedralBoundary& boundary) {
+  if (model.supports.vertices.size() != model.surface_vertices.size()) return {};
+  const std::size_t nodes = model.volume_vertices.size();
+  std::vector<double> area(nodes, 0.0);
+  std::vector<Eigen::Vector3d> normal(nodes, Eigen::Vector3d::Zero());
+  for (std::size_t f = 0; f < boundary.faces.size(); ++f) {
+    const model::Triangle& face = boundary.faces[f];
+    const Eigen::Vector3d a = point(model.volume_vertices[face[0]]), b = point(model.volume_vertices[face[1]]),
+                          c = point(model.volume_vertices[face[2]]);
+    Eigen::Vector3d twice_area = (b - a).cross(c - a);
+    // Outward: away from the owner's fourth node.
+    for (const std::uint32_t corner : model.tetrahedra[boundary.owners[f]])
+      if (corner != face[0] && corner != face[1] && corner != face[2] &&
+          twice_area.dot(point(model.volume_vertices[corner]) - a) > 0)
+        twice_area = -twice_area;
+    for (const std::uint32_t v : face) area[v] += twice_area.norm() / 6.0, normal[v] += twice_area;
+  }
+  std::vector<FoundationSpring> springs;
+  for (std::size_t n = 0; n < nodes; ++n) {
+    if (!(area[n] > 0.0) || constrained[3 * n] || !(normal[n].norm() > 0.0)) continue;
+    const Eigen::Vector3d at = point(model.volume_vertices[n]);
+    std::size_t nearest = 0;
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t v = 0; v < model.surface_vertices.size(); ++v)
+      if (const double d = (point(model.surface_vertices[v]) - at).squaredNorm(); d < best) best = d, nearest = v;
+    const model::Supports::Kind kind = model.supports.kind(nearest);
+    if (kind == model::Supports::Kind::kFree) continue;
+    springs.push_back({static_cast<std::int32_t>(n), model.supports.modulus(nearest) * area[n], normal[n].normalized(),
+                       kind == model::Supports::Kind::kContact});
+  }
+  return springs;
+}
+
 std::vector<bool> clamped_dofs(const model::OrganModel& model, double fixed_radius) {
   if (model.fixed_points.empty()) throw std::invalid_argument("the model has no fixed point to clamp the FEM model at");
   // The clamp: a ball of nodes; three of them not on one line hold the body.
@@ -296,7 +292,7 @@ OrganFem::OrganFem(const model::OrganModel& model, MaterialModel material, const
   system_ = std::make_unique<ElasticitySystem>(mesh, law, constrained);
   boundary_ = geometry::tetrahedral_boundary(model.tetrahedra);
   if (options.supports && !model.supports.empty()) {
-    system_->set_foundation(foundation_of(model, constrained, boundary_));
+    system_->set_foundation(foundation_springs(model, constrained, boundary_));
     supported_nodes_ = system_->foundation().size();
   }
   factorization_ = options.factorization;

@@ -78,6 +78,16 @@ MassSpring::MassSpring(SpringNetwork network, const SimulationOptions& options)
   }
   for (const model::Triangle& t : network_.triangles)
     require(t[0] < n && t[1] < n && t[2] < n, "a triangle's node index is out of range");
+  support_of_.assign(n, -1);
+  for (std::size_t k = 0; k < network_.supports.size(); ++k) {
+    const NodeSupport& support = network_.supports[k];
+    require(support.node < n && support_of_[support.node] < 0,
+            "support " + std::to_string(k) + " has a bad or repeated node index");
+    require(
+        non_negative(support.stiffness) && support.normal.allFinite() && std::abs(support.normal.norm() - 1.0) < 1e-9,
+        "support " + std::to_string(k) + " needs a finite stiffness >= 0 and a unit normal");
+    support_of_[support.node] = static_cast<std::int32_t>(k);
+  }
   require(std::isfinite(options_.dt) && options_.dt > 0.0, "dt must be positive and finite");
   require(options_.gravity.allFinite(), "gravity must be finite");
   require(non_negative(options_.point_damping), "point_damping must be non-negative and finite");
@@ -202,6 +212,8 @@ Eigen::Vector3d MassSpring::reaction_force(std::uint32_t node) const noexcept {
     const Eigen::Vector3d u = d / l;
     force -= (s.stiffness[k] * (l - s.rest_length[k]) + s.damping[k] * u.dot(v_[node] - v_[other])) * u;
   }
+  if (const std::int32_t k = support_of_[node]; k >= 0)
+    force += network_.supports[static_cast<std::size_t>(k)].force(x_[node] - network_.rest[node]);
   return force;
 }
 
@@ -226,6 +238,8 @@ Eigen::Matrix3d MassSpring::contact_stiffness(std::uint32_t node, const std::int
       stiffness += s.stiffness[k] * Eigen::Matrix3d::Identity();  // a zero-length spring at zero length
     }
   }
+  if (const std::int32_t k = support_of_[node]; k >= 0)
+    stiffness += network_.supports[static_cast<std::size_t>(k)].stiffness_at(x_[node] - network_.rest[node]);
   return stiffness;
 }
 
@@ -239,6 +253,11 @@ Energy MassSpring::energy() const noexcept {
   for (std::size_t k = 0; k < s.size(); ++k) {
     const double stretch = (x_[s.a[k]] - x_[s.b[k]]).norm() - s.rest_length[k];
     e.spring += 0.5 * s.stiffness[k] * stretch * stretch;
+  }
+  for (const NodeSupport& support : network_.supports) {
+    // ½ K |u|², or ½ K ⟨u·n⟩₊² on a contact: the work of force() from rest.
+    const Eigen::Vector3d u = x_[support.node] - network_.rest[support.node];
+    e.spring += 0.5 * u.dot(-support.force(u));
   }
   return e;
 }
@@ -434,6 +453,8 @@ void MassSpring::accelerations(const Points& x, const Points& v, Points& a) noex
     }
   }
   if (force_spring_count_ > 0) sums[current] += current_sum;
+  for (const NodeSupport& support : network_.supports)
+    sums[support.node] += support.force(positions[support.node] - network_.rest[support.node]);
   const double c = options_.point_damping;
   for (std::size_t k = 0; k < integrated_count_; ++k) {
     const std::uint32_t i = integrated_nodes_[k];

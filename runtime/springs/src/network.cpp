@@ -358,6 +358,13 @@ SpringNetwork make_organ_network(const model::OrganModel& model, const OrganNetw
     for (std::uint32_t v = 0; v < ns; ++v)
       add_spring(net, v, ns + v, o.body_factor * k, o.body_factor * d, SpringKind::body);
   if (o.volume_springs) add_volume_springs(net, model, volume_base, o.volume_factor * k, o.volume_factor * d, k, d);
+  if (o.supports && model.supports.vertices.size() == vertex_count)
+    for (std::uint32_t v = 0; v < ns; ++v) {
+      const model::Supports::Kind kind = model.supports.kind(v);
+      if (kind == model::Supports::Kind::kFree || net.fixed[v]) continue;
+      net.supports.push_back(
+          {v, model.supports.modulus(v) * area[v], normal[v].normalized(), kind == model::Supports::Kind::kContact});
+    }
   return net;
 }
 

@@ -15,9 +15,11 @@ using Vectors = std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vec
 
 /// The largest eigenvalue of M^{-1/2} A M^{-1/2} over the free nodes, A the
 /// rest-state axial operator Σ c_s (û·(u_a − u_b)) û with c_s from `coefficient`
-/// (stiffness or damping): power iteration from a deterministic start.
+/// (stiffness or damping), plus with `supports` the node supports' K taken as
+/// bilateral (a pressed contact is as stiff along its normal): power iteration
+/// from a deterministic start.
 template <class Coefficient>
-double largest_mass_normalized_eigenvalue(const SpringNetwork& net, Coefficient coefficient) {
+double largest_mass_normalized_eigenvalue(const SpringNetwork& net, Coefficient coefficient, bool supports) {
   const std::size_t n = net.rest.size();
   std::vector<double> scale(n);  // m^{-1/2} on free nodes, 0 on fixed ones
   for (std::size_t i = 0; i < n; ++i) scale[i] = net.fixed[i] ? 0.0 : 1.0 / std::sqrt(net.mass[i]);
@@ -44,6 +46,9 @@ double largest_mass_normalized_eigenvalue(const SpringNetwork& net, Coefficient 
       w[s.a[k]] += scale[s.a[k]] * f;
       w[s.b[k]] -= scale[s.b[k]] * f;
     }
+    if (supports)
+      for (const NodeSupport& support : net.supports)
+        w[support.node] += support.stiffness * scale[support.node] * scale[support.node] * u[support.node];
     double rayleigh = 0.0;
     for (std::size_t i = 0; i < n; ++i) rayleigh += u[i].dot(w[i]);
     if (iteration > 20 && std::abs(rayleigh - estimate) <= 1e-4 * rayleigh) return rayleigh;
@@ -57,13 +62,14 @@ double largest_mass_normalized_eigenvalue(const SpringNetwork& net, Coefficient 
 
 StiffestMode stiffest_mode(const SpringNetwork& network, double point_damping) {
   StiffestMode mode;
-  mode.omega = std::sqrt(std::max(
-      0.0, largest_mass_normalized_eigenvalue(network, [&](std::size_t k) { return network.springs.stiffness[k]; })));
+  mode.omega =
+      std::sqrt(std::max(0.0, largest_mass_normalized_eigenvalue(
+                                  network, [&](std::size_t k) { return network.springs.stiffness[k]; }, true)));
   double lightest = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < network.rest.size(); ++i)
     if (!network.fixed[i]) lightest = std::min(lightest, network.mass[i]);
   mode.damping_rate = std::max(0.0, largest_mass_normalized_eigenvalue(
-                                        network, [&](std::size_t k) { return network.springs.damping[k]; })) +
+                                        network, [&](std::size_t k) { return network.springs.damping[k]; }, false)) +
                       (std::isfinite(lightest) ? point_damping / lightest : 0.0);
   return mode;
 }

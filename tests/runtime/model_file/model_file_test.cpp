@@ -49,6 +49,8 @@ model::OrganModel small_model() {
   for (std::size_t v = 0; v < m.surface_vertices.size(); ++v)
     m.supports.vertices.push_back(v % 3 == 0 ? std::array<double, 2>{0.0, 0.0}
                                              : std::array<double, 2>{static_cast<double>(1 + v % 2), 2.5e5});
+  for (std::size_t v = 0; v < m.surface_vertices.size(); ++v)
+    m.sites.supported.push_back({0.1 + 1e-3 * v, 0.05, 0.04, 0.002, -0.004, 0.001});
   return m;
 }
 
@@ -90,7 +92,7 @@ TEST(ModelFile, RoundTripOfEverySection) {
   std::set<std::string> tags;
   for (const auto& s : r.file.sections) tags.insert(s.tag);
   EXPECT_EQ(tags, (std::set<std::string>{"META", "SVRT", "STRI", "SUVC", "TVRT", "TETS", "FIXP", "MATL", "BEAM", "SITE",
-                                         "CURV", "MESH", "SUPP", "PULL"}));
+                                         "CURV", "MESH", "SUPP", "PULL", "SSUP"}));
   EXPECT_EQ(r.file.version.major, 1);
   EXPECT_EQ(r.file.file_bytes, bytes.size());
 }
@@ -181,7 +183,7 @@ TEST(ModelFile, TruncationInsideHeaderAndTable) {
 TEST(ModelFile, TruncationAtAndInsideEverySection) {
   const auto bytes = encoded();
   const auto sections = list_sections(bytes);
-  ASSERT_EQ(sections.size(), 14u);
+  ASSERT_EQ(sections.size(), 15u);
   for (const auto& s : sections) {
     EXPECT_ERROR(std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + s.offset),
                  "truncated at the start of section '" + s.tag + "'");
@@ -228,7 +230,7 @@ TEST(ModelFile, FutureMajorVersionIsRefusedWithBothVersions) {
   poke<std::uint16_t>(bytes, 8, 2);
   poke<std::uint16_t>(bytes, 10, 3);
   refresh_checksums(bytes);
-  EXPECT_ERROR(bytes, "format version 2.3 but this organsim reads format 1.6");
+  EXPECT_ERROR(bytes, "format version 2.3 but this organsim reads format 1.7");
 }
 
 TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
@@ -236,7 +238,7 @@ TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
   const auto suvc = find_section(bytes, "SUVC");
   std::memcpy(bytes.data() + suvc.table_entry, "XTRA", 4);
   refresh_checksums(bytes);
-  EXPECT_ERROR(bytes, "section 'XTRA' is unknown in a format 1.6 file");
+  EXPECT_ERROR(bytes, "section 'XTRA' is unknown in a format 1.7 file");
 
   poke<std::uint16_t>(bytes, 10, model::kModelFormatVersion.minor + 1);
   refresh_checksums(bytes);
@@ -312,6 +314,7 @@ TEST(ModelFile, FormatOnePointFourFileWithoutSupportsLoads) {
   // A 1.4 writer knew no SUPP section: the organ is held by its clamp alone.
   model::OrganModel without = small_model();
   without.supports = {};
+  without.sites.supported.clear();
   auto bytes = model::serialize_organ_model(without);
   EXPECT_THROW(find_section(bytes, "SUPP"), std::exception);
   poke<std::uint16_t>(bytes, 10, 4);
@@ -398,6 +401,45 @@ TEST(ModelFile, ImplausibleSupportsAreRefused) {
   model::OrganModel short_list = small_model();
   short_list.supports.vertices.pop_back();
   EXPECT_NE(model::validate_organ_model(short_list).find("support entries for"), std::string::npos);
+}
+
+TEST(ModelFile, FormatOnePointSixFileWithoutCompliancesOnTheSupportsLoads) {
+  // A 1.6 writer knew no SSUP section: the fast models' presses then meet
+  // the organ held by its clamp, also with --supports baked.
+  model::OrganModel without = small_model();
+  without.sites.supported.clear();
+  auto bytes = model::serialize_organ_model(without);
+  EXPECT_THROW(find_section(bytes, "SSUP"), std::exception);
+  poke<std::uint16_t>(bytes, 10, 6);
+  refresh_checksums(bytes);
+  const model::ModelReadResult r = model::parse_organ_model(bytes.data(), bytes.size(), "x");
+  ASSERT_TRUE(r) << r.error;
+  EXPECT_EQ(r.file.version.minor, 6);
+  EXPECT_TRUE(r.model->sites.supported.empty());
+  EXPECT_TRUE(*r.model == without);
+}
+
+TEST(ModelFile, ImplausibleCompliancesOnTheSupportsAreRefused) {
+  const auto original = encoded();
+  const auto ssup = find_section(original, "SSUP");
+  const std::size_t vertex_one = ssup.offset + 8 + 8 + 6 * 8;  // field count, reserved, count, vertex 0
+  for (const double bad : {-1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    auto bytes = original;
+    poke<double>(bytes, vertex_one, bad);
+    refresh_checksums(bytes);
+    EXPECT_ERROR(bytes, "section 'SSUP' (site compliance on the supports): ");
+    EXPECT_ERROR(bytes, "compliance on the supports of vertex 1 is not finite or not positive semi-definite");
+  }
+  auto fields = original;
+  poke<std::uint32_t>(fields, ssup.offset, 3u);
+  refresh_checksums(fields);
+  EXPECT_ERROR(fields, "section 'SSUP' (site compliance on the supports): field count 3 is not 6");
+  model::OrganModel unsupported = small_model();
+  unsupported.supports = {};
+  EXPECT_NE(model::validate_organ_model(unsupported).find("on the supports without supports"), std::string::npos);
+  model::OrganModel short_list = small_model();
+  short_list.sites.supported.pop_back();
+  EXPECT_NE(model::validate_organ_model(short_list).find("site compliances on the supports for"), std::string::npos);
 }
 
 TEST(ModelFile, ImplausibleMeshingIsRefused) {

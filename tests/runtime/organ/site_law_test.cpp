@@ -1,7 +1,8 @@
 // The FEM reference's contact law at a site (organ/site_law.h) and the fast
 // models that give it: the punch's closed forms, the sphere's Hertz law, the
 // law built from the model's compliances (renumbered with the surface), its
-// depth curve, and the multi-beam and mass-spring models' contact forces.
+// depth curve, on the supports, and the multi-beam and mass-spring models'
+// contact forces.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -332,6 +333,54 @@ TEST(SiteLaw, TheFastModelsGiveTheLawsForce) {
         EXPECT_GT((force - law.force(d)).norm(), 0.1 * law.force(d).norm()) << name << ": its own force";
       }
     }
+}
+
+// On its supports (--supports baked) a press meets the site's compliance on
+// the supports and a held patch drawn out meets the organ held by its clamp;
+// the multi-beam and mass-spring models give that law; without compliances
+// on the supports (an older file) the law is the clamp's either way.
+TEST(SiteLaw, OnItsSupportsAPressMeetsTheSupportedOrganAndAGraspTheClampedOne) {
+  model::OrganModel m = cylinder_with_sites();
+  for (const model::Point3& p : m.surface_vertices) {
+    m.supports.vertices.push_back({1.0, 2.5e5});
+    m.sites.supported.push_back({0.01, 0.01, 0.02 + 0.1 * p[0], 0, 0, 0});
+  }
+  const Organ organ(m);
+  const Eigen::Vector3d touch(0.1, 0.0, 0.03);
+  const geometry::SurfacePoint at = organ.surface_tree().closest_point(touch);
+  const Eigen::Vector3d normal = organ.rest_normal_at(at);
+  const Eigen::Matrix3d punch = punch_compliance(kYoung, kPoisson, kRadius, normal);
+  SiteLaw clamped, supported;
+  ASSERT_TRUE(clamped.set(organ, at, kRadius));
+  ASSERT_TRUE(supported.set(organ, at, kRadius, true));
+  const Eigen::Matrix3d on_supports =
+      (Eigen::Matrix3d(Eigen::Vector3d(0.01, 0.01, 0.02 + 0.1 * at.position[0]).asDiagonal()) + punch).inverse();
+  EXPECT_LT((supported.stiffness() - on_supports).norm(), 1e-9 * on_supports.norm());
+  EXPECT_GT(supported.stiffness()(2, 2), 2.0 * clamped.stiffness()(2, 2));
+  EXPECT_LT((supported.held_stiffness(1.0) - clamped.stiffness()).norm(), 1e-9 * clamped.stiffness().norm());
+
+  geometry::ToolTip tip;
+  tip.radius = kRadius;
+  tip.axis = Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d d(0.0, 0.0005, -0.003);
+  for (const char* name : {"beam", "springs"}) {
+    realtime::ModelOptions options;
+    options.edit<organsim::multibeam::MultiBeamOptions>().supports = true;
+    options.edit<realtime::SpringModelOptions>().network.supports = true;
+    const auto model = realtime::make_deformation_model(name, organ, options, 1);
+    realtime::ContactLinearization contact;
+    ASSERT_TRUE(model->attach(0, touch, tip, contact)) << name;
+    std::vector<model::Point3> positions(organ.vertex_count()), normals(organ.vertex_count());
+    for (int frame = 0; frame < 3; ++frame)
+      ASSERT_TRUE(model->step(1.0 / 60.0, &d, positions.data(), normals.data(), &contact)) << name;
+    EXPECT_LT((contact.force - supported.force(d)).norm(), 1e-12) << name;
+  }
+
+  m.sites.supported.clear();
+  const Organ older(std::move(m));
+  SiteLaw law;
+  ASSERT_TRUE(law.set(older, older.surface_tree().closest_point(touch), kRadius, true));
+  EXPECT_LT((law.stiffness() - clamped.stiffness()).norm(), 1e-12 * clamped.stiffness().norm());
 }
 
 }  // namespace

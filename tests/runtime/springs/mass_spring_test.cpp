@@ -1,7 +1,7 @@
 // The mass-spring simulation against analytic and measured references: one
 // spring's period and amplitude per integrator, convergence orders, energy
-// behaviour, static equilibrium, the dynamic region, blow-up detection, held
-// nodes and preallocation.
+// behaviour, static equilibrium, supports, the dynamic region, blow-up
+// detection, held nodes and preallocation.
 #include <algorithm>
 #include <cmath>
 #include <ostream>
@@ -127,6 +127,48 @@ TEST(OneSpring, StiffestModeAndLargestStableStepsAreTheAnalyticOnes) {
       EXPECT_GT(amplitude, spring.amplitude);
     }
   }
+}
+
+// A node on one spring (k) resting against a support (K) along +x: pushed
+// into it by a force F it settles at F / (k + K), pulled away at F / k (a
+// contact lets go, an attachment holds at F / (k + K)); its reaction and
+// the stiffness a tool holding it would feel count the support; the stiffest
+// mode is √((k + K) / m); the energy is the spring's and the support's.
+TEST(NodeSupport, AContactPushesBackOnlyWhenPressedAndAnAttachmentHoldsBothWays) {
+  OneSpring spring;
+  constexpr double kSupport = 6.0;  // N/m
+  constexpr double kForce = 0.02;   // N
+  for (const bool unilateral : {true, false}) {
+    SpringNetwork net = spring.network();
+    net.rest[1].x() = spring.length;
+    net.supports.push_back({1, kSupport, Eigen::Vector3d::UnitX(), unilateral});
+    EXPECT_NEAR(stiffest_mode(net, 0.0).omega, std::sqrt((spring.k + kSupport) / spring.m), 1e-6);
+    for (const double sign : {1.0, -1.0}) {
+      SimulationOptions o = spring.options(Integrator::symplectic_euler, 0.1);
+      o.point_damping = 0.2;
+      MassSpring sim(net, o);
+      sim.set_external_force(1, {sign * kForce, 0.0, 0.0});
+      for (int n = 0; n < 20000; ++n) ASSERT_EQ(sim.step(), StepStatus::ok);
+      const bool pressed = sign > 0.0 || !unilateral;
+      const double stiffness = spring.k + (pressed ? kSupport : 0.0);
+      const double u = sim.position(1).x() - spring.length;
+      EXPECT_NEAR(u, sign * kForce / stiffness, 1e-9) << "unilateral " << unilateral << ", sign " << sign;
+      EXPECT_NEAR(sim.reaction_force(1).x(), -sign * kForce, 1e-9);
+      EXPECT_NEAR(sim.contact_stiffness(1)(0, 0), stiffness, 1e-9);
+      EXPECT_NEAR(sim.energy().spring, 0.5 * stiffness * u * u, 1e-12);
+    }
+  }
+}
+
+TEST(NodeSupport, ANetworkRefusesABadSupport) {
+  OneSpring spring;
+  SpringNetwork net = spring.network();
+  net.supports.push_back({2, 1.0, Eigen::Vector3d::UnitX(), true});
+  EXPECT_THROW(MassSpring(net, spring.options(Integrator::symplectic_euler, 0.1)), std::invalid_argument);
+  net.supports = {{1, 1.0, Eigen::Vector3d(2.0, 0.0, 0.0), true}};
+  EXPECT_THROW(MassSpring(net, spring.options(Integrator::symplectic_euler, 0.1)), std::invalid_argument);
+  net.supports = {{1, -1.0, Eigen::Vector3d::UnitX(), false}};
+  EXPECT_THROW(MassSpring(net, spring.options(Integrator::symplectic_euler, 0.1)), std::invalid_argument);
 }
 
 TEST(OneSpring, RungeKuttaPeriodAndAmplitudeAreExactAtSmallSteps) {

@@ -283,6 +283,42 @@ TEST_F(Cylinder, ClampRadiusFixesTheNodesNearTheFixedPoint) {
             static_cast<long>(model.surface_vertices.size()));  // only the anchors
 }
 
+// The model's supports become node supports of the surface nodes they name:
+// a contact unilateral, an attachment not, each of stiffness k A (the
+// vertex's third of its triangles' area) along its outward normal; free and
+// clamped vertices get none, and none without the option.
+TEST_F(Cylinder, SupportsSitOnTheSurfaceNodesTheModelNames) {
+  constexpr double kModulus = 2.5e5;  // Pa/m
+  for (std::size_t v = 0; v < model.surface_vertices.size(); ++v)
+    model.supports.vertices.push_back(model.surface_vertices[v][2] < -0.5 * spec.radius
+                                          ? std::array<double, 2>{v % 2 ? 1.0 : 2.0, kModulus}
+                                          : std::array<double, 2>{0.0, 0.0});
+  EXPECT_TRUE(make_organ_network(model, {}).supports.empty());
+  OrganNetworkOptions o;
+  o.supports = true;
+  o.clamp_radius = spec.radius * 1.01;
+  const SpringNetwork net = make_organ_network(model, o);
+  std::vector<double> area(model.surface_vertices.size(), 0.0);
+  for (const model::Triangle& t : model.surface_triangles) {
+    const double third = (vec(model.surface_vertices[t[1]]) - vec(model.surface_vertices[t[0]]))
+                             .cross(vec(model.surface_vertices[t[2]]) - vec(model.surface_vertices[t[0]]))
+                             .norm() /
+                         6.0;
+    for (std::uint32_t v : t) area[v] += third;
+  }
+  std::size_t expected = 0;
+  for (std::size_t v = 0; v < model.surface_vertices.size(); ++v)
+    expected += model.supports.kind(v) != model::Supports::Kind::kFree && !net.fixed[v];
+  ASSERT_EQ(net.supports.size(), expected);
+  ASSERT_GT(expected, 0u);
+  for (const NodeSupport& support : net.supports) {
+    EXPECT_EQ(support.unilateral, model.supports.kind(support.node) == model::Supports::Kind::kContact);
+    EXPECT_NEAR(support.stiffness, kModulus * area[support.node], 1e-9 * kModulus * area[support.node]);
+    EXPECT_LT(support.normal.z(), 0.0);  // the lower half's outward normals point down
+    EXPECT_FALSE(net.fixed[support.node]);
+  }
+}
+
 TEST_F(Cylinder, RefusesWhatItCannotBuild) {
   OrganNetworkOptions o;
   o.volume_springs = true;

@@ -27,7 +27,8 @@ TEST_F(Cli, InfoJsonIsOneParsableObjectWithTheDocumentedKeys) {
   const nlohmann::json j = nlohmann::json::parse(run.out);
   EXPECT_EQ(j["units"], "SI");
   EXPECT_EQ(j["coordinate_frame"], "LPS");
-  EXPECT_EQ(j["format_version"], "1.6");
+  EXPECT_EQ(j["format_version"],
+            std::to_string(model::kModelFormatVersion.major) + "." + std::to_string(model::kModelFormatVersion.minor));
   EXPECT_EQ(j["counts"]["surface_vertices"], (spec.rings + 1) * spec.segments + 2);
   EXPECT_EQ(j["counts"]["beam_stations"], 20);
   const double polygon = 0.5 * spec.segments * spec.radius * spec.radius * std::sin(2 * M_PI / spec.segments);

@@ -57,7 +57,9 @@ struct PressRecord {
   std::optional<Eigen::Vector3d> check_force;  ///< N, the reference on the --check-refinement cells
   double thickness_mm = 0.0;                   ///< the organ's thickness along the straight press at the site
   double clamp_distance_mm = 0.0;              ///< from the site to the clamp's centre
-  double reference_stretch = 1.0;              ///< the reference surface's largest edge stretch
+  /// What the organ rests on where the straight press's line leaves it again.
+  model::Supports::Kind support_behind = model::Supports::Kind::kFree;
+  double reference_stretch = 1.0;  ///< the reference surface's largest edge stretch
   std::map<std::string, FastAnswer> fast;
 };
 
@@ -182,6 +184,15 @@ nlohmann::json vector_json(const Eigen::Vector3d& v) { return nlohmann::json::ar
 
 const char* tilt_name(PressTilt tilt) { return tilt == PressTilt::straight ? "straight" : "tilted"; }
 
+const char* support_name(model::Supports::Kind kind) {
+  switch (kind) {
+    case model::Supports::Kind::kContact: return "contact";
+    case model::Supports::Kind::kAttachment: return "attachment";
+    case model::Supports::Kind::kFree: break;
+  }
+  return "free";
+}
+
 void print_json(const EvaluationOptions& o, double refine_size_mm, std::size_t sites,
                 const std::vector<PressRecord>& records) {
   nlohmann::json presses = nlohmann::json::array(), summary;
@@ -193,6 +204,7 @@ void print_json(const EvaluationOptions& o, double refine_size_mm, std::size_t s
                         {"depth_mm", r.depth_mm},
                         {"thickness_mm", r.thickness_mm},
                         {"clamp_distance_mm", r.clamp_distance_mm},
+                        {"support_behind", support_name(r.support_behind)},
                         {"reference_solved", r.reference_solved}};
     if (!r.reference_solved) {
       p["reference_error"] = r.reference_error;
@@ -313,11 +325,12 @@ void print_table(const EvaluationOptions& o, double refine_size_mm, std::size_t 
     if (s.presses.empty()) continue;
     std::cout << fmt::format(
         "\nthe reference from site to site, straight {:g} mm presses: |F|, the organ's thickness "
-        "along the press, the distance to the clamp's centre\n",
+        "along the press, the distance to the clamp's centre, what the organ rests on behind the site\n",
         depth);
     for (const PressRecord* r : s.presses)
-      std::cout << fmt::format("{:<14}site {:>2} {:>4g} mm: {:.4f} N, {:.1f} mm, {:.1f} mm\n", "site", r->site + 1,
-                               depth, r->reference_force.norm(), r->thickness_mm, r->clamp_distance_mm);
+      std::cout << fmt::format("{:<14}site {:>2} {:>4g} mm: {:.4f} N, {:.1f} mm, {:.1f} mm, {}\n", "site", r->site + 1,
+                               depth, r->reference_force.norm(), r->thickness_mm, r->clamp_distance_mm,
+                               support_name(r->support_behind));
     std::cout << fmt::format("{:<14}{:g} mm: {:.4f} to {:.4f} N ({:.1f}x) over {} sites", "spread", depth, s.least_n,
                              s.most_n, s.most_n / s.least_n, s.presses.size());
     auto fit = [](const char* what, const std::optional<plot::PowerLawFit>& f) {
@@ -464,6 +477,7 @@ std::vector<PressRecord> press_site(const Plan& plan, std::size_t k) {
       if (o.pull_bite_mm > 0.0) r.tool = pulled_out(r.tool, plan.normals[vertex]);
       r.thickness_mm = 1e3 * thickness_along(organ, at, -plan.normals[vertex]);
       r.clamp_distance_mm = 1e3 * (at - organ.fixed_point()).norm();
+      r.support_behind = support_behind(organ, at, -plan.normals[vertex]);
       records.push_back(std::move(r));
     }
   std::vector<std::vector<model::Point3>> surfaces(records.size());
@@ -530,6 +544,7 @@ nlohmann::json record_json(const PressRecord& r) {
           {"check_force", r.check_force ? exact_vector_json(*r.check_force) : nlohmann::json(nullptr)},
           {"thickness_mm", exact_json(r.thickness_mm)},
           {"clamp_distance_mm", exact_json(r.clamp_distance_mm)},
+          {"support_behind", static_cast<int>(r.support_behind)},
           {"reference_stretch", exact_json(r.reference_stretch)},
           {"fast", fast}};
 }
@@ -551,6 +566,7 @@ PressRecord record_from(const nlohmann::json& j) {
   if (!j.at("check_force").is_null()) r.check_force = exact_vector(j.at("check_force"));
   r.thickness_mm = exact_double(j.at("thickness_mm"));
   r.clamp_distance_mm = exact_double(j.at("clamp_distance_mm"));
+  r.support_behind = static_cast<model::Supports::Kind>(j.at("support_behind").get<int>());
   r.reference_stretch = exact_double(j.at("reference_stretch"));
   for (const auto& [name, a] : j.at("fast").items())
     r.fast[name] = {a.at("solved").get<bool>(),      a.at("error").get<std::string>(), exact_vector(a.at("force")),
@@ -582,23 +598,23 @@ int run_evaluation(const EvaluationOptions& given) {
   // The tip's whole path and what it takes in, with a margin: cells of the
   // refinement size within the deepest press plus two radii of the site.
   const double refine_radius_mm = *std::max_element(o.depths_mm.begin(), o.depths_mm.end()) + 2.0 * radius_mm;
+  nlohmann::json reference_options = {
+      {"reference", o.reference},
+      {"depths_mm", o.depths_mm},
+      {"refine_size_mm", exact_json(refine_size_mm)},
+      {"refine_radius_mm", exact_json(refine_radius_mm)},
+      {"check_size_mm", exact_json(o.check_size_mm)},
+      {"pull_bite_mm", exact_json(o.pull_bite_mm)},
+      {"snap_distance_mm", exact_json(o.press.snap_distance_mm)},
+      {"fixed_radius_mm", exact_json(o.press.tuning.models.of<fem::OrganFemOptions>().fixed_radius * 1e3)},
+      {"linear_solver", o.press.tuning.linear_solver},
+      {"tip_radius_mm", exact_json(radius_mm)},
+      {"friction", exact_json(o.press.tuning.friction)}};
+  // Only a reference on its supports names them, so that the caches of those
+  // held by their clamp alone stay valid.
+  if (o.press.tuning.models.of<fem::OrganFemOptions>().supports) reference_options["supports"] = "baked";
   const ReferenceCache cache(
-      o.reference_cache,
-      o.reference_cache.empty()
-          ? std::string()
-          : reference_fingerprint(
-                model,
-                {{"reference", o.reference},
-                 {"depths_mm", o.depths_mm},
-                 {"refine_size_mm", exact_json(refine_size_mm)},
-                 {"refine_radius_mm", exact_json(refine_radius_mm)},
-                 {"check_size_mm", exact_json(o.check_size_mm)},
-                 {"pull_bite_mm", exact_json(o.pull_bite_mm)},
-                 {"snap_distance_mm", exact_json(o.press.snap_distance_mm)},
-                 {"fixed_radius_mm", exact_json(o.press.tuning.models.of<fem::OrganFemOptions>().fixed_radius * 1e3)},
-                 {"linear_solver", o.press.tuning.linear_solver},
-                 {"tip_radius_mm", exact_json(radius_mm)},
-                 {"friction", exact_json(o.press.tuning.friction)}}));
+      o.reference_cache, o.reference_cache.empty() ? std::string() : reference_fingerprint(model, reference_options));
   const Plan plan{o,
                   model,
                   organ,

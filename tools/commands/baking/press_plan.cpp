@@ -138,6 +138,21 @@ double thickness_along(const organ::Organ& organ, const Eigen::Vector3d& at, con
   return start + hit.along * (end - start);
 }
 
+model::Supports::Kind support_behind(const organ::Organ& organ, const Eigen::Vector3d& at,
+                                     const Eigen::Vector3d& inward) {
+  const model::OrganModel& m = organ.model();
+  if (m.supports.empty()) return model::Supports::Kind::kFree;
+  Eigen::AlignedBox3d box;
+  for (const model::Point3& v : m.surface_vertices) box.extend(point(v));
+  const double start = 1e-6 * box.diagonal().norm(), end = 2.0 * box.diagonal().norm();
+  geometry::SegmentHit hit;
+  if (!organ.surface_tree().first_crossing(at + start * inward, at + end * inward, false, hit))
+    return model::Supports::Kind::kFree;
+  Eigen::Index corner = 0;
+  hit.barycentric.maxCoeff(&corner);
+  return m.supports.kind(m.surface_triangles[hit.triangle][static_cast<std::size_t>(corner)]);
+}
+
 double cell_size_at(const organ::Organ& organ, const Eigen::Vector3d& at) {
   const model::OrganModel& m = organ.model();
   std::size_t nearest = 0;

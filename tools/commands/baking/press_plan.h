@@ -74,6 +74,13 @@ Eigen::Vector3d site_point(const organ::Organ& organ, std::uint32_t site);
 /// a press there. 0 where the line never leaves (an open surface).
 double thickness_along(const organ::Organ& organ, const Eigen::Vector3d& at, const Eigen::Vector3d& inward);
 
+/// What the organ rests on where the line from `at` (m) along `inward` (unit)
+/// leaves it again, the far side of thickness_along's line: the support kind
+/// of the surface vertex nearest that point (docs/supports.md); free where
+/// the model has no supports or the line never leaves.
+model::Supports::Kind support_behind(const organ::Organ& organ, const Eigen::Vector3d& at,
+                                     const Eigen::Vector3d& inward);
+
 /// The longest edge of the tetrahedra around the node nearest `at` (m): the
 /// size of the FEM's cells there, m (0 without tetrahedra).
 double cell_size_at(const organ::Organ& organ, const Eigen::Vector3d& at);

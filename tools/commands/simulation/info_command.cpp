@@ -68,19 +68,29 @@ nlohmann::json sites_json(const model::OrganModel& m) {
     const Eigen::Vector3d n = (at(t[1]) - at(t[0])).cross(at(t[2]) - at(t[0]));
     for (std::uint32_t v : t) normals[v] += n;
   }
-  std::vector<double> stiffness;
-  for (std::size_t v = 0; v < normals.size(); ++v) {
-    const auto& c = sites.compliance[v];
-    Eigen::Matrix3d organ;
-    organ << c[0], c[3], c[4], c[3], c[1], c[5], c[4], c[5], c[2];
-    const Eigen::Vector3d n = normals[v].normalized();
-    const Eigen::Matrix3d total =
-        organ + organ::punch_compliance(sites.young_modulus, sites.poisson_ratio, kTipRadius, n);
-    stiffness.push_back(n.dot(total.inverse() * n));
-  }
-  std::sort(stiffness.begin(), stiffness.end());
-  auto quantile = [&](double q) {
-    return stiffness[static_cast<std::size_t>(q * static_cast<double>(stiffness.size() - 1))];
+  // The quantiles over the surface of the normal stiffness under the tip for
+  // one set of compliances.
+  auto normal_stiffness = [&](const std::vector<std::array<double, 6>>& compliances) -> nlohmann::json {
+    if (compliances.empty()) return nullptr;
+    std::vector<double> stiffness;
+    for (std::size_t v = 0; v < normals.size(); ++v) {
+      const auto& c = compliances[v];
+      Eigen::Matrix3d organ;
+      organ << c[0], c[3], c[4], c[3], c[1], c[5], c[4], c[5], c[2];
+      const Eigen::Vector3d n = normals[v].normalized();
+      const Eigen::Matrix3d total =
+          organ + organ::punch_compliance(sites.young_modulus, sites.poisson_ratio, kTipRadius, n);
+      stiffness.push_back(n.dot(total.inverse() * n));
+    }
+    std::sort(stiffness.begin(), stiffness.end());
+    auto quantile = [&](double q) {
+      return stiffness[static_cast<std::size_t>(q * static_cast<double>(stiffness.size() - 1))];
+    };
+    return {{"min", quantile(0.0)},
+            {"p10", quantile(0.1)},
+            {"median", quantile(0.5)},
+            {"p90", quantile(0.9)},
+            {"max", quantile(1.0)}};
   };
   nlohmann::json curve = nlohmann::json::array();
   for (const auto& [depth, factor] : sites.depth_curve) curve.push_back({{"depth_m", depth}, {"factor", factor}});
@@ -103,12 +113,8 @@ nlohmann::json sites_json(const model::OrganModel& m) {
   }
   return {{"reference_young_modulus_pa", sites.young_modulus},
           {"reference_poisson_ratio", sites.poisson_ratio},
-          {"normal_stiffness_n_per_m_at_2_5_mm_tip",
-           {{"min", quantile(0.0)},
-            {"p10", quantile(0.1)},
-            {"median", quantile(0.5)},
-            {"p90", quantile(0.9)},
-            {"max", quantile(1.0)}}},
+          {"normal_stiffness_n_per_m_at_2_5_mm_tip", normal_stiffness(sites.compliance)},
+          {"normal_stiffness_on_the_supports_n_per_m_at_2_5_mm_tip", normal_stiffness(sites.supported)},
           {"hertz_radius_m_at_2_5_mm_tip", hertz},
           {"depth_curve", curve},
           {"depth_curve_tip_radius_m", sites.curve_tip_radius},
@@ -258,6 +264,9 @@ void print_text(const nlohmann::json& j) {
         "site compliance the FEM reference's normal stiffness under a 2.5 mm tip {:.3g} (p10) / {:.3g} (median) / "
         "{:.3g} (p90) N/m; ",
         k["p10"].get<double>(), k["median"].get<double>(), k["p90"].get<double>());
+    if (const auto& s = sites["normal_stiffness_on_the_supports_n_per_m_at_2_5_mm_tip"]; !s.is_null())
+      fmt::print("on the supports {:.3g} (p10) / {:.3g} (median) / {:.3g} (p90) N/m; ", s["p10"].get<double>(),
+                 s["median"].get<double>(), s["p90"].get<double>());
     if (const auto& h = sites["hertz_radius_m_at_2_5_mm_tip"]; !h.is_null())
       fmt::print(
           "the surface's curvature makes a 2.5 mm tip's Hertz radius {:.2f} (p10) / {:.2f} (median) / {:.2f} "

@@ -42,15 +42,20 @@ struct SiteComplianceOptions {
   /// edge where that is longer, so that the fit holds two rings of vertices.
   double curvature_radius = 0.0;
   unsigned threads = 0;  ///< 0: one per hardware thread
+  /// Also the compliances of the organ resting on the model's supports, where
+  /// it has them (model::SiteCompliance::supported): a second factorization,
+  /// of the stiffness with each contact pushed into (its foundation spring
+  /// along the normal) and each attachment holding (fem::foundation_springs).
+  bool supports = true;
 };
 
 struct SiteComplianceReport {
-  double patch_radius = 0.0;       ///< m, as used
-  double curvature_radius = 0.0;   ///< m, as used
-  std::size_t boundary_nodes = 0;  ///< solved (free boundary nodes within a patch)
-  std::size_t unknowns = 0;        ///< of the factorized matrix (displacements and pressures)
-  std::size_t factor_entries = 0;  ///< below the diagonal of its LDLᵀ factor
-  double factorization_seconds = 0.0, solve_seconds = 0.0;
+  double patch_radius = 0.0;                                ///< m, as used
+  double curvature_radius = 0.0;                            ///< m, as used
+  std::size_t boundary_nodes = 0;                           ///< solved (free boundary nodes within a patch)
+  std::size_t unknowns = 0;                                 ///< of the factorized matrix (displacements and pressures)
+  std::size_t factor_entries = 0;                           ///< below the diagonal of its LDLᵀ factor
+  double factorization_seconds = 0.0, solve_seconds = 0.0;  ///< of both sets, with supports
 };
 
 /// Per surface vertex of `model`, the surface's principal curvatures κ₁ ≥ κ₂
@@ -63,7 +68,7 @@ struct SiteComplianceReport {
 std::vector<std::array<double, 2>> site_curvatures(const model::OrganModel& model, double radius);
 
 /// The site compliances of `model` (its surface, tetrahedra, fixed point and
-/// E), with the surface's curvatures (site_curvatures, over
+/// E; on its supports too, options.supports), with the surface's curvatures (site_curvatures, over
 /// options.curvature_radius). Throws std::invalid_argument with one line when the model has no
 /// tetrahedra, the clamp does not hold it, or the options are out of range.
 model::SiteCompliance compute_site_compliance(const model::OrganModel& model, const SiteComplianceOptions& options,

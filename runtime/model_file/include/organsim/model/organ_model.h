@@ -158,6 +158,12 @@ struct SiteCompliance {
   /// matrix (m/N, model frame) stored as xx, yy, zz, xy, xz, yz. Empty: the
   /// model has no site data.
   std::vector<std::array<double, 6>> compliance;
+  /// Per surface vertex, the same compliance with the organ also resting on
+  /// its supports (format 1.7; docs/supports.md): every contact pressed,
+  /// holding along the surface's normal, and every attachment holding, as a
+  /// press finds them. Empty: the model has no supports, or was baked
+  /// before they were.
+  std::vector<std::array<double, 6>> supported;
   /// The reference's force relative to the linear law, as pairs (depth m,
   /// factor > 0), depths increasing from 0: F(d) = g(|d|) F_linear(d), g
   /// linear between the pairs and held beyond the last. Empty: g = 1.

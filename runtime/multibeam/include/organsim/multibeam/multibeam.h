@@ -61,6 +61,10 @@ struct MultiBeamOptions {
   /// reference's force (organsim/organ/site_law.h, docs/matching.md) instead
   /// of its beam's; false: always the beam's.
   bool match_sites = true;
+  /// The site law of the organ resting on its supports where the model has
+  /// them (docs/supports.md): a press meets the site's compliance on the
+  /// supports, a grasped patch drawn out the organ held by its clamp.
+  bool supports = false;
 };
 
 /// One tool's beam, fixed from attach() to detach().

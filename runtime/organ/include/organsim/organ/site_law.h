@@ -72,8 +72,11 @@ class SiteLaw {
   /// the normal interpolated from the triangle's vertices (continuous across
   /// edges). False (nothing changed) when the organ has no site compliances
   /// or the tip is a point (a point has no finite indentation stiffness in an
-  /// elastic body: the fast models then keep their own force).
-  bool set(const Organ& organ, const geometry::SurfacePoint& at, double tip_radius) noexcept;
+  /// elastic body: the fast models then keep their own force). `on_supports`:
+  /// a press meets the organ resting on its supports (the model's compliance
+  /// on them, where it has one; docs/supports.md), while a patch held in the
+  /// jaws is drawn off them and meets the organ held by its clamp.
+  bool set(const Organ& organ, const geometry::SurfacePoint& at, double tip_radius, bool on_supports = false) noexcept;
   /// N/m: the law's stiffness with the tip buried (C_organ + the flat punch
   /// of radius R)⁻¹, the stiffest the law gets without a depth curve.
   const Eigen::Matrix3d& stiffness() const noexcept { return stiffness_; }
@@ -90,7 +93,8 @@ class SiteLaw {
   /// ds/du at `pulled` (1/m).
   double pull_softening_slope(double pulled) const noexcept;
   /// N/m: the held patch's stiffness (C_organ + s C_punch)⁻¹ for a softening
-  /// `softening` of the tip's punch (zero where that is singular).
+  /// `softening` of the tip's punch (zero where that is singular); C_organ
+  /// is the organ's held by its clamp, also on supports (lifted off them).
   Eigen::Matrix3d held_stiffness(double softening) const noexcept;
   /// m/N: the bonded punch of the tip's radius, C_punch.
   const Eigen::Matrix3d& tip_compliance() const noexcept { return punch_compliance_; }
@@ -106,12 +110,13 @@ class SiteLaw {
     Eigen::Matrix3d derivative;  ///< dK/dd_n = ∂K/∂δ · dδ/dd_n, N/m²
   };
   Secant secant(double normal_depth, bool with_derivative) const noexcept;
-  double tip_force_slope(double indentation) const noexcept;    // dF_tip/dδ, N/m
-  double depth_slope(double depth) const noexcept;              // g'(|d|), 1/m
-  Eigen::Matrix3d organ_compliance_ = Eigen::Matrix3d::Zero();  // m/N
-  Eigen::Matrix3d punch_compliance_ = Eigen::Matrix3d::Zero();  // m/N
-  Eigen::Vector3d normal_ = Eigen::Vector3d::UnitZ();           // outward, unit
-  double organ_normal_compliance_ = 0.0;                        // nᵀ C_organ n, m/N
+  double tip_force_slope(double indentation) const noexcept;     // dF_tip/dδ, N/m
+  double depth_slope(double depth) const noexcept;               // g'(|d|), 1/m
+  Eigen::Matrix3d organ_compliance_ = Eigen::Matrix3d::Zero();   // m/N, as pressed
+  Eigen::Matrix3d lifted_compliance_ = Eigen::Matrix3d::Zero();  // m/N, off the supports
+  Eigen::Matrix3d punch_compliance_ = Eigen::Matrix3d::Zero();   // m/N
+  Eigen::Vector3d normal_ = Eigen::Vector3d::UnitZ();            // outward, unit
+  double organ_normal_compliance_ = 0.0;                         // nᵀ C_organ n, m/N
   double radius_ = 0.0, contact_modulus_ = 0.0, shear_ = 0.0, poisson_ = 0.0;
   double hertz_radius_ = 0.0;        // R_e, m
   double buried_indentation_ = 0.0;  // δ_b = R²/R_e, m

@@ -139,6 +139,17 @@ TetMesh tet_mesh_of(const model::OrganModel& model);
 /// has no fixed point or fewer than three such nodes off one line.
 std::vector<bool> clamped_dofs(const model::OrganModel& model, double fixed_radius);
 
+/// The model's supports (docs/supports.md) as springs on the tetrahedral
+/// boundary's nodes (`boundary` of model.tetrahedra) that `constrained` leaves
+/// free: each node takes the kind and foundation modulus of the surface
+/// vertex nearest it (the baked boundary lies within the mesher's facet
+/// distance of the surface), its stiffness that modulus times a third of its
+/// boundary faces' area (the lumping that carries a uniform pressure
+/// exactly), its normal their area-weighted outward normal; a contact is
+/// unilateral, an attachment not. Empty for a model without supports.
+std::vector<FoundationSpring> foundation_springs(const model::OrganModel& model, const std::vector<bool>& constrained,
+                                                 const geometry::TetrahedralBoundary& boundary);
+
 enum class FrameStatus : std::uint8_t {
   ok,
   not_finite,  ///< a tool displacement is not finite: nothing changed

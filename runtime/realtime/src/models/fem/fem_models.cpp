@@ -94,8 +94,9 @@ const ModelParameter kFemParameters[] = {
        return ParameterValue{o.of<fem::OrganFemOptions>().fixed_radius, {}};
      }},
     {"supports", ModelParameter::Kind::choice,
-     "FEM models: also hold the organ on the supports the bake found in the CT (baked), or by the clamp alone (none; "
-     "docs/supports.md)",
+     "every model: also hold the organ on the supports the bake found in the CT (baked: a foundation on the FEM "
+     "models' boundary and the mass-spring nodes, the matched force of the organ on them), or by the clamp alone "
+     "(none; docs/supports.md)",
      "none|baked",
      [](ModelOptions& o, const ParameterValue& v) -> std::string {
        if (v.text != "none" && v.text != "baked") return "supports are none or baked";

@@ -55,7 +55,7 @@ class SpringModel final : public DeformationModel {
     t.tip = tip;
     t.origin = simulation_.network().rest[node];
     t.displacement = simulation_.position(node) - t.origin;
-    t.matched = options_.match_sites && t.law.set(organ_, at, tip.radius);
+    t.matched = options_.match_sites && t.law.set(organ_, at, tip.radius, options_.network.supports);
     t.grasped = false;
     t.grasp.open();
     hold(tool, node, Eigen::Vector3d::Zero(), -tip.axis, true);
@@ -400,6 +400,19 @@ const ModelParameter kSpringParameters[] = {
      },
      [](const ModelOptions& o) {
        return ParameterValue{o.of<SpringModelOptions>().match_sites ? 0.0 : 1.0, {}};
+     }},
+    {"supports", ModelParameter::Kind::choice,
+     "every model: also hold the organ on the supports the bake found in the CT (baked: a foundation on the FEM "
+     "models' boundary and the mass-spring nodes, the matched force of the organ on them), or by the clamp alone "
+     "(none; docs/supports.md)",
+     "none|baked",
+     [](ModelOptions& o, const ParameterValue& v) -> std::string {
+       if (v.text != "none" && v.text != "baked") return "supports are none or baked";
+       o.edit<SpringModelOptions>().network.supports = v.text == "baked";
+       return "";
+     },
+     [](const ModelOptions& o) {
+       return ParameterValue{0.0, o.of<SpringModelOptions>().network.supports ? "baked" : "none"};
      }},
 };
 

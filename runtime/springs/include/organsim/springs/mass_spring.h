@@ -138,13 +138,13 @@ class MassSpring {
   /// The node moves freely again from where it is (velocity zero).
   void release(std::uint32_t node) noexcept;
   /// Σ of the spring forces (Hooke and spring damping) the network exerts on
-  /// a node at the current state (N): for a held node, what the tool holding it
-  /// feels. Zero for an index out of range.
+  /// a node at the current state, and its support's (N): for a held node, what
+  /// the tool holding it feels. Zero for an index out of range.
   Eigen::Vector3d reaction_force(std::uint32_t node) const noexcept;
   /// The 3×3 stiffness of the springs at `node` with its neighbours held: the
   /// local linearization of reaction_force() (N/m), Σ k (l̂ l̂ᵀ + (1 − l⁰/l)(I − l̂ l̂ᵀ)),
-  /// so that reaction_force(x + δ) ≈ reaction_force(x) − K δ. Not clamped: a
-  /// compressed spring contributes a negative transverse part.
+  /// plus its support's, so that reaction_force(x + δ) ≈ reaction_force(x) − K δ.
+  /// Not clamped: a compressed spring contributes a negative transverse part.
   Eigen::Matrix3d contact_stiffness(std::uint32_t node) const noexcept;
   /// The same for a node moved together with a group of nodes (those whose
   /// `group` entry equals `member`, per node): the springs to other members
@@ -217,6 +217,7 @@ class MassSpring {
   Points external_, target_;
   std::vector<std::uint8_t> held_;
   std::vector<double> inverse_mass_;
+  std::vector<std::int32_t> support_of_;  // per node: its entry in network_.supports, or −1
   // Node → incident springs and the other end (CSR, 2 entries per spring).
   std::vector<std::uint32_t> incidence_offset_, incidence_spring_, incidence_other_;
   // What is integrated: flags, the node list and the springs with an integrated end.

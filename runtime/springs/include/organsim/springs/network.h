@@ -29,6 +29,30 @@ struct Springs {
   std::size_t size() const noexcept { return a.size(); }
 };
 
+/// A node resting on, or attached to, what surrounds the organ
+/// (docs/supports.md): a Winkler foundation of stiffness K at the node's rest
+/// place. An attachment holds both ways (the force −K u for a displacement
+/// u); a contact pushes back only while the node moves into it along the
+/// outward normal n (−K ⟨u·n⟩₊ n), so a lifted node leaves it.
+struct NodeSupport {
+  std::uint32_t node = 0;
+  double stiffness = 0.0;                             ///< K: the foundation modulus times the node's area, N/m
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< unit, outward
+  bool unilateral = false;                            ///< a contact (true) or an attachment
+
+  /// N: the support's force on its node displaced by `u` (m) from rest.
+  Eigen::Vector3d force(const Eigen::Vector3d& u) const noexcept {
+    if (!unilateral) return -stiffness * u;
+    const double into = u.dot(normal);
+    return into > 0.0 ? Eigen::Vector3d(-stiffness * into * normal) : Eigen::Vector3d::Zero();
+  }
+  /// N/m: −∂force/∂u at `u` (0 on a contact that lets go).
+  Eigen::Matrix3d stiffness_at(const Eigen::Vector3d& u) const noexcept {
+    if (!unilateral) return stiffness * Eigen::Matrix3d::Identity();
+    return u.dot(normal) > 0.0 ? Eigen::Matrix3d(stiffness * normal * normal.transpose()) : Eigen::Matrix3d::Zero();
+  }
+};
+
 /// A network: nodes [0, surface_nodes) are the simulated surface (in the
 /// order of the mesh they were built from); after them come the body springs'
 /// anchors, which never move, and an organ's tetrahedral nodes when it has
@@ -40,6 +64,7 @@ struct SpringNetwork {
   std::size_t surface_nodes = 0;
   std::vector<model::Triangle> triangles;  ///< surface triangles (for output and collision), may be empty
   Springs springs;
+  std::vector<NodeSupport> supports;  ///< nodes on a foundation (docs/supports.md), at most one entry per node
 };
 
 /// The paper's experiment grid.
@@ -98,6 +123,11 @@ struct OrganNetworkOptions {
   double uniform_mass = 0.0;
   bool area_weighted_mass = false;
   double clamp_radius = 0.0;  ///< m; surface nodes within this of the first fixed point are fixed (0: none)
+  /// The model's supports (docs/supports.md) as a foundation on the surface
+  /// nodes: each supported free vertex a NodeSupport of stiffness k A (k its
+  /// foundation modulus, A its area) along its area-weighted normal, a
+  /// contact unilateral, an attachment not. A model without supports has none.
+  bool supports = false;
 };
 
 /// Nodes: the model's surface vertices in order, then (body_factor > 0) one
