@@ -100,7 +100,8 @@ ClampedBeam::ClampedBeam(std::uint32_t max_elements)
       response_(max_elements + 1) {}
 
 Status ClampedBeam::build(const model::BeamSection* sections, std::uint32_t element_count, double length,
-                          const BeamElasticity& elasticity, const BeamBuildOptions& options) noexcept {
+                          const BeamElasticity& elasticity, const BeamBuildOptions& options,
+                          const Eigen::Matrix3d* foundation) noexcept {
   built_ = false;
   if (element_count == 0 || element_count > capacity_) return Status::singular_beam;
   if (!std::isfinite(length) || length <= 0.0 || !std::isfinite(elasticity.young_modulus) ||
@@ -137,6 +138,11 @@ Status ClampedBeam::build(const model::BeamSection* sections, std::uint32_t elem
       upper_[e] = k.block<6, 6>(0, 6);
     }
   }
+  if (foundation)
+    for (std::uint32_t n = 1; n <= element_count; ++n) {
+      if (!foundation[n - 1].allFinite()) return Status::not_finite;
+      diagonal_[n].topLeftCorner<3, 3>() += foundation[n - 1];
+    }
 
   // Block elimination from the clamp to the tip: S_1 = K_11,
   // S_{n+1} = K_{n+1,n+1} − K_{n,n+1}ᵀ S_n⁻¹ K_{n,n+1}; carry_n = −S_n⁻¹ K_{n,n+1}.

@@ -86,6 +86,23 @@ MultiBeam::MultiBeam(const organ::Organ& organ, const MultiBeamOptions& options)
   solvers_.reserve(options_.max_tools);
   for (std::uint32_t i = 0; i < options_.max_tools; ++i) solvers_.emplace_back(stations);
   sections_.resize(stations);
+  foundation_.resize(stations);
+  if (options_.supports && organ_.model().supports.vertices.size() == organ_.vertex_count()) {
+    // Each supported vertex's foundation: its modulus on a third of its triangles' area.
+    const model::OrganModel& m = organ_.model();
+    std::vector<double> area(m.surface_vertices.size(), 0.0);
+    for (const model::Triangle& t : m.surface_triangles) {
+      const double third = (vec(m.surface_vertices[t[1]]) - vec(m.surface_vertices[t[0]]))
+                               .cross(vec(m.surface_vertices[t[2]]) - vec(m.surface_vertices[t[0]]))
+                               .norm() /
+                           6.0;
+      for (std::uint32_t v : t) area[v] += third;
+    }
+    for (std::uint32_t v = 0; v < m.surface_vertices.size(); ++v)
+      if (m.supports.kind(v) != model::Supports::Kind::kFree)
+        supported_.push_back(
+            {v, m.supports.modulus(v) * area[v], m.supports.kind(v) == model::Supports::Kind::kContact});
+  }
   coefficient_data_.assign(static_cast<std::size_t>(options_.max_tools) * kCoefficients * stations, 0.0);
   const std::size_t n = organ_.vertex_count();
   vertex_stride_ = n + organ::Organ::kPadding;
@@ -170,7 +187,23 @@ Status MultiBeam::attach(std::uint32_t tool, const Eigen::Vector3d& point, doubl
     section.centroid_y = y.dot(centroid);
     section.centroid_z = z.dot(centroid);
   }
-  const Status status = solvers_[tool].build(sections_.data(), stations, length, elasticity_, options_.beam);
+  // The section of beam node n (n h from the clamp, h = L / stations) is the
+  // organ's slice there: it rests on the supports of the surface vertices
+  // within h/2 of its plane, a contact along its normal as pressed.
+  const double h = length / stations;
+  for (std::uint32_t n = 0; n < stations; ++n) foundation_[n].setZero();
+  for (const SupportedVertex& s : supported_) {
+    const Eigen::Vector3d at = vec(model.surface_vertices[s.vertex]);
+    const long node = std::lround((at - fixed).dot(x) / h);
+    if (node < 1 || node > static_cast<long>(stations)) continue;
+    const Eigen::Vector3d normal = vec(organ_.rest_normals()[s.vertex]);
+    const Eigen::Vector3d local(normal.dot(x), normal.dot(y), normal.dot(z));
+    foundation_[static_cast<std::size_t>(node - 1)] += s.unilateral
+                                                           ? Eigen::Matrix3d(s.stiffness * local * local.transpose())
+                                                           : Eigen::Matrix3d(s.stiffness * Eigen::Matrix3d::Identity());
+  }
+  const Status status = solvers_[tool].build(sections_.data(), stations, length, elasticity_, options_.beam,
+                                             supported_.empty() ? nullptr : foundation_.data());
   if (status != Status::ok) return status;
 
   beam.action = action;

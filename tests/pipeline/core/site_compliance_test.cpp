@@ -6,12 +6,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <complex>
 #include <functional>
 
 #include <Eigen/Eigenvalues>
-#include <Eigen/LU>
 
+#include "beam_on_foundation.h"
 #include "organsim/fem/tet_mesh.h"
 #include "organsim/geometry/tetrahedral_embedding.h"
 #include "organsim/model/model_file.h"
@@ -131,31 +130,6 @@ TEST(SiteCompliance, TheClampHoldsAndNoDirectionIsNegative) {
   EXPECT_EQ(model::validate_organ_model(with), "");
 }
 
-/// Hetényi's beam on an elastic foundation (Beams on Elastic Foundation,
-/// 1946, ch. II): EI w'''' + k w = 0 has the solutions e^{±λx} cos λx and
-/// e^{±λx} sin λx, λ = (k / 4EI)^{1/4}; built in at x = 0 (w = w' = 0) and
-/// free at x = L under a load P there (EI w'' = 0, EI w''' = −P), its
-/// deflection under the load per newton, w(L) / P (m/N). `ei` in N m², `k`
-/// the foundation's stiffness per length of beam in N/m².
-double hetenyi_built_in_and_loaded_at_its_free_end(double length, double ei, double k) {
-  const double lambda = std::pow(k / (4 * ei), 0.25);
-  const std::complex<double> roots[2] = {{lambda, lambda}, {-lambda, lambda}};
-  auto derivative = [&](int root, int part, int order, double x) {
-    const std::complex<double> z = std::pow(roots[root], order) * std::exp(roots[root] * x);
-    return part == 0 ? z.real() : z.imag();
-  };
-  Eigen::Matrix4d conditions;
-  for (int root = 0; root < 2; ++root)
-    for (int part = 0; part < 2; ++part)
-      conditions.col(2 * root + part) << derivative(root, part, 0, 0.0), derivative(root, part, 1, 0.0),
-          derivative(root, part, 2, length), ei * derivative(root, part, 3, length);
-  const Eigen::Vector4d constants = conditions.fullPivLu().solve(Eigen::Vector4d(0, 0, 0, -1));
-  double deflection = 0.0;
-  for (int root = 0; root < 2; ++root)
-    for (int part = 0; part < 2; ++part) deflection += constants[2 * root + part] * derivative(root, part, 0, length);
-  return deflection;
-}
-
 // The bar resting along its lower face on a Winkler foundation (contacts,
 // pushed into by the press from above): under its free end it gives what
 // Hetényi's built-in beam on that foundation gives (measured: 0.94 of it
@@ -192,8 +166,8 @@ TEST(SiteCompliance, ABarOnAFoundationGivesUnderItsFreeEndWhatHetenyisBeamGives)
   const double load = kLength - 0.5 * kSide;
   const std::size_t end = nearest_vertex(m, {load, kSide / 2, kSide});
   // The closed form's limit without a foundation: the cantilever.
-  EXPECT_NEAR(hetenyi_built_in_and_loaded_at_its_free_end(load, ei, 1e-9) / (std::pow(load, 3) / (3 * ei)), 1.0, 1e-6);
-  const double expected = hetenyi_built_in_and_loaded_at_its_free_end(load, ei, carried);
+  EXPECT_NEAR(testing::hetenyi_deflection(load, load, ei, 1e-9) / (std::pow(load, 3) / (3 * ei)), 1.0, 1e-6);
+  const double expected = testing::hetenyi_deflection(load, load, ei, carried);
   EXPECT_NEAR(sites.supported[end][2] / expected, 1.0, 0.12);
   EXPECT_LT(sites.supported[end][2], 0.25 * sites.compliance[end][2]);
   auto unpacked = [](const std::array<double, 6>& c) {

@@ -1,9 +1,12 @@
-// The clamped frame beam against closed-form cantilever results.
+// The clamped frame beam against closed-form cantilever results, and on an
+// elastic foundation against Hetényi's beam.
 #include <cmath>
+#include <vector>
 
 #include <Eigen/LU>
 #include <gtest/gtest.h>
 
+#include "beam_on_foundation.h"
 #include "organsim/multibeam/clamped_beam.h"
 
 namespace organsim::multibeam {
@@ -164,6 +167,43 @@ TEST(ClampedBeam, NodeResponseIsTheCantileverDeflectionCurve) {
     EXPECT_NEAR(r(5, 1), (6.0 * s - 3.0 * s * s) / (2.0 * length), 1e-9 / length) << node;  // θz = v'
     EXPECT_NEAR(r(0, 0), s, 1e-9) << node;                                                  // axial: linear
   }
+}
+
+// On a Winkler foundation (k per metre, lumped at the nodes: k h, the tip's
+// half) the beam is Hetényi's: its transverse tip stiffness is 1 / w(L) and a
+// tip displacement bends it along w(x) / w(L), which the foundation makes
+// fall off toward the clamp faster than the cantilever's curve; the axial
+// stiffness, which the foundation does not hold, is unchanged.
+TEST(ClampedBeam, OnAnElasticFoundationItIsHetenyisBeam) {
+  const double length = 0.15;
+  const model::BeamSection s = circle(0.02);
+  const double ei = kE * s.i_zz, k = 4 * ei * std::pow(3.0 / length, 4);  // λL = 3
+  constexpr std::uint32_t kElements = 40;
+  const double h = length / kElements;
+  std::vector<Eigen::Matrix3d> foundation(kElements, Eigen::Vector3d(0.0, k * h, k * h).asDiagonal());
+  foundation.back() *= 0.5;
+  Cantilever free, supported;
+  free.sections.assign(kElements, s);
+  supported.sections.assign(kElements, s);
+  ASSERT_EQ(free.build(length), Status::ok);
+  ASSERT_EQ(supported.beam.build(supported.sections.data(), kElements, length, BeamElasticity::from(kE, kNu), {},
+                                 foundation.data()),
+            Status::ok);
+  const double tip = testing::hetenyi_deflection(length, length, ei, k);
+  EXPECT_NEAR(supported.beam.tip_stiffness()(1, 1) * tip, 1.0, 0.005);
+  EXPECT_NEAR(supported.beam.tip_stiffness()(2, 2) * tip, 1.0, 0.005);
+  EXPECT_GT(supported.beam.tip_stiffness()(1, 1), 3.0 * free.beam.tip_stiffness()(1, 1));
+  EXPECT_NEAR(supported.beam.tip_stiffness()(0, 0), free.beam.tip_stiffness()(0, 0),
+              1e-9 * free.beam.tip_stiffness()(0, 0));
+  for (std::uint32_t node = 1; node <= kElements; ++node) {
+    const double x = node * h, shape = testing::hetenyi_deflection(x, length, ei, k) / tip;
+    EXPECT_NEAR(supported.beam.node_response(node)(1, 1), shape, 0.005) << node;
+  }
+  EXPECT_LT(supported.beam.node_response(kElements / 2)(1, 1), 0.5 * free.beam.node_response(kElements / 2)(1, 1));
+  foundation[3](1, 1) = std::nan("");
+  EXPECT_EQ(supported.beam.build(supported.sections.data(), kElements, length, BeamElasticity::from(kE, kNu), {},
+                                 foundation.data()),
+            Status::not_finite);
 }
 
 TEST(ClampedBeam, BadInputGivesAStatusNotNaN) {

@@ -1,5 +1,6 @@
 // The multi-beam model on organs with known geometry: analytic beam forces,
-// the space distortion, merging of several tools, and bad input.
+// the space distortion, merging of several tools, the beam on its supports,
+// and bad input.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -174,6 +175,39 @@ TEST_F(CylinderOrgan, DisplacementAtAnyPointIsTheDistortionOfTheSurfaceVertices)
     EXPECT_TRUE(inside.allFinite());
     EXPECT_GT(inside.norm(), 1e-4);
   }
+}
+
+// On its supports the beam rests on its sections' rims: the cylinder lying
+// along its lower half on contacts, pressed down at the far cap's top,
+// pushes back harder than clamped alone, and its middle follows the press
+// less; with the supports off, or a model without them, the beam is the
+// clamped one.
+TEST_F(CylinderOrgan, OnItsSupportsTheBeamRestsOnItsSectionsRims) {
+  model::OrganModel supported_model = testing::make_cylinder_model(spec);
+  for (const model::Point3& p : supported_model.surface_vertices)
+    supported_model.supports.vertices.push_back(p[2] < -1e-9 ? std::array<double, 2>{1.0, 2.5e5}
+                                                             : std::array<double, 2>{0.0, 0.0});
+  const organ::Organ on_supports(supported_model);
+  MultiBeamOptions options;
+  options.supports = true;
+  const Eigen::Vector3d top(spec.length, 0.0, spec.radius), press(0.0, 0.0, -0.004);
+  MultiBeam supported(on_supports, options), clamped(organ, options), off(on_supports, {});
+  for (MultiBeam* beams : {&supported, &clamped, &off}) ASSERT_EQ(beams->attach(0, top), Status::ok);
+  Eigen::Vector3d force_supported, force_clamped, force_off;
+  ASSERT_EQ(supported.force(0, press, force_supported), Status::ok);
+  ASSERT_EQ(clamped.force(0, press, force_clamped), Status::ok);
+  ASSERT_EQ(off.force(0, press, force_off), Status::ok);
+  EXPECT_GT(force_supported.z(), 2.0 * force_clamped.z());
+  EXPECT_LT((force_off - force_clamped).norm(), 1e-9 * force_clamped.norm());
+  std::vector<model::Point3> on(on_supports.vertex_count());
+  ASSERT_EQ(supported.deform(&press, on.data(), normals.data(), on.size()), Status::ok);
+  ASSERT_EQ(clamped.deform(&press, positions.data(), normals.data(), positions.size()), Status::ok);
+  const std::uint32_t middle = nearest_vertex(on_supports.model(), {spec.length / 2, 0.0, spec.radius});
+  const double moved_supported = on[middle][2] - on_supports.model().surface_vertices[middle][2];
+  const std::uint32_t same = nearest_vertex(organ.model(), {spec.length / 2, 0.0, spec.radius});
+  const double moved_clamped = positions[same][2] - organ.model().surface_vertices[same][2];
+  EXPECT_LT(moved_clamped, -1e-4);
+  EXPECT_GT(moved_supported, 0.5 * moved_clamped);  // less far down
 }
 
 TEST_F(CylinderOrgan, CoincidingToolsAreMergedWithoutNaN) {

@@ -64,8 +64,13 @@ class ClampedBeam {
   /// beam's largest are raised to that floor (a section plane that barely grazes
   /// the organ must not make the beam singular). Returns not_finite for a bad
   /// length or section, singular_beam when the factorization fails.
+  /// `foundation`, when given: per node 1..N (entry n − 1), the translational
+  /// stiffness (N/m, local frame, symmetric positive semi-definite) of what
+  /// the node's section rests on: a beam on an elastic foundation lumped at
+  /// its nodes (Winkler's; EI d⁴w/dx⁴ + k w = q for a uniform one).
   Status build(const model::BeamSection* sections, std::uint32_t element_count, double length,
-               const BeamElasticity& elasticity, const BeamBuildOptions& options) noexcept;
+               const BeamElasticity& elasticity, const BeamBuildOptions& options,
+               const Eigen::Matrix3d* foundation = nullptr) noexcept;
 
   bool built() const noexcept { return built_; }
   std::uint32_t element_count() const noexcept { return elements_; }

@@ -61,9 +61,11 @@ struct MultiBeamOptions {
   /// reference's force (organsim/organ/site_law.h, docs/matching.md) instead
   /// of its beam's; false: always the beam's.
   bool match_sites = true;
-  /// The site law of the organ resting on its supports where the model has
-  /// them (docs/supports.md): a press meets the site's compliance on the
-  /// supports, a grasped patch drawn out the organ held by its clamp.
+  /// The organ resting on its supports where the model has them
+  /// (docs/supports.md): a press meets the site law's compliance on the
+  /// supports (a grasped patch drawn out, the organ held by its clamp), and
+  /// each beam node rests on the supports of its section's rim (a beam on an
+  /// elastic foundation; contacts as pressed).
   bool supports = false;
 };
 
@@ -198,6 +200,15 @@ class MultiBeam {
   std::vector<ToolBeam> tools_;
   std::vector<ClampedBeam> solvers_;          // per tool
   std::vector<model::BeamSection> sections_;  // scratch for attach(): stations entries
+  /// The supported surface vertices (MultiBeamOptions::supports): each one's
+  /// foundation stiffness k A (N/m) and whether it is a contact.
+  struct SupportedVertex {
+    std::uint32_t vertex;
+    double stiffness;
+    bool unilateral;
+  };
+  std::vector<SupportedVertex> supported_;
+  std::vector<Eigen::Matrix3d> foundation_;  // scratch for attach(): per beam node, local frame
 
   // Filled by prepare(): the active tools in slot order and their merge data.
   std::uint32_t active_count_ = 0;
