@@ -82,4 +82,18 @@ struct ModelParameter {
   ParameterValue (*get)(const ModelOptions& options);
 };
 
+/// The `supports` setting every model takes (docs/supports.md): its help,
+/// its choices, and how its value is read into and out of a model's flag.
+inline constexpr const char* kSupportsHelp =
+    "every model: also hold the organ on the supports the bake found in the CT (baked: a foundation on the FEM "
+    "models' boundary, the mass-spring nodes and the beams' nodes, the matched force of the organ on them), or by the "
+    "clamp alone (none; docs/supports.md)";
+inline constexpr const char* kSupportsChoices = "none|baked";
+inline std::string read_supports(const ParameterValue& value, bool& flag) {
+  if (value.text != "none" && value.text != "baked") return "supports are none or baked";
+  flag = value.text == "baked";
+  return "";
+}
+inline ParameterValue supports_value(bool flag) { return {0.0, flag ? "baked" : "none"}; }
+
 }  // namespace organsim::realtime

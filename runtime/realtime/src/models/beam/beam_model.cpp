@@ -135,19 +135,11 @@ const ModelParameter kBeamParameters[] = {
      [](const ModelOptions& o) {
        return ParameterValue{o.of<multibeam::MultiBeamOptions>().match_sites ? 0.0 : 1.0, {}};
      }},
-    {"supports", ModelParameter::Kind::choice,
-     "every model: also hold the organ on the supports the bake found in the CT (baked: a foundation on the FEM "
-     "models' boundary and the mass-spring nodes, the matched force of the organ on them), or by the clamp alone "
-     "(none; docs/supports.md)",
-     "none|baked",
-     [](ModelOptions& o, const ParameterValue& v) -> std::string {
-       if (v.text != "none" && v.text != "baked") return "supports are none or baked";
-       o.edit<multibeam::MultiBeamOptions>().supports = v.text == "baked";
-       return "";
+    {"supports", ModelParameter::Kind::choice, kSupportsHelp, kSupportsChoices,
+     [](ModelOptions& o, const ParameterValue& v) {
+       return read_supports(v, o.edit<multibeam::MultiBeamOptions>().supports);
      },
-     [](const ModelOptions& o) {
-       return ParameterValue{0.0, o.of<multibeam::MultiBeamOptions>().supports ? "baked" : "none"};
-     }},
+     [](const ModelOptions& o) { return supports_value(o.of<multibeam::MultiBeamOptions>().supports); }},
 };
 
 }  // namespace

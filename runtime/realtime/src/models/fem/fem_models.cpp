@@ -93,19 +93,9 @@ const ModelParameter kFemParameters[] = {
      [](const ModelOptions& o) {
        return ParameterValue{o.of<fem::OrganFemOptions>().fixed_radius, {}};
      }},
-    {"supports", ModelParameter::Kind::choice,
-     "every model: also hold the organ on the supports the bake found in the CT (baked: a foundation on the FEM "
-     "models' boundary and the mass-spring nodes, the matched force of the organ on them), or by the clamp alone "
-     "(none; docs/supports.md)",
-     "none|baked",
-     [](ModelOptions& o, const ParameterValue& v) -> std::string {
-       if (v.text != "none" && v.text != "baked") return "supports are none or baked";
-       o.edit<fem::OrganFemOptions>().supports = v.text == "baked";
-       return "";
-     },
-     [](const ModelOptions& o) {
-       return ParameterValue{0.0, o.of<fem::OrganFemOptions>().supports ? "baked" : "none"};
-     }},
+    {"supports", ModelParameter::Kind::choice, kSupportsHelp, kSupportsChoices,
+     [](ModelOptions& o, const ParameterValue& v) { return read_supports(v, o.edit<fem::OrganFemOptions>().supports); },
+     [](const ModelOptions& o) { return supports_value(o.of<fem::OrganFemOptions>().supports); }},
 };
 
 }  // namespace
