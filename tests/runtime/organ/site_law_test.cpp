@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <optional>
+#include <vector>
 
 #include "organsim/geometry/model_measures.h"
 #include "organsim/organ/organ.h"
@@ -303,14 +305,29 @@ TEST(SiteLaw, OnACurvedSurfaceTheTipTouchesAsTwoCurvedBodies) {
               4.0 / 3.0 * e_star * std::sqrt(2 * kRadius) * std::pow(shallow, 1.5), 1e-9 * e_star * kRadius * shallow);
 }
 
+/// The contact of the fast model `name` (options `options`) whose 2.5 mm tip,
+/// pointing down, touched `touch` and has been displaced by `d` for three
+/// frames; nullopt when it could not attach or step.
+std::optional<realtime::ContactLinearization> pressed(const char* name, const Organ& organ,
+                                                      const realtime::ModelOptions& options,
+                                                      const Eigen::Vector3d& touch, const Eigen::Vector3d& d) {
+  geometry::ToolTip tip;
+  tip.radius = kRadius;
+  tip.axis = Eigen::Vector3d::UnitZ();
+  const auto model = realtime::make_deformation_model(name, organ, options, 1);
+  realtime::ContactLinearization contact;
+  if (!model->attach(0, touch, tip, contact)) return std::nullopt;
+  std::vector<model::Point3> positions(organ.vertex_count()), normals(organ.vertex_count());
+  for (int frame = 0; frame < 3; ++frame)
+    if (!model->step(1.0 / 60.0, &d, positions.data(), normals.data(), &contact)) return std::nullopt;
+  return contact;
+}
+
 // The multi-beam and mass-spring models give a tool of finite size the site
 // law's force and stiffness, and their own without site data or when told.
 TEST(SiteLaw, TheFastModelsGiveTheLawsForce) {
   const Organ organ(cylinder_with_sites());
   const Eigen::Vector3d touch(0.1, 0.0, 0.03);  // on the cylinder's top (radius 0.03)
-  geometry::ToolTip tip;
-  tip.radius = kRadius;
-  tip.axis = Eigen::Vector3d::UnitZ();
   SiteLaw law;
   ASSERT_TRUE(law.set(organ, organ.surface_tree().closest_point(touch), kRadius));
   const Eigen::Vector3d d(0.0, 0.0005, -0.003);
@@ -319,12 +336,9 @@ TEST(SiteLaw, TheFastModelsGiveTheLawsForce) {
       realtime::ModelOptions options;
       options.edit<organsim::multibeam::MultiBeamOptions>().match_sites = matched;
       options.edit<realtime::SpringModelOptions>().match_sites = matched;
-      const auto model = realtime::make_deformation_model(name, organ, options, 1);
-      realtime::ContactLinearization contact;
-      ASSERT_TRUE(model->attach(0, touch, tip, contact)) << name;
-      std::vector<model::Point3> positions(organ.vertex_count()), normals(organ.vertex_count());
-      for (int frame = 0; frame < 3; ++frame)
-        ASSERT_TRUE(model->step(1.0 / 60.0, &d, positions.data(), normals.data(), &contact)) << name;
+      const std::optional<realtime::ContactLinearization> found = pressed(name, organ, options, touch, d);
+      ASSERT_TRUE(found) << name;
+      const realtime::ContactLinearization& contact = *found;
       const Eigen::Vector3d force = contact.force - contact.stiffness * (d - contact.displacement);
       if (matched) {
         EXPECT_LT((force - law.force(d)).norm(), 1e-12) << name;
@@ -359,21 +373,14 @@ TEST(SiteLaw, OnItsSupportsAPressMeetsTheSupportedOrganAndAGraspTheClampedOne) {
   EXPECT_GT(supported.stiffness()(2, 2), 2.0 * clamped.stiffness()(2, 2));
   EXPECT_LT((supported.held_stiffness(1.0) - clamped.stiffness()).norm(), 1e-9 * clamped.stiffness().norm());
 
-  geometry::ToolTip tip;
-  tip.radius = kRadius;
-  tip.axis = Eigen::Vector3d::UnitZ();
   const Eigen::Vector3d d(0.0, 0.0005, -0.003);
   for (const char* name : {"beam", "springs"}) {
     realtime::ModelOptions options;
     options.edit<organsim::multibeam::MultiBeamOptions>().supports = true;
     options.edit<realtime::SpringModelOptions>().network.supports = true;
-    const auto model = realtime::make_deformation_model(name, organ, options, 1);
-    realtime::ContactLinearization contact;
-    ASSERT_TRUE(model->attach(0, touch, tip, contact)) << name;
-    std::vector<model::Point3> positions(organ.vertex_count()), normals(organ.vertex_count());
-    for (int frame = 0; frame < 3; ++frame)
-      ASSERT_TRUE(model->step(1.0 / 60.0, &d, positions.data(), normals.data(), &contact)) << name;
-    EXPECT_LT((contact.force - supported.force(d)).norm(), 1e-12) << name;
+    const std::optional<realtime::ContactLinearization> contact = pressed(name, organ, options, touch, d);
+    ASSERT_TRUE(contact) << name;
+    EXPECT_LT((contact->force - supported.force(d)).norm(), 1e-12) << name;
   }
 
   m.sites.supported.clear();
