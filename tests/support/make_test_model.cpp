@@ -32,7 +32,8 @@ int main(int argc, char** argv) {
   bool supports = false;
   app.add_flag("--supports", supports,
                "Every vertex below the axis (z < 0) on a contact (format 1.5's SUPP section); with --site-compliance "
-               "also the compliances on the supports, a quarter of the others (format 1.7's SSUP section)");
+               "also the compliances on the supports, a quarter of the others (format 1.7's SSUP section), and "
+               "their depth curve (format 1.8's SCRV section)");
   CLI11_PARSE(app, argc, argv);
   try {
     organsim::model::OrganModel model;
@@ -50,9 +51,12 @@ int main(int argc, char** argv) {
       for (const organsim::model::Point3& p : model.surface_vertices)
         model.supports.vertices.push_back(p[2] < 0.0 ? std::array<double, 2>{1.0, 2.5e5}
                                                      : std::array<double, 2>{0.0, 0.0});
-      if (sites)
+      if (sites) {
         for (const auto& c : model.sites.compliance)
           model.sites.supported.push_back({c[0] / 4, c[1] / 4, c[2] / 4, c[3] / 4, c[4] / 4, c[5] / 4});
+        model.sites.supported_depth_curve = {{{0.0, 0.8}}, {{0.003, 1.1}}};
+        model.sites.supported_curve_tip_radius = 0.0025;
+      }
     }
     organsim::model::write_organ_model_file(model, output);
   } catch (const std::exception& e) {

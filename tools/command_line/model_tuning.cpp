@@ -205,7 +205,10 @@ void warn_if_depth_curve_rescaled(const std::string& command, const model::Organ
     const realtime::RegisteredModel* entry = realtime::find_model(m);
     return entry && entry->matches_reference && entry->matches_reference(tuning.models);
   });
-  if (sites.depth_curve.empty() || !matched) return;
+  // The curve this run's presses read: on the supports their own, where the model has it.
+  const bool on_supports = tuning.models.of<fem::OrganFemOptions>().supports && !sites.supported_depth_curve.empty();
+  const double fitted_radius = on_supports ? sites.supported_curve_tip_radius : sites.curve_tip_radius;
+  if ((on_supports ? sites.supported_depth_curve : sites.depth_curve).empty() || !matched) return;
   realtime::EngineOptions options;
   options.tip_radius = tuning.tip_radius;
   if (session) options = realtime::with_session_tips(options, *session);
@@ -213,7 +216,7 @@ void warn_if_depth_curve_rescaled(const std::string& command, const model::Organ
   for (std::size_t k = 0; k < (session ? session->tools.size() : 1); ++k) radii.push_back(options.tip_radius_of(k));
   std::vector<double> warned;
   for (const double radius : radii) {
-    if (!(radius > 0.0) || std::abs(radius - sites.curve_tip_radius) <= 1e-9 ||
+    if (!(radius > 0.0) || std::abs(radius - fitted_radius) <= 1e-9 ||
         std::find(warned.begin(), warned.end(), radius) != warned.end())
       continue;
     warned.push_back(radius);
@@ -222,7 +225,7 @@ void warn_if_depth_curve_rescaled(const std::string& command, const model::Organ
                               "contact but not the organ's bending (that depends on the depth alone); for a curve of "
                               "this tip run organsim calibrate with --tip-radius {:g} "
                               "(docs/matching.md#the-depth-curve-organsim-calibrate)",
-                              sites.curve_tip_radius * 1e3, radius * 1e3, radius * 1e3));
+                              fitted_radius * 1e3, radius * 1e3, radius * 1e3));
   }
 }
 

@@ -64,6 +64,8 @@ inline constexpr std::uint32_t kSupportFieldsV1_5 = 2;
 inline constexpr std::uint32_t kPullFieldsV1_6 = 2;
 /// Format 1.7's site compliance on the supports: reals per vertex (as SITE's).
 inline constexpr std::uint32_t kSupportedSiteFieldsV1_7 = 6;
+/// Format 1.8's depth curve on the supports: reals per point (depth, factor).
+inline constexpr std::uint32_t kSupportedCurveFieldsV1_8 = 2;
 
 enum class Section {
   Metadata,
@@ -80,7 +82,8 @@ enum class Section {
   Meshing,
   Supports,
   PullCurve,
-  SupportedSiteCompliance
+  SupportedSiteCompliance,
+  SupportedDepthCurve
 };
 
 struct SectionDescription {
@@ -107,6 +110,7 @@ inline constexpr SectionDescription kSections[] = {
     {Section::Supports, "SUPP", "supports", false},
     {Section::PullCurve, "PULL", "pull curve", false},
     {Section::SupportedSiteCompliance, "SSUP", "site compliance on the supports", false},
+    {Section::SupportedDepthCurve, "SCRV", "depth curve on the supports", false},
 };
 
 inline const SectionDescription& describe(Section id) { return kSections[static_cast<std::size_t>(id)]; }

@@ -151,6 +151,12 @@ std::vector<std::uint8_t> encode_section(Section id, const OrganModel& m) {
       w.put<double>(m.sites.pull_tip_radius);
       w.put_array(m.sites.pull_curve);
       break;
+    case Section::SupportedDepthCurve:
+      w.put<std::uint32_t>(format::kSupportedCurveFieldsV1_8);
+      w.put<std::uint32_t>(0);
+      w.put<double>(m.sites.supported_curve_tip_radius);
+      w.put_array(m.sites.supported_depth_curve);
+      break;
   }
   return w.take();
 }
@@ -167,6 +173,7 @@ bool section_present(Section id, const OrganModel& m) {
     case Section::Supports: return !m.supports.empty();
     case Section::PullCurve: return !m.sites.pull_curve.empty();
     case Section::SupportedSiteCompliance: return !m.sites.supported.empty();
+    case Section::SupportedDepthCurve: return !m.sites.supported_depth_curve.empty();
     default: return true;
   }
 }
@@ -338,19 +345,21 @@ void read_sites(const std::uint8_t* data, std::size_t size, SiteCompliance& site
   if (vertices > 0) std::memcpy(sites.compliance.data(), r.here(), static_cast<std::size_t>(vertices) * kVertexBytes);
 }
 
-void read_pull_curve(const std::uint8_t* data, std::size_t size, SiteCompliance& sites) {
-  const Section id = Section::PullCurve;
+/// PULL and SCRV: a field count (2), a reserved word, the tip radius the
+/// curve was fitted for and its points.
+void read_curve(Section id, std::uint32_t fields, const std::uint8_t* data, std::size_t size, double& tip_radius,
+                std::vector<std::array<double, 2>>& curve) {
   PayloadReader r(data, size);
-  std::uint32_t fields = 0, reserved = 0;
-  if (!r.get(fields) || !r.get(reserved) || !r.get(sites.pull_tip_radius))
+  std::uint32_t found = 0, reserved = 0;
+  if (!r.get(found) || !r.get(reserved) || !r.get(tip_radius))
     fail_section(id, std::string("payload too short for its header; ") + kDamagedAdvice);
-  if (fields != format::kPullFieldsV1_6)
-    fail_section(id, "field count " + std::to_string(fields) + " is not " + std::to_string(format::kPullFieldsV1_6) +
-                         "; " + kDamagedAdvice);
-  sites.pull_curve = read_array<double, 2>(id, r.here(), r.remaining());
-  if (sites.pull_curve.size() > format::kMaxDepthCurvePoints)
-    fail_section(id, "the pull curve has more than " + std::to_string(format::kMaxDepthCurvePoints) + " points; " +
-                         kDamagedAdvice);
+  if (found != fields)
+    fail_section(id,
+                 "field count " + std::to_string(found) + " is not " + std::to_string(fields) + "; " + kDamagedAdvice);
+  curve = read_array<double, 2>(id, r.here(), r.remaining());
+  if (curve.size() > format::kMaxDepthCurvePoints)
+    fail_section(
+        id, "the curve has more than " + std::to_string(format::kMaxDepthCurvePoints) + " points; " + kDamagedAdvice);
 }
 
 /// A section of a field count (`fields`), a reserved word and a pair of
@@ -695,10 +704,15 @@ OrganModel read_sections(const std::uint8_t* data, const SectionIndex& index, co
   if (index.has(Section::Supports))
     m.supports.vertices = read_vertex_pairs(Section::Supports, format::kSupportFieldsV1_5, payload(Section::Supports),
                                             bytes(Section::Supports));
-  if (index.has(Section::PullCurve)) read_pull_curve(payload(Section::PullCurve), bytes(Section::PullCurve), m.sites);
+  if (index.has(Section::PullCurve))
+    read_curve(Section::PullCurve, format::kPullFieldsV1_6, payload(Section::PullCurve), bytes(Section::PullCurve),
+               m.sites.pull_tip_radius, m.sites.pull_curve);
   if (index.has(Section::SupportedSiteCompliance))
     m.sites.supported =
         read_supported_sites(payload(Section::SupportedSiteCompliance), bytes(Section::SupportedSiteCompliance));
+  if (index.has(Section::SupportedDepthCurve))
+    read_curve(Section::SupportedDepthCurve, format::kSupportedCurveFieldsV1_8, payload(Section::SupportedDepthCurve),
+               bytes(Section::SupportedDepthCurve), m.sites.supported_curve_tip_radius, m.sites.supported_depth_curve);
   if (const auto issue = find_model_issue(m, beams_plausible))
     fail_section(issue->section, issue->message + "; " + kDamagedAdvice);
   return m;

@@ -113,6 +113,22 @@ std::string supported_sites_issue(const OrganModel& m) {
   return {};
 }
 
+/// What is wrong with a depth curve (`name`) and the tip radius it was fitted
+/// for, or "".
+std::string depth_curve_issue(const std::string& name, const std::vector<std::array<double, 2>>& curve,
+                              double tip_radius) {
+  if (!(std::isfinite(tip_radius) && tip_radius >= 0)) return "the " + name + "'s tip radius must be a length >= 0";
+  if (!curve.empty() && !(tip_radius > 0)) return "a " + name + " needs the tip radius it was fitted with";
+  double last = -1.0;
+  for (const auto& [depth, factor] : curve) {
+    if (!(std::isfinite(depth) && depth > last && depth >= 0))
+      return "the " + name + "'s depths must be finite, >= 0 and increasing";
+    if (!(std::isfinite(factor) && factor > 0)) return "the " + name + "'s factors must be positive numbers";
+    last = depth;
+  }
+  return {};
+}
+
 /// What is wrong with the site compliance, or "".
 std::string site_compliance_issue(const OrganModel& m) {
   const SiteCompliance& sites = m.sites;
@@ -131,18 +147,16 @@ std::string site_compliance_issue(const OrganModel& m) {
     if (!plausible_compliance(sites.compliance[v]))
       return "the compliance of vertex " + std::to_string(v) + " is not finite or not positive semi-definite";
   }
-  if (!(std::isfinite(sites.curve_tip_radius) && sites.curve_tip_radius >= 0))
-    return "the depth curve's tip radius must be a length >= 0";
-  if (!sites.depth_curve.empty() && !(sites.curve_tip_radius > 0))
-    return "a depth curve needs the tip radius it was fitted with";
-  double last = -1.0;
-  for (const auto& [depth, factor] : sites.depth_curve) {
-    if (!(std::isfinite(depth) && depth > last && depth >= 0))
-      return "the depth curve's depths must be finite, >= 0 and increasing";
-    if (!(std::isfinite(factor) && factor > 0)) return "the depth curve's factors must be positive numbers";
-    last = depth;
-  }
-  return {};
+  return depth_curve_issue("depth curve", sites.depth_curve, sites.curve_tip_radius);
+}
+
+/// What is wrong with the depth curve on the supports, or "".
+std::string supported_depth_curve_issue(const OrganModel& m) {
+  const SiteCompliance& sites = m.sites;
+  if (!sites.supported_depth_curve.empty() && sites.supported.empty())
+    return "a depth curve on the supports without site compliances on them";
+  return depth_curve_issue("depth curve on the supports", sites.supported_depth_curve,
+                           sites.supported_curve_tip_radius);
 }
 
 /// What is wrong with the pull curve, or "".
@@ -256,6 +270,7 @@ std::optional<ModelIssue> find_model_issue(const OrganModel& m, bool beam_values
   if (auto e = meshing_issue(m); !e.empty()) return issue(format::Section::Meshing, e);
   if (auto e = supports_issue(m); !e.empty()) return issue(format::Section::Supports, e);
   if (auto e = supported_sites_issue(m); !e.empty()) return issue(format::Section::SupportedSiteCompliance, e);
+  if (auto e = supported_depth_curve_issue(m); !e.empty()) return issue(format::Section::SupportedDepthCurve, e);
 
   const BeamTables& b = m.beams;
   if (b.empty()) {

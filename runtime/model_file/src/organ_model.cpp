@@ -87,7 +87,8 @@ bool BeamTables::operator==(const BeamTables& o) const {
 bool SiteCompliance::operator==(const SiteCompliance& o) const {
   return young_modulus == o.young_modulus && poisson_ratio == o.poisson_ratio && compliance == o.compliance &&
          depth_curve == o.depth_curve && curve_tip_radius == o.curve_tip_radius && curvature == o.curvature &&
-         pull_curve == o.pull_curve && pull_tip_radius == o.pull_tip_radius && supported == o.supported;
+         pull_curve == o.pull_curve && pull_tip_radius == o.pull_tip_radius && supported == o.supported &&
+         supported_depth_curve == o.supported_depth_curve && supported_curve_tip_radius == o.supported_curve_tip_radius;
 }
 
 bool Meshing::operator==(const Meshing& o) const {

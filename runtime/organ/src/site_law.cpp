@@ -73,7 +73,8 @@ bool SiteLaw::set(const Organ& organ, const geometry::SurfacePoint& at, double t
   Eigen::Matrix3d compliance = Eigen::Matrix3d::Zero();
   for (int k = 0; k < 3; ++k) compliance += at.barycentric[k] * unpacked(sites.compliance[t[k]]);
   Eigen::Matrix3d lifted = compliance;
-  if (on_supports && sites.supported.size() == m.surface_vertices.size()) {
+  const bool supported = on_supports && sites.supported.size() == m.surface_vertices.size();
+  if (supported) {
     compliance.setZero();
     for (int k = 0; k < 3; ++k) compliance += at.barycentric[k] * unpacked(sites.supported[t[k]]);
   }
@@ -102,8 +103,11 @@ bool SiteLaw::set(const Organ& organ, const geometry::SurfacePoint& at, double t
   poisson_ = sites.poisson_ratio;
   contact_modulus_ = sites.young_modulus / (1.0 - poisson_ * poisson_);
   shear_ = sites.young_modulus / (2.0 * (1.0 + poisson_));
-  curve_ = sites.depth_curve.empty() ? nullptr : &sites.depth_curve;
-  curve_depth_scale_ = curve_ ? sites.curve_tip_radius / tip_radius : 1.0;
+  const bool own_curve = supported && !sites.supported_depth_curve.empty();
+  const std::vector<std::array<double, 2>>& curve = own_curve ? sites.supported_depth_curve : sites.depth_curve;
+  curve_ = curve.empty() ? nullptr : &curve;
+  curve_depth_scale_ =
+      curve_ ? (own_curve ? sites.supported_curve_tip_radius : sites.curve_tip_radius) / tip_radius : 1.0;
   pull_curve_ = sites.pull_curve.empty() ? nullptr : &sites.pull_curve;
   pull_distance_scale_ = pull_curve_ ? sites.pull_tip_radius / tip_radius : 1.0;
   return true;

@@ -51,6 +51,8 @@ model::OrganModel small_model() {
                                              : std::array<double, 2>{static_cast<double>(1 + v % 2), 2.5e5});
   for (std::size_t v = 0; v < m.surface_vertices.size(); ++v)
     m.sites.supported.push_back({0.1 + 1e-3 * v, 0.05, 0.04, 0.002, -0.004, 0.001});
+  m.sites.supported_depth_curve = {{{0.0, 0.8}}, {{0.002, 0.75}}, {{0.005, 0.9}}};
+  m.sites.supported_curve_tip_radius = 0.003;
   return m;
 }
 
@@ -92,7 +94,7 @@ TEST(ModelFile, RoundTripOfEverySection) {
   std::set<std::string> tags;
   for (const auto& s : r.file.sections) tags.insert(s.tag);
   EXPECT_EQ(tags, (std::set<std::string>{"META", "SVRT", "STRI", "SUVC", "TVRT", "TETS", "FIXP", "MATL", "BEAM", "SITE",
-                                         "CURV", "MESH", "SUPP", "PULL", "SSUP"}));
+                                         "CURV", "MESH", "SUPP", "PULL", "SSUP", "SCRV"}));
   EXPECT_EQ(r.file.version.major, 1);
   EXPECT_EQ(r.file.file_bytes, bytes.size());
 }
@@ -183,7 +185,7 @@ TEST(ModelFile, TruncationInsideHeaderAndTable) {
 TEST(ModelFile, TruncationAtAndInsideEverySection) {
   const auto bytes = encoded();
   const auto sections = list_sections(bytes);
-  ASSERT_EQ(sections.size(), 15u);
+  ASSERT_EQ(sections.size(), 16u);
   for (const auto& s : sections) {
     EXPECT_ERROR(std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + s.offset),
                  "truncated at the start of section '" + s.tag + "'");
@@ -230,7 +232,7 @@ TEST(ModelFile, FutureMajorVersionIsRefusedWithBothVersions) {
   poke<std::uint16_t>(bytes, 8, 2);
   poke<std::uint16_t>(bytes, 10, 3);
   refresh_checksums(bytes);
-  EXPECT_ERROR(bytes, "format version 2.3 but this organsim reads format 1.7");
+  EXPECT_ERROR(bytes, "format version 2.3 but this organsim reads format 1.8");
 }
 
 TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
@@ -238,7 +240,7 @@ TEST(ModelFile, UnknownSectionOfNewerMinorIsSkippedButNotOfSameMinor) {
   const auto suvc = find_section(bytes, "SUVC");
   std::memcpy(bytes.data() + suvc.table_entry, "XTRA", 4);
   refresh_checksums(bytes);
-  EXPECT_ERROR(bytes, "section 'XTRA' is unknown in a format 1.7 file");
+  EXPECT_ERROR(bytes, "section 'XTRA' is unknown in a format 1.8 file");
 
   poke<std::uint16_t>(bytes, 10, model::kModelFormatVersion.minor + 1);
   refresh_checksums(bytes);
@@ -315,6 +317,8 @@ TEST(ModelFile, FormatOnePointFourFileWithoutSupportsLoads) {
   model::OrganModel without = small_model();
   without.supports = {};
   without.sites.supported.clear();
+  without.sites.supported_depth_curve.clear();
+  without.sites.supported_curve_tip_radius = 0.0;
   auto bytes = model::serialize_organ_model(without);
   EXPECT_THROW(find_section(bytes, "SUPP"), std::exception);
   poke<std::uint16_t>(bytes, 10, 4);
@@ -408,6 +412,8 @@ TEST(ModelFile, FormatOnePointSixFileWithoutCompliancesOnTheSupportsLoads) {
   // the organ held by its clamp, also with --supports baked.
   model::OrganModel without = small_model();
   without.sites.supported.clear();
+  without.sites.supported_depth_curve.clear();
+  without.sites.supported_curve_tip_radius = 0.0;
   auto bytes = model::serialize_organ_model(without);
   EXPECT_THROW(find_section(bytes, "SSUP"), std::exception);
   poke<std::uint16_t>(bytes, 10, 6);
@@ -417,6 +423,54 @@ TEST(ModelFile, FormatOnePointSixFileWithoutCompliancesOnTheSupportsLoads) {
   EXPECT_EQ(r.file.version.minor, 6);
   EXPECT_TRUE(r.model->sites.supported.empty());
   EXPECT_TRUE(*r.model == without);
+}
+
+TEST(ModelFile, FormatOnePointSevenFileWithoutADepthCurveOnTheSupportsLoads) {
+  // A 1.7 writer knew no SCRV section: presses on the supports read the
+  // model's one depth curve.
+  model::OrganModel without = small_model();
+  without.sites.supported_depth_curve.clear();
+  without.sites.supported_curve_tip_radius = 0.0;
+  auto bytes = model::serialize_organ_model(without);
+  EXPECT_THROW(find_section(bytes, "SCRV"), std::exception);
+  poke<std::uint16_t>(bytes, 10, 7);
+  refresh_checksums(bytes);
+  const model::ModelReadResult r = model::parse_organ_model(bytes.data(), bytes.size(), "x");
+  ASSERT_TRUE(r) << r.error;
+  EXPECT_EQ(r.file.version.minor, 7);
+  EXPECT_TRUE(r.model->sites.supported_depth_curve.empty());
+  EXPECT_TRUE(*r.model == without);
+}
+
+TEST(ModelFile, ImplausibleDepthCurvesOnTheSupportsAreRefused) {
+  const auto original = encoded();
+  const auto scrv = find_section(original, "SCRV");
+  // Header: fields, reserved, tip radius; the curve (count, pairs).
+  const std::size_t first_point = scrv.offset + 8 + 8 + 8;
+  auto check = [&](std::size_t at, double value, const char* what) {
+    auto bytes = original;
+    poke<double>(bytes, at, value);
+    refresh_checksums(bytes);
+    EXPECT_ERROR(bytes, "section 'SCRV' (depth curve on the supports): ");
+    EXPECT_ERROR(bytes, what);
+  };
+  check(scrv.offset + 8, 0.0, "a depth curve on the supports needs the tip radius it was fitted with");
+  check(scrv.offset + 8, std::nan(""), "the depth curve on the supports's tip radius must be a length");
+  check(first_point + 16, 0.0, "depths must be finite, >= 0 and increasing");  // the second depth equals the first
+  check(first_point + 8, -0.5, "factors must be positive numbers");
+  check(first_point + 24, std::numeric_limits<double>::infinity(), "factors must be positive numbers");
+  auto fields = original;
+  poke<std::uint32_t>(fields, scrv.offset, 3u);
+  refresh_checksums(fields);
+  EXPECT_ERROR(fields, "section 'SCRV' (depth curve on the supports): field count 3 is not 2");
+  auto count = original;
+  poke<std::uint64_t>(count, first_point - 8, 1000);
+  refresh_checksums(count);
+  EXPECT_ERROR(count, "item count 1000 does not match");
+  model::OrganModel orphan = small_model();
+  orphan.sites.supported.clear();
+  EXPECT_NE(model::validate_organ_model(orphan).find("a depth curve on the supports without site compliances on them"),
+            std::string::npos);
 }
 
 TEST(ModelFile, ImplausibleCompliancesOnTheSupportsAreRefused) {

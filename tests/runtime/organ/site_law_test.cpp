@@ -390,5 +390,45 @@ TEST(SiteLaw, OnItsSupportsAPressMeetsTheSupportedOrganAndAGraspTheClampedOne) {
   EXPECT_LT((law.stiffness() - clamped.stiffness()).norm(), 1e-12 * clamped.stiffness().norm());
 }
 
+// Presses on the supports read the depth curve fitted on them (read at the
+// depth relative to its own tip radius), presses on the clamp alone the
+// model's other curve; without a curve on the supports (a 1.7 file) both
+// read the one curve.
+TEST(SiteLaw, OnItsSupportsAPressReadsTheDepthCurveFittedThere) {
+  model::OrganModel m = cylinder_with_sites();
+  for (std::size_t v = 0; v < m.surface_vertices.size(); ++v) {
+    m.supports.vertices.push_back({1.0, 2.5e5});
+    m.sites.supported.push_back({0.01, 0.01, 0.02, 0, 0, 0});
+  }
+  m.sites.depth_curve = {{{0.0, 1.0}}, {{0.004, 1.5}}};
+  m.sites.curve_tip_radius = kRadius;
+  m.sites.supported_depth_curve = {{{0.0, 0.9}}, {{0.002, 0.7}}};
+  m.sites.supported_curve_tip_radius = 2 * kRadius;
+  const Organ organ(m);
+  const geometry::SurfacePoint at = organ.surface_tree().closest_point({0.1, 0.0, 0.05});
+  SiteLaw clamped, supported;
+  ASSERT_TRUE(clamped.set(organ, at, kRadius));
+  ASSERT_TRUE(supported.set(organ, at, kRadius, true));
+  EXPECT_DOUBLE_EQ(clamped.depth_factor(0.002), 1.25);
+  EXPECT_DOUBLE_EQ(supported.depth_factor(0.0005), 0.8);  // read at 1 mm: the curve's tip is twice the size
+  EXPECT_DOUBLE_EQ(supported.depth_factor(0.01), 0.7);
+  const Eigen::Vector3d d = -0.0005 * organ.rest_normal_at(at);
+  SiteLaw linear;
+  model::OrganModel without_curves = m;
+  without_curves.sites.supported_depth_curve.clear();
+  without_curves.sites.depth_curve.clear();
+  const Organ plain(std::move(without_curves));
+  ASSERT_TRUE(linear.set(plain, at, kRadius, true));
+  EXPECT_LT((supported.force(d) - 0.8 * linear.force(d)).norm(), 1e-12 * linear.force(d).norm());
+  expect_tangent_is_the_derivative(supported, d);
+
+  m.sites.supported_depth_curve.clear();
+  m.sites.supported_curve_tip_radius = 0.0;
+  const Organ older(std::move(m));
+  SiteLaw law;
+  ASSERT_TRUE(law.set(older, at, kRadius, true));
+  EXPECT_DOUBLE_EQ(law.depth_factor(0.002), 1.25);
+}
+
 }  // namespace
 }  // namespace organsim::organ

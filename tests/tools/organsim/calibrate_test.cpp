@@ -439,6 +439,56 @@ TEST_F(Cli, CalibrateFitsTheSiteLawsDepthCurveAndTheGraspsPullCurve) {
   }
 }
 
+// With --supports baked the depth curve is fitted to presses on the organ
+// resting on its supports and kept as the model's curve on them: the curve of
+// the clamp alone stays as it was, and pressed again on the supports at the
+// curve's site the fast models are off by the curve's scatter.
+TEST_F(Cli, OnTheSupportsCalibrateFitsTheDepthCurveOfTheSupportedOrgan) {
+  model::OrganModel cylinder = testing::make_cylinder_model({});
+  for (const model::Point3& p : cylinder.surface_vertices)  // resting on its lower half
+    cylinder.supports.vertices.push_back(p[2] < 0.0 ? std::array<double, 2>{1.0, 2.5e5}
+                                                    : std::array<double, 2>{0.0, 0.0});
+  pipeline::SiteComplianceOptions sites;
+  sites.fixed_radius = 0.031;
+  cylinder.sites = pipeline::compute_site_compliance(cylinder, sites);
+  ASSERT_FALSE(cylinder.sites.supported.empty());
+  cylinder.sites.depth_curve = {{{0.0, 1.0}}, {{0.003, 1.5}}};
+  cylinder.sites.curve_tip_radius = 2.5e-3;
+  const std::string model = (dir_ / "cylinder.organ").string(), fitted = (dir_ / "fitted.organ").string();
+  model::write_organ_model_file(cylinder, model);
+  const std::string curve = " --curve-sites 1 --depths 2,3 --reference-cells 0 --friction inf --supports baked";
+  const CommandRun run = run_organsim("calibrate " + model + " -o " + fitted + kCalibration + curve + " --json", dir_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json j = nlohmann::json::parse(run.out);
+  EXPECT_EQ(j["depth_curve_on_the_supports"], true);
+  ASSERT_EQ(j["depth_curve"].size(), 2u) << run.out;
+  EXPECT_EQ(j["depth_curve_presses"]["solved"], 4);
+  const model::ModelReadResult read = model::read_organ_model_file(fitted);
+  ASSERT_TRUE(read) << read.error;
+  const model::SiteCompliance& written = read.model->sites;
+  EXPECT_EQ(written.depth_curve, cylinder.sites.depth_curve);
+  ASSERT_EQ(written.supported_depth_curve.size(), 2u);
+  EXPECT_EQ(written.supported_curve_tip_radius, 2.5e-3);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_DOUBLE_EQ(written.supported_depth_curve[i][0] * 1e3, j["depth_curve"][i]["depth_mm"].get<double>());
+    EXPECT_DOUBLE_EQ(written.supported_depth_curve[i][1], j["depth_curve"][i]["factor"].get<double>());
+  }
+  const CommandRun evaluated = run_organsim(
+      "calibrate " + fitted +
+          " --evaluate --depths 2,3 --sites 1 --seed 1001 --fixed-radius 31 --reference-cells 0 --friction inf "
+          "--supports baked --json",
+      dir_);
+  ASSERT_EQ(evaluated.exit_code, 0) << evaluated.err;
+  const nlohmann::json e = nlohmann::json::parse(evaluated.out);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const std::string depth = i == 0 ? "2" : "3";
+    for (const char* fast : {"beam", "springs"})
+      EXPECT_NEAR(e["summary"][fast]["by_depth_mm"][depth]["all"]["force_factor"].get<double>(),
+                  j["depth_curve"][i]["scatter"].get<double>(), 1e-6)
+          << fast << " " << depth << " mm";
+  }
+}
+
 // Every site the evaluation picks takes each of its presses: on the DICOM
 // sample, where some vertices can be pressed straight in but have the organ
 // in the way of a 45° shaft on every side (so a tilted press there would be

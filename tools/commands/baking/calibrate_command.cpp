@@ -326,8 +326,9 @@ struct CalibrationOutcome {
   model::Material before, after;
   std::vector<std::string> kept;
   HeldOutError error_before, error_after;
-  DepthCurveFit curve;  ///< empty without site compliances
-  PullCurveFit pulls;   ///< empty without --pull
+  DepthCurveFit curve;             ///< empty without site compliances
+  bool curve_on_supports = false;  ///< the curve is of presses on the supports
+  PullCurveFit pulls;              ///< empty without --pull
 };
 
 void print_json(const CalibrateOptions& o, const CalibrationOutcome& c) {
@@ -359,6 +360,7 @@ void print_json(const CalibrateOptions& o, const CalibrationOutcome& c) {
     curve.push_back(
         {{"depth_mm", c.curve.curve[i][0] * 1e3}, {"factor", c.curve.curve[i][1]}, {"scatter", c.curve.scatter[i]}});
   j["depth_curve"] = curve;
+  j["depth_curve_on_the_supports"] = c.curve_on_supports;
   j["depth_curve_presses"] = {
       {"pressed", c.curve.presses}, {"solved", c.curve.solved}, {"reference_cells_mm", c.curve.refine_size_mm}};
   nlohmann::json pull = nlohmann::json::array();
@@ -399,9 +401,10 @@ void print_table(const CalibrateOptions& o, const CalibrationOutcome& c) {
       points += fmt::format("{}{:g} mm x {:.3g} (scatter x {:.3g})", points.empty() ? "" : ", ",
                             c.curve.curve[i][0] * 1e3, c.curve.curve[i][1], c.curve.scatter[i]);
     std::cout << fmt::format(
-        "{:<14}the reference's force over the site law's linear one: {}; {} of {} presses solved "
+        "{:<14}the reference's force over the site law's linear one{}: {}; {} of {} presses solved "
         "on {:g} mm cells\n",
-        "depth curve", points, c.curve.solved, c.curve.presses, c.curve.refine_size_mm);
+        "depth curve", c.curve_on_supports ? " on the supports" : "", points, c.curve.solved, c.curve.presses,
+        c.curve.refine_size_mm);
   }
   if (!c.pulls.curve.empty()) {
     std::string points;
@@ -476,9 +479,15 @@ int run_calibrate(CalibrateOptions o) {
     static_cast<CurveSiteOptions&>(curve) = curve_sites(o, o.curve_sites);
     curve.depths_mm = o.evaluation.depths_mm;
     c.curve = fit_depth_curve(original, curve);
-    calibrated.sites.depth_curve = c.curve.curve;
-    calibrated.sites.curve_tip_radius = o.press.tuning.tip_radius;
-    calibrated.provenance.parameters["calibration_depth_curve"] = fmt::format(
+    // Pressed against its supports the organ has a curve of its own: the
+    // other holding's curve stays as it was.
+    const bool on_supports = c.curve_on_supports =
+        o.press.tuning.models.of<fem::OrganFemOptions>().supports && !original.sites.supported.empty();
+    (on_supports ? calibrated.sites.supported_depth_curve : calibrated.sites.depth_curve) = c.curve.curve;
+    (on_supports ? calibrated.sites.supported_curve_tip_radius : calibrated.sites.curve_tip_radius) =
+        o.press.tuning.tip_radius;
+    calibrated.provenance
+        .parameters[on_supports ? "calibration_depth_curve_on_the_supports" : "calibration_depth_curve"] = fmt::format(
         "{} on {:g} mm cells, {} sites, {} of {} presses solved, tip {:g} mm", o.reference, c.curve.refine_size_mm,
         o.curve_sites, c.curve.solved, c.curve.presses, o.press.tuning.tip_radius * 1e3);
   }

@@ -30,6 +30,7 @@ DepthCurveFit fit_depth_curve(const model::OrganModel& model, const DepthCurveOp
   // law's force).
   model::OrganModel linear_model = model;
   linear_model.sites.depth_curve.clear();
+  linear_model.sites.supported_depth_curve.clear();
   const organ::Organ linear_law(std::move(linear_model));
   std::string fast_model;
   for (const realtime::RegisteredModel* entry : realtime::registered_models())

@@ -92,8 +92,11 @@ nlohmann::json sites_json(const model::OrganModel& m) {
             {"p90", quantile(0.9)},
             {"max", quantile(1.0)}};
   };
-  nlohmann::json curve = nlohmann::json::array();
-  for (const auto& [depth, factor] : sites.depth_curve) curve.push_back({{"depth_m", depth}, {"factor", factor}});
+  auto depth_curve = [](const std::vector<std::array<double, 2>>& points) {
+    nlohmann::json curve = nlohmann::json::array();
+    for (const auto& [depth, factor] : points) curve.push_back({{"depth_m", depth}, {"factor", factor}});
+    return curve;
+  };
   nlohmann::json pull = nlohmann::json::array();
   for (const auto& [drawn, softening] : sites.pull_curve)
     pull.push_back({{"drawn_m", drawn}, {"softening", softening}});
@@ -116,8 +119,10 @@ nlohmann::json sites_json(const model::OrganModel& m) {
           {"normal_stiffness_n_per_m_at_2_5_mm_tip", normal_stiffness(sites.compliance)},
           {"normal_stiffness_on_the_supports_n_per_m_at_2_5_mm_tip", normal_stiffness(sites.supported)},
           {"hertz_radius_m_at_2_5_mm_tip", hertz},
-          {"depth_curve", curve},
+          {"depth_curve", depth_curve(sites.depth_curve)},
           {"depth_curve_tip_radius_m", sites.curve_tip_radius},
+          {"depth_curve_on_the_supports", depth_curve(sites.supported_depth_curve)},
+          {"depth_curve_on_the_supports_tip_radius_m", sites.supported_curve_tip_radius},
           {"pull_curve", pull},
           {"pull_curve_tip_radius_m", sites.pull_tip_radius}};
 }
@@ -274,15 +279,22 @@ void print_text(const nlohmann::json& j) {
           h["p10"].get<double>() * 1e3, h["median"].get<double>() * 1e3, h["p90"].get<double>() * 1e3);
     else
       fmt::print("flat at the tip's scale (no curvatures: a format 1.2 file); ");
-    if (sites["depth_curve"].empty()) {
-      fmt::print("no depth curve (linear law; organsim calibrate fits one)\n");
-    } else {
+    auto curve_text = [](const nlohmann::json& points) {
       std::string curve;
-      for (const auto& point : sites["depth_curve"])
+      for (const auto& point : points)
         curve += fmt::format("{}{:g} mm x {:.3g}", curve.empty() ? "" : ", ", point["depth_m"].get<double>() * 1e3,
                              point["factor"].get<double>());
-      fmt::print("depth curve {} (tip {:g} mm)\n", curve, sites["depth_curve_tip_radius_m"].get<double>() * 1e3);
-    }
+      return curve;
+    };
+    if (sites["depth_curve"].empty())
+      fmt::print("no depth curve (linear law; organsim calibrate fits one)");
+    else
+      fmt::print("depth curve {} (tip {:g} mm)", curve_text(sites["depth_curve"]),
+                 sites["depth_curve_tip_radius_m"].get<double>() * 1e3);
+    if (!sites["depth_curve_on_the_supports"].empty())
+      fmt::print("; on the supports {} (tip {:g} mm)", curve_text(sites["depth_curve_on_the_supports"]),
+                 sites["depth_curve_on_the_supports_tip_radius_m"].get<double>() * 1e3);
+    fmt::print("\n");
     if (sites["pull_curve"].empty()) {
       fmt::print("{:<16}none (a grasp holds as the bonded punch; organsim calibrate --pull fits one)\n", "pull curve");
     } else {

@@ -21,7 +21,7 @@ struct FormatVersion {
 /// The format version this build writes and fully understands. Files with the
 /// same major and a newer minor are read (unknown sections skipped); a newer
 /// major is refused.
-inline constexpr FormatVersion kModelFormatVersion{1, 7};
+inline constexpr FormatVersion kModelFormatVersion{1, 8};
 
 /// One entry of a file's section table, for reporting.
 struct SectionSummary {

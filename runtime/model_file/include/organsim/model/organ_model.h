@@ -170,6 +170,15 @@ struct SiteCompliance {
   /// Fitted by `organsim calibrate` for a tip of radius `curve_tip_radius`.
   std::vector<std::array<double, 2>> depth_curve;
   double curve_tip_radius = 0.0;  ///< m; 0 when there is no depth curve
+  /// The depth curve of presses that meet the organ resting on its supports
+  /// (format 1.8), as `depth_curve`: fitted by `organsim calibrate --supports
+  /// baked` for a tip of radius `supported_curve_tip_radius`, read wherever
+  /// the law meets the organ on its supports (organ::SiteLaw::set). The
+  /// organ pressed against what lies behind it deepens differently from one
+  /// bending about its clamp, so each holding has its own curve. Empty:
+  /// presses on the supports read `depth_curve`.
+  std::vector<std::array<double, 2>> supported_depth_curve;
+  double supported_curve_tip_radius = 0.0;  ///< m; 0 when there is no such curve
   /// How much softer a patch held in a grasper's jaws is than a bonded punch
   /// of the tip's radius, as pairs (distance u in m the jaws have drawn the
   /// patch since they closed, softening s > 0), distances increasing from 0:

@@ -74,8 +74,9 @@ class SiteLaw {
   /// or the tip is a point (a point has no finite indentation stiffness in an
   /// elastic body: the fast models then keep their own force). `on_supports`:
   /// a press meets the organ resting on its supports (the model's compliance
-  /// on them, where it has one; docs/supports.md), while a patch held in the
-  /// jaws is drawn off them and meets the organ held by its clamp.
+  /// on them, where it has one, and its depth curve on them, where it has
+  /// that; docs/supports.md), while a patch held in the jaws is drawn off
+  /// them and meets the organ held by its clamp.
   bool set(const Organ& organ, const geometry::SurfacePoint& at, double tip_radius, bool on_supports = false) noexcept;
   /// N/m: the law's stiffness with the tip buried (C_organ + the flat punch
   /// of radius R)⁻¹, the stiffest the law gets without a depth curve.
