@@ -418,10 +418,14 @@ BakeResult bake(const BakeOptions& o, const BakeProgress& progress) {
     clock.run("site compliance", [&] {
       try {
         model.sites = compute_site_compliance(model, o.sites, &report.sites);
-        model.provenance.parameters["site_compliance"] = fmt::format(
-            "psh at rest, nu {}, beta {}, clamp {} mm, patch {:.2f} mm, curvature fit {:.2f} mm{}",
-            o.sites.poisson_ratio, o.sites.stabilization, o.sites.fixed_radius * 1e3, report.sites.patch_radius * 1e3,
-            report.sites.curvature_radius * 1e3, model.sites.supported.empty() ? "" : ", also on the supports");
+        model.provenance.parameters["site_compliance"] =
+            fmt::format("psh at rest, nu {}, beta {}, clamp {} mm, patch {:.2f} mm, curvature fit {:.2f} mm{}",
+                        o.sites.poisson_ratio, o.sites.stabilization, o.sites.fixed_radius * 1e3,
+                        report.sites.patch_radius * 1e3, report.sites.curvature_radius * 1e3,
+                        model.sites.supported.empty()
+                            ? ""
+                            : (o.sites.settle_contacts ? ", also on the supports, contacts settled per press"
+                                                       : ", also on the supports"));
       } catch (const std::invalid_argument& e) {
         // The FEM models cannot hold this organ with their default clamp
         // either: the model is still good for every other use.

@@ -9,6 +9,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <Eigen/SparseCholesky>
@@ -271,6 +272,106 @@ std::array<double, 6> packed(const Eigen::Matrix3d& c) {
   return {c(0, 0), c(1, 1), c(2, 2), c(0, 1), c(0, 2), c(1, 2)};
 }
 
+/// The most rounds of releasing the contacts a press lifts: each round
+/// releases those the last one left moving away from their support and
+/// presses again those it moved into it; a press settles in a few.
+constexpr int kReleaseRounds = 20;
+
+/// Sites taken in runs of this many neighbours in the surface's (Morton)
+/// order: a site's press mostly lifts the set its neighbour's did, which is
+/// then checked rather than settled again.
+constexpr std::size_t kSitesPerRun = 32;
+
+/// The contacts a press lifts off their supports, and what releasing them
+/// gives a site. The site compliances are computed with every contact's
+/// spring K_c n_c n_cᵀ in the stiffness, as if each held both ways, and a
+/// contact holds only while pressed. For a site, `toward` is each contact's
+/// normal displacement (outward: into its support) per unit force on the
+/// site's patch along x, y and z; `among` the contacts' normal compliance
+/// among themselves; `springs` their K_c. With L a set of released contacts,
+/// Woodbury's identity for the stiffness less their springs gives the patch
+/// compliance C + h_Lᵀ (K_L⁻¹ − G_LL)⁻¹ h_L, and a press along −normal moves
+/// the contacts by s' = −(toward + G_{·L} (K_L⁻¹ − G_LL)⁻¹ h_L) normal (the
+/// matrix is positive definite: the clamp holds the organ without any
+/// contact).
+class ReleasedContacts {
+ public:
+  ReleasedContacts(const Eigen::MatrixXd& among, const Eigen::VectorXd& springs) : among_(among), springs_(springs) {}
+
+  /// Settles the set a press along −`normal` at the site of `toward` lifts,
+  /// as a tensionless foundation's: released are the contacts that the
+  /// press, with the set released, moves away from their support. Unless the
+  /// set released now already holds, rounds start from those the two-way
+  /// press lifts and go on until the set holds. The set a press settles on
+  /// is unique, so where it starts changes nothing.
+  void settle(const Eigen::MatrixXd& toward, const Eigen::Vector3d& normal) {
+    const Eigen::VectorXd pressed = -(toward * normal);
+    if (factorized_ && lifted_by(toward, normal, pressed) == released_) return;
+    clear();
+    for (Eigen::Index c = 0; c < pressed.size(); ++c)
+      if (pressed[c] < 0.0) released_.push_back(c);
+    for (int round = 0; round < kReleaseRounds && !released_.empty(); ++round) {
+      if (!factorize()) return;
+      std::vector<Eigen::Index> lifting = lifted_by(toward, normal, pressed);
+      if (lifting == released_) return;
+      released_.swap(lifting);
+    }
+    if (!released_.empty()) factorize();
+  }
+
+  /// Nothing released.
+  void clear() {
+    released_.clear();
+    factorized_ = false;
+  }
+
+  /// m/N: what releasing the settled set adds to the compliance of the site
+  /// of `toward`.
+  Eigen::Matrix3d gained(const Eigen::MatrixXd& toward) const {
+    if (!factorized_) return Eigen::Matrix3d::Zero();
+    const Eigen::MatrixXd lifted = rows_of(toward);
+    return lifted.transpose() * factor_.solve(lifted);
+  }
+
+ private:
+  /// The contacts a press moves away from their support with the set
+  /// released now (`pressed`: their displacement with none released).
+  std::vector<Eigen::Index> lifted_by(const Eigen::MatrixXd& toward, const Eigen::Vector3d& normal,
+                                      const Eigen::VectorXd& pressed) const {
+    const Eigen::VectorXd through = factor_.solve(rows_of(toward)) * normal;
+    Eigen::VectorXd moved = pressed;
+    for (std::size_t i = 0; i < released_.size(); ++i)
+      moved -= among_.col(released_[i]) * through[static_cast<Eigen::Index>(i)];
+    std::vector<Eigen::Index> lifting;
+    for (Eigen::Index c = 0; c < moved.size(); ++c)
+      if (moved[c] < 0.0) lifting.push_back(c);
+    return lifting;
+  }
+  Eigen::MatrixXd rows_of(const Eigen::MatrixXd& toward) const {
+    Eigen::MatrixXd rows(static_cast<Eigen::Index>(released_.size()), 3);
+    for (std::size_t i = 0; i < released_.size(); ++i)
+      rows.row(static_cast<Eigen::Index>(i)) = toward.row(released_[i]);
+    return rows;
+  }
+  bool factorize() {
+    const auto count = static_cast<Eigen::Index>(released_.size());
+    Eigen::MatrixXd system(count, count);
+    for (Eigen::Index j = 0; j < count; ++j)  // column by column: `among` is column-major
+      for (Eigen::Index i = 0; i < count; ++i) system(i, j) = -among_(released_[i], released_[j]);
+    for (Eigen::Index i = 0; i < count; ++i) system(i, i) += 1.0 / springs_[released_[i]];
+    factor_.compute(system);
+    // Round-off at a contact that barely holds: nothing released.
+    factorized_ = factor_.info() == Eigen::Success;
+    return factorized_;
+  }
+
+  const Eigen::MatrixXd& among_;
+  const Eigen::VectorXd& springs_;
+  std::vector<Eigen::Index> released_;
+  Eigen::LLT<Eigen::MatrixXd> factor_;
+  bool factorized_ = false;
+};
+
 /// Per surface vertex of `model`, the organ's compliance under a tool there
 /// (packed; model::SiteCompliance::compliance) for the stiffness `tangent` of
 /// `system`'s free unknowns: one factorization, the boundary's Green's
@@ -279,6 +380,7 @@ std::array<double, 6> packed(const Eigen::Matrix3d& c) {
 std::vector<std::array<double, 6>> organ_compliances(const model::OrganModel& model,
                                                      const fem::ElasticitySystem& system,
                                                      const fem::SparseMatrix& tangent, const std::vector<bool>& clamped,
+                                                     const std::vector<fem::FoundationSpring>& liftable,
                                                      const SiteComplianceOptions& o, SiteComplianceReport& report) {
   const fem::TetMesh& mesh = system.mesh();
   const auto factorization_start = std::chrono::steady_clock::now();
@@ -318,6 +420,21 @@ std::vector<std::array<double, 6>> organ_compliances(const model::OrganModel& mo
     patches[v] = grid.within(point(model.surface_vertices[v]), patch);
     for (std::uint32_t p : patches[v]) needed[p] = 1;
   }
+  // The contacts a press may lift: their boundary nodes are solved too, and
+  // every solve keeps how far each contact moves along its normal.
+  std::vector<std::uint32_t> contact_node;  // index into `nodes`, per liftable spring
+  {
+    std::unordered_map<std::uint32_t, std::uint32_t> boundary_index;
+    for (std::uint32_t a = 0; a < nodes.size(); ++a) boundary_index.emplace(nodes[a], a);
+    for (const fem::FoundationSpring& spring : liftable) {
+      const auto found = boundary_index.find(static_cast<std::uint32_t>(spring.node));
+      if (found == boundary_index.end())
+        throw std::logic_error("a contact's foundation spring is not on a free boundary node");
+      contact_node.push_back(found->second);
+      needed[found->second] = 1;
+    }
+  }
+  const auto contacts = static_cast<Eigen::Index>(liftable.size());
 
   // The boundary's Green's function between needed nodes closer than 2b:
   // per node a, for each such node b, the 3×3 displacement of b per unit
@@ -327,6 +444,13 @@ std::vector<std::array<double, 6>> organ_compliances(const model::OrganModel& mo
     Eigen::Matrix3d displacement;
   };
   std::vector<std::vector<Response>> green(nodes.size());
+  // Per solved node a, each liftable contact's normal displacement per unit
+  // force at a (contacts × 3).
+  std::vector<Eigen::MatrixXd> toward_contacts(contacts > 0 ? nodes.size() : 0);
+  std::vector<int> contact_rows;
+  for (const fem::FoundationSpring& spring : liftable)
+    for (int k = 0; k < 3; ++k)
+      contact_rows.push_back(system.free_index()[3 * static_cast<std::size_t>(spring.node) + k]);
   std::vector<std::uint32_t> solved;
   for (std::uint32_t a = 0; a < nodes.size(); ++a)
     if (needed[a]) solved.push_back(a);
@@ -369,9 +493,22 @@ std::vector<std::array<double, 6>> organ_compliances(const model::OrganModel& mo
             for (int k = 0; k < 3; ++k) wanted.push_back(free_index[3 * nodes[b] + k]);
           }
       }
+      wanted.insert(wanted.end(), contact_rows.begin(), contact_rows.end());
       solver.solve(block, loaded, wanted, workspace);
       for (std::size_t m = 0; m < count; ++m) {
         const std::uint32_t a = solved[first + m];
+        if (contacts > 0) {
+          Eigen::MatrixXd& toward = toward_contacts[a];
+          toward.resize(contacts, 3);
+          for (Eigen::Index j = 0; j < contacts; ++j)
+            for (int k = 0; k < 3; ++k) {
+              double along = 0.0;
+              for (int r = 0; r < 3; ++r)
+                along += liftable[static_cast<std::size_t>(j)].normal[r] *
+                         block(contact_rows[static_cast<std::size_t>(3 * j + r)], static_cast<int>(3 * m) + k);
+              toward(j, k) = along;
+            }
+        }
         for (std::uint32_t b : near[m]) {
           Response r{b, Eigen::Matrix3d::Zero()};
           for (int k = 0; k < 3; ++k)
@@ -389,29 +526,65 @@ std::vector<std::array<double, 6>> organ_compliances(const model::OrganModel& mo
   for (std::thread& t : pool) t.join();
   const double solve_seconds = seconds_since(solve_start);
 
+  // The liftable contacts' normal compliance among themselves, and their springs.
+  Eigen::MatrixXd among_contacts(contacts, contacts);
+  Eigen::VectorXd springs(contacts);
+  for (Eigen::Index j = 0; j < contacts; ++j) {
+    among_contacts.col(j) =
+        toward_contacts[contact_node[static_cast<std::size_t>(j)]] * liftable[static_cast<std::size_t>(j)].normal;
+    springs[j] = liftable[static_cast<std::size_t>(j)].stiffness;
+  }
+  among_contacts = 0.5 * (among_contacts + among_contacts.transpose()).eval();
+
   // Each site: the patch's mean displacement per unit force, less the
-  // patch's own indentation.
+  // patch's own indentation; with liftable contacts, as the site's press
+  // finds them.
   const std::vector<Eigen::Vector3d> normals = vertex_normals(model);
   const double young = model.material.young_modulus;
   std::vector<std::array<double, 6>> compliance(vertices);
-  std::vector<double> weight(nodes.size(), 0.0);
-  for (std::size_t v = 0; v < vertices; ++v) {
-    double total = 0.0;
-    for (std::uint32_t p : patches[v]) total += area[nodes[p]];
-    if (!(total > 0.0)) {
-      compliance[v] = {};  // at the clamp: the organ does not give
-      continue;
-    }
-    for (std::uint32_t p : patches[v]) weight[p] = area[nodes[p]] / total;
-    Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
-    for (std::uint32_t a : patches[v])
-      for (const Response& r : green[a]) c += weight[a] * weight[r.node] * r.displacement;
-    for (std::uint32_t p : patches[v]) weight[p] = 0.0;
-    c = 0.5 * (c + c.transpose()) - organ::disk_compliance(young, o.poisson_ratio, std::sqrt(total / M_PI), normals[v]);
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(c);
-    c = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() * eigen.eigenvectors().transpose();
-    compliance[v] = packed(c);
-  }
+  std::atomic<std::size_t> next_run{0};
+  auto sites = [&] {
+    std::vector<double> weight(nodes.size(), 0.0);
+    Eigen::MatrixXd toward(contacts, 3);
+    ReleasedContacts released(among_contacts, springs);
+    // The patch's mean normal displacement of each contact per unit force.
+    auto toward_from = [&](std::size_t v) {
+      double total = 0.0;
+      for (std::uint32_t p : patches[v]) total += area[nodes[p]];
+      toward.setZero();
+      for (std::uint32_t p : patches[v]) toward += (area[nodes[p]] / total) * toward_contacts[p];
+      return total > 0.0;
+    };
+    for (std::size_t first; (first = kSitesPerRun * next_run.fetch_add(1)) < vertices;)
+      for (std::size_t v = first, last = std::min(vertices, first + kSitesPerRun); v < last; ++v) {
+        if (v == first) released.clear();
+        double total = 0.0;
+        for (std::uint32_t p : patches[v]) total += area[nodes[p]];
+        if (!(total > 0.0)) {
+          compliance[v] = {};  // at the clamp: the organ does not give
+          continue;
+        }
+        for (std::uint32_t p : patches[v]) weight[p] = area[nodes[p]] / total;
+        Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
+        for (std::uint32_t a : patches[v])
+          for (const Response& r : green[a]) c += weight[a] * weight[r.node] * r.displacement;
+        if (contacts > 0) {
+          toward_from(v);
+          released.settle(toward, normals[v]);
+          c += released.gained(toward);
+        }
+        for (std::uint32_t p : patches[v]) weight[p] = 0.0;
+        c = 0.5 * (c + c.transpose()) -
+            organ::disk_compliance(young, o.poisson_ratio, std::sqrt(total / M_PI), normals[v]);
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(c);
+        c = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() * eigen.eigenvectors().transpose();
+        compliance[v] = packed(c);
+      }
+  };
+  pool.clear();
+  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(sites);
+  sites();
+  for (std::thread& t : pool) t.join();
   report.patch_radius = patch;
   report.boundary_nodes = solved.size();
   report.unknowns = static_cast<std::size_t>(system.free_count());
@@ -421,13 +594,11 @@ std::vector<std::array<double, 6>> organ_compliances(const model::OrganModel& mo
   return compliance;
 }
 
-/// `tangent` with the supports of `model` as a press finds them: every
-/// contact pushed into (K n nᵀ, its spring along the normal) and every
-/// attachment (K I) — fem::foundation_springs' springs, linear about rest.
-fem::SparseMatrix on_supports(const model::OrganModel& model, const fem::ElasticitySystem& system,
-                              const fem::SparseMatrix& tangent, const std::vector<bool>& clamped) {
-  const std::vector<fem::FoundationSpring> springs =
-      fem::foundation_springs(model, clamped, geometry::tetrahedral_boundary(model.tetrahedra));
+/// `tangent` with the supports `springs` (fem::foundation_springs') held
+/// both ways: every contact pushed into (K n nᵀ, its spring along the
+/// normal) and every attachment (K I), linear about rest.
+fem::SparseMatrix on_supports(const std::vector<fem::FoundationSpring>& springs, const fem::ElasticitySystem& system,
+                              const fem::SparseMatrix& tangent) {
   std::vector<Eigen::Triplet<double>> entries;
   const std::vector<std::int32_t>& free_index = system.free_index();
   for (const fem::FoundationSpring& spring : springs) {
@@ -496,10 +667,16 @@ model::SiteCompliance compute_site_compliance(const model::OrganModel& model, co
   model::SiteCompliance sites;
   sites.young_modulus = young;
   sites.poisson_ratio = o.poisson_ratio;
-  sites.compliance = organ_compliances(model, system, system.tangent_free(), clamped, o, measured);
-  if (o.supports && !model.supports.empty())
-    sites.supported = organ_compliances(model, system, on_supports(model, system, system.tangent_free(), clamped),
-                                        clamped, o, measured);
+  sites.compliance = organ_compliances(model, system, system.tangent_free(), clamped, {}, o, measured);
+  if (o.supports && !model.supports.empty()) {
+    const std::vector<fem::FoundationSpring> springs =
+        fem::foundation_springs(model, clamped, geometry::tetrahedral_boundary(model.tetrahedra));
+    std::vector<fem::FoundationSpring> contacts;
+    for (const fem::FoundationSpring& spring : springs)
+      if (spring.unilateral && o.settle_contacts) contacts.push_back(spring);
+    sites.supported = organ_compliances(model, system, on_supports(springs, system, system.tangent_free()), clamped,
+                                        contacts, o, measured);
+  }
   std::vector<double> surface_edges;
   for (const model::Triangle& t : model.surface_triangles)
     surface_edges.push_back((point(model.surface_vertices[t[1]]) - point(model.surface_vertices[t[0]])).norm());

@@ -290,6 +290,11 @@ void add_bake_options(CLI::App& app, const std::shared_ptr<BakeCommandOptions>& 
                  "median boundary edge; docs/matching.md)")
       ->check(kNonNegative)
       ->capture_default_str();
+  app.add_flag("--settle-contacts", b.sites.settle_contacts,
+               "Site compliances on the supports: each site's press settles which contacts hold it (those it lifts "
+               "carry nothing), as the FEM reference's unilateral contacts do, instead of taking every contact as "
+               "pressed; what the fast models on the supports need to match the reference, and slow (about 2 min on "
+               "the shipped CT; docs/supports.md)");
   app.add_option("--supports", o->supports,
                  "What the organ rests on and is attached to in the body: ct (found in the CT, the surface against "
                  "tissue rather than air or fat) or none (held by its clamp alone; docs/supports.md)")

@@ -47,6 +47,14 @@ struct SiteComplianceOptions {
   /// of the stiffness with each contact pushed into (its foundation spring
   /// along the normal) and each attachment holding (fem::foundation_springs).
   bool supports = true;
+  /// With the supports: each site's press settles which contacts hold it, as
+  /// a tensionless foundation's do (the contacts a press moves away from
+  /// their support carry nothing), instead of taking every contact as pressed.
+  /// Exact (Woodbury's identity on the contacts' compliance among
+  /// themselves, the set settled per site) and slow: a dense factorization of
+  /// the released contacts per site and round, about 2 min on the shipped
+  /// CT's liver on 2 vCPUs against 7 s without.
+  bool settle_contacts = false;
 };
 
 struct SiteComplianceReport {
