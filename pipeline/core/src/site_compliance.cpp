@@ -296,7 +296,13 @@ constexpr std::size_t kSitesPerRun = 32;
 /// contact).
 class ReleasedContacts {
  public:
-  ReleasedContacts(const Eigen::MatrixXd& among, const Eigen::VectorXd& springs) : among_(among), springs_(springs) {}
+  /// `inverse`: (K⁻¹ − G)⁻¹ over every contact, or empty. With it, a set
+  /// that releases more contacts than it holds is solved through the held
+  /// ones, (K_L⁻¹ − G_LL)⁻¹ = B_LL − B_LF B_FF⁻¹ B_FL with B the inverse and F
+  /// the held set (the Schur complement): a dense factorization of the
+  /// smaller of the two.
+  ReleasedContacts(const Eigen::MatrixXd& among, const Eigen::VectorXd& springs, const Eigen::MatrixXd& inverse)
+      : among_(among), springs_(springs), inverse_(inverse) {}
 
   /// Settles the set a press along −`normal` at the site of `toward` lifts,
   /// as a tensionless foundation's: released are the contacts that the
@@ -330,7 +336,7 @@ class ReleasedContacts {
   Eigen::Matrix3d gained(const Eigen::MatrixXd& toward) const {
     if (!factorized_) return Eigen::Matrix3d::Zero();
     const Eigen::MatrixXd lifted = rows_of(toward);
-    return lifted.transpose() * factor_.solve(lifted);
+    return lifted.transpose() * solve(lifted);
   }
 
  private:
@@ -338,7 +344,7 @@ class ReleasedContacts {
   /// released now (`pressed`: their displacement with none released).
   std::vector<Eigen::Index> lifted_by(const Eigen::MatrixXd& toward, const Eigen::Vector3d& normal,
                                       const Eigen::VectorXd& pressed) const {
-    const Eigen::VectorXd through = factor_.solve(rows_of(toward)) * normal;
+    const Eigen::VectorXd through = solve(rows_of(toward)) * normal;
     Eigen::VectorXd moved = pressed;
     for (std::size_t i = 0; i < released_.size(); ++i)
       moved -= among_.col(released_[i]) * through[static_cast<Eigen::Index>(i)];
@@ -353,13 +359,40 @@ class ReleasedContacts {
       rows.row(static_cast<Eigen::Index>(i)) = toward.row(released_[i]);
     return rows;
   }
+  /// (K_L⁻¹ − G_LL)⁻¹ `rows`.
+  Eigen::MatrixXd solve(const Eigen::MatrixXd& rows) const {
+    if (!through_held_) return factor_.solve(rows);
+    return released_inverse_ * rows - across_.transpose() * factor_.solve(across_ * rows);
+  }
   bool factorize() {
     const auto count = static_cast<Eigen::Index>(released_.size());
-    Eigen::MatrixXd system(count, count);
-    for (Eigen::Index j = 0; j < count; ++j)  // column by column: `among` is column-major
-      for (Eigen::Index i = 0; i < count; ++i) system(i, j) = -among_(released_[i], released_[j]);
-    for (Eigen::Index i = 0; i < count; ++i) system(i, i) += 1.0 / springs_[released_[i]];
-    factor_.compute(system);
+    const Eigen::Index contacts = among_.rows();
+    through_held_ = inverse_.size() > 0 && 2 * count > contacts;
+    if (!through_held_) {
+      Eigen::MatrixXd system(count, count);
+      for (Eigen::Index j = 0; j < count; ++j)  // column by column: `among` is column-major
+        for (Eigen::Index i = 0; i < count; ++i) system(i, j) = -among_(released_[i], released_[j]);
+      for (Eigen::Index i = 0; i < count; ++i) system(i, i) += 1.0 / springs_[released_[i]];
+      factor_.compute(system);
+    } else {
+      std::vector<Eigen::Index> held;
+      for (Eigen::Index c = 0, next = 0; c < contacts; ++c)
+        if (next < count && released_[static_cast<std::size_t>(next)] == c)
+          ++next;
+        else
+          held.push_back(c);
+      const auto kept = static_cast<Eigen::Index>(held.size());
+      released_inverse_.resize(count, count);
+      across_.resize(kept, count);
+      Eigen::MatrixXd held_inverse(kept, kept);
+      for (Eigen::Index j = 0; j < count; ++j) {
+        for (Eigen::Index i = 0; i < count; ++i) released_inverse_(i, j) = inverse_(released_[i], released_[j]);
+        for (Eigen::Index i = 0; i < kept; ++i) across_(i, j) = inverse_(held[i], released_[j]);
+      }
+      for (Eigen::Index j = 0; j < kept; ++j)
+        for (Eigen::Index i = 0; i < kept; ++i) held_inverse(i, j) = inverse_(held[i], held[j]);
+      factor_.compute(held_inverse);
+    }
     // Round-off at a contact that barely holds: nothing released.
     factorized_ = factor_.info() == Eigen::Success;
     return factorized_;
@@ -367,8 +400,11 @@ class ReleasedContacts {
 
   const Eigen::MatrixXd& among_;
   const Eigen::VectorXd& springs_;
+  const Eigen::MatrixXd& inverse_;
   std::vector<Eigen::Index> released_;
-  Eigen::LLT<Eigen::MatrixXd> factor_;
+  bool through_held_ = false;
+  Eigen::MatrixXd released_inverse_, across_;  // B_LL, B_FL
+  Eigen::LLT<Eigen::MatrixXd> factor_;         // of K_L⁻¹ − G_LL, or of B_FF through the held set
   bool factorized_ = false;
 };
 
@@ -535,6 +571,13 @@ std::vector<std::array<double, 6>> organ_compliances(const model::OrganModel& mo
     springs[j] = liftable[static_cast<std::size_t>(j)].stiffness;
   }
   among_contacts = 0.5 * (among_contacts + among_contacts.transpose()).eval();
+  Eigen::MatrixXd contacts_inverse;  // (K⁻¹ − G)⁻¹ over every contact
+  if (contacts > 0) {
+    Eigen::MatrixXd released_all = -among_contacts;
+    released_all.diagonal() += springs.cwiseInverse();
+    const Eigen::LLT<Eigen::MatrixXd> all(released_all);
+    if (all.info() == Eigen::Success) contacts_inverse = all.solve(Eigen::MatrixXd::Identity(contacts, contacts));
+  }
 
   // Each site: the patch's mean displacement per unit force, less the
   // patch's own indentation; with liftable contacts, as the site's press
@@ -546,7 +589,7 @@ std::vector<std::array<double, 6>> organ_compliances(const model::OrganModel& mo
   auto sites = [&] {
     std::vector<double> weight(nodes.size(), 0.0);
     Eigen::MatrixXd toward(contacts, 3);
-    ReleasedContacts released(among_contacts, springs);
+    ReleasedContacts released(among_contacts, springs, contacts_inverse);
     // The patch's mean normal displacement of each contact per unit force.
     auto toward_from = [&](std::size_t v) {
       double total = 0.0;
