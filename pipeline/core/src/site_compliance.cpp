@@ -309,20 +309,24 @@ class ReleasedContacts {
   /// press, with the set released, moves away from their support. Unless the
   /// set released now already holds, rounds start from those the two-way
   /// press lifts and go on until the set holds. The set a press settles on
-  /// is unique, so where it starts changes nothing.
-  void settle(const Eigen::MatrixXd& toward, const Eigen::Vector3d& normal) {
+  /// is unique, so where it starts changes nothing. False when the rounds
+  /// ran out first (the last set is kept) or a set could not be factorized
+  /// (nothing is released).
+  bool settle(const Eigen::MatrixXd& toward, const Eigen::Vector3d& normal) {
     const Eigen::VectorXd pressed = -(toward * normal);
-    if (factorized_ && lifted_by(toward, normal, pressed) == released_) return;
+    if (factorized_ && lifted_by(toward, normal, pressed) == released_) return true;
     clear();
+    std::vector<Eigen::Index> lifting;
     for (Eigen::Index c = 0; c < pressed.size(); ++c)
-      if (pressed[c] < 0.0) released_.push_back(c);
-    for (int round = 0; round < kReleaseRounds && !released_.empty(); ++round) {
-      if (!factorize()) return;
-      std::vector<Eigen::Index> lifting = lifted_by(toward, normal, pressed);
-      if (lifting == released_) return;
+      if (pressed[c] < 0.0) lifting.push_back(c);
+    for (int round = 0; round < kReleaseRounds; ++round) {
       released_.swap(lifting);
+      if (released_.empty()) return true;
+      if (!factorize()) return false;
+      lifting = lifted_by(toward, normal, pressed);
+      if (lifting == released_) return true;
     }
-    if (!released_.empty()) factorize();
+    return false;
   }
 
   /// Nothing released.
@@ -585,7 +589,7 @@ std::vector<std::array<double, 6>> organ_compliances(const model::OrganModel& mo
   const std::vector<Eigen::Vector3d> normals = vertex_normals(model);
   const double young = model.material.young_modulus;
   std::vector<std::array<double, 6>> compliance(vertices);
-  std::atomic<std::size_t> next_run{0};
+  std::atomic<std::size_t> next_run{0}, unsettled{0};
   auto sites = [&] {
     std::vector<double> weight(nodes.size(), 0.0);
     Eigen::MatrixXd toward(contacts, 3);
@@ -613,7 +617,7 @@ std::vector<std::array<double, 6>> organ_compliances(const model::OrganModel& mo
           for (const Response& r : green[a]) c += weight[a] * weight[r.node] * r.displacement;
         if (contacts > 0) {
           toward_from(v);
-          released.settle(toward, normals[v]);
+          if (!released.settle(toward, normals[v])) ++unsettled;
           c += released.gained(toward);
         }
         for (std::uint32_t p : patches[v]) weight[p] = 0.0;
@@ -630,6 +634,7 @@ std::vector<std::array<double, 6>> organ_compliances(const model::OrganModel& mo
   for (std::thread& t : pool) t.join();
   report.patch_radius = patch;
   report.boundary_nodes = solved.size();
+  report.unsettled_sites += unsettled;
   report.unknowns = static_cast<std::size_t>(system.free_count());
   report.factor_entries = solver.factor_entries();
   report.factorization_seconds += factorization_seconds;

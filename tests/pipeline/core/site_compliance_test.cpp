@@ -233,6 +233,48 @@ TEST(SiteCompliance, AContactAPressLiftsCarriesNothing) {
   }
 }
 
+// A press that releases some contacts and is held by others: the bar with a
+// stiff foundation along its top and a soft one (λL = 1.5, so that the bar
+// bends the same way all along) under its far half, pressed down at its free
+// end, lifts off every top contact and presses every bottom one; settled, it
+// gives what the bar on the bottom foundation alone gives two-way. More
+// contacts are released than held, so the set is solved through the held
+// ones (the Schur complement).
+TEST(SiteCompliance, ASettledPressGivesTheCompliancesOfTheContactsThatHoldIt) {
+  constexpr double kLength = 0.10, kSide = 0.02;  // m
+  const model::OrganModel plain = bar(kLength, kSide, 4);
+  const double young = plain.material.young_modulus, ei = young * std::pow(kSide, 4) / 12.0;
+  const double soft = 4 * ei * std::pow(1.5 / kLength, 4) / kSide;  // Pa/m
+  auto on_foundations = [&](bool top) {
+    model::OrganModel m = plain;
+    for (const model::Point3& p : m.surface_vertices)
+      if (top && p[2] > kSide - 1e-9)
+        m.supports.vertices.push_back({1.0, 2.5e5});
+      else if (p[2] < 1e-9 && p[0] > kLength / 2)
+        m.supports.vertices.push_back({1.0, soft});
+      else
+        m.supports.vertices.push_back({0.0, 0.0});
+    return m;
+  };
+  SiteComplianceOptions o;
+  o.fixed_radius = 0.75 * kSide;
+  const model::SiteCompliance bottom_only = compute_site_compliance(on_foundations(false), o);
+  const model::SiteCompliance two_way = compute_site_compliance(on_foundations(true), o);
+  o.settle_contacts = true;
+  const model::SiteCompliance settled = compute_site_compliance(on_foundations(true), o);
+  const std::size_t end = nearest_vertex(plain, {kLength - 0.005, kSide / 2, kSide});
+  auto norm = [](const std::array<double, 6>& c) {
+    double sum = 0.0;
+    for (double x : c) sum += x * x;
+    return std::sqrt(sum);
+  };
+  std::array<double, 6> difference;
+  for (int k = 0; k < 6; ++k) difference[k] = settled.supported[end][k] - bottom_only.supported[end][k];
+  EXPECT_LT(norm(difference), 1e-6 * norm(bottom_only.supported[end]));
+  EXPECT_LT(two_way.supported[end][2], 0.5 * settled.supported[end][2]);
+  EXPECT_LT(settled.supported[end][2], 0.9 * settled.compliance[end][2]);
+}
+
 TEST(SiteCompliance, TheSameWhateverTheThreads) {
   const model::OrganModel m = bar(0.1, 0.02, 4);
   SiteComplianceOptions o;

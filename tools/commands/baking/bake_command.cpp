@@ -118,7 +118,8 @@ nlohmann::ordered_json report_json(const pipeline::BakeReport& r, const model::O
                             {"unknowns", r.sites.unknowns},
                             {"factor_entries", r.sites.factor_entries},
                             {"factorization_seconds", r.sites.factorization_seconds},
-                            {"solve_seconds", r.sites.solve_seconds}};
+                            {"solve_seconds", r.sites.solve_seconds},
+                            {"unsettled_sites", r.sites.unsettled_sites}};
   if (r.supports)
     j["supports"] = {{"found", true},
                      {"contact_vertices", r.supports->contact_vertices},
@@ -169,13 +170,16 @@ void print_report(const pipeline::BakeReport& r, const model::OrganModel& model,
     fmt::print("beam tables     {} stations x {} beams\n", r.stations, r.surface_vertices);
   else
     fmt::print("beam tables     none (--no-beam-tables): every model but --model beam runs on it\n");
-  if (r.sites.unknowns > 0)
+  if (r.sites.unknowns > 0) {
     fmt::print(
         "site compliance {} boundary nodes solved, patch {:.1f} mm, curvature fit {:.1f} mm; {} unknowns, factor "
         "{:.1f} M entries; factorization {:.2f} s, solves {:.2f} s\n",
         r.sites.boundary_nodes, r.sites.patch_radius * 1e3, r.sites.curvature_radius * 1e3, r.sites.unknowns,
         r.sites.factor_entries * 1e-6, r.sites.factorization_seconds, r.sites.solve_seconds);
-  else if (!r.sites_skipped.empty())
+    if (r.sites.unsettled_sites > 0)
+      fmt::print("{:<16}{} sites' presses found no set of contacts that holds; each keeps the one it reached\n",
+                 "warning", r.sites.unsettled_sites);
+  } else if (!r.sites_skipped.empty())
     fmt::print("site compliance none: {}; the fast models give their own forces\n", r.sites_skipped);
   else
     fmt::print("site compliance none (--no-site-compliance): the fast models give their own forces\n");
@@ -293,8 +297,8 @@ void add_bake_options(CLI::App& app, const std::shared_ptr<BakeCommandOptions>& 
   app.add_flag("--settle-contacts", b.sites.settle_contacts,
                "Site compliances on the supports: each site's press settles which contacts hold it (those it lifts "
                "carry nothing), as the FEM reference's unilateral contacts do, instead of taking every contact as "
-               "pressed; what the fast models on the supports need to match the reference, and slow (about 2 min on "
-               "the shipped CT; docs/supports.md)");
+               "pressed; what the fast models on the supports need to match the reference, and slow (a minute or more "
+               "on a liver; docs/supports.md)");
   app.add_option("--supports", o->supports,
                  "What the organ rests on and is attached to in the body: ct (found in the CT, the surface against "
                  "tissue rather than air or fat) or none (held by its clamp alone; docs/supports.md)")

@@ -52,8 +52,8 @@ struct SiteComplianceOptions {
   /// their support carry nothing), instead of taking every contact as pressed.
   /// Exact (Woodbury's identity on the contacts' compliance among
   /// themselves, the set settled per site) and slow: a dense factorization of
-  /// the released contacts per site and round, about 2 min on the shipped
-  /// CT's liver on 2 vCPUs against 7 s without.
+  /// the released or the held contacts per site and round (docs/supports.md
+  /// gives the times).
   bool settle_contacts = false;
 };
 
@@ -64,6 +64,10 @@ struct SiteComplianceReport {
   std::size_t unknowns = 0;                                 ///< of the factorized matrix (displacements and pressures)
   std::size_t factor_entries = 0;                           ///< below the diagonal of its LDLᵀ factor
   double factorization_seconds = 0.0, solve_seconds = 0.0;  ///< of both sets, with supports
+  /// settle_contacts: sites whose press found no set of contacts that holds
+  /// within the rounds allowed, or whose set could not be factorized (each
+  /// keeps the set it reached, or releases nothing).
+  std::size_t unsettled_sites = 0;
 };
 
 /// Per surface vertex of `model`, the surface's principal curvatures κ₁ ≥ κ₂
